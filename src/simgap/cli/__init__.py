@@ -1,0 +1,1 @@
+"""The `simgap` command. It only wires the other packages together."""

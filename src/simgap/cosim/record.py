@@ -1,0 +1,196 @@
+"""The `Run` record: everything needed to evaluate and to reproduce one co-simulation.
+
+On disk a run is a directory:
+
+- ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
+- ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
+- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles)
+
+The directory is written next to its destination and renamed into place, so a reader never
+sees a half-written run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from simgap.errors import InputError
+from simgap.trajectory import STATE_FIELDS, Trajectory
+
+OUTCOMES = ("goal_reached", "collision", "off_road", "planner_failure", "timeout", "diverged")
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened to an agent at a time and place."""
+
+    t: float
+    agent_id: int
+    kind: str
+    x: float | None = None
+    y: float | None = None
+    detail: str = ""
+    other_id: int | None = None
+
+
+@dataclass
+class AgentOutcome:
+    id: int
+    vehicle: str
+    outcome: str
+    time_to_goal_s: float | None
+    distance_m: float
+    min_distance_to_traffic_m: float | None
+    max_road_excursion_m: float = 0.0
+    planner_failures: int = 0
+
+
+@dataclass
+class Run:
+    scenario_id: str
+    backend: str
+    dt: float
+    agents: list[AgentOutcome]
+    driven: dict[int, Trajectory]
+    plans: dict[int, list[Trajectory]]
+    events: list[Event] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+    wall_time_s: float = 0.0
+    settings: dict[str, Any] = field(default_factory=dict)
+    scenario_path: str | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+    versions: dict[str, str] = field(default_factory=dict)
+    seed: int = 0
+    failure: str | None = None
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def fingerprint(self) -> str:
+        """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
+        h = hashlib.sha256()
+        for aid in sorted(self.driven):
+            h.update(str(aid).encode())
+            traj = self.driven[aid]
+            for f in STATE_FIELDS:
+                h.update(np.ascontiguousarray(getattr(traj, f), dtype="<f8").tobytes())
+        return h.hexdigest()[:16]
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "scenario_id": self.scenario_id,
+            "backend": self.backend,
+            "wall_time_s": round(self.wall_time_s, 4),
+            "fingerprint": self.fingerprint,
+            "failure": self.failure,
+            "agents": [asdict(a) for a in self.agents],
+            "timings": {k: round(v, 4) for k, v in self.timings.items()},
+        }
+
+    # ------------------------------------------------------------------ writing
+    def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None) -> Path:
+        """Write the run directory atomically (build aside, then rename into place)."""
+        run_dir = Path(run_dir)
+        run_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{run_dir.name}.", dir=run_dir.parent))
+        try:
+            meta = self.summary() | {
+                "dt": self.dt,
+                "events": [asdict(e) for e in self.events],
+                "settings": self.settings,
+                "scenario_path": self.scenario_path,
+                "parameters": self.parameters,
+                "versions": self.versions,
+                "seed": self.seed,
+            }
+            (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
+            pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
+            if driven_scenario_xml is not None:
+                (tmp / "driven.xml").write_text(driven_scenario_xml)
+            if run_dir.exists():
+                old = run_dir.with_name(f".{run_dir.name}.old")
+                shutil.rmtree(old, ignore_errors=True)
+                os.replace(run_dir, old)
+                os.replace(tmp, run_dir)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(tmp, run_dir)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return run_dir
+
+    def _trajectory_table(self) -> pa.Table:
+        cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}
+        cols.update({f: [] for f in STATE_FIELDS})
+
+        def add(kind: str, aid: int, plan_t: float, traj: Trajectory) -> None:
+            n = len(traj)
+            cols["kind"].extend([kind] * n)
+            cols["agent_id"].extend([aid] * n)
+            cols["plan_t"].extend([plan_t] * n)
+            cols["k"].extend(range(n))
+            for f in STATE_FIELDS:
+                cols[f].extend(getattr(traj, f).tolist())
+
+        for aid, traj in sorted(self.driven.items()):
+            add("driven", aid, float("nan"), traj)
+        for aid, plans in sorted(self.plans.items()):
+            for plan in plans:
+                add("planned", aid, float(plan.t[0]), plan)
+        schema = pa.schema([("kind", pa.string()), ("agent_id", pa.int64()), ("plan_t", pa.float64()),
+                            ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS])
+        return pa.table(cols, schema=schema)
+
+    # ------------------------------------------------------------------ reading
+    @classmethod
+    def load(cls, run_dir: str | Path) -> "Run":
+        run_dir = Path(run_dir)
+        meta_path = run_dir / "run.json"
+        if not meta_path.exists():
+            raise InputError("not a run directory (no run.json)", file=run_dir)
+        try:
+            meta = json.loads(meta_path.read_text())
+            table = pq.read_table(run_dir / "trajectories.parquet").to_pydict()
+        except (OSError, ValueError, pa.ArrowException) as exc:
+            raise InputError(f"cannot read run: {exc}", file=run_dir) from None
+        dt = float(meta["dt"])
+        driven: dict[int, Trajectory] = {}
+        plans: dict[int, list[Trajectory]] = {}
+        groups: dict[tuple[str, int, float], list[int]] = {}
+        for i, (kind, aid, pt) in enumerate(zip(table["kind"], table["agent_id"], table["plan_t"])):
+            groups.setdefault((kind, aid, -1.0 if kind == "driven" else pt), []).append(i)
+        for (kind, aid, _), rows in groups.items():
+            traj = Trajectory(dt, **{f: [table[f][i] for i in rows] for f in STATE_FIELDS})
+            if kind == "driven":
+                driven[aid] = traj
+            else:
+                plans.setdefault(aid, []).append(traj)
+        return cls(
+            scenario_id=meta["scenario_id"], backend=meta["backend"], dt=dt,
+            agents=[AgentOutcome(**a) for a in meta["agents"]],
+            driven=driven, plans=plans,
+            events=[Event(**e) for e in meta.get("events", [])],
+            timings=meta.get("timings", {}), wall_time_s=meta.get("wall_time_s", 0.0),
+            settings=meta.get("settings", {}), scenario_path=meta.get("scenario_path"),
+            parameters=meta.get("parameters", {}), versions=meta.get("versions", {}),
+            seed=meta.get("seed", 0), failure=meta.get("failure"),
+        )
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj)}")

@@ -1,0 +1,45 @@
+"""What a planner is given and what it returns. Planners know nothing about backends."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, Sequence
+
+from commonroad.planning.goal import GoalRegion
+from commonroad.scenario.lanelet import LaneletNetwork
+
+from simgap.trajectory import State, Trajectory
+
+
+@dataclass(frozen=True)
+class TrafficParticipant:
+    """Another road user as a planner sees it: its footprint and where it will be.
+
+    ``prediction`` is another agent's latest plan, or a non-agent obstacle's recorded
+    trajectory; its states are centre positions on the scenario's time grid.
+    """
+
+    id: int
+    length: float
+    width: float
+    prediction: Trajectory
+
+
+@dataclass(frozen=True)
+class World:
+    """Everything outside the ego vehicle that a planner may use."""
+
+    lanelet_network: LaneletNetwork
+    goal: GoalRegion
+    dt: float
+    traffic: Sequence[TrafficParticipant] = field(default_factory=tuple)
+
+
+class Planner(Protocol):
+    """``plan`` must accept any observed state: moving, off-centre, with a heading error.
+
+    It returns a trajectory starting at ``observed`` (time ``t``) on the grid ``world.dt``,
+    or ``None`` when no feasible, collision-free plan exists.
+    """
+
+    def plan(self, observed: State, t: float, world: World) -> Trajectory | None: ...

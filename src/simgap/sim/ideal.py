@@ -1,0 +1,48 @@
+"""The ideal 2D backend: every plan is executed exactly, as in CommonRoad.
+
+After each step a vehicle stands on its plan at t + dt (perfect control, exact state
+knowledge, no dynamics). It is the low-fidelity end of the fidelity ladder.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+from commonroad.scenario.scenario import Scenario
+
+from simgap.sim.protocol import Agent, BackendEvent
+from simgap.trajectory import State, Trajectory
+
+
+class IdealBackend:
+    name = "ideal"
+
+    def __init__(self) -> None:
+        self._agents: list[Agent] = []
+        self._states: dict[int, State] = {}
+        self._dt = 0.1
+        self.timings: dict[str, float] = {}
+
+    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+        self._agents = list(agents)
+        self._dt = float(scenario.dt)
+
+    def reset(self) -> dict[int, State]:
+        self._states = {a.id: a.initial_state for a in self._agents}
+        return dict(self._states)
+
+    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+        for aid, state in self._states.items():
+            t_next = state.t + self._dt
+            plan = plans.get(aid)
+            if plan is None:
+                self._states[aid] = state.replace(t=t_next, v=0.0, a=0.0, yaw_rate=0.0)
+            else:
+                self._states[aid] = plan.at(t_next).replace(t=t_next)
+        return dict(self._states)
+
+    def events(self) -> list[BackendEvent]:
+        return []
+
+    def close(self) -> None:
+        pass

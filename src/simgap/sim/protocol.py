@@ -1,0 +1,59 @@
+"""The `Backend` contract shared by the ideal 2D world and the physics worlds."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Protocol, Sequence
+
+from commonroad.scenario.scenario import Scenario
+
+from simgap.trajectory import State, Trajectory
+from simgap.vehicles import Vehicle
+
+
+@dataclass(frozen=True)
+class Agent:
+    """A vehicle driven by a planner: one per planning problem of the scenario."""
+
+    id: int
+    vehicle: Vehicle
+    initial_state: State
+
+
+@dataclass(frozen=True)
+class BackendEvent:
+    """Something the backend itself observed (a physical contact, a blow-up)."""
+
+    t: float
+    agent_id: int
+    kind: str          # "collision" | "diverged" | ...
+    detail: str = ""
+    other_id: int | None = None
+
+
+class PhysicsDiverged(RuntimeError):
+    """Raised by a backend when its numerical state blew up (NaN, a flipped chassis)."""
+
+
+class Backend(Protocol):
+    """A world that advances exactly one scenario dt per `step`.
+
+    ``load`` is given the scenario (lanelets, non-agent obstacles), the agents and the
+    vehicle each agent drives. ``reset`` puts every agent at its initial state and
+    returns the observed states. ``step`` executes the plans (each starting at the current
+    time) for one dt and returns each agent's observed state afterwards.
+    """
+
+    name: str
+
+    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
+
+    def reset(self) -> dict[int, State]: ...
+
+    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]: ...
+
+    def events(self) -> list[BackendEvent]:
+        """Events observed during the last step (may be empty)."""
+        ...
+
+    def close(self) -> None: ...

@@ -1,0 +1,138 @@
+"""The shared vocabulary of motion: one vehicle's `State` at an instant and a `Trajectory` of them.
+
+Conventions (CommonRoad's): the reference point is the vehicle's centre, yaw is measured
+counter-clockwise from +x, all units SI. Conversions to a rear-axle or a simulator frame
+happen at the edge that needs them (the planner, a backend), never here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+STATE_FIELDS = ("t", "x", "y", "yaw", "v", "a", "yaw_rate", "steer")
+
+
+def wrap_angle(angle):
+    """Wrap an angle (scalar or array) to (-pi, pi]."""
+    wrapped = np.mod(np.asarray(angle, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
+    wrapped = np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
+    if np.ndim(angle) == 0:
+        return float(wrapped)
+    return wrapped
+
+
+@dataclass(frozen=True)
+class State:
+    """One vehicle at one instant: time [s], centre position [m], yaw [rad], speed [m/s],
+    longitudinal acceleration [m/s^2], yaw rate [rad/s], road-wheel steering angle [rad]."""
+
+    t: float
+    x: float
+    y: float
+    yaw: float
+    v: float
+    a: float = 0.0
+    yaw_rate: float = 0.0
+    steer: float = 0.0
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.array([self.x, self.y])
+
+    def replace(self, **changes: float) -> "State":
+        return dataclasses.replace(self, **changes)
+
+    def as_tuple(self) -> tuple[float, ...]:
+        return tuple(getattr(self, f) for f in STATE_FIELDS)
+
+
+class Trajectory:
+    """States of one vehicle on a fixed time grid ``t[k] = t0 + k * dt``.
+
+    Immutable: the arrays are read-only views. Index with ``traj[k]`` for a `State`,
+    ``traj.at(t)`` for a state interpolated in time (yaw interpolated on the circle).
+    """
+
+    __slots__ = ("dt", "_data")
+
+    def __init__(self, dt: float, **columns: Iterable[float]):
+        missing = [f for f in STATE_FIELDS if f not in columns]
+        if missing:
+            raise ValueError(f"trajectory is missing columns {missing}")
+        data = {}
+        n = None
+        for name in STATE_FIELDS:
+            arr = np.array(columns[name], dtype=float).reshape(-1)
+            if n is None:
+                n = len(arr)
+            elif len(arr) != n:
+                raise ValueError(f"column {name!r} has {len(arr)} entries, expected {n}")
+            arr.flags.writeable = False
+            data[name] = arr
+        if not n:
+            raise ValueError("a trajectory needs at least one state")
+        self.dt = float(dt)
+        self._data = data
+
+    @classmethod
+    def from_states(cls, states: Sequence[State], dt: float) -> "Trajectory":
+        return cls(dt, **{f: [getattr(s, f) for s in states] for f in STATE_FIELDS})
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        try:
+            return self._data[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def __len__(self) -> int:
+        return len(self._data["t"])
+
+    def __getitem__(self, k: int) -> State:
+        return State(*(float(self._data[f][k]) for f in STATE_FIELDS))
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Trajectory):
+            return NotImplemented
+        return self.dt == other.dt and all(
+            np.array_equal(self._data[f], other._data[f]) for f in STATE_FIELDS
+        )
+
+    def __repr__(self) -> str:
+        return f"Trajectory(n={len(self)}, t=[{self.t[0]:.2f}, {self.t[-1]:.2f}], dt={self.dt})"
+
+    @property
+    def t_end(self) -> float:
+        return float(self._data["t"][-1])
+
+    def columns(self) -> dict[str, np.ndarray]:
+        return dict(self._data)
+
+    def slice(self, start: int, stop: int | None = None) -> "Trajectory":
+        return Trajectory(self.dt, **{f: a[start:stop] for f, a in self._data.items()})
+
+    def at(self, t: float) -> State:
+        """The state at time ``t``, linearly interpolated; clamped to the ends."""
+        ts = self._data["t"]
+        if t <= ts[0]:
+            return self[0]
+        if t >= ts[-1]:
+            return self[len(self) - 1]
+        k = int(min(math.floor((t - ts[0]) / self.dt), len(ts) - 2))
+        w = (t - ts[k]) / (ts[k + 1] - ts[k])
+        vals = {f: (1 - w) * self._data[f][k] + w * self._data[f][k + 1] for f in STATE_FIELDS}
+        dyaw = wrap_angle(self._data["yaw"][k + 1] - self._data["yaw"][k])
+        vals["yaw"] = self._data["yaw"][k] + w * dyaw
+        vals["t"] = t
+        return State(**{f: float(v) for f, v in vals.items()})
+
+    def path_length(self) -> float:
+        return float(np.sum(np.hypot(np.diff(self._data["x"]), np.diff(self._data["y"]))))

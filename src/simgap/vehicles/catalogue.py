@@ -1,0 +1,87 @@
+"""Vehicle data files and the model they are read into.
+
+Every vehicle is one YAML file in ``simgap/vehicles/data``; adding a vehicle is adding a file.
+The ``planner`` section holds what a planner assumes (CommonRoad's kinematic limits); the
+``physics`` section, when present, what a physics backend builds (see the MuJoCo backend).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from simgap.errors import InputError, pydantic_to_input_error
+
+
+class VehicleLimits(BaseModel):
+    """Kinematic limits as CommonRoad's vehicle models state them (SI units)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    max_steer: float = Field(gt=0, description="max road-wheel steering angle [rad]")
+    max_steer_rate: float = Field(gt=0, description="max steering rate [rad/s]")
+    max_accel: float = Field(gt=0, description="max longitudinal acceleration magnitude [m/s^2]")
+    max_speed: float = Field(gt=0, description="max speed [m/s]")
+    v_switch: float = Field(gt=0, description="speed above which acceleration is power-limited [m/s]")
+
+
+class Vehicle(BaseModel):
+    """One vehicle of the catalogue."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str
+    description: str = ""
+    source: str = Field("", description="where the numbers come from")
+    length: float = Field(gt=0, description="body length [m]")
+    width: float = Field(gt=0, description="body width [m]")
+    wheelbase: float = Field(gt=0, description="front to rear axle [m]")
+    rear_axle_to_center: float = Field(gt=0, description="rear axle to the vehicle centre [m]")
+    limits: VehicleLimits
+    physics: dict[str, Any] | None = Field(None, description="physical model for 3D backends")
+    controllers: dict[str, dict[str, Any]] = Field(
+        default_factory=dict, description="controller gains by controller name, overriding defaults")
+
+    @property
+    def front_axle_to_center(self) -> float:
+        return self.wheelbase - self.rear_axle_to_center
+
+
+def _data_dir() -> Path:
+    return Path(str(resources.files("simgap.vehicles") / "data"))
+
+
+def vehicle_names() -> list[str]:
+    return sorted(p.stem for p in _data_dir().glob("*.yaml"))
+
+
+def load_vehicle_file(path: str | Path) -> Vehicle:
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(f"cannot read vehicle file: {exc}", file=path) from None
+    if not isinstance(raw, dict):
+        raise InputError("a vehicle file must be a mapping", file=path)
+    raw.setdefault("name", path.stem)
+    try:
+        return Vehicle.model_validate(raw)
+    except ValidationError as err:
+        raise pydantic_to_input_error(err, path) from None
+
+
+@lru_cache(maxsize=None)
+def load_vehicle(name_or_path: str) -> Vehicle:
+    """A vehicle by catalogue name (``sedan``) or by the path of a data file."""
+    if name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path:
+        return load_vehicle_file(name_or_path)
+    path = _data_dir() / f"{name_or_path}.yaml"
+    if not path.exists():
+        raise InputError(f"unknown vehicle '{name_or_path}'", field="vehicle",
+                         allowed=", ".join(vehicle_names()))
+    return load_vehicle_file(path)

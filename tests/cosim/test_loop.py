@@ -1,0 +1,122 @@
+"""The loop on its own: a straight road, test planners that drive straight lines."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from commonroad.common.util import Interval
+from commonroad.geometry.shape import Rectangle
+from commonroad.planning.goal import GoalRegion
+from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
+from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+from commonroad.scenario.scenario import Scenario
+from commonroad.scenario.state import CustomState, InitialState
+
+from simgap.cosim import CosimSettings, Run, simulate
+from simgap.cosim.agents import agents_from_problems
+from simgap.sim.ideal import IdealBackend
+from simgap.trajectory import State, Trajectory
+from simgap.vehicles import load_vehicle
+
+DT = 0.1
+
+
+def straight_road(length=200.0, width=3.5):
+    left = np.array([[0.0, width], [length, width]])
+    center = np.array([[0.0, width / 2], [length, width / 2]])
+    right = np.array([[0.0, 0.0], [length, 0.0]])
+    lanelet = Lanelet(left, center, right, 1)
+    scenario = Scenario(DT)
+    scenario.add_objects(LaneletNetwork.create_from_lanelet_list([lanelet]))
+    return scenario
+
+
+def problem(pid, x, y, yaw, v, goal_x, goal_y=1.75, t_end=200):
+    init = InitialState(position=np.array([x, y]), orientation=yaw, velocity=v, acceleration=0.0,
+                        yaw_rate=0.0, slip_angle=0.0, time_step=0)
+    goal = GoalRegion([CustomState(position=Rectangle(10.0, 3.0, np.array([goal_x, goal_y])),
+                                   time_step=Interval(0, t_end))])
+    return PlanningProblem(pid, init, goal)
+
+
+class StraightLine:
+    """Test planner: constant speed along the current heading (None if told to fail)."""
+
+    def __init__(self, speed=10.0, fail_after=None):
+        self.speed, self.fail_after, self.calls = speed, fail_after, 0
+
+    def plan(self, observed: State, t: float, world) -> Trajectory | None:
+        self.calls += 1
+        if self.fail_after is not None and self.calls > self.fail_after:
+            return None
+        states = []
+        for k in range(31):
+            d = self.speed * k * world.dt
+            states.append(State(t + k * world.dt, observed.x + d * math.cos(observed.yaw),
+                                observed.y + d * math.sin(observed.yaw), observed.yaw, self.speed))
+        return Trajectory.from_states(states, world.dt)
+
+
+def run(problems, planners, settings=None):
+    scenario = straight_road()
+    pps = PlanningProblemSet(problems)
+    agents = agents_from_problems(pps, DT, load_vehicle("sedan"))
+    return simulate(scenario, pps, IdealBackend(), agents, planners, settings)
+
+
+def test_single_agent_reaches_goal_at_the_expected_time():
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0)})
+    (agent,) = result.agents
+    assert agent.outcome == "goal_reached"
+    # the goal rectangle spans x in [145, 155]: from x = 10 at 10 m/s the centre enters it at 13.5 s
+    assert agent.time_to_goal_s == pytest.approx(13.6, abs=0.11)
+    assert agent.distance_m == pytest.approx(136.0, abs=1.1)
+
+
+def test_head_on_agents_collide():
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 190), problem(2, 190, 1.75, math.pi, 10.0, 10)],
+                 {1: StraightLine(10.0), 2: StraightLine(10.0)})
+    assert [a.outcome for a in result.agents] == ["collision", "collision"]
+    ev = [e for e in result.events if e.kind == "collision"]
+    assert {e.other_id for e in ev} == {1, 2}
+    assert all(a.min_distance_to_traffic_m == 0.0 for a in result.agents)
+
+
+def test_planner_failure_triggers_emergency_stop():
+    settings = CosimSettings(planner_failure_limit=3)
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=5)}, settings)
+    (agent,) = result.agents
+    assert agent.outcome == "planner_failure"
+    assert agent.planner_failures == 3
+    v = result.driven[1].v
+    assert v[-1] < v[5]  # it braked
+    assert any(e.kind == "planner_no_solution" for e in result.events)
+
+
+def test_leaving_the_road_is_off_road():
+    result = run([problem(1, 10, 1.75, 0.2, 10.0, 150)], {1: StraightLine(10.0)})
+    (agent,) = result.agents
+    assert agent.outcome == "off_road"
+    assert agent.max_road_excursion_m > 0
+
+
+def test_run_record_reloads_equal(tmp_path):
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0)},
+                 CosimSettings(replan_every=3))
+    result.save(tmp_path / "run")
+    again = Run.load(tmp_path / "run")
+    assert again.fingerprint == result.fingerprint
+    assert again.driven[1] == result.driven[1]
+    assert len(again.plans[1]) == len(result.plans[1])
+    assert all(a == b for a, b in zip(sorted(again.plans[1], key=lambda p: p.t[0]), result.plans[1]))
+    assert again.agents == result.agents
+
+
+def test_replan_every_n_plans_less_often():
+    every1 = StraightLine(10.0)
+    every3 = StraightLine(10.0)
+    run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: every1})
+    run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: every3}, CosimSettings(replan_every=3))
+    assert every3.calls == pytest.approx(every1.calls / 3, abs=1)
