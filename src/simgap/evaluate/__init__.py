@@ -1,0 +1,1 @@
+"""Evaluation: alignment of trajectories across fidelities, error metrics, outcomes, criticality."""

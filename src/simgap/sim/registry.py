@@ -1,0 +1,33 @@
+"""Backends by name. A new backend registers here: a name and a constructor taking settings."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from simgap.errors import InputError
+from simgap.sim.protocol import Backend
+
+
+def _ideal(**settings: Any) -> Backend:
+    from simgap.sim.ideal import IdealBackend
+
+    return IdealBackend(**settings)
+
+
+def _mujoco(**settings: Any) -> Backend:
+    from simgap.sim.mujoco import MujocoBackend
+
+    return MujocoBackend(**settings)
+
+
+BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "mujoco": _mujoco}
+
+
+def backend_names() -> list[str]:
+    return list(BACKENDS)
+
+
+def make_backend(name: str, **settings: Any) -> Backend:
+    if name not in BACKENDS:
+        raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
+    return BACKENDS[name](**settings)

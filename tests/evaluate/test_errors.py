@@ -1,0 +1,62 @@
+"""Error metrics on constructed trajectories with known answers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simgap.evaluate.errors import Aggregate, lateral_displacement_by_s, time_aligned_errors
+from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.trajectory import Trajectory
+
+DT = 0.1
+
+
+def straight(n=100, v=10.0, y=0.0, yaw=0.0, t0=0.0, x0=0.0):
+    t = t0 + DT * np.arange(n)
+    return Trajectory(DT, t=t, x=x0 + v * (t - t0), y=np.full(n, y), yaw=np.full(n, yaw), v=np.full(n, v),
+                      a=np.zeros(n), yaw_rate=np.zeros(n), steer=np.zeros(n))
+
+
+def circle_path(r=20.0):
+    phi = np.linspace(0, math.pi, 400)
+    return ReferencePath(np.column_stack([r * np.sin(phi), r - r * np.cos(phi)]))
+
+
+def test_constant_lateral_offset_gives_that_d():
+    ref = ReferencePath(np.array([[-10.0, 0.0], [200.0, 0.0]]))
+    s, d = lateral_displacement_by_s(straight(), straight(y=0.7), ref)
+    assert len(s) > 100
+    assert np.allclose(d, 0.7)
+
+
+def test_offset_on_a_curve_is_signed_left_positive():
+    ref = circle_path(20.0)
+    s, d = ref.project(np.array([[0.0, 1.0], [0.0, -1.0], [20.0 - 0.5, 20.0]]))
+    assert d[0] == pytest.approx(1.0, abs=1e-4) and d[1] == pytest.approx(-1.0, abs=1e-4)
+    assert d[2] == pytest.approx(0.5, abs=1e-3)      # inside of a left turn is the left
+    assert s[2] == pytest.approx(20.0 * math.pi / 2, rel=1e-3)
+
+
+def test_time_shift_gives_zero_d_when_aligned_by_s():
+    ref = ReferencePath(np.array([[-10.0, 0.0], [300.0, 0.0]]))
+    late = straight(x0=-5.0)                    # same path, half a second behind
+    s, d = lateral_displacement_by_s(straight(), late, ref)
+    assert np.abs(d).max() < 1e-9
+    by_time = time_aligned_errors(straight(), late)
+    assert by_time.position.max() == pytest.approx(5.0)   # by time it looks like 5 m
+
+
+def test_angle_wrap_across_pi_gives_the_small_error():
+    a = straight(yaw=math.pi - 0.01)
+    b = straight(yaw=-math.pi + 0.01)
+    err = time_aligned_errors(a, b)
+    assert np.allclose(err.orientation, 0.02)
+
+
+def test_aggregates():
+    agg = Aggregate.of(np.array([3.0, -4.0]))
+    assert agg.max == 4.0 and agg.mean == 3.5
+    assert agg.rms == pytest.approx(math.sqrt(12.5))
