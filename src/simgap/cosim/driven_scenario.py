@@ -7,7 +7,6 @@ import copy
 import tempfile
 from pathlib import Path
 
-from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.prediction.prediction import TrajectoryPrediction
@@ -17,6 +16,7 @@ from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 
 from simgap.cosim.record import Run
+from simgap.scenario.files import write_xml
 from simgap.sim.protocol import Agent
 
 AGENT_ID_OFFSET = 100_000
@@ -46,6 +46,5 @@ def scenario_xml(scenario: Scenario, problems: PlanningProblemSet) -> str:
     """Serialise a scenario and its planning problems to CommonRoad XML text."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "scenario.xml"
-        CommonRoadFileWriter(scenario, problems, author="simgap", affiliation="", source="simgap",
-                             tags=set()).write_to_file(str(path), OverwriteExistingFile.ALWAYS)
+        write_xml(scenario, problems, path)
         return path.read_text()

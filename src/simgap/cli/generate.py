@@ -1,0 +1,72 @@
+"""`simgap generate`: concrete CommonRoad scenarios from a logical scenario."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import track
+from rich.table import Table
+
+from simgap.cli.main import app
+from simgap.errors import InputError
+from simgap.scenario import builtin_names, load_logical, write_scenario
+
+
+def _parse_sets(items: list[str]) -> dict[str, str]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise InputError(f"'{item}' is not NAME=VALUE", field="--set", allowed="e.g. --set radius=10")
+        out[name.strip()] = value.strip()
+    return out
+
+
+@app.command()
+def generate(
+    logical: Optional[str] = typer.Argument(None, help="built-in logical scenario name or a YAML file"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files"),
+    set_: List[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable)"),
+    preview: bool = typer.Option(True, "--preview/--no-preview", help="write a PNG preview per scenario"),
+    list_: bool = typer.Option(False, "--list", help="list the built-in logical scenarios and their parameters"),
+) -> None:
+    """Generate one CommonRoad scenario per parameter combination (full grid).
+
+    Example: simgap generate curve --set radius=10 --set angle=90 --out scenarios/
+    """
+    console = Console()
+    if list_:
+        _print_builtins(console)
+        return
+    if logical is None or out is None:
+        raise InputError("LOGICAL and --out are required (or use --list)", field="LOGICAL",
+                         allowed=", ".join(builtin_names()) + ", or a .yaml path")
+    spec = load_logical(logical)
+    pins = spec.pinned(_parse_sets(set_))
+    combos = list(spec.grid(pins))
+    written = []
+    for params in track(combos, description=f"generating {spec.name}", console=console,
+                        disable=len(combos) < 5):
+        written.append(write_scenario(spec.build(params), out, preview=preview))
+    console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
+    for path in written[:5]:
+        console.print(f"  {path.name}")
+    if len(written) > 5:
+        console.print(f"  … and {len(written) - 5} more")
+
+
+def _print_builtins(console: Console) -> None:
+    for name in builtin_names():
+        spec = load_logical(name)
+        table = Table(title=f"{name} — {spec.description.strip()}", title_justify="left", title_style="bold")
+        for col in ("parameter", "unit", "range", "default", "grid values", "meaning"):
+            table.add_column(col)
+        for pname, par in spec.parameters.items():
+            span = par.span()
+            table.add_row(pname, par.unit, f"{par.min:g} … {par.max:g}", f"{par.default:g}",
+                          ", ".join(f"{v:g}" for v in span) if len(span) > 1 else "—", par.description)
+        console.print(table)
+        console.print(f"  {len(list(spec.grid()))} scenarios in the full grid\n")

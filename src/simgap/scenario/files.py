@@ -1,0 +1,84 @@
+"""Concrete scenarios on disk: CommonRoad XML, a JSON sidecar with where it came from, a PNG."""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+import warnings
+from pathlib import Path
+from typing import Any
+
+from commonroad.common.file_reader import CommonRoadFileReader
+from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Location, Scenario
+
+from simgap.errors import InputError
+from simgap.scenario.templates import ConcreteScenario
+
+
+XML_PRECISION = 8  # decimals written for coordinates: a written file reloads equal to 1e-8 m
+
+
+def _atomic_write(path: Path, write) -> None:
+    """Write through a temporary file next to ``path``, then rename it into place."""
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp{path.suffix}"
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, source: str = "simgap") -> None:
+    """CommonRoad XML of ``scenario`` and ``problems`` at ``path`` (written atomically)."""
+    writer = CommonRoadFileWriter(scenario, problems, author="simgap", affiliation="", source=source,
+                                  tags=set(), location=Location(), decimal_precision=XML_PRECISION)
+    _atomic_write(Path(path), lambda p: writer.write_to_file(str(p), OverwriteExistingFile.ALWAYS))
+
+
+def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: bool = True) -> Path:
+    """Write ``<name>.xml``, ``<name>.json`` (and ``<name>.png``) into ``out_dir``; returns the XML path."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    xml = out_dir / f"{concrete.name}.xml"
+    write_xml(concrete.scenario, concrete.problems, xml, f"simgap logical scenario '{concrete.logical}'")
+    _atomic_write(xml.with_suffix(".json"),
+                  lambda p: p.write_text(json.dumps(concrete.metadata(), indent=2)))
+    if preview:
+        from simgap.scenario.preview import draw_preview
+
+        _atomic_write(xml.with_suffix(".png"),
+                      lambda p: draw_preview(concrete.scenario, concrete.problems, p, concrete.name))
+    return xml
+
+
+def load_scenario(path: str | Path) -> tuple[Scenario, PlanningProblemSet]:
+    """Read a CommonRoad XML scenario that has at least one planning problem."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("no such scenario file", file=path, allowed="a CommonRoad XML file")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scenario, problems = CommonRoadFileReader(str(path)).open()
+    except Exception as exc:  # the reader raises many kinds on malformed input
+        raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
+                         file=path, allowed="CommonRoad XML (2020a format)") from None
+    if problems is None or not problems.planning_problem_dict:
+        raise InputError("the scenario has no planning problems, so there is no agent to run",
+                         file=path, field="planningProblem", allowed="one or more planning problems")
+    return scenario, problems
+
+
+def read_metadata(xml_path: str | Path) -> dict[str, Any]:
+    """The sidecar of a generated scenario (name, logical, parameters, sections), or {} if none."""
+    sidecar = Path(xml_path).with_suffix(".json")
+    if not sidecar.exists():
+        return {}
+    try:
+        return json.loads(sidecar.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"unreadable scenario metadata: {exc}", file=sidecar) from None

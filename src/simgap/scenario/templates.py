@@ -1,0 +1,179 @@
+"""Scenario templates: functions from a complete parameter set to a concrete CommonRoad scenario.
+
+A logical scenario (see `logical`) names one of these templates and spans a space over its
+parameters. Templates validate what only they can judge (a radius too small for the road, a
+road that crosses itself) and raise `InputError` naming the parameter.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.lanelet import LaneletNetwork
+from commonroad.scenario.scenario import Scenario, ScenarioID
+from pydantic import TypeAdapter, ValidationError
+
+from simgap.errors import InputError
+from simgap.scenario.geometry import Arc, Segment, Straight, centre_line, self_intersects
+from simgap.scenario.junction import build_junction
+from simgap.scenario.problem import planning_problem
+from simgap.scenario.road import LaneLayout, build_road
+
+LANELET_ID_START = 100  # planning problems (agents) take ids 1, 2, 3, ...
+
+
+@dataclass
+class ConcreteScenario:
+    """A scenario built from a logical one: CommonRoad objects plus where they came from."""
+
+    name: str
+    logical: str
+    parameters: dict[str, Any]
+    scenario: Scenario
+    problems: PlanningProblemSet
+    sections: dict[int, str] = field(default_factory=dict)   # lanelet id -> straight|curve|clothoid|junction
+
+    def metadata(self) -> dict[str, Any]:
+        return {"name": self.name, "logical": self.logical, "parameters": self.parameters,
+                "sections": {str(k): v for k, v in sorted(self.sections.items())}}
+
+
+def _scenario(name: str, dt: float, network: LaneletNetwork) -> Scenario:
+    map_name = re.sub(r"[^A-Za-z0-9]", "", name.title())[:60] or "Simgap"
+    map_id = int(hashlib.sha1(name.encode()).hexdigest(), 16) % 9999 + 1
+    scenario = Scenario(dt, scenario_id=ScenarioID(country_id="ZAM", map_name=map_name, map_id=map_id))
+    scenario.add_objects(network)
+    return scenario
+
+
+def _layout(p: dict[str, Any]) -> LaneLayout:
+    lanes = int(p.get("lanes", 1))
+    if not 1 <= lanes <= 3:
+        raise InputError(f"{lanes} lanes per direction", field="lanes", allowed="1, 2 or 3")
+    return LaneLayout(lanes_per_direction=lanes, lane_width=float(p.get("lane_width", 3.0)),
+                      two_way=bool(p.get("two_way", True)),
+                      centre_marking=str(p.get("centre_marking", "solid")))
+
+
+def _check_radii(segments: list[Segment], layout: LaneLayout) -> None:
+    for i, seg in enumerate(segments):
+        if isinstance(seg, Arc) and seg.angle != 0:
+            inner = layout.half_width_left if seg.angle > 0 else layout.half_width_right
+            if seg.radius <= inner + 1.0:
+                raise InputError(
+                    f"arc radius {seg.radius:g} m is too small for a road reaching {inner:g} m "
+                    f"to the inside of the curve", field=f"segments[{i}].radius" if len(segments) > 3 else "radius",
+                    allowed=f"> {inner + 1.0:g} m (inner half-width + 1 m)")
+
+
+def road_scenario(name: str, logical: str, params: dict[str, Any], segments: list[Segment]) -> ConcreteScenario:
+    """A single road from ``segments``; one agent from 10 m in to 10 m before the end."""
+    layout = _layout(params)
+    _check_radii(segments, layout)
+    centre = centre_line(segments)
+    if self_intersects(centre.xy) or any(
+            self_intersects(centre.offset(d)) for d in (-layout.half_width_right, layout.half_width_left) if d):
+        raise InputError("the road crosses itself", field="segments",
+                         allowed="segment lists whose road does not overlap itself")
+    road = build_road(centre, layout, LANELET_ID_START)
+    dt = float(params.get("dt", 0.1))
+    network = LaneletNetwork.create_from_lanelet_list(road.lanelets)
+    scenario = _scenario(name, dt, network)
+    lane = road.forward[layout.lanes_per_direction - 1]       # the rightmost lane
+    start_s = float(params.get("start_offset", 10.0))
+    goal_before_end = float(params.get("goal_offset", 10.0))
+    if start_s >= lane[0].distance[-1]:
+        raise InputError(f"start offset {start_s} m lies beyond the first section", field="start_offset",
+                         allowed=f"< {lane[0].distance[-1]:.0f} m")
+    problem = planning_problem(
+        1, (lane[0], start_s), (lane[-1], float(lane[-1].distance[-1]) - goal_before_end),
+        initial_speed=float(params.get("initial_speed", 0.0)), dt=dt,
+        time_limit_s=float(params.get("time_limit", 60.0)))
+    return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
+                            dict(road._section_by_id))
+
+
+def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    """The paper's: straight, a turn of ``radius`` and ``angle`` (positive = left), straight."""
+    segments = [Straight(length=p.get("straight_length", 100.0)),
+                Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
+                Straight(length=p.get("straight_length", 100.0))]
+    return road_scenario(name, logical, p, segments)
+
+
+def s_curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    """Straight, a turn, the opposite turn, straight."""
+    segments = [Straight(length=p.get("straight_length", 50.0)),
+                Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
+                Arc(radius=p["radius"], angle=-p["angle"], transition=p.get("transition", 0.0)),
+                Straight(length=p.get("straight_length", 50.0))]
+    return road_scenario(name, logical, p, segments)
+
+
+_SEGMENTS = TypeAdapter(list[Straight | Arc])
+
+
+def road(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    """Any road: ``segments`` is a list of {kind: straight, length} / {kind: arc, radius, angle}."""
+    try:
+        segments = _SEGMENTS.validate_python(p.get("segments") or [])
+    except ValidationError as err:
+        first = err.errors()[0]
+        raise InputError(first["msg"], field="segments." + ".".join(map(str, first["loc"])),
+                         allowed="{kind: straight, length} or {kind: arc, radius, angle[, transition]}") from None
+    if not segments:
+        raise InputError("no segments", field="segments", allowed="a non-empty list")
+    return road_scenario(name, logical, p, segments)
+
+
+# Routes through junctions, by arm index (arms listed in `arm_angles`): (from, to), in agent order.
+T_JUNCTION_ARMS = [180.0, 0.0, 270.0]            # west, east, south (the stem)
+T_JUNCTION_ROUTES = [(0, 1), (2, 0), (1, 2)]     # straight W→E, left S→W, left E→S: all cross agent 1
+INTERSECTION_ARMS = [180.0, 270.0, 0.0, 90.0]    # west, south, east, north
+INTERSECTION_ROUTES = [(0, 2), (1, 3), (2, 1), (3, 2)]  # W→E, S→N, left E→S, left N→E
+
+
+def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[float],
+                       routes: list[tuple[int, int]], max_agents: int) -> ConcreteScenario:
+    agents = int(p.get("agents", 2))
+    if not 2 <= agents <= max_agents:
+        raise InputError(f"{agents} agents", field="agents", allowed=f"2 to {max_agents}")
+    approach = float(p.get("approach_length", 50.0))
+    junction = build_junction(arms, approach, float(p.get("lane_width", 3.0)), LANELET_ID_START,
+                              str(p.get("centre_marking", "solid")))
+    dt = float(p.get("dt", 0.1))
+    scenario = _scenario(name, dt, LaneletNetwork.create_from_lanelet_list(junction.lanelets))
+    network = scenario.lanelet_network
+    stagger = float(p.get("stagger", 8.0))
+    problems = []
+    for k, (src, dst) in enumerate(routes[:agents]):
+        start = network.find_lanelet_by_id(junction.arms[src].incoming)
+        goal = network.find_lanelet_by_id(junction.arms[dst].outgoing)
+        to_junction = float(p.get("start_distance", 30.0)) + k * stagger
+        if to_junction > approach:
+            raise InputError(f"agent {k + 1} would start {to_junction:g} m before the junction, "
+                             f"beyond the {approach:g} m approach", field="start_distance",
+                             allowed=f"start_distance + (agents - 1) * stagger <= approach_length")
+        problems.append(planning_problem(
+            k + 1, (start, approach - to_junction),
+            (goal, float(goal.distance[-1]) - 10.0),
+            initial_speed=float(p.get("initial_speed", 0.0)), dt=dt,
+            time_limit_s=float(p.get("time_limit", 40.0))))
+    return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), dict(junction.section_by_id))
+
+
+def t_junction(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    return _junction_scenario(name, logical, p, T_JUNCTION_ARMS, T_JUNCTION_ROUTES, 3)
+
+
+def intersection(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    return _junction_scenario(name, logical, p, INTERSECTION_ARMS, INTERSECTION_ROUTES, 4)
+
+
+TEMPLATES: dict[str, Callable[[str, str, dict[str, Any]], ConcreteScenario]] = {
+    "curve": curve, "s-curve": s_curve, "road": road, "t-junction": t_junction, "intersection": intersection,
+}
