@@ -80,10 +80,10 @@ def lateral_displacement_by_s(a: Trajectory, b: Trajectory, reference: Reference
     if hi <= lo:
         return np.array([]), np.array([])
     grid = np.arange(lo, hi + 1e-9, ds)
-    return grid, _interp_monotone(grid, sb, db) - _interp_monotone(grid, sa, da)
+    return grid, interp_by_s(grid, sb, db) - interp_by_s(grid, sa, da)
 
 
-def _interp_monotone(grid: np.ndarray, s: np.ndarray, d: np.ndarray) -> np.ndarray:
+def interp_by_s(grid: np.ndarray, s: np.ndarray, d: np.ndarray) -> np.ndarray:
     """Interpolate d(s) where s may stall (standstill): keep the first sample of each s."""
     order = np.argsort(s, kind="stable")
     s_sorted, d_sorted = s[order], d[order]

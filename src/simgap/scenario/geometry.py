@@ -102,10 +102,12 @@ def _pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float
 def centre_line(segments: Sequence[Segment], start=(0.0, 0.0), heading: float = 0.0,
                 max_step: float = 1.0) -> CentreLine:
     """Integrate the segments from ``start`` at ``heading`` into a sampled centre line."""
-    xs, ys, hs, ks, ss = [start[0]], [start[1]], [heading], [0.0], [0.0]
+    pieces = _pieces(segments)
+    xs, ys, hs, ss = [start[0]], [start[1]], [heading], [0.0]
+    ks = [pieces[0][2] if pieces else 0.0]
     sections: list[Section] = []
     x, y, h, s = float(start[0]), float(start[1]), float(heading), 0.0
-    for kind, length, k0, k1 in _pieces(segments):
+    for kind, length, k0, k1 in pieces:
         n = max(1, math.ceil(length / max_step))
         ds = length / n
         for i in range(n):

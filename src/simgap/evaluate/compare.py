@@ -1,0 +1,65 @@
+"""Cross-fidelity comparison of two runs of the same scenario, agent by agent.
+
+Lateral displacement d is measured in the frame of the agent's route centre line and aligned by
+arc length; position, orientation and velocity errors are aligned by time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
+
+from simgap.cosim.record import Run
+from simgap.evaluate.errors import Aggregate, interp_by_s, lateral_displacement_by_s, time_aligned_errors
+from simgap.evaluate.route_centre import route_centre, section_of_s
+
+
+@dataclass
+class AgentComparison:
+    agent_id: int
+    s: np.ndarray                         # arc-length grid of the d comparison [m]
+    d_a: np.ndarray                       # lateral offset of run A on that grid [m]
+    d_b: np.ndarray
+    lateral_displacement: Aggregate       # |d_b - d_a| by arc length
+    position_error: Aggregate             # by time
+    orientation_error: Aggregate
+    velocity_error: Aggregate
+    by_section: dict[str, Aggregate] = field(default_factory=dict)   # lateral displacement per section
+
+    def as_dict(self) -> dict:
+        return {
+            "agent_id": self.agent_id,
+            "lateral_displacement": self.lateral_displacement.as_dict(),
+            "position_error": self.position_error.as_dict(),
+            "orientation_error": self.orientation_error.as_dict(),
+            "velocity_error": self.velocity_error.as_dict(),
+            "lateral_displacement_by_section": {k: v.as_dict() for k, v in self.by_section.items()},
+        }
+
+
+def compare_runs(a: Run, b: Run, scenario: Scenario, problems: PlanningProblemSet,
+                 sections: dict[str, str] | None = None, ds: float = 0.5) -> list[AgentComparison]:
+    out = []
+    for aid in sorted(set(a.driven) & set(b.driven)):
+        problem = problems.planning_problem_dict[aid]
+        frame = route_centre(scenario.lanelet_network, problem)
+        if frame is None:
+            continue
+        ta, tb = a.driven[aid], b.driven[aid]
+        s, dd = lateral_displacement_by_s(ta, tb, frame, ds)
+        sa, da = frame.project(np.column_stack([ta.x, ta.y]))
+        sb, db = frame.project(np.column_stack([tb.x, tb.y]))
+        d_a, d_b = interp_by_s(s, sa, da), interp_by_s(s, sb, db)
+        errs = time_aligned_errors(ta, tb)
+        by_section = {}
+        if sections and len(s):
+            kinds = section_of_s(scenario.lanelet_network, problem, sections, s)
+            for kind in dict.fromkeys(kinds):
+                by_section[str(kind)] = Aggregate.of(dd[kinds == kind])
+        out.append(AgentComparison(aid, s, d_a, d_b, Aggregate.of(dd), Aggregate.of(errs.position),
+                                   Aggregate.of(errs.orientation), Aggregate.of(errs.velocity), by_section))
+    return out
+

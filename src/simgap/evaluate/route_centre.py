@@ -1,0 +1,48 @@
+"""The evaluation frame of an agent: the centre line of the lanelets on its route to the goal.
+
+It is independent of any planner's (smoothed) reference path, so lateral displacement d means
+the same for every planner and every fidelity: offset from the centre of the lane it drives on.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from commonroad.planning.planning_problem import PlanningProblem
+from commonroad.scenario.lanelet import LaneletNetwork
+from commonroad_route_planner.route_planner import RoutePlanner
+
+from simgap.evaluate.frenet_frame import ReferencePath
+
+
+def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[int]:
+    routes = RoutePlanner(network, problem, logging_level=logging.ERROR).plan_routes()
+    if not routes:
+        return []
+    return list(min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
+
+
+def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> ReferencePath | None:
+    ids = route_lanelets(network, problem)
+    if not ids:
+        return None
+    parts = [network.find_lanelet_by_id(i).center_vertices for i in ids]
+    xy = np.vstack([parts[0]] + [p[1:] for p in parts[1:]])
+    return ReferencePath(xy)
+
+
+def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: dict[str, str],
+                 s: np.ndarray) -> np.ndarray:
+    """The road section kind (straight, curve, clothoid, junction) at each arc length ``s``."""
+    ids = route_lanelets(network, problem)
+    bounds, kinds, acc = [], [], 0.0
+    for i in ids:
+        lanelet = network.find_lanelet_by_id(i)
+        acc += float(lanelet.distance[-1])
+        bounds.append(acc)
+        kinds.append(sections.get(str(i), "unknown"))
+    if not bounds:
+        return np.full(len(s), "unknown")
+    idx = np.clip(np.searchsorted(np.array(bounds), s), 0, len(kinds) - 1)
+    return np.array(kinds)[idx]

@@ -1,0 +1,96 @@
+"""Logical scenarios: grid counts, names, pins and every kind of bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+from simgap.errors import InputError
+from simgap.scenario import build_scenario, builtin_names, load_logical
+
+
+def test_builtins_are_shipped():
+    assert {"curve", "s-curve", "t-junction", "intersection"} <= set(builtin_names())
+
+
+def test_the_papers_grid_has_78_deterministically_named_scenarios():
+    spec = load_logical("curve")
+    names = [spec.scenario_name(p) for p in spec.grid()]
+    assert len(names) == 78 == len(set(names))
+    assert names == [spec.scenario_name(p) for p in spec.grid()]
+    assert "curve_radius-10_angle-90" in names and "curve_radius-100_angle-m180" in names
+
+
+def test_pins_give_one_scenario():
+    spec = load_logical("curve")
+    combos = list(spec.grid(spec.pinned({"radius": "10", "angle": "90"})))
+    assert len(combos) == 1
+    assert spec.build(combos[0]).name == "curve_radius-10_angle-90"
+
+
+def test_moving_start_is_kept():
+    concrete = build_scenario("curve", {"radius": 50, "angle": 90, "initial_speed": 10})
+    assert concrete.problems.planning_problem_dict[1].initial_state.velocity == 10.0
+    assert concrete.name == "curve_radius-50_angle-90_initialspeed-10"
+
+
+@pytest.mark.parametrize("pins, field, allowed", [
+    ({"radiuss": "10"}, "radiuss", "radius, angle"),
+    ({"radius": "2"}, "radius", "5 to 1000 m"),
+    ({"radius": "ten"}, "radius", "5 to 1000 m"),
+])
+def test_bad_pins_name_field_and_allowed(pins, field, allowed):
+    with pytest.raises(InputError) as err:
+        load_logical("curve").pinned(pins)
+    assert err.value.field == field and allowed in err.value.allowed
+
+
+def test_radius_too_small_for_the_road():
+    with pytest.raises(InputError) as err:
+        build_scenario("curve", {"radius": 6, "angle": 90, "lanes": 2})
+    assert err.value.field == "radius" and "> 7 m" in err.value.allowed
+
+
+def test_self_intersecting_road(tmp_path):
+    spec = tmp_path / "loop.yaml"
+    spec.write_text("""
+name: loop
+template: road
+fixed:
+  segments:
+    - {kind: straight, length: 50}
+    - {kind: arc, radius: 20, angle: 270}
+    - {kind: straight, length: 60}
+parameters:
+  lane_width: {unit: m, min: 2.5, max: 5, default: 3}
+""")
+    with pytest.raises(InputError) as err:
+        build_scenario(str(spec))
+    assert err.value.field == "segments" and "crosses itself" in str(err.value)
+
+
+def test_bad_segment_is_named(tmp_path):
+    spec = tmp_path / "bad.yaml"
+    spec.write_text("""
+name: bad
+template: road
+fixed:
+  segments: [{kind: arc, radius: -5, angle: 90}]
+parameters:
+  lane_width: {unit: m, min: 2.5, max: 5, default: 3}
+""")
+    with pytest.raises(InputError) as err:
+        build_scenario(str(spec))
+    assert err.value.field.startswith("segments.0")
+
+
+def test_malformed_and_invalid_yaml(tmp_path):
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("name: [unclosed\n")
+    with pytest.raises(InputError, match="malformed YAML") as err:
+        load_logical(broken)
+    assert err.value.file == str(broken)
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text("name: x\ntemplate: curve\nparameters:\n  radius: {unit: m, min: 5, max: 10, default: 50}\n")
+    with pytest.raises(InputError) as err:
+        load_logical(wrong)
+    assert err.value.field == "parameters.radius"
