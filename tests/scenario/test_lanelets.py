@@ -77,4 +77,7 @@ def test_xml_round_trip_reloads_equal(tmp_path):
         assert np.allclose(p.initial_state.position, q.initial_state.position, atol=1e-8)
         assert p.initial_state.velocity == q.initial_state.velocity
         assert p.goal.state_list[0].time_step == q.goal.state_list[0].time_step
+        g, h = p.goal.state_list[0].position, q.goal.state_list[0].position
+        assert type(g) is type(h)
+        assert np.allclose(g.vertices, h.vertices, atol=1e-6)
     assert read_metadata(xml)["parameters"]["agents"] == 3

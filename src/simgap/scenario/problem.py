@@ -64,7 +64,7 @@ def planning_problem(
         gpos, gheading = pose_on_lanelet(goal_lanelet, goal_s)
         width = goal_width or float(np.linalg.norm(goal_lanelet.left_vertices[0] - goal_lanelet.right_vertices[0]))
         fields["position"] = Rectangle(goal_length, width, gpos, gheading)
-        lanelets_of_goal = {0: [goal_lanelet.lanelet_id]}
+        lanelets_of_goal = None   # CommonRoad would write the lanelet instead of the rectangle
     region = GoalRegion([CustomState(**fields)], lanelets_of_goal_position=lanelets_of_goal)
     return PlanningProblem(problem_id, init, region)
 
