@@ -1,0 +1,158 @@
+"""A single-track vehicle that takes a `Command`: the plant of the mid-fidelity ``dynamic`` world.
+
+The vehicle dynamics are CommonRoad's single-track model (``vehicle_dynamics_st`` of
+commonroad-vehicle-models: linear tyres with load transfer, kinematic below 0.1 m/s), with a
+CommonRoad parameter set (2 = BMW 320i). In front of it sit two actuators:
+
+* steering: a first-order servo towards the commanded road-wheel angle,
+  ``steer_rate = (target - steer) / steer_time_constant``, which the model then limits to the
+  vehicle's steering-rate and angle limits;
+* powertrain and brakes: throttle and brake become a longitudinal acceleration through
+  `simgap.control.longitudinal.LongitudinalMap.acceleration` (the inverse of the controllers'
+  pedal map, from the same ``physics`` numbers), delayed by a first-order lag
+  ``accel_time_constant``, then limited by the model (power limit above ``v_switch``). Brakes
+  and resistance stop the vehicle but never drive it backwards.
+
+Integration: classical Runge-Kutta (RK4) with the inputs held over each sub-step of at most
+``integration_step`` seconds (1 ms by default).
+
+The vehicle's geometry (axle positions), steering and acceleration limits and, when its
+``physics`` gives one, its mass override the parameter set; the yaw inertia is scaled with
+mass and wheelbase squared. Tyres and the centre-of-gravity height stay those of the set.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from functools import lru_cache
+
+from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
+from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
+from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_parameters
+
+from simgap.control.longitudinal import LongitudinalMap
+from simgap.control.protocol import Command
+from simgap.errors import InputError
+from simgap.trajectory import State, wrap_angle
+
+PARAMETER_SETS = (1, 2, 3)
+
+
+@lru_cache(maxsize=None)
+def _parameter_set(params_id: int) -> VehicleParameters:
+    return setup_vehicle_parameters(vehicle_id=params_id)
+
+
+def single_track_parameters(vehicle, params_id: int = 2) -> VehicleParameters:
+    """CommonRoad parameter set ``params_id`` adapted to ``vehicle`` (see the module doc)."""
+    if params_id not in PARAMETER_SETS:
+        raise InputError(f"unknown CommonRoad parameter set {params_id}", field="params_id",
+                         allowed=", ".join(map(str, PARAMETER_SETS)))
+    base = _parameter_set(params_id)
+    p = copy.deepcopy(base)
+    p.a = float(vehicle.front_axle_to_center)
+    p.b = float(vehicle.rear_axle_to_center)
+    lim = vehicle.limits
+    p.steering.max, p.steering.min = float(lim.max_steer), -float(lim.max_steer)
+    p.steering.v_max, p.steering.v_min = float(lim.max_steer_rate), -float(lim.max_steer_rate)
+    p.longitudinal.a_max = float(lim.max_accel)
+    p.longitudinal.v_max = float(lim.max_speed)
+    p.longitudinal.v_switch = float(lim.v_switch)
+    mass = (vehicle.physics or {}).get("mass")
+    if mass is not None:
+        p.m = float(mass)
+    p.I_z = base.I_z * (p.m / base.m) * ((p.a + p.b) / (base.a + base.b)) ** 2
+    return p
+
+
+class SingleTrackPlant:
+    """One vehicle on CommonRoad's single-track model, driven by steering/throttle/brake."""
+
+    def __init__(self, vehicle, params_id: int = 2, *, integration_step: float = 1e-3,
+                 steer_time_constant: float = 0.05, accel_time_constant: float = 0.1):
+        if integration_step <= 0:
+            raise ValueError("integration_step must be > 0")
+        self.vehicle = vehicle
+        self.params_id = params_id
+        self.p = single_track_parameters(vehicle, params_id)
+        self.pedal_map = LongitudinalMap.for_vehicle(vehicle)
+        self.integration_step = float(integration_step)
+        self.steer_time_constant = float(steer_time_constant)
+        self.accel_time_constant = float(accel_time_constant)
+        self._x: list[float] = [0.0] * 7
+        self._t = 0.0
+        self._accel = 0.0        # acceleration delivered by the powertrain/brake lag
+        self._applied = 0.0      # acceleration applied to the model in the last sub-step
+        self.state: State | None = None
+
+    # ------------------------------------------------------------------------------------
+    def reset(self, state: State) -> State:
+        """Place the vehicle at ``state`` (slip angle: the kinematic one for its steering)."""
+        lwb = self.p.a + self.p.b
+        beta = math.atan(math.tan(state.steer) * self.p.b / lwb)
+        v = max(state.v, 0.0)
+        self._x = [state.x, state.y, state.steer, v, state.yaw, state.yaw_rate, beta]
+        self._t = float(state.t)
+        self._accel = float(state.a)
+        self._applied = float(state.a)
+        self.state = self._observe()
+        return self.state
+
+    def step(self, command: Command, dt: float) -> State:
+        """Hold ``command`` for ``dt`` seconds and return the state afterwards."""
+        if self.state is None:
+            raise RuntimeError("reset the plant before stepping it")
+        n = max(1, math.ceil(dt / self.integration_step - 1e-9))
+        h = dt / n
+        target = min(max(command.steer, self.p.steering.min), self.p.steering.max)
+        tau = self.accel_time_constant
+        # first-order lag, exact over a sub-step: its value at the end and its mean over it
+        decay = math.exp(-h / tau) if tau > 0 else 0.0
+        mean_weight = tau / h * (1.0 - decay) if tau > 0 else 0.0
+        x = self._x
+        for _ in range(n):
+            v = x[3]
+            demanded = self.pedal_map.acceleration(command.throttle, command.brake, v)
+            a = demanded + (self._accel - demanded) * mean_weight
+            self._accel = demanded + (self._accel - demanded) * decay
+            if v <= 0.0 and a < 0.0:
+                a = 0.0                      # brakes hold, they do not reverse
+            elif v > 0.0 and v + a * h < 0.0:
+                a = -v / h                   # come to rest exactly at the end of the sub-step
+            a = acceleration_constraints(v, a, self.p.longitudinal)
+            x = self._rk4(x, target, a, h)
+            if x[3] < 0.0:
+                x[3] = 0.0
+            self._applied = a
+        self._x = x
+        self._t += dt
+        self.state = self._observe()
+        if not all(math.isfinite(c) for c in x):
+            raise FloatingPointError(f"single-track plant diverged at t={self._t:.3f}: {x}")
+        return self.state
+
+    # ------------------------------------------------------------------------------------
+    def _rhs(self, x: list[float], target: float, a: float) -> list[float]:
+        steer_rate = ((target - x[2]) / self.steer_time_constant
+                      if self.steer_time_constant > 0 else 0.0)
+        return vehicle_dynamics_st(x, [steer_rate, a], self.p)
+
+    def _rk4(self, x: list[float], target: float, a: float, h: float) -> list[float]:
+        if self.steer_time_constant <= 0:
+            x = list(x)
+            x[2] = target
+        k1 = self._rhs(x, target, a)
+        x2 = [xi + 0.5 * h * ki for xi, ki in zip(x, k1)]
+        k2 = self._rhs(x2, target, a)
+        x3 = [xi + 0.5 * h * ki for xi, ki in zip(x, k2)]
+        k3 = self._rhs(x3, target, a)
+        x4 = [xi + h * ki for xi, ki in zip(x, k3)]
+        k4 = self._rhs(x4, target, a)
+        return [xi + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+                for xi, a1, a2, a3, a4 in zip(x, k1, k2, k3, k4)]
+
+    def _observe(self) -> State:
+        x = self._x
+        return State(t=self._t, x=x[0], y=x[1], yaw=wrap_angle(x[4]), v=x[3], a=self._applied,
+                     yaw_rate=x[5], steer=x[2])
