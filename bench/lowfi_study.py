@@ -29,7 +29,7 @@ from simgap.scenario import load_scenario
 
 
 def generate(logical: str, out: Path, **params) -> list[Path]:
-    cmd = [sys.executable, "-m", "simgap.cli.main", "generate", logical, "--out", str(out), "--no-preview"]
+    cmd = [sys.executable, "-m", "simgap", "generate", logical, "--out", str(out), "--no-preview"]
     for k, v in params.items():
         cmd += ["--set", f"{k}={v}"]
     subprocess.run(cmd, check=True, capture_output=True)
@@ -93,8 +93,9 @@ def junctions(out: Path) -> None:
         run = execute(RunRequest(scenario=path))
         print(f"{logical}: wall {run.wall_time_s:.2f} s")
         for a in run.agents:
-            print(f"  agent {a.id}: {a.outcome:>13}  t_goal {a.time_to_goal_s}  "
-                  f"min distance to other agents {a.min_distance_to_traffic_m} m")
+            t_goal = "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f} s"
+            print(f"  agent {a.id}: {a.outcome:>13}  goal at {t_goal:>7}  "
+                  f"min distance to other agents {a.min_distance_to_traffic_m:.2f} m")
 
 
 def main() -> None:

@@ -19,7 +19,7 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from simgap.cli import generate, render, run, vehicles  # noqa: F401  (commands register on import)
+    from simgap.cli import demo, generate, render, run  # noqa: F401  (commands register on import)
 
 
 def main() -> None:
@@ -30,6 +30,3 @@ def main() -> None:
         typer.secho(f"error: {err.describe()}", err=True, fg="red")
         sys.exit(2)
 
-
-if __name__ == "__main__":
-    main()

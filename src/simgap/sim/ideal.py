@@ -21,19 +21,23 @@ class IdealBackend:
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
         self._dt = 0.1
+        self._step = 0
         self.timings: dict[str, float] = {}
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
+        self._agent_t0 = {a.id: a.initial_state.t for a in agents}
         self._dt = float(scenario.dt)
 
     def reset(self) -> dict[int, State]:
         self._states = {a.id: a.initial_state for a in self._agents}
+        self._step = 0
         return dict(self._states)
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+        self._step += 1
         for aid, state in self._states.items():
-            t_next = state.t + self._dt
+            t_next = self._agent_t0[aid] + self._step * self._dt   # no drift from summing dt
             plan = plans.get(aid)
             if plan is None:
                 self._states[aid] = state.replace(t=t_next, v=0.0, a=0.0, yaw_rate=0.0)

@@ -27,6 +27,14 @@ def backend_names() -> list[str]:
     return list(BACKENDS)
 
 
+def backend_available(name: str) -> bool:
+    """Whether the backend's module is installed (optional backends may be missing)."""
+    import importlib.util
+
+    module = {"ideal": "simgap.sim.ideal", "mujoco": "simgap.sim.mujoco"}.get(name)
+    return module is not None and importlib.util.find_spec(module) is not None
+
+
 def make_backend(name: str, **settings: Any) -> Backend:
     if name not in BACKENDS:
         raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(BACKENDS))

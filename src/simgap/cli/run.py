@@ -1,0 +1,72 @@
+"""`simgap run`: one scenario in one backend, every planning problem an agent."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from simgap.cli.main import app
+from simgap.cosim import CosimSettings, Run
+from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
+from simgap.planning.frenet import FrenetSettings
+
+
+@app.command()
+def run(
+    scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
+    out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
+    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking) or mujoco (3D physics)"),
+    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
+    controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends)"),
+    replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
+    planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
+    max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
+) -> None:
+    """Run a scenario and print a per-agent summary.
+
+    Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
+    """
+    backend_settings = {"controller": controller} if controller else {}
+    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
+                         backend_settings=backend_settings,
+                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
+                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time))
+    if as_json:
+        result = execute(request, out)
+        typer.echo(json.dumps(result.summary(), indent=2))
+        return
+    console = Console()
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                  TimeElapsedColumn(), console=console, transient=True) as bar:
+        task = bar.add_task(f"{backend}: {scenario.name}", total=1.0)
+        result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
+    print_summary(console, result)
+    console.print(f"run written to [bold]{out}[/bold]")
+
+
+def print_summary(console: Console, result: Run) -> None:
+    table = Table(title=f"{result.scenario_id} — {result.backend}")
+    for col in ("agent", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed"):
+        table.add_column(escape(col), justify="left" if col in ("vehicle", "outcome") else "right", no_wrap=True)
+    for a in result.agents:
+        colour = "green" if a.outcome == "goal_reached" else "red"
+        table.add_row(str(a.id), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
+                      "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
+                      f"{a.distance_m:.1f}",
+                      "—" if a.min_distance_to_traffic_m is None else f"{a.min_distance_to_traffic_m:.2f}",
+                      str(a.planner_failures))
+    console.print(table)
+    console.print("gap: smallest distance to any other road user; failed: planning cycles "
+                  "that found no feasible, collision-free plan", style="dim")
+    phases = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items())
+    console.print(f"wall time {result.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
+    if result.failure:
+        console.print(f"[red]run failed: {result.failure}[/red]")

@@ -1,0 +1,374 @@
+"""The Frenet sampling planner on the frenetix core.
+
+Every cycle: project the observed state into the Frenet frame of the reference path → sample end
+time x end speed x lateral offset → the core generates the quartic (longitudinal) and quintic
+(lateral) polynomials, fills in Cartesian coordinates, checks feasibility against the vehicle's
+limits and computes costs → in cost order, a few at a time, check plans against the road's edge,
+other traffic and the lateral-acceleration bound → return the first that passes, converted to
+simgap's convention (vehicle centre, world frame) on the dt grid from the observed time.
+
+Beyond the core:
+
+* Acceleration and curvature are re-checked from exact values (the core derives them from
+  halved second derivatives, see `frenet_frame`).
+* The manoeuvre chosen last cycle is sampled again (same end time, speed and offset): from the
+  state it predicted it is exactly its own remainder, so a plan once found stays available.
+* With traffic around, a plan must end where braking at ``collision.stopping_deceleration``
+  along the path stays clear of traffic as it stands at the horizon's end; without this, a
+  3 s horizon happily drives up to a parked car too fast to stop.
+* Plans that exceed the lateral-acceleration bound are taken only when nothing else passes.
+* When nothing is feasible from the observed acceleration and steering angle (physics may
+  hand over values no polynomial continues), one retry starts from the observed pose and speed
+  with zero acceleration and the reference's curvature (``relax_initial_state``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import frenetix
+import frenetix.trajectory_functions as trajectory_functions
+import frenetix.trajectory_functions.cost_functions as cost_functions
+import frenetix.trajectory_functions.feasability_functions as feasibility_functions
+import numpy as np
+from commonroad.planning.planning_problem import PlanningProblem
+from commonroad.scenario.lanelet import LaneletNetwork
+
+from simgap.planning.collision import (
+    DrivableAreaGrid,
+    TrafficPrediction,
+    footprint_outline,
+    footprints_on_road,
+    predict_traffic,
+    traffic_collisions,
+)
+from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
+from simgap.planning.protocol import World
+from simgap.planning.reference_path import ReferencePath, plan_reference_path
+from simgap.planning.sampling import (
+    TIME_NUDGE,
+    end_speeds,
+    end_times,
+    lateral_offsets,
+    sampling_matrix,
+    steps_in_horizon,
+)
+from simgap.planning.settings import FrenetSettings
+from simgap.planning.speed_profile import SpeedProfile, cruise_speed
+from simgap.trajectory import State, Trajectory, wrap_angle
+from simgap.vehicles import Vehicle
+
+__all__ = ["FrenetPlanner", "FrenetSettings", "PlanningCycle"]
+
+PHASES = ("projection", "sampling", "evaluation", "collision", "conversion")
+
+
+@dataclass
+class PlanningCycle:
+    """What one call of `FrenetPlanner.plan` did (for diagnostics and benchmarks)."""
+
+    t: float = 0.0
+    samples: int = 0
+    feasible: int = 0
+    checked: int = 0
+    rejected_infeasible: int = 0
+    rejected_road: int = 0
+    rejected_traffic: int = 0
+    rejected_lateral_acceleration: int = 0
+    low_velocity: bool = False
+    relaxed: bool = False
+    desired_speed: float = 0.0
+    outcome: str = ""          # "planned", "no_feasible_sample", "all_colliding", "projection_failed"
+    timings: dict[str, float] = field(default_factory=lambda: {p: 0.0 for p in PHASES})
+
+
+class FrenetPlanner:
+    """Frenet sampling planner for one agent (see the module docstring).
+
+    Built once per agent: the reference path from ``planning_problem``'s route, the Frenet
+    frame, the drivable-area grid and the speed profile. ``plan`` accepts any observed state
+    (moving, off-centre, with a heading error) and returns a `Trajectory` of
+    ``horizon / dt + 1`` states from the observed time, or None when no sampled plan is
+    feasible and collision-free.
+    """
+
+    def __init__(self, vehicle: Vehicle, lanelet_network: LaneletNetwork,
+                 planning_problem: PlanningProblem, settings: FrenetSettings | None = None):
+        self.vehicle = vehicle
+        self.settings = settings or FrenetSettings()
+        s = self.settings
+        horizon_reach = s.sampling.horizon_s * vehicle.limits.max_speed + 20.0
+        extension = s.reference_path.extension_m or horizon_reach
+        self.reference_path: ReferencePath = plan_reference_path(
+            lanelet_network, planning_problem, spacing=s.reference_path.spacing_m,
+            smoothing=s.reference_path.smoothing_m, extension_back=s.reference_path.extension_back_m,
+            extension_forward=extension)
+        self.frame = FrenetFrame(self.reference_path)
+        self.cruise_speed = cruise_speed(planning_problem.goal, s.speed.cruise_m_s, vehicle.limits.max_speed)
+        self.speed_profile = SpeedProfile(self.reference_path, self.cruise_speed,
+                                          s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration)
+        route_end = np.asarray(lanelet_network.find_lanelet_by_id(
+            self.reference_path.lanelet_ids[-1]).center_vertices[-1]) if self.reference_path.lanelet_ids \
+            else self.reference_path.xy[-1]
+        corridor = self.frame.points_to_local(self.reference_path.xy)
+        self.drivable_area = DrivableAreaGrid.for_route(
+            lanelet_network, self.frame.points_to_local, route_end, corridor, extension,
+            corridor_margin=s.sampling.lateral_range_m + vehicle.length + 5.0,
+            resolution=s.collision.road_grid_resolution_m, margin=s.collision.road_margin_m,
+            max_cells=s.collision.road_grid_max_cells)
+        self._outline = footprint_outline(vehicle.length, vehicle.width, s.collision.footprint_point_spacing_m)
+        self._handler: frenetix.TrajectoryHandler | None = None
+        self._dt: float | None = None
+        # the manoeuvre chosen last: (absolute end time, end speed, lateral end offset)
+        self._previous: tuple[float, float, float] | None = None
+        self._previous_t: float | None = None
+        self.last_cycle = PlanningCycle()
+
+    # -- set-up of the core ------------------------------------------------------------------
+    def _handler_for(self, dt: float) -> frenetix.TrajectoryHandler:
+        if self._handler is not None and self._dt == dt:
+            return self._handler
+        limits, wheelbase = self.vehicle.limits, self.vehicle.wheelbase
+        whole = self.settings.check_whole_trajectory
+        handler = frenetix.TrajectoryHandler(dt=dt)
+        ff = feasibility_functions
+        handler.add_feasability_function(ff.CheckYawRateConstraint(
+            deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
+        handler.add_feasability_function(ff.CheckAccelerationConstraint(
+            switchingVelocity=limits.v_switch, maxAcceleration=limits.max_accel, wholeTrajectory=whole))
+        handler.add_feasability_function(ff.CheckCurvatureConstraint(
+            deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
+        handler.add_feasability_function(ff.CheckCurvatureRateConstraint(
+            wheelbase=wheelbase, velocityDeltaMax=limits.max_steer_rate, wholeTrajectory=whole))
+        w = self.settings.costs
+        cf = cost_functions
+        for name, weight, cls in (("lateral_jerk", w.lateral_jerk, cf.CalculateLateralJerkCost),
+                                  ("longitudinal_jerk", w.longitudinal_jerk, cf.CalculateLongitudinalJerkCost),
+                                  ("distance_to_reference_path", w.distance_to_reference_path,
+                                   cf.CalculateDistanceToReferencePathCost),
+                                  ("orientation_offset", w.orientation_offset, cf.CalculateOrientationOffsetCost),
+                                  ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
+            if weight > 0:
+                handler.add_cost_function(cls(name, weight))
+        self._handler, self._dt = handler, dt
+        return handler
+
+    # -- planning ----------------------------------------------------------------------------
+    def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
+        cycle = PlanningCycle(t=t)
+        self.last_cycle = cycle
+        dt = float(world.dt)
+        n_steps = steps_in_horizon(self.settings.sampling, dt)
+        times = t + dt * np.arange(n_steps + 1)
+
+        clock = time.perf_counter()
+        v = max(float(observed.v), 0.0)
+        low_velocity = v < self.settings.sampling.low_velocity_threshold_m_s
+        cycle.low_velocity = low_velocity
+        r = self.vehicle.rear_axle_to_center
+        x_rear, y_rear = self.frame.xy_to_local(observed.x - r * math.cos(observed.yaw),
+                                                observed.y - r * math.sin(observed.yaw))
+        yaw_local = self.frame.local_heading(observed.yaw)
+        limits = self.vehicle.limits
+        a0 = float(np.clip(observed.a, -limits.max_accel, limits.max_accel))
+        steer0 = float(np.clip(observed.steer, -limits.max_steer, limits.max_steer))
+        try:
+            x0_lon, x0_lat = self.frame.initial_state(float(x_rear), float(y_rear), yaw_local, v, a0, steer0,
+                                                      self.vehicle.wheelbase, low_velocity)
+        except (RuntimeError, ValueError):
+            cycle.outcome = "projection_failed"
+            cycle.timings["projection"] += time.perf_counter() - clock
+            return None
+        s_ref = float(self.frame.to_reference_s(x0_lon[0]))
+        lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
+        desired = self.speed_profile.desired_speed(s_ref, lookahead)
+        cycle.desired_speed = desired
+        cycle.timings["projection"] += time.perf_counter() - clock
+
+        traffic = predict_traffic(world.traffic, times, self.frame.xy_to_local, self.frame.rotation,
+                                  self.settings.collision.traffic_margin_m)
+        if self._previous_t is None or not (self._previous_t < t <= self._previous_t + 10 * dt):
+            self._previous = None          # a new run, or a long gap: nothing to continue
+        chosen = self._search(x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic, cycle,
+                              x_rear, y_rear)
+        if chosen is None and cycle.feasible == cycle.rejected_infeasible and self.settings.relax_initial_state:
+            # nothing feasible from the observed acceleration and steering (physics may hand us
+            # values no polynomial can continue): retry from the observed pose and speed alone
+            clock = time.perf_counter()
+            _, kappa_ref, _ = self.frame.reference_at(np.array([x0_lon[0]]))
+            steer_ref = math.atan(self.vehicle.wheelbase * float(kappa_ref[0]))
+            try:
+                x0_lon, x0_lat = self.frame.initial_state(float(x_rear), float(y_rear), yaw_local, v, 0.0,
+                                                          steer_ref, self.vehicle.wheelbase, low_velocity)
+            except (RuntimeError, ValueError):
+                x0_lon = None
+            cycle.timings["projection"] += time.perf_counter() - clock
+            if x0_lon is not None:
+                cycle.relaxed = True
+                chosen = self._search(x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic,
+                                      cycle, x_rear, y_rear)
+        self._previous_t = t
+        if chosen is None:
+            self._previous = None
+            if not cycle.outcome:
+                cycle.outcome = ("no_feasible_sample" if cycle.feasible == cycle.rejected_infeasible
+                                 else "all_colliding")
+            return None
+        p = chosen.parameters[0]
+        self._previous = (t + float(p[1]), float(p[5]), float(p[10]))
+
+        clock = time.perf_counter()
+        plan = self._to_trajectory(chosen, observed, times, dt)
+        cycle.timings["conversion"] += time.perf_counter() - clock
+        cycle.outcome = "planned"
+        return plan
+
+    def _search(self, x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic, cycle,
+                x_rear, y_rear) -> CartesianBatch | None:
+        """Sample, evaluate in the core, and return the cheapest plan that passes our checks."""
+        s = self.settings
+        clock = time.perf_counter()
+        handler = self._handler_for(dt)
+        n_steps = steps_in_horizon(s.sampling, dt)
+        speeds = end_speeds(s.sampling, v, desired, self.vehicle.limits.max_speed)
+        matrix = sampling_matrix(x0_lon, x0_lat, end_times(s.sampling, dt), speeds, lateral_offsets(s.sampling))
+        if self._previous is not None:
+            # the last cycle's manoeuvre, continued: from the state it predicted, the polynomials
+            # with the same end conditions are its remainder (so a plan found stays available)
+            t_end, v_end, d_end = self._previous
+            remaining = t_end - cycle.t
+            if dt <= remaining <= s.sampling.horizon_s + TIME_NUDGE:
+                matrix = np.vstack([matrix, sampling_matrix(x0_lon, x0_lat, np.array([remaining - TIME_NUDGE]),
+                                                            np.array([v_end]), np.array([d_end]))])
+        if s.costs.velocity_offset > 0:
+            handler.add_cost_function(cost_functions.CalculateVelocityOffsetCost(
+                "velocity_offset", s.costs.velocity_offset, desired, dt, s.sampling.t_min_s, False, 2))
+        handler.add_function(trajectory_functions.FillCoordinates(
+            lowVelocityMode=low_velocity, initialOrientation=yaw_local, coordinateSystem=self.frame.core,
+            horizon=n_steps * dt + TIME_NUDGE))
+        handler.generate_trajectories(matrix, low_velocity)
+        cycle.samples += len(matrix)
+        clock = _lap(cycle, "sampling", clock)
+        if s.concurrent_evaluation:
+            handler.evaluate_all_current_functions_concurrent(False)
+        else:
+            handler.evaluate_all_current_functions(False)
+        feasible = handler.get_feasible_count()
+        cycle.feasible += feasible
+        ordered = handler.get_sorted_trajectories()
+        clock = _lap(cycle, "evaluation", clock)
+        if feasible == 0:
+            return None
+
+        # tolerate leaving the road for a while when the vehicle is already off it
+        r = self.vehicle.rear_axle_to_center
+        recovery = 0
+        cx0, cy0 = x_rear + r * math.cos(yaw_local), y_rear + r * math.sin(yaw_local)
+        if not footprints_on_road(self.drivable_area, self._outline, np.array([cx0]), np.array([cy0]),
+                                  np.array([yaw_local]))[0]:
+            recovery = int(round(s.collision.recovery_s / dt))
+        fallback: CartesianBatch | None = None
+        taken, chunk = 0, 4
+        while taken < feasible:
+            batch_samples = [next(ordered) for _ in range(min(chunk, feasible - taken))]
+            taken += len(batch_samples)
+            chunk = min(chunk * 2, 64)
+            batch = self.frame.cartesian(batch_samples, low_velocity, yaw_local)
+            feasible_ok = self._feasible(batch)
+            hit, on_road, lat_ok = self._check(batch, traffic, recovery, dt)
+            cycle.checked += len(batch_samples)
+            for i in range(len(batch_samples)):
+                if not feasible_ok[i]:
+                    cycle.rejected_infeasible += 1
+                elif hit[i]:
+                    cycle.rejected_traffic += 1
+                elif not on_road[i]:
+                    cycle.rejected_road += 1
+                elif lat_ok[i] or not s.speed.enforce_lateral_acceleration:
+                    _lap(cycle, "collision", clock)
+                    return _row(batch, i)
+                else:
+                    cycle.rejected_lateral_acceleration += 1
+                    if fallback is None:
+                        fallback = _row(batch, i)
+        _lap(cycle, "collision", clock)
+        return fallback
+
+    def _feasible(self, batch: CartesianBatch) -> np.ndarray:
+        """Acceleration and curvature within the vehicle's limits, from the exact values (the
+        core's own checks see halved second derivatives, see `frenet_frame`)."""
+        limits, wheelbase = self.vehicle.limits, self.vehicle.wheelbase
+        v, a, kappa = batch.v[:, 1:], batch.a[:, 1:], batch.kappa[:, 1:]
+        a_max = np.where(v > limits.v_switch, limits.max_accel * limits.v_switch / np.maximum(v, 1e-9),
+                         limits.max_accel)
+        tol = 1e-6
+        ok_a = ((a <= a_max + tol) & (a >= -limits.max_accel - tol)).all(axis=1)
+        ok_k = (np.abs(kappa) <= math.tan(limits.max_steer) / wheelbase + tol).all(axis=1)
+        return ok_a & ok_k
+
+    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, recovery: int, dt: float):
+        """Per plan of ``batch``: hits traffic?, stays on the road?, within the lateral-acceleration bound?"""
+        veh, s = self.vehicle, self.settings
+        r = veh.rear_axle_to_center
+        hl, hw = veh.length / 2, veh.width / 2
+        n = len(batch.x)
+        cx = batch.x + r * np.cos(batch.yaw)
+        cy = batch.y + r * np.sin(batch.yaw)
+        if traffic.empty:
+            hit = np.zeros(n, dtype=bool)
+        else:
+            # the present (step 0) is not checked: what overlaps now cannot be planned away
+            hit = traffic_collisions(cx, cy, batch.yaw, hl, hw, traffic)[:, 1:].any(axis=1)
+            b = s.collision.stopping_deceleration
+            if b is not None and not hit.all():
+                # braking beyond the horizon along the path must stop clear of traffic as it
+                # stands at the horizon's end
+                v_end = np.maximum(batch.v[:, -1], 0.0)
+                steps = int(math.ceil(float(v_end.max()) / b / dt))
+                if steps > 0:
+                    tau = dt * np.arange(1, steps + 1)
+                    t_stop = (v_end / b)[:, None]
+                    tt = np.minimum(tau[None, :], t_stop)
+                    travel = v_end[:, None] * tt - 0.5 * b * tt**2
+                    ex, ey, eyaw = self.frame.curvilinear_to_local(batch.s[:, -1:] + travel, batch.d[:, -1:])
+                    ex, ey = ex + r * np.cos(eyaw), ey + r * np.sin(eyaw)
+                    last = TrafficPrediction(
+                        np.repeat(traffic.x[:, -1:], steps, axis=1), np.repeat(traffic.y[:, -1:], steps, axis=1),
+                        np.repeat(traffic.yaw[:, -1:], steps, axis=1), traffic.half_length, traffic.half_width)
+                    hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
+        start = 1 + recovery
+        if start < cx.shape[1]:
+            on_road = footprints_on_road(self.drivable_area, self._outline, cx[:, start:], cy[:, start:],
+                                         batch.yaw[:, start:]).all(axis=1)
+        else:
+            on_road = np.ones(n, dtype=bool)
+        a_lat = (batch.v[:, 1:] ** 2 * np.abs(batch.kappa[:, 1:])).max(axis=1)
+        return hit, on_road, a_lat <= s.speed.max_lateral_acceleration
+
+    def _to_trajectory(self, plan: CartesianBatch, observed: State, times: np.ndarray, dt: float) -> Trajectory:
+        n = len(times)
+        x, y = self.frame.xy_to_world(plan.x[0, :n], plan.y[0, :n])
+        yaw_local = plan.yaw[0, :n]
+        # continuous heading starting exactly at the observed one
+        yaw = observed.yaw + np.concatenate([[0.0], np.cumsum(wrap_angle(np.diff(yaw_local)))])
+        yaw = yaw + (wrap_angle(yaw_local[0] + self.frame.rotation - observed.yaw))
+        r = self.vehicle.rear_axle_to_center
+        cx, cy = x + r * np.cos(yaw), y + r * np.sin(yaw)
+        kappa = plan.kappa[0, :n]
+        v = np.maximum(plan.v[0, :n], 0.0)
+        steer = np.arctan(self.vehicle.wheelbase * kappa)
+        cx[0], cy[0], yaw[0], v[0] = observed.x, observed.y, observed.yaw, max(observed.v, 0.0)
+        return Trajectory(dt, t=times, x=cx, y=cy, yaw=yaw, v=v, a=plan.a[0, :n], yaw_rate=v * kappa,
+                          steer=steer)
+
+
+def _row(batch: CartesianBatch, i: int) -> CartesianBatch:
+    return CartesianBatch(*(getattr(batch, f)[i:i + 1] for f in CartesianBatch.__dataclass_fields__))
+
+
+def _lap(cycle: PlanningCycle, phase: str, since: float) -> float:
+    now = time.perf_counter()
+    cycle.timings[phase] += now - since
+    return now

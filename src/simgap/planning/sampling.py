@@ -1,0 +1,65 @@
+"""The sampling matrix: one row per candidate manoeuvre, in the frenetix core's layout.
+
+Columns: t0, t1, s0, s_dot0, s_ddot0, s_dot1, s_ddot1, d0, d_dot0, d_ddot0, d1, d_dot1, d_ddot1.
+Every candidate starts at the projected initial state and ends at time t1 with speed s_dot1 at
+lateral offset d1 (at rest laterally, without longitudinal acceleration).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simgap.planning.settings import SamplingSettings
+
+# the core counts the points of a plan as int(1 + t / dt): nudge times up so that a time on the
+# grid keeps its last point
+TIME_NUDGE = 1e-6
+
+
+def steps_in_horizon(settings: SamplingSettings, dt: float) -> int:
+    """Number of dt steps a plan covers (it has one state more)."""
+    return max(1, int(round(settings.horizon_s / dt)))
+
+
+def end_times(settings: SamplingSettings, dt: float) -> np.ndarray:
+    """End times between t_min and the horizon, on the dt grid."""
+    n = steps_in_horizon(settings, dt)
+    times = np.linspace(settings.t_min_s, settings.horizon_s, settings.time_samples)
+    steps = np.clip(np.round(times / dt), 1, n).astype(int)
+    return np.unique(steps) * dt
+
+
+def end_speeds(settings: SamplingSettings, current: float, desired: float, max_speed: float) -> np.ndarray:
+    """End speeds: standstill, the desired speed, and evenly between a little below the lower
+    and a little above the higher of the current and the desired speed."""
+    current = max(current, 0.0)
+    lo = max(0.0, min(current, desired) - settings.speed_below_m_s)
+    hi = min(max_speed, max(current, desired) + settings.speed_above_m_s)
+    n = settings.speed_samples
+    if n == 1:
+        speeds = np.array([desired])
+    elif n == 2:
+        speeds = np.array([0.0, desired])
+    else:
+        speeds = np.concatenate([[0.0, desired], np.linspace(lo, hi, n - 2)])
+    speeds = np.unique(np.round(speeds, 6))
+    return speeds
+
+
+def lateral_offsets(settings: SamplingSettings) -> np.ndarray:
+    if settings.lateral_samples == 1:
+        return np.zeros(1)
+    return np.linspace(-settings.lateral_range_m, settings.lateral_range_m, settings.lateral_samples)
+
+
+def sampling_matrix(x0_lon: np.ndarray, x0_lat: np.ndarray, times: np.ndarray, speeds: np.ndarray,
+                    offsets: np.ndarray) -> np.ndarray:
+    """All combinations of end time x end speed x lateral offset from one initial state."""
+    t1, v1, d1 = (g.ravel() for g in np.meshgrid(times + TIME_NUDGE, speeds, offsets, indexing="ij"))
+    matrix = np.zeros((len(t1), 13))
+    matrix[:, 1] = t1
+    matrix[:, 2:5] = x0_lon
+    matrix[:, 5] = v1
+    matrix[:, 7:10] = x0_lat
+    matrix[:, 10] = d1
+    return matrix

@@ -1,0 +1,80 @@
+"""The `simgap` command as a user runs it: real processes, real exit codes, no tracebacks."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SIMGAP = [sys.executable, "-m", "simgap"]
+
+
+def simgap(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS="120")
+    return subprocess.run(SIMGAP + list(args), capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
+
+
+def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> None:
+    assert proc.returncode != 0
+    assert "Traceback" not in proc.stderr + proc.stdout
+    for fragment in fragments:
+        assert fragment in proc.stderr, proc.stderr
+
+
+def test_generate_with_pins_writes_exactly_one_scenario(tmp_path):
+    proc = simgap("generate", "curve", "--set", "radius=10", "--set", "angle=90", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "curve_radius-10_angle-90.json", "curve_radius-10_angle-90.png", "curve_radius-10_angle-90.xml"]
+
+
+def test_generate_list_shows_parameters_units_and_ranges():
+    proc = simgap("generate", "--list")
+    assert proc.returncode == 0, proc.stderr
+    for text in ("curve", "s-curve", "t-junction", "intersection", "radius", "deg", "5 … 1000", "78 scenarios"):
+        assert text in proc.stdout
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["generate", "curve", "--set", "radius=2", "--out", "x"], ["field 'radius'", "5 to 1000 m"]),
+    (["generate", "curve", "--set", "bend=3", "--out", "x"], ["unknown parameter 'bend'", "radius, angle"]),
+    (["generate", "nowhere", "--out", "x"], ["no built-in logical scenario", "curve"]),
+    (["generate", "curve", "--set", "radius=6", "--set", "lanes=2", "--out", "x"], ["too small", "> 7 m"]),
+])
+def test_generate_refuses_bad_input_clearly(tmp_path, args, fragments):
+    assert_clean_error(simgap(*args, cwd=tmp_path), *fragments)
+    assert not (tmp_path / "x").exists() or not any((tmp_path / "x").glob("*.xml"))
+
+
+def test_run_refuses_unreadable_and_problemless_scenarios(tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<commonRoad><oops")
+    assert_clean_error(simgap("run", str(bad), "--out", str(tmp_path / "r1")), "bad.xml", "not a readable")
+    assert_clean_error(simgap("run", str(tmp_path / "missing.xml"), "--out", str(tmp_path / "r2")), "no such")
+    assert not (tmp_path / "r1").exists() and not (tmp_path / "r2").exists()
+
+
+def test_run_json_render_and_identical_fingerprints(tmp_path):
+    assert simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview",
+                  "--out", str(tmp_path)).returncode == 0
+    xml = tmp_path / "curve_radius-20_angle-60.xml"
+    first = simgap("run", str(xml), "--backend", "ideal", "--out", str(tmp_path / "run1"), "--json")
+    assert first.returncode == 0, first.stderr
+    summary = json.loads(first.stdout)
+    assert summary["wall_time_s"] > 0
+    (agent,) = summary["agents"]
+    assert agent["id"] == 1 and agent["outcome"] == "goal_reached" and agent["time_to_goal_s"] > 5
+    # the goal is 10 m x 3 m, 10 m before the end: 90 m + a 20.9 m arc + 85 m from the start
+    assert 190 < agent["distance_m"] < 202
+    second = json.loads(simgap("run", str(xml), "--out", str(tmp_path / "run2"), "--json").stdout)
+    assert second["fingerprint"] == summary["fingerprint"]
+    for name in ("run.json", "trajectories.parquet", "driven.xml"):
+        assert (tmp_path / "run1" / name).exists()
+    rendered = simgap("render", str(tmp_path / "run1"), "--frame-every", "10")
+    assert rendered.returncode == 0, rendered.stderr
+    assert (tmp_path / "run1" / "scene.png").stat().st_size > 10_000
+    assert (tmp_path / "run1" / "run.gif").stat().st_size > 10_000
