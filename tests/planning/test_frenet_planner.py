@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from planner_roads import DT, drive, lateral_offset, start_state, two_lane_road
+from planner_roads import DT, drive, lateral_offset, two_lane_road
 from simgap.cosim.traffic import DrivableArea, footprint
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import TrafficParticipant, World

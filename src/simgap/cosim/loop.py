@@ -165,7 +165,8 @@ def simulate(
             # 3. monitor
             t0 = time.perf_counter()
             for aid, st in states.items():
-                progress_of[aid].driven.append(st)
+                if progress_of[aid].active:      # a finished agent's record ends where it finished
+                    progress_of[aid].driven.append(st)
             _monitor(progress_of, states, obstacles, road, backend, dt, deadlines, finish)
             timings["monitoring"] += time.perf_counter() - t0
             if progress is not None:
@@ -186,7 +187,8 @@ def simulate(
         driven = Trajectory.from_states(p.driven, dt)
         outcomes.append(AgentOutcome(
             id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or "timeout",
-            time_to_goal_s=p.time_to_goal, distance_m=round(driven.path_length(), 3),
+            time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
+            distance_m=round(driven.path_length(), 3),
             min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
             max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures))
     return Run(

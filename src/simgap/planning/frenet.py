@@ -338,12 +338,13 @@ class FrenetPlanner:
                         np.repeat(traffic.x[:, -1:], steps, axis=1), np.repeat(traffic.y[:, -1:], steps, axis=1),
                         np.repeat(traffic.yaw[:, -1:], steps, axis=1), traffic.half_length, traffic.half_width)
                     hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
+        # the road only for plans clear of traffic (the road test costs most: many points)
+        on_road = np.ones(n, dtype=bool)
         start = 1 + recovery
-        if start < cx.shape[1]:
-            on_road = footprints_on_road(self.drivable_area, self._outline, cx[:, start:], cy[:, start:],
-                                         batch.yaw[:, start:]).all(axis=1)
-        else:
-            on_road = np.ones(n, dtype=bool)
+        rows = np.flatnonzero(~hit)
+        if start < cx.shape[1] and len(rows):
+            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, start:],
+                                               cy[rows, start:], batch.yaw[rows, start:]).all(axis=1)
         a_lat = (batch.v[:, 1:] ** 2 * np.abs(batch.kappa[:, 1:])).max(axis=1)
         return hit, on_road, a_lat <= s.speed.max_lateral_acceleration
 

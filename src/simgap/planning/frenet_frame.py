@@ -125,9 +125,6 @@ class FrenetFrame:
         """Core arc length → the `ReferencePath`'s arc length."""
         return np.asarray(s_core) - self.s_offset
 
-    def to_core_s(self, s_ref):
-        return np.asarray(s_ref) + self.s_offset
-
     # -- the initial state -------------------------------------------------------------------
     def initial_state(self, x_rear: float, y_rear: float, yaw: float, v: float, a: float,
                       steer: float, wheelbase: float, low_velocity: bool):
@@ -147,12 +144,6 @@ class FrenetFrame:
 
     def local_heading(self, yaw_world: float) -> float:
         return wrap_angle(yaw_world - self.rotation)
-
-    def nearest_s(self, x_local: float, y_local: float) -> float:
-        """Core arc length of the reference vertex nearest to a local point."""
-        line = np.asarray(self.core.ref_line)
-        k = int(np.argmin((line[:, 0] - x_local) ** 2 + (line[:, 1] - y_local) ** 2))
-        return float(self._pos[k])
 
     # -- samples → Cartesian -----------------------------------------------------------------
     def cartesian(self, samples, low_velocity: bool, yaw0: float) -> CartesianBatch:

@@ -37,7 +37,7 @@ def _draw(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: str) 
     params = MPDrawParams()
     params.time_begin = step
     params.dynamic_obstacle.draw_icon = True
-    params.dynamic_obstacle.show_label = True
+    params.dynamic_obstacle.show_label = False
     params.dynamic_obstacle.trajectory.draw_trajectory = False
     scenario.draw(rnd, draw_params=params)
     problems.draw(rnd)
@@ -47,10 +47,12 @@ def _draw(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: str) 
         k = min(step + 1, len(traj))
         ax.plot(traj.x[:k], traj.y[:k], LINE_STYLES[i % 4], color=AGENT_COLOURS[i % 6], lw=2.0,
                 zorder=60, label=f"agent {aid} ({run.agents[i].outcome})")
+        ax.annotate(str(aid), (traj.x[k - 1], traj.y[k - 1]), xytext=(5, 5), textcoords="offset points",
+                    fontsize=9, fontweight="bold", color=AGENT_COLOURS[i % 6], zorder=70)
     ax.set_title(title)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize=8, frameon=False)
 
 
 def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_every: int = 3,
