@@ -12,8 +12,11 @@ from simgap.cli.main import app
 
 @app.command()
 def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="where to write everything")) -> None:
-    """Run a small real experiment — three curve scenarios, ideal and MuJoCo with two vehicles — and
-    write an HTML report.
+    """Run a small real experiment on built-in curve scenarios and write an HTML report.
+
+    Three curve scenarios of the paper's grid run in every installed fidelity (ideal; MuJoCo
+    with the sedan and the city car when that backend is installed), are compared with the
+    ideal run and summarised in REPORT/index.html.
 
     Example: simgap demo --out simgap-demo
     """

@@ -48,8 +48,8 @@ def generate(
     pins = spec.pinned(_parse_sets(set_))
     combos = list(spec.grid(pins))
     written = []
-    for params in track(combos, description=f"generating {spec.name}", console=console,
-                        disable=len(combos) < 5):
+    steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
+    for params in steps:
         written.append(write_scenario(spec.build(params), out, preview=preview))
     console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
     for path in written[:5]:

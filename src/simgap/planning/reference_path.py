@@ -170,9 +170,3 @@ def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: Plann
     """The reference path of ``planning_problem``: route → centre line → `smooth_reference_path`."""
     centre, ids = route_centre_line(lanelet_network, planning_problem)
     return smooth_reference_path(centre, spacing, smoothing, extension_back, extension_forward, ids)
-
-
-def route_reference_path(network: LaneletNetwork, problem: PlanningProblem, spacing: float = 1.0,
-                         smoothing: float = 1.0, extension: float = 60.0) -> np.ndarray:
-    """Just the points (n x 2) of `plan_reference_path` (10 m extension before the start)."""
-    return plan_reference_path(network, problem, spacing, smoothing, 10.0, extension).xy
