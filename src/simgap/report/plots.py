@@ -45,23 +45,19 @@ def plot_d_over_s(curves: Mapping[str, tuple[np.ndarray, np.ndarray]], path: Pat
     for i, (label, (s, d)) in enumerate(curves.items()):
         ax.plot(s, d, linestyle=STYLES[i % 6], color=COLOURS[i % 6], lw=1.6, label=label)
     ax.axhline(0.0, color="grey", lw=0.6)
-    ax.set_xlabel("arc length s along the route centre line [m]")
-    ax.set_ylabel("lateral offset d [m]")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, "arc length s along the route centre line [m]", "lateral offset d [m]", title)
 
 
 def plot_v_over_t(trajectories: Mapping[str, Trajectory], path: Path, title: str) -> Path:
     fig, ax = plt.subplots(figsize=(8, 3.6))
     for i, (label, traj) in enumerate(trajectories.items()):
         ax.plot(traj.t, traj.v, linestyle=STYLES[i % 6], color=COLOURS[i % 6], lw=1.6, label=label)
-    ax.set_xlabel("time t [s]")
-    ax.set_ylabel("speed v [m/s]")
+    return _finish(fig, ax, path, "time t [s]", "speed v [m/s]", title)
+
+
+def _finish(fig, ax, path: Path, xlabel: str, ylabel: str, title: str) -> Path:
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")

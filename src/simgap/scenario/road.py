@@ -68,74 +68,48 @@ def _marking(kind: str) -> LineMarking:
 
 def build_road(centre: CentreLine, layout: LaneLayout, first_id: int) -> Road:
     """Lanelets for ``layout`` along ``centre``; ids are allocated from ``first_id`` upwards."""
-    n = layout.lanes_per_direction
-    w = layout.lane_width
+    n, w = layout.lanes_per_direction, layout.lane_width
     pieces = _split_indices(centre)
-    next_id = first_id
+    m = len(pieces)
+    ids = {(direction, lane): [first_id + (d_index * n + lane) * m + j for j in range(m)]
+           for d_index, direction in enumerate(("forward", "backward")) for lane in range(n)}
+    centre_mark = _marking(layout.centre_marking)
     road = Road(centre, layout)
 
-    def ids(count: int) -> list[int]:
-        nonlocal next_id
-        out = list(range(next_id, next_id + count))
-        next_id += count
-        return out
+    def lane_lanelets(direction: str) -> list[list[Lanelet]]:
+        # forward lanes lie right of the centre line and run along it; backward lanes mirror them
+        sign, other = (-1.0, "backward") if direction == "forward" else (1.0, "forward")
+        order = pieces if direction == "forward" else pieces[::-1]
+        lanes = []
+        for lane in range(n):
+            own = ids[(direction, lane)]
+            lanelets = []
+            for k, (i0, i1, kind) in enumerate(order):
+                sl = slice(i0, i1 + 1)
+                flip = slice(None) if direction == "forward" else slice(None, None, -1)
+                left, mid, right = (centre.offset(sign * f * w)[sl][flip] for f in (lane, lane + 0.5, lane + 1))
+                if lane > 0:
+                    adj_left, same_left, mark_left = ids[(direction, lane - 1)][k], True, LineMarking.DASHED
+                elif layout.two_way:
+                    adj_left, same_left, mark_left = ids[(other, 0)][m - 1 - k], False, centre_mark
+                else:
+                    adj_left, same_left, mark_left = None, None, LineMarking.SOLID
+                if lane < n - 1:
+                    adj_right, same_right, mark_right = ids[(direction, lane + 1)][k], True, LineMarking.DASHED
+                else:
+                    adj_right, same_right, mark_right = None, None, LineMarking.SOLID
+                lanelets.append(Lanelet(
+                    left, mid, right, own[k],
+                    predecessor=[own[k - 1]] if k > 0 else None,
+                    successor=[own[k + 1]] if k < m - 1 else None,
+                    adjacent_left=adj_left, adjacent_left_same_direction=same_left,
+                    adjacent_right=adj_right, adjacent_right_same_direction=same_right,
+                    line_marking_left_vertices=mark_left, line_marking_right_vertices=mark_right,
+                    lanelet_type={LaneletType.URBAN}))
+                road._section_by_id[own[k]] = kind
+            lanes.append(lanelets)
+        return lanes
 
-    fwd_ids = [ids(len(pieces)) for _ in range(n)]
-    bwd_ids = [ids(len(pieces)) for _ in range(n)] if layout.two_way else []
-    centre_mark = _marking(layout.centre_marking)
-
-    for lane in range(n):
-        lanelets = []
-        for j, (i0, i1, kind) in enumerate(pieces):
-            sl = slice(i0, i1 + 1)
-            left = centre.offset(-lane * w)[sl]
-            right = centre.offset(-(lane + 1) * w)[sl]
-            mid = centre.offset(-(lane + 0.5) * w)[sl]
-            if lane == 0:
-                adj_left, same_left = (bwd_ids[0][len(pieces) - 1 - j], False) if layout.two_way else (None, None)
-                mark_left = centre_mark if layout.two_way else LineMarking.SOLID
-            else:
-                adj_left, same_left = fwd_ids[lane - 1][j], True
-                mark_left = LineMarking.DASHED
-            if lane == n - 1:
-                adj_right, same_right, mark_right = None, None, LineMarking.SOLID
-            else:
-                adj_right, same_right, mark_right = fwd_ids[lane + 1][j], True, LineMarking.DASHED
-            lanelets.append(Lanelet(
-                left, mid, right, fwd_ids[lane][j],
-                predecessor=[fwd_ids[lane][j - 1]] if j > 0 else None,
-                successor=[fwd_ids[lane][j + 1]] if j < len(pieces) - 1 else None,
-                adjacent_left=adj_left, adjacent_left_same_direction=same_left,
-                adjacent_right=adj_right, adjacent_right_same_direction=same_right,
-                line_marking_left_vertices=mark_left, line_marking_right_vertices=mark_right,
-                lanelet_type={LaneletType.URBAN}))
-            road._section_by_id[fwd_ids[lane][j]] = kind
-        road.forward.append(lanelets)
-
-    for lane in range(n if layout.two_way else 0):
-        lanelets = []
-        for jj, (i0, i1, kind) in enumerate(reversed(pieces)):
-            j = len(pieces) - 1 - jj          # index of the same section in forward order
-            sl = slice(i0, i1 + 1)
-            left = centre.offset((lane) * w)[sl][::-1]
-            right = centre.offset((lane + 1) * w)[sl][::-1]
-            mid = centre.offset((lane + 0.5) * w)[sl][::-1]
-            if lane == 0:
-                adj_left, same_left, mark_left = fwd_ids[0][j], False, centre_mark
-            else:
-                adj_left, same_left, mark_left = bwd_ids[lane - 1][jj], True, LineMarking.DASHED
-            if lane == n - 1:
-                adj_right, same_right, mark_right = None, None, LineMarking.SOLID
-            else:
-                adj_right, same_right, mark_right = bwd_ids[lane + 1][jj], True, LineMarking.DASHED
-            lanelets.append(Lanelet(
-                left, mid, right, bwd_ids[lane][jj],
-                predecessor=[bwd_ids[lane][jj - 1]] if jj > 0 else None,
-                successor=[bwd_ids[lane][jj + 1]] if jj < len(pieces) - 1 else None,
-                adjacent_left=adj_left, adjacent_left_same_direction=same_left,
-                adjacent_right=adj_right, adjacent_right_same_direction=same_right,
-                line_marking_left_vertices=mark_left, line_marking_right_vertices=mark_right,
-                lanelet_type={LaneletType.URBAN}))
-            road._section_by_id[bwd_ids[lane][jj]] = kind
-        road.backward.append(lanelets)
+    road.forward = lane_lanelets("forward")
+    road.backward = lane_lanelets("backward") if layout.two_way else []
     return road
