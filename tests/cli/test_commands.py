@@ -78,3 +78,28 @@ def test_run_json_render_and_identical_fingerprints(tmp_path):
     assert rendered.returncode == 0, rendered.stderr
     assert (tmp_path / "run1" / "scene.png").stat().st_size > 10_000
     assert (tmp_path / "run1" / "run.gif").stat().st_size > 10_000
+
+
+def test_compare_two_fidelities_as_json_and_plots(tmp_path):
+    assert simgap("generate", "curve", "--set", "radius=10", "--set", "angle=-90", "--no-preview",
+                  "--out", str(tmp_path)).returncode == 0
+    xml = tmp_path / "curve_radius-10_angle-m90.xml"
+    for backend in ("ideal", "dynamic"):
+        proc = simgap("run", str(xml), "--backend", backend, "--replan-every", "3", "--out", str(tmp_path / backend))
+        assert proc.returncode == 0, proc.stderr
+    proc = simgap("compare", str(tmp_path / "ideal"), str(tmp_path / "dynamic"), "--json", "--out", str(tmp_path / "cmp"))
+    assert proc.returncode == 0, proc.stderr
+    (agent,) = json.loads(proc.stdout)["agents"]
+    d = agent["lateral_displacement"]
+    assert set(d) == {"max", "rms", "mean", "p95"}
+    assert 0 < d["rms"] <= d["max"] < 0.5
+    assert {"straight", "curve"} <= set(agent["lateral_displacement_by_section"])
+    assert (tmp_path / "cmp" / "d_over_s_agent1.png").stat().st_size > 10_000
+
+
+def test_compare_refuses_runs_of_different_scenarios(tmp_path):
+    for angle in ("30", "60"):
+        simgap("generate", "curve", "--set", "radius=50", "--set", f"angle={angle}", "--no-preview", "--out", str(tmp_path))
+        simgap("run", str(tmp_path / f"curve_radius-50_angle-{angle}.xml"), "--replan-every", "3",
+               "--out", str(tmp_path / angle))
+    assert_clean_error(simgap("compare", str(tmp_path / "30"), str(tmp_path / "60")), "different scenarios")

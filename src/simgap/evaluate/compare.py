@@ -28,6 +28,7 @@ class AgentComparison:
     orientation_error: Aggregate
     velocity_error: Aggregate
     by_section: dict[str, Aggregate] = field(default_factory=dict)   # lateral displacement per section
+    section_along_s: np.ndarray | None = None                         # road section kind at each s
 
     def as_dict(self) -> dict:
         return {
@@ -54,12 +55,13 @@ def compare_runs(a: Run, b: Run, scenario: Scenario, problems: PlanningProblemSe
         sb, db = frame.project(np.column_stack([tb.x, tb.y]))
         d_a, d_b = interp_by_s(s, sa, da), interp_by_s(s, sb, db)
         errs = time_aligned_errors(ta, tb)
-        by_section = {}
+        by_section, kinds = {}, None
         if sections and len(s):
             kinds = section_of_s(scenario.lanelet_network, problem, sections, s)
             for kind in dict.fromkeys(kinds):
                 by_section[str(kind)] = Aggregate.of(dd[kinds == kind])
         out.append(AgentComparison(aid, s, d_a, d_b, Aggregate.of(dd), Aggregate.of(errs.position),
-                                   Aggregate.of(errs.orientation), Aggregate.of(errs.velocity), by_section))
+                                   Aggregate.of(errs.orientation), Aggregate.of(errs.velocity), by_section,
+                                   kinds))
     return out
 

@@ -22,7 +22,7 @@ from simgap.scenario import build_scenario, load_scenario, read_metadata, write_
 from simgap.sim.registry import backend_available
 
 DEMO_SCENARIOS = [{"radius": 10, "angle": 90}, {"radius": 30, "angle": -120}, {"radius": 75, "angle": 180}]
-DEMO_FIDELITIES = [("ideal", "sedan"), ("mujoco", "sedan"), ("mujoco", "city")]
+DEMO_FIDELITIES = [("ideal", "sedan"), ("dynamic", "sedan"), ("mujoco", "sedan"), ("mujoco", "city")]
 
 
 @dataclass
@@ -78,6 +78,7 @@ def run_demo(out: Path, fidelities=None, scenarios=DEMO_SCENARIOS,
                     continue
                 for cmp in compare_runs(runs["ideal"], run, scenario, problems, meta.get("sections")):
                     curves.setdefault("ideal", (cmp.s, cmp.d_a))
+                    shading = None if cmp.section_along_s is None else (cmp.s, cmp.section_along_s)
                     curves[label] = (cmp.s, cmp.d_b)
                     d = cmp.lateral_displacement
                     gap_rows.append({"scenario": xml.stem, "fidelity": label, "max |d| [m]": d.max,
@@ -85,7 +86,7 @@ def run_demo(out: Path, fidelities=None, scenarios=DEMO_SCENARIOS,
                                      "max position error by time [m]": cmp.position_error.max})
             if curves:
                 plot_d_over_s(curves, report_dir / xml.stem / "d_over_s.png",
-                              f"{xml.stem}: lateral offset from the lane centre")
+                              f"{xml.stem}: lateral offset from the lane centre", shading)
                 images.append((f"{xml.stem}/d_over_s.png", "lateral offset d over arc length s"))
             plot_v_over_t({lbl: r.driven[1] for lbl, r in runs.items()}, report_dir / xml.stem / "v_over_t.png",
                           f"{xml.stem}: speed over time")

@@ -14,13 +14,19 @@ def _ideal(**settings: Any) -> Backend:
     return IdealBackend(**settings)
 
 
+def _dynamic(**settings: Any) -> Backend:
+    from simgap.sim.dynamic.backend import DynamicBackend
+
+    return DynamicBackend(**settings)
+
+
 def _mujoco(**settings: Any) -> Backend:
     from simgap.sim.mujoco import MujocoBackend
 
     return MujocoBackend(**settings)
 
 
-BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "mujoco": _mujoco}
+BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "dynamic": _dynamic, "mujoco": _mujoco}
 
 
 def backend_names() -> list[str]:
@@ -31,7 +37,8 @@ def backend_available(name: str) -> bool:
     """Whether the backend's module is installed (optional backends may be missing)."""
     import importlib.util
 
-    module = {"ideal": "simgap.sim.ideal", "mujoco": "simgap.sim.mujoco"}.get(name)
+    module = {"ideal": "simgap.sim.ideal", "dynamic": "simgap.sim.dynamic.backend",
+              "mujoco": "simgap.sim.mujoco"}.get(name)
     return module is not None and importlib.util.find_spec(module) is not None
 
 
