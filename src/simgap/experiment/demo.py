@@ -95,7 +95,7 @@ def run_demo(out: Path, fidelities=None, scenarios=DEMO_SCENARIOS,
     gap_rows.sort(key=lambda r: -r["max |d| [m]"])
     summary = [
         Section("Outcomes", rows=outcome_rows),
-        Section("Cross-fidelity gaps (physics run against the ideal run, largest first)", rows=gap_rows,
+        Section("Cross-fidelity gaps (each run against the ideal run of its scenario, largest first)", rows=gap_rows,
                 text="d is the lateral offset from the route's lane centre, compared at equal arc length; "
                      "Δv and the position error are compared at equal time."),
         Section("Run times per fidelity [s]", rows=runtime_rows(wall)),
