@@ -74,8 +74,13 @@ def compare(
         for kind, agg in d["lateral_displacement_by_section"].items():
             table.add_row(str(c.agent_id), escape(f"  d on {kind} sections [m]"),
                           *(f"{agg[k]:.3f}" for k in ("max", "rms", "mean", "p95")))
+        for side in ("a", "b"):
+            agg = d[f"tracking_error_{side}"]
+            table.add_row(str(c.agent_id), escape(f"tracking error in {side.upper()} [m]"),
+                          *(f"{agg[k]:.3f}" for k in ("max", "rms", "mean", "p95")))
     console.print(table)
     console.print("lateral displacement: |d_b - d_a| at equal arc length along the route's lane centre; "
-                  "the other errors at equal time", style="dim")
+                  "position, orientation and velocity errors at equal time; tracking error: where a run's "
+                  "vehicle was against where its plan in force said it would be", style="dim")
     if out is not None:
         console.print(f"plots written to [bold]{out}[/bold]")

@@ -13,7 +13,8 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.record import Run
-from simgap.evaluate.errors import Aggregate, interp_by_s, lateral_displacement_by_s, time_aligned_errors
+from simgap.evaluate.errors import (Aggregate, interp_by_s, lateral_displacement_by_s, time_aligned_errors,
+                                    tracking_errors)
 from simgap.evaluate.route_centre import route_centre, section_of_s
 
 
@@ -29,6 +30,8 @@ class AgentComparison:
     velocity_error: Aggregate
     by_section: dict[str, Aggregate] = field(default_factory=dict)   # lateral displacement per section
     section_along_s: np.ndarray | None = None                         # road section kind at each s
+    tracking_a: Aggregate | None = None      # planned vs driven position error within run A [m]
+    tracking_b: Aggregate | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -38,6 +41,8 @@ class AgentComparison:
             "orientation_error": self.orientation_error.as_dict(),
             "velocity_error": self.velocity_error.as_dict(),
             "lateral_displacement_by_section": {k: v.as_dict() for k, v in self.by_section.items()},
+            "tracking_error_a": self.tracking_a.as_dict() if self.tracking_a else None,
+            "tracking_error_b": self.tracking_b.as_dict() if self.tracking_b else None,
         }
 
 
@@ -62,6 +67,8 @@ def compare_runs(a: Run, b: Run, scenario: Scenario, problems: PlanningProblemSe
                 by_section[str(kind)] = Aggregate.of(dd[kinds == kind])
         out.append(AgentComparison(aid, s, d_a, d_b, Aggregate.of(dd), Aggregate.of(errs.position),
                                    Aggregate.of(errs.orientation), Aggregate.of(errs.velocity), by_section,
-                                   kinds))
+                                   kinds,
+                                   Aggregate.of(tracking_errors(ta, a.plans.get(aid, [])).position),
+                                   Aggregate.of(tracking_errors(tb, b.plans.get(aid, [])).position)))
     return out
 

@@ -89,3 +89,32 @@ def interp_by_s(grid: np.ndarray, s: np.ndarray, d: np.ndarray) -> np.ndarray:
     s_sorted, d_sorted = s[order], d[order]
     keep = np.concatenate([[True], np.diff(s_sorted) > 1e-6])
     return np.interp(grid, s_sorted[keep], d_sorted[keep])
+
+
+def plan_in_force(plans: list[Trajectory], t: float, dt: float) -> Trajectory | None:
+    """The latest plan made strictly before ``t`` (the one the vehicle was executing at ``t``)."""
+    chosen = None
+    for plan in plans:                      # plans are in the order they were made
+        if plan.t[0] <= t - dt + 1e-9:
+            chosen = plan
+    return chosen
+
+
+def tracking_errors(driven: Trajectory, plans: list[Trajectory]) -> TimeAlignedErrors:
+    """Planned versus driven within one run (the assumption of perfect tracking): at every driven
+    step, the state reached against the state the plan in force promised for that instant."""
+    plans = sorted(plans, key=lambda p: p.t[0])
+    rows = []
+    for k in range(1, len(driven)):
+        t = float(driven.t[k])
+        plan = plan_in_force(plans, t, driven.dt)
+        if plan is None or t > plan.t_end + 1e-9:
+            continue
+        promised = plan.at(t)
+        rows.append((t, float(np.hypot(driven.x[k] - promised.x, driven.y[k] - promised.y)),
+                     float(wrap_angle(driven.yaw[k] - promised.yaw)), float(driven.v[k] - promised.v)))
+    if not rows:
+        empty = np.array([])
+        return TimeAlignedErrors(empty, empty, empty, empty)
+    t, pos, yaw, v = (np.array(c) for c in zip(*rows))
+    return TimeAlignedErrors(t, pos, yaw, v)

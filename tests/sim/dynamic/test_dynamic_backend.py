@@ -44,3 +44,16 @@ def test_dynamic_runs_are_deterministic():
     first = run(concrete, make_backend("dynamic"))
     second = run(concrete, make_backend("dynamic"))
     assert first.fingerprint == second.fingerprint
+
+
+def test_tracking_error_is_zero_in_the_ideal_world_and_not_in_the_dynamic_one():
+    from simgap.evaluate.errors import Aggregate, tracking_errors
+
+    concrete = build_scenario("curve", {"radius": 20, "angle": 90})
+    ideal = run(concrete, make_backend("ideal"))
+    dynamic = run(concrete, make_backend("dynamic"))
+    ideal_err = tracking_errors(ideal.driven[1], ideal.plans[1])
+    dyn_err = tracking_errors(dynamic.driven[1], dynamic.plans[1])
+    assert len(ideal_err.t) == len(ideal.driven[1]) - 1          # every step had a plan in force
+    assert Aggregate.of(ideal_err.position).max < 1e-9            # perfect tracking, exactly
+    assert 0.01 < Aggregate.of(dyn_err.position).max < 2.0        # imperfect, but bounded
