@@ -27,6 +27,22 @@ def _label(run: Run, run_dir: Path) -> str:
     return f"{run.backend}/{vehicles} ({run_dir.name})"
 
 
+def _criticality(run_dir: Path, run: Run) -> list[dict]:
+    """Per agent pair, the most critical TTC, THW, BTN and STN of the driven scenario."""
+    if len(run.driven) < 2:
+        return []
+    from dataclasses import asdict
+
+    from commonroad.common.file_reader import CommonRoadFileReader
+
+    from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
+    from simgap.evaluate.criticality import pair_criticality
+
+    driven, _ = CommonRoadFileReader(str(run_dir / "driven.xml")).open()
+    ids = {aid: AGENT_ID_OFFSET + aid for aid in run.driven}
+    return [asdict(r) for r in pair_criticality(driven, ids)]
+
+
 @app.command()
 def compare(
     run_a: Path = typer.Argument(..., help="reference run directory (e.g. the ideal run)"),
@@ -47,7 +63,8 @@ def compare(
     sections = read_metadata(xml).get("sections")
     comparisons = compare_runs(a, b, scenario, problems, sections)
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
-              "agents": [c.as_dict() for c in comparisons]}
+              "agents": [c.as_dict() for c in comparisons],
+              "criticality": {"a": _criticality(run_a, a), "b": _criticality(run_b, b)}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for c in comparisons:
@@ -82,5 +99,15 @@ def compare(
     console.print("lateral displacement: |d_b - d_a| at equal arc length along the route's lane centre; "
                   "position, orientation and velocity errors at equal time; tracking error: where a run's "
                   "vehicle was against where its plan in force said it would be", style="dim")
+    if result["criticality"]["a"]:
+        crit = Table(title="criticality per agent pair (commonroad-crime; most critical value over the run)")
+        for col in ("ego", "other", "measure", "A", "B"):
+            crit.add_column(col, justify="right", no_wrap=True)
+        for ra, rb in zip(result["criticality"]["a"], result["criticality"]["b"]):
+            crit.add_row(str(ra["ego_id"]), str(ra["other_id"]), ra["measure"].upper(),
+                         f"{ra['worst']:.2f}", f"{rb['worst']:.2f}")
+        console.print(crit)
+        console.print(escape("TTC, THW [s]: smaller is more critical; BTN, STN [-]: larger is more critical"),
+                      style="dim")
     if out is not None:
         console.print(f"plots written to [bold]{out}[/bold]")
