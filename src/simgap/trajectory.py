@@ -113,12 +113,6 @@ class Trajectory:
     def t_end(self) -> float:
         return float(self._data["t"][-1])
 
-    def columns(self) -> dict[str, np.ndarray]:
-        return dict(self._data)
-
-    def slice(self, start: int, stop: int | None = None) -> "Trajectory":
-        return Trajectory(self.dt, **{f: a[start:stop] for f, a in self._data.items()})
-
     def at(self, t: float) -> State:
         """The state at time ``t``, linearly interpolated; clamped to the ends."""
         ts = self._data["t"]

@@ -65,11 +65,6 @@ class CentreLine:
         normal = np.column_stack([-np.sin(self.heading), np.cos(self.heading)])
         return self.xy + d * normal
 
-    def section_at(self, s: float) -> str:
-        for sec in self.sections:
-            if sec.s_start - 1e-9 <= s <= sec.s_end + 1e-9:
-                return sec.kind
-        return self.sections[-1].kind
 
 
 def _pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float, float]]:

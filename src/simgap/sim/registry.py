@@ -29,10 +29,6 @@ def _mujoco(**settings: Any) -> Backend:
 BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "dynamic": _dynamic, "mujoco": _mujoco}
 
 
-def backend_names() -> list[str]:
-    return list(BACKENDS)
-
-
 def backend_available(name: str) -> bool:
     """Whether the backend's module is installed (optional backends may be missing)."""
     import importlib.util
