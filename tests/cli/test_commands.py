@@ -103,3 +103,13 @@ def test_compare_refuses_runs_of_different_scenarios(tmp_path):
         simgap("run", str(tmp_path / f"curve_radius-50_angle-{angle}.xml"), "--replan-every", "3",
                "--out", str(tmp_path / angle))
     assert_clean_error(simgap("compare", str(tmp_path / "30"), str(tmp_path / "60")), "different scenarios")
+
+
+def test_unknown_or_missing_backend_and_vehicle_are_refused(tmp_path):
+    simgap("generate", "t-junction", "--no-preview", "--out", str(tmp_path))
+    xml = str(tmp_path / "t-junction.xml")
+    assert_clean_error(simgap("run", xml, "--backend", "nope", "--out", str(tmp_path / "r")), "field 'backend'", "ideal")
+    assert_clean_error(simgap("run", xml, "--vehicle", "1=sedan", "--out", str(tmp_path / "r")),
+                       "no vehicle given for planning problem 2")
+    assert_clean_error(simgap("run", xml, "--vehicle", "tank", "--out", str(tmp_path / "r")), "unknown vehicle 'tank'")
+    assert not (tmp_path / "r").exists()

@@ -39,6 +39,10 @@ def backend_available(name: str) -> bool:
 
 
 def make_backend(name: str, **settings: Any) -> Backend:
+    available = [b for b in BACKENDS if backend_available(b)]
     if name not in BACKENDS:
-        raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(BACKENDS))
+        raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(available))
+    if name not in available:
+        raise InputError(f"the '{name}' backend is not part of this installation", field="backend",
+                         allowed=", ".join(available))
     return BACKENDS[name](**settings)
