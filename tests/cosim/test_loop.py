@@ -44,12 +44,14 @@ def problem(pid, x, y, yaw, v, goal_x, goal_y=1.75, t_end=200):
 class StraightLine:
     """Test planner: constant speed along the current heading (None if told to fail)."""
 
-    def __init__(self, speed=10.0, fail_after=None):
-        self.speed, self.fail_after, self.calls = speed, fail_after, 0
+    def __init__(self, speed=10.0, fail_after=None, crash=False):
+        self.speed, self.fail_after, self.calls, self.crash = speed, fail_after, 0, crash
 
     def plan(self, observed: State, t: float, world) -> Trajectory | None:
         self.calls += 1
         if self.fail_after is not None and self.calls > self.fail_after:
+            if self.crash:
+                raise RuntimeError("solver exploded")
             return None
         states = []
         for k in range(31):
@@ -93,6 +95,13 @@ def test_planner_failure_triggers_emergency_stop():
     v = result.driven[1].v
     assert v[-1] < v[5]  # it braked
     assert any(e.kind == "planner_no_solution" for e in result.events)
+
+
+def test_a_crashing_planner_fails_its_agent_with_the_reason():
+    settings = CosimSettings(planner_failure_limit=2)
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=3, crash=True)}, settings)
+    assert result.agents[0].outcome == "planner_failure"
+    assert any("RuntimeError: solver exploded" in e.detail for e in result.events)
 
 
 def test_leaving_the_road_is_off_road():

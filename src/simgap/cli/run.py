@@ -42,6 +42,8 @@ def run(
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
+        if result.failure:
+            raise typer.Exit(1)
         return
     console = Console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
@@ -50,6 +52,8 @@ def run(
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
+    if result.failure:
+        raise typer.Exit(1)
 
 
 def print_summary(console: Console, result: Run) -> None:

@@ -140,12 +140,15 @@ def simulate(
                     continue
                 world = World(scenario.lanelet_network, p.problem.goal, dt,
                               tuple(_traffic_for(aid, snapshot, obstacles)))
-                plan = p.planner.plan(state, t, world)
+                reason = "no feasible collision-free sample; emergency stop"
+                try:
+                    plan = p.planner.plan(state, t, world)
+                except Exception as exc:  # a planner that crashes fails its cycle, not the run
+                    plan, reason = None, f"planner raised {type(exc).__name__}: {exc}; emergency stop"
                 if plan is None:
                     p.failures += 1
                     p.failures_in_row += 1
-                    events.append(Event(t, aid, "planner_no_solution", state.x, state.y,
-                                        "no feasible collision-free sample; emergency stop"))
+                    events.append(Event(t, aid, "planner_no_solution", state.x, state.y, reason))
                     if p.failures_in_row == 1:
                         p.plan = emergency_stop(state, dt, settings.emergency_decel)
                     p.plan_age = 0
