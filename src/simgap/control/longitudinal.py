@@ -105,7 +105,10 @@ class LongitudinalMap:
 
     @classmethod
     def for_vehicle(cls, vehicle) -> "LongitudinalMap":
-        return cls.from_physics(vehicle.physics, source=vehicle_source(vehicle))
+        physics = vehicle.physics
+        if hasattr(physics, "model_dump"):
+            physics = physics.model_dump()
+        return cls.from_physics(physics, source=vehicle_source(vehicle))
 
     # --- forces -------------------------------------------------------------------------
     def resistance_force(self, v: float) -> float:

@@ -7,13 +7,13 @@ import math
 import numpy as np
 import shapely
 from commonroad.scenario.lanelet import LaneletNetwork
-from commonroad.scenario.obstacle import DynamicObstacle
 from commonroad.scenario.scenario import Scenario
 from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from simgap.planning.protocol import TrafficParticipant
-from simgap.trajectory import State, Trajectory
+from simgap.scenario.obstacles import recorded_obstacles
+from simgap.trajectory import State
 
 
 def footprint(state: State, length: float, width: float) -> Polygon:
@@ -36,38 +36,14 @@ class DrivableArea:
         return bool(self.area.contains(polygon))
 
     def excursion(self, polygon: Polygon) -> float:
-        """How far [m] the footprint reaches beyond the drivable area (0 when inside)."""
-        outside = polygon.difference(self.area)
-        if outside.is_empty:
+        """How far [m] the footprint reaches beyond the drivable area (0 when inside): the
+        largest distance of a footprint corner from the area."""
+        if self.area.contains(polygon):
             return 0.0
-        boundary = self.area.boundary
-        return max(boundary.distance(shapely.Point(p)) for p in np.asarray(polygon.exterior.coords))
-
-
-def obstacle_trajectory(obstacle: DynamicObstacle, dt: float) -> Trajectory:
-    """A non-agent obstacle's recorded motion (initial state + trajectory prediction) as a Trajectory."""
-    states = [obstacle.initial_state]
-    prediction = obstacle.prediction
-    if prediction is not None and hasattr(prediction, "trajectory"):
-        states += list(prediction.trajectory.state_list)
-    rows = []
-    for st in states:
-        v = float(getattr(st, "velocity", 0.0) or 0.0)
-        rows.append(State(
-            t=st.time_step * dt, x=float(st.position[0]), y=float(st.position[1]),
-            yaw=float(getattr(st, "orientation", 0.0) or 0.0), v=v,
-            a=float(getattr(st, "acceleration", 0.0) or 0.0),
-            yaw_rate=float(getattr(st, "yaw_rate", 0.0) or 0.0)))
-    return Trajectory.from_states(rows, dt)
+        corners = np.asarray(polygon.exterior.coords)
+        return float(shapely.distance(self.area, shapely.points(corners)).max())
 
 
 def non_agent_traffic(scenario: Scenario) -> list[TrafficParticipant]:
     """Dynamic obstacles of the scenario: they follow their recorded trajectory."""
-    traffic = []
-    for obs in scenario.dynamic_obstacles:
-        shape = obs.obstacle_shape
-        length = float(getattr(shape, "length", 0.0) or 2 * getattr(shape, "radius", 1.0))
-        width = float(getattr(shape, "width", 0.0) or 2 * getattr(shape, "radius", 1.0))
-        traffic.append(TrafficParticipant(obs.obstacle_id, length, width,
-                                          obstacle_trajectory(obs, scenario.dt)))
-    return traffic
+    return [TrafficParticipant(o.id, o.length, o.width, o.motion) for o in recorded_obstacles(scenario)]

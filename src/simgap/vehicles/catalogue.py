@@ -16,6 +16,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from simgap.errors import InputError, pydantic_to_input_error
+from simgap.vehicles.physics import VehiclePhysics
 
 
 class VehicleLimits(BaseModel):
@@ -43,7 +44,7 @@ class Vehicle(BaseModel):
     wheelbase: float = Field(gt=0, description="front to rear axle [m]")
     rear_axle_to_center: float = Field(gt=0, description="rear axle to the vehicle centre [m]")
     limits: VehicleLimits
-    physics: dict[str, Any] | None = Field(None, description="physical model for 3D backends")
+    physics: VehiclePhysics | None = Field(None, description="physical model for 3D backends")
     controllers: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="controller gains by controller name, overriding defaults")
 

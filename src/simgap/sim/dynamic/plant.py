@@ -59,10 +59,13 @@ def single_track_parameters(vehicle, params_id: int = 2) -> VehicleParameters:
     p.longitudinal.a_max = float(lim.max_accel)
     p.longitudinal.v_max = float(lim.max_speed)
     p.longitudinal.v_switch = float(lim.v_switch)
-    mass = (vehicle.physics or {}).get("mass")
+    physics = vehicle.physics
+    mass = physics.get("mass") if isinstance(physics, dict) else getattr(physics, "mass", None)
     if mass is not None:
         p.m = float(mass)
     p.I_z = base.I_z * (p.m / base.m) * ((p.a + p.b) / (base.a + base.b)) ** 2
+    if getattr(physics, "inertia_yaw", None) is not None:
+        p.I_z = float(physics.inertia_yaw)
     return p
 
 

@@ -1,0 +1,236 @@
+"""The ``mujoco`` backend: every agent is a car in a MuJoCo world, driven by its tracking
+controller.
+
+Each scenario dt, for every controller period (default 100 Hz): recorded traffic moves to where
+its recording says; each car is measured (centre, yaw, speed, acceleration, yaw rate, road-wheel
+steering angle — the ideal backend's convention) and its controller turns the plan in force into
+steering, throttle and brake; the steering target moves towards the request at the steering
+system's rate and within its angle; drive torque (capped by the powertrain's power), brakes,
+drag and the friction of the surface under each tyre are set; then physics runs at its own rate
+(default 500 Hz) until the next controller update. Physical contacts with other cars or with
+traffic are reported as collision events; a state that is no longer finite, a solver warning,
+or a chassis on its side is `PhysicsDiverged`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Mapping, Sequence
+
+import mujoco
+import numpy as np
+from commonroad.scenario.scenario import Scenario
+from pydantic import ValidationError
+
+from simgap.control import make_controller
+from simgap.control.longitudinal import AIR_DENSITY, GRAVITY
+from simgap.control.protocol import Command
+from simgap.errors import InputError, pydantic_to_input_error
+from simgap.sim.mujoco.car import (CORNERS, CarIndex, ackermann_angles, max_single_track_angle,
+                                   single_track_angle, up_z, yaw_of)
+from simgap.sim.mujoco.world import World, WorldSettings, build_world
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.trajectory import State, Trajectory
+
+FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
+
+
+class MujocoBackend:
+    name = "mujoco"
+
+    def __init__(self, controller: str = "pure_pursuit", controller_hz: float = 100.0,
+                 controller_gains: Mapping[str, Any] | None = None, **world: Any):
+        self.controller_name = controller
+        self.controller_hz = float(controller_hz)
+        self.controller_gains = dict(controller_gains or {})
+        try:
+            self.settings = WorldSettings(**world)
+        except ValidationError as err:
+            error = pydantic_to_input_error(err, None)
+            extra = err.errors()[0].get("type") == "extra_forbidden"
+            allowed = ", ".join(WorldSettings.model_fields) if extra else error.allowed
+            raise InputError(error.reason, field=f"backend_settings.{error.field}", allowed=allowed) from None
+        substeps = self.settings.physics_hz / self.controller_hz
+        if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
+            raise InputError(f"physics rate {self.settings.physics_hz:g} Hz must be a whole multiple of the "
+                             f"controller rate {self.controller_hz:g} Hz", field="backend_settings.physics_hz")
+        self.substeps = int(round(substeps))
+        self.timings = {"control": 0.0, "physics": 0.0}
+        self.world: World | None = None
+        self._events: list[BackendEvent] = []
+
+    # --- Backend protocol -------------------------------------------------------------------
+    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+        self._dt = float(scenario.dt)
+        self._agents = list(agents)
+        self.world = build_world(scenario, agents, self.settings)
+        self._controllers = {a.id: make_controller(self.controller_name, a.vehicle, self.controller_hz,
+                                                   self.controller_gains) for a in agents}
+        self._wheel_bodies = {a.id: [self.world.model.body(f"agent{a.id}_wheel_{c}").id for c in CORNERS]
+                              for a in agents}
+
+    def reset(self) -> dict[int, State]:
+        w = self.world
+        mujoco.mj_resetData(w.model, w.data)
+        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
+        self._step = 0
+        for a in self._agents:
+            w.place(a.id, a.initial_state)
+        self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
+        self._surface_mu = {a.id: [None] * 4 for a in self._agents}
+        w.move_traffic(self._t0)
+        mujoco.mj_forward(w.model, w.data)
+        self._last_v = {a.id: a.initial_state.v for a in self._agents}
+        self._last_a = {a.id: a.initial_state.a for a in self._agents}
+        states = {a.id: self.measure(a.id, self._t0) for a in self._agents}
+        for a in self._agents:
+            self._controllers[a.id].reset(states[a.id])
+        self._events = []
+        return states
+
+    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+        w = self.world
+        self._events = []
+        ticks = max(1, round(self._dt * self.controller_hz))
+        period = self._dt / ticks
+        t0 = self._t0 + self._step * self._dt
+        seen: set[tuple[int, int | None]] = set()
+        for k in range(ticks):
+            t = t0 + k * period
+            c0 = time.perf_counter()
+            if w.traffic:
+                w.move_traffic(t)
+            for a in self._agents:
+                measured = self.measure(a.id, t)
+                command = self._controllers[a.id].command(measured, plans[a.id], t)
+                self._actuate(a.id, command, period)
+            c1 = time.perf_counter()
+            mujoco.mj_step(w.model, w.data, nstep=self.substeps)
+            self.timings["control"] += c1 - c0
+            self.timings["physics"] += time.perf_counter() - c1
+            self._check(t + period)
+            self._collect_contacts(t + period, seen)
+        self._step += 1
+        t_end = t0 + self._dt
+        states = {}
+        for a in self._agents:
+            st = self.measure(a.id, t_end)
+            acc = (st.v - self._last_v[a.id]) / self._dt
+            self._last_v[a.id] = st.v
+            states[a.id] = st.replace(a=acc)
+            self._last_a[a.id] = acc
+        return states
+
+    def events(self) -> list[BackendEvent]:
+        return list(self._events)
+
+    def close(self) -> None:
+        self.world = None
+
+    # --- measuring and actuating -------------------------------------------------------------
+    def measure(self, agent_id: int, t: float) -> State:
+        """The car's state in the `State` convention (centre, yaw from +x, speed, yaw rate,
+        single-track steering angle; acceleration as of the last scenario step)."""
+        w, car = self.world, self.world.cars[agent_id]
+        q, v = w.data.qpos, w.data.qvel
+        x, y = float(q[car.qpos]), float(q[car.qpos + 1])
+        quat = q[car.qpos + 3:car.qpos + 7]
+        yaw = yaw_of(quat)
+        vx, vy = float(v[car.qvel]), float(v[car.qvel + 1])
+        speed = math.hypot(vx, vy)
+        if vx * math.cos(yaw) + vy * math.sin(yaw) < 0.0:
+            speed = -speed
+        qw, qx, qy, qz = quat
+        wl = v[car.qvel + 3:car.qvel + 6]
+        yaw_rate = float(2 * (qx * qz - qw * qy) * wl[0] + 2 * (qy * qz + qw * qx) * wl[1]
+                         + (1 - 2 * (qx * qx + qy * qy)) * wl[2])
+        steer = single_track_angle(float(q[car.steer_qpos[0]]), float(q[car.steer_qpos[1]]))
+        return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=self._last_a.get(agent_id, 0.0),
+                     yaw_rate=yaw_rate, steer=steer)
+
+    def _actuate(self, agent_id: int, command: Command, period: float) -> None:
+        w, car = self.world, self.world.cars[agent_id]
+        ph, d, m = car.physics, w.data, w.model
+        # steering: rate, then angle limit of the steering system; Ackermann at the wheels
+        limit = max_single_track_angle(ph, car.vehicle.wheelbase)
+        target = self._steer_target[agent_id]
+        step = ph.steering.max_rate * period
+        target += min(max(command.steer - target, -step), step)
+        target = min(max(target, -limit), limit)
+        self._steer_target[agent_id] = target
+        left, right = ackermann_angles(target, car.vehicle.wheelbase, ph.track_front)
+        d.ctrl[car.steer_actuators[0]], d.ctrl[car.steer_actuators[1]] = left, right
+
+        # drive: open differentials, torque capped by power at the driven wheels' speed
+        throttle = min(max(command.throttle, 0.0), 1.0)
+        brake = min(max(command.brake, 0.0), 1.0)
+        front, rear = ph.drive_shares()
+        torque = throttle * ph.max_drive_torque
+        driven = [i for i, act in enumerate(car.drive_actuators) if act >= 0]
+        if driven and torque > 0.0:
+            omega = abs(float(np.mean([d.qvel[car.spin_dofs[i]] for i in driven])))
+            wheel_power = torque * omega
+            if wheel_power > ph.max_power:
+                torque *= ph.max_power / wheel_power
+        for i, act in enumerate(car.drive_actuators):
+            if act >= 0:
+                d.ctrl[act] = torque * (front if i < 2 else rear) / 2.0
+        # brakes and rolling resistance as dry friction on the spin joints
+        rolling = ph.rolling_resistance * ph.mass * GRAVITY / 4.0 * ph.wheel_radius
+        for i, dof in enumerate(car.spin_dofs):
+            share = ph.brake_front_share if i < 2 else 1.0 - ph.brake_front_share
+            m.dof_frictionloss[dof] = rolling + brake * ph.max_brake_torque * share / 2.0
+        # aerodynamic drag at the centre of gravity
+        vx, vy = d.qvel[car.qvel], d.qvel[car.qvel + 1]
+        speed = math.hypot(vx, vy)
+        drag = 0.5 * AIR_DENSITY * ph.drag_coefficient_area * speed
+        d.xfrc_applied[car.chassis_body, 0:2] = [-drag * vx, -drag * vy]
+        # the surface under each tyre: road or verge
+        xy = d.xpos[self._wheel_bodies[agent_id], :2]
+        on_road = w.surface.on_road(xy[:, 0], xy[:, 1])
+        for i, pair in enumerate(car.tyre_pairs):
+            mu = ph.tyre_friction * (w.settings.road_friction if on_road[i] else w.settings.offroad_friction)
+            if self._surface_mu[agent_id][i] != mu:
+                m.pair_friction[pair, 0:2] = mu
+                self._surface_mu[agent_id][i] = mu
+
+    # --- events --------------------------------------------------------------------------------
+    def _check(self, t: float) -> None:
+        w = self.world
+        bad = w.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+        for a in self._agents:
+            car = w.cars[a.id]
+            q = w.data.qpos[car.qpos:car.qpos + 7]
+            x, y = float(q[0]), float(q[1])
+            if bad or not (np.all(np.isfinite(q)) and np.all(np.isfinite(w.data.qvel))):
+                raise PhysicsDiverged(f"agent {a.id}: the physics state is no longer finite at t = {t:.2f} s")
+            if up_z(q[3:7]) < FLIPPED_UP_Z:
+                raise PhysicsDiverged(f"agent {a.id}: chassis on its side or roof at t = {t:.2f} s, "
+                                      f"x = {x:.1f} m, y = {y:.1f} m")
+
+    def _collect_contacts(self, t: float, seen: set) -> None:
+        w = self.world
+        d = w.data
+        for i in range(d.ncon):
+            g1, g2 = int(d.contact.geom1[i]), int(d.contact.geom2[i])
+            a1, a2 = w.owner.get(g1), w.owner.get(g2)
+            if a1 is None and a2 is None:
+                continue
+            for me, other_geom, other_agent in ((a1, g2, a2), (a2, g1, a1)):
+                if me is None:
+                    continue
+                if other_agent is not None and other_agent != me:
+                    other = other_agent
+                elif other_geom in w.traffic_geoms:
+                    other = w.traffic_geoms[other_geom]
+                else:
+                    continue
+                if (me, other) in seen:
+                    continue
+                seen.add((me, other))
+                pos = d.contact.pos[i]
+                kind = "agent" if other_agent is not None else "obstacle"
+                self._events.append(BackendEvent(t, me, "collision",
+                                                 f"physical contact with {kind} {other} at "
+                                                 f"({pos[0]:.1f}, {pos[1]:.1f})", other))

@@ -1,0 +1,165 @@
+"""The road in MuJoCo: a drawn surface for every lanelet, the line markings CommonRoad states, and
+the surface under each tyre (road or off-road) for the tyre-road friction.
+
+The world is flat (by default), so every tyre rolls on one ground plane. What the tyre stands
+on — a lanelet or the verge — decides the friction of its contact, looked up in the union of
+the lanelet polygons (`SurfaceMap`). The drawn road is a mesh on top of the plane and never
+collides: MuJoCo collides meshes as their convex hulls, which a curved road is not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import shapely
+from commonroad.scenario.lanelet import LaneletNetwork, LineMarking
+from shapely.ops import unary_union
+
+ROAD_Z = 0.004          # drawn road above the ground plane [m]
+MARKING_Z = 0.008       # drawn markings above the ground plane [m]
+SLAB = 0.02             # thickness of the drawn slabs [m] (closed meshes have a volume)
+
+_SOLID, _DASHED, _BROAD_DASHED = (0.0, 0.0), (3.0, 6.0), (3.0, 3.0)   # (dash, gap) [m]; 0: solid
+#: line width [m] and the painted lines as (offset to the left [m], (dash, gap))
+MARKING_STYLE: dict[LineMarking, tuple[float, tuple[tuple[float, tuple[float, float]], ...]]] = {
+    LineMarking.SOLID: (0.12, ((0.0, _SOLID),)),
+    LineMarking.DASHED: (0.12, ((0.0, _DASHED),)),
+    LineMarking.BROAD_SOLID: (0.25, ((0.0, _SOLID),)),
+    LineMarking.BROAD_DASHED: (0.25, ((0.0, _BROAD_DASHED),)),
+    LineMarking.SOLID_SOLID: (0.12, ((-0.12, _SOLID), (0.12, _SOLID))),
+    LineMarking.DASHED_DASHED: (0.12, ((-0.12, _DASHED), (0.12, _DASHED))),
+    LineMarking.SOLID_DASHED: (0.12, ((0.12, _SOLID), (-0.12, _DASHED))),
+    LineMarking.DASHED_SOLID: (0.12, ((0.12, _DASHED), (-0.12, _SOLID))),
+}
+
+
+@dataclass(frozen=True)
+class MarkingLine:
+    """One drawn line: its centre polyline, width, and (for dashed lines) dash and gap."""
+
+    xy: np.ndarray
+    width: float
+    dash: float
+    gap: float
+
+
+def _offset(xy: np.ndarray, d: float) -> np.ndarray:
+    """The polyline moved ``d`` to its left."""
+    if d == 0.0:
+        return xy
+    tangent = np.gradient(xy, axis=0)
+    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
+    return xy + d * np.column_stack([-tangent[:, 1], tangent[:, 0]])
+
+
+def marking_lines(network: LaneletNetwork) -> list[MarkingLine]:
+    """Every marked lanelet bound once (a bound shared by two lanelets is drawn once)."""
+    seen: set[tuple] = set()
+    lines = []
+    for lanelet in network.lanelets:
+        for xy, marking in ((lanelet.left_vertices, lanelet.line_marking_left_vertices),
+                            (lanelet.right_vertices, lanelet.line_marking_right_vertices)):
+            style = MARKING_STYLE.get(marking)
+            if style is None:
+                continue
+            xy = np.asarray(xy, dtype=float)
+            ends = tuple(sorted([tuple(np.round(xy[0], 2)), tuple(np.round(xy[-1], 2))]))
+            key = (ends, len(xy), marking)
+            if key in seen:
+                continue
+            seen.add(key)
+            width, painted = style
+            for d, (dash, gap) in painted:
+                lines.append(MarkingLine(_offset(xy, d), width, dash, gap))
+    return lines
+
+
+def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
+    """The polylines that are painted: the whole line, or its dashes."""
+    xy = line.xy
+    if line.dash <= 0.0:
+        return [xy]
+    seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    pieces, start = [], 0.0
+    while start < s[-1]:
+        end = min(start + line.dash, s[-1])
+        ss = np.concatenate([[start], s[(s > start) & (s < end)], [end]])
+        pieces.append(np.column_stack([np.interp(ss, s, xy[:, 0]), np.interp(ss, s, xy[:, 1])]))
+        start += line.dash + line.gap
+    return [p for p in pieces if len(p) >= 2]
+
+
+class MeshBuilder:
+    """Collects thin closed slabs (strips between two polylines) into one mesh."""
+
+    def __init__(self) -> None:
+        self.vertices: list[np.ndarray] = []
+        self.faces: list[np.ndarray] = []
+        self._n = 0
+
+    def add_strip(self, left: np.ndarray, right: np.ndarray, z: float) -> None:
+        n = len(left)
+        if n < 2 or len(right) != n:
+            return
+        top = np.column_stack([np.vstack([left, right]), np.full(2 * n, z)])
+        bottom = top.copy()
+        bottom[:, 2] = z - SLAB
+        self.vertices += [top, bottom]
+        o = self._n
+        faces = []
+        for i in range(n - 1):
+            l0, l1, r0, r1 = o + i, o + i + 1, o + n + i, o + n + i + 1
+            faces += [[l0, r0, r1], [l0, r1, l1]]                                   # top (up)
+            b = 2 * n
+            faces += [[l0 + b, r1 + b, r0 + b], [l0 + b, l1 + b, r1 + b]]          # bottom (down)
+            faces += [[l0, l1 + b, l0 + b], [l0, l1, l1 + b]]                       # left side
+            faces += [[r0, r0 + b, r1 + b], [r0, r1 + b, r1]]                       # right side
+        self.faces.append(np.asarray(faces))
+        self._n += 4 * n
+
+    def add_ribbon(self, xy: np.ndarray, width: float, z: float) -> None:
+        self.add_strip(_offset(xy, width / 2), _offset(xy, -width / 2), z)
+
+    def add_to(self, spec: mujoco.MjSpec, name: str) -> bool:
+        if not self.faces:
+            return False
+        mesh = spec.add_mesh(name=name)
+        mesh.uservert = np.vstack(self.vertices).ravel().tolist()
+        mesh.userface = np.vstack(self.faces).ravel().astype(int).tolist()
+        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        return True
+
+
+def add_road(spec: mujoco.MjSpec, network: LaneletNetwork) -> None:
+    """Draw every lanelet and every marking (visual only; tyres roll on the ground plane)."""
+    road = MeshBuilder()
+    for lanelet in network.lanelets:
+        left = np.asarray(lanelet.left_vertices, dtype=float)
+        right = np.asarray(lanelet.right_vertices, dtype=float)
+        # the strip's top faces up when the right bound is on the right, as CommonRoad has it
+        road.add_strip(right, left, ROAD_Z)
+    if road.add_to(spec, "road_surface"):
+        spec.worldbody.add_geom(name="road_surface", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="road_surface",
+                                material="asphalt", contype=0, conaffinity=0, group=1, mass=0)
+    paint = MeshBuilder()
+    for line in marking_lines(network):
+        for piece in _strip_pieces(line):
+            paint.add_ribbon(piece, line.width, MARKING_Z)
+    if paint.add_to(spec, "road_markings"):
+        spec.worldbody.add_geom(name="road_markings", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="road_markings",
+                                rgba=[0.95, 0.95, 0.92, 1.0], contype=0, conaffinity=0, group=1, mass=0)
+
+
+class SurfaceMap:
+    """Which surface a point of the ground belongs to: a lanelet (road) or the verge (off-road)."""
+
+    def __init__(self, network: LaneletNetwork, tolerance: float = 0.02):
+        area = unary_union([l.polygon.shapely_object.buffer(tolerance) for l in network.lanelets])
+        shapely.prepare(area)
+        self.area = area
+
+    def on_road(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return shapely.contains_xy(self.area, x, y)

@@ -1,0 +1,137 @@
+"""The MuJoCo world of one scenario: ground, road, cars for the agents, recorded traffic.
+
+`build_world` compiles it; `World` holds the model, the data, where each car and obstacle lives,
+and the surface map. The backend (`simgap.sim.mujoco.backend`) drives it; the 3D renderer
+(`simgap.report.scene3d`) poses it from a finished run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import mujoco
+import numpy as np
+from commonroad.scenario.scenario import Scenario
+from pydantic import BaseModel, ConfigDict, Field
+
+from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
+from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
+from simgap.sim.mujoco.road import SurfaceMap, add_road
+from simgap.sim.protocol import Agent
+from simgap.trajectory import State
+
+#: car body colours per agent (Okabe-Ito, as the 2D pictures)
+CAR_COLOURS = [(0.0, 0.45, 0.70, 1), (0.84, 0.37, 0.0, 1), (0.0, 0.62, 0.45, 1), (0.8, 0.47, 0.65, 1),
+               (0.9, 0.62, 0.0, 1), (0.34, 0.71, 0.91, 1)]
+TRAFFIC_HEIGHT = 1.5    # m, height of a recorded obstacle's box
+
+
+class WorldSettings(BaseModel):
+    """Settings of the physics world (``backend_settings`` of a run)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    physics_hz: float = Field(500.0, ge=200.0, le=5000.0, description="physics rate [Hz]")
+    road_friction: float = Field(1.0, gt=0, le=1.5, description="road surface friction, scales each tyre's [-]")
+    offroad_friction: float = Field(0.6, gt=0, le=1.5, description="off-road (verge) friction, scales each tyre's [-]")
+
+
+@dataclass
+class World:
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    cars: dict[int, CarIndex]                       # by agent id
+    traffic: list[tuple[RecordedObstacle, int]]     # obstacle and its mocap index
+    traffic_geoms: dict[int, int]                   # geom id -> obstacle id
+    surface: SurfaceMap
+    settings: WorldSettings
+    owner: dict[int, int] = field(default_factory=dict)   # geom id -> agent id
+
+    def place(self, agent_id: int, state: State) -> None:
+        """Put a car at ``state`` (pose and velocity), at rest on its suspension."""
+        car = self.cars[agent_id]
+        q = self.data.qpos
+        q[car.qpos:car.qpos + 3] = [state.x, state.y, car.physics.cg_height]
+        q[car.qpos + 3:car.qpos + 7] = yaw_quaternion(state.yaw)
+        v = self.data.qvel
+        v[car.qvel:car.qvel + 3] = [state.v * math.cos(state.yaw), state.v * math.sin(state.yaw), 0.0]
+        v[car.qvel + 3:car.qvel + 6] = [0.0, 0.0, state.yaw_rate]
+        for dof in car.spin_dofs:
+            v[dof] = state.v / car.physics.wheel_radius
+        for adr in car.suspension_qpos:
+            q[adr] = 0.0
+        left, right = ackermann_angles(state.steer, car.vehicle.wheelbase, car.physics.track_front)
+        q[car.steer_qpos[0]], q[car.steer_qpos[1]] = left, right
+        self.data.ctrl[car.steer_actuators[0]], self.data.ctrl[car.steer_actuators[1]] = left, right
+
+    def move_traffic(self, t: float) -> None:
+        """Put every recorded obstacle where its recording says it is at time ``t`` (or park it
+        far below the ground when it is not in the scene)."""
+        for obstacle, mocap in self.traffic:
+            m = obstacle.motion
+            if m.t[0] - 1e-9 <= t <= m.t_end + 1e-9:
+                st = m.at(t)
+                self.data.mocap_pos[mocap] = [st.x, st.y, TRAFFIC_HEIGHT / 2]
+                self.data.mocap_quat[mocap] = yaw_quaternion(st.yaw)
+            else:
+                self.data.mocap_pos[mocap] = [0.0, 0.0, -100.0]
+
+
+def _add_scenery(spec: mujoco.MjSpec, extent: float) -> None:
+    spec.add_texture(name="grass", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                     rgb1=[0.36, 0.46, 0.27], rgb2=[0.33, 0.43, 0.25], width=512, height=512)
+    spec.add_material(name="grass", textures=["", "grass"], texrepeat=[extent / 4, extent / 4], reflectance=0.0)
+    spec.add_material(name="asphalt", rgba=[0.32, 0.32, 0.34, 1.0], reflectance=0.0)
+    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+                     rgb1=[0.62, 0.75, 0.90], rgb2=[0.95, 0.97, 1.0], width=256, height=256)
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 200], dir=[0.3, 0.2, -1.0], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
+                             diffuse=[0.8, 0.8, 0.8], specular=[0.1, 0.1, 0.1], castshadow=False)
+    spec.visual.headlight.ambient = [0.45, 0.45, 0.45]
+    spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]
+
+
+def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSettings | None = None) -> World:
+    settings = settings or WorldSettings()
+    spec = mujoco.MjSpec()
+    spec.modelname = str(scenario.scenario_id)
+    spec.compiler.degree = False
+    spec.option.timestep = 1.0 / settings.physics_hz
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.gravity = [0, 0, -9.81]
+
+    lanelets = scenario.lanelet_network.lanelets
+    pts = np.vstack([np.asarray(l.polygon.vertices) for l in lanelets]) if lanelets else np.zeros((1, 2))
+    centre = (pts.min(axis=0) + pts.max(axis=0)) / 2
+    extent = float(np.max(pts.max(axis=0) - pts.min(axis=0))) / 2 + 60.0
+    _add_scenery(spec, 2 * extent)
+    spec.stat.center = [float(centre[0]), float(centre[1]), 0.0]
+    spec.stat.extent = extent
+    spec.visual.map.zfar = 50.0
+    spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent, extent, 1.0],
+                            pos=[float(centre[0]), float(centre[1]), 0.0], material="grass",
+                            contype=1, conaffinity=1, friction=[settings.offroad_friction, 0.005, 0.0001])
+    add_road(spec, scenario.lanelet_network)
+
+    cars = {}
+    for i, agent in enumerate(agents):
+        cars[agent.id] = add_car(spec, f"agent{agent.id}_", agent.vehicle, "ground", CAR_COLOURS[i % len(CAR_COLOURS)])
+
+    traffic_specs = []
+    for obstacle in recorded_obstacles(scenario):
+        body = spec.worldbody.add_body(name=f"obstacle{obstacle.id}", mocap=True, pos=[0, 0, -100])
+        body.add_geom(name=f"obstacle{obstacle.id}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                      size=[obstacle.length / 2, obstacle.width / 2, TRAFFIC_HEIGHT / 2],
+                      rgba=[0.55, 0.55, 0.58, 1.0], contype=1, conaffinity=1)
+        traffic_specs.append(obstacle)
+
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    for car in cars.values():
+        car.resolve(model)
+    traffic = [(o, int(model.body_mocapid[model.body(f"obstacle{o.id}").id])) for o in traffic_specs]
+    traffic_geoms = {model.geom(f"obstacle{o.id}").id: o.id for o in traffic_specs}
+    owner = {g: aid for aid, car in cars.items() for g in car.geoms}
+    return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, owner)
