@@ -33,6 +33,7 @@ from simgap.sim.mujoco.world import World, WorldSettings, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
 from simgap.trajectory import State, Trajectory
 
+ACCEL_FILTER_S = 0.05       # s, time constant of the measured acceleration's low-pass filter
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
 
@@ -81,8 +82,7 @@ class MujocoBackend:
         self._surface_mu = {a.id: [None] * 4 for a in self._agents}
         w.move_traffic(self._t0)
         mujoco.mj_forward(w.model, w.data)
-        self._last_v = {a.id: a.initial_state.v for a in self._agents}
-        self._last_a = {a.id: a.initial_state.a for a in self._agents}
+        self._accel = {a.id: (self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         states = {a.id: self.measure(a.id, self._t0) for a in self._agents}
         for a in self._agents:
             self._controllers[a.id].reset(states[a.id])
@@ -96,6 +96,7 @@ class MujocoBackend:
         period = self._dt / ticks
         t0 = self._t0 + self._step * self._dt
         seen: set[tuple[int, int | None]] = set()
+        self._check(t0)
         for k in range(ticks):
             t = t0 + k * period
             c0 = time.perf_counter()
@@ -113,14 +114,7 @@ class MujocoBackend:
             self._collect_contacts(t + period, seen)
         self._step += 1
         t_end = t0 + self._dt
-        states = {}
-        for a in self._agents:
-            st = self.measure(a.id, t_end)
-            acc = (st.v - self._last_v[a.id]) / self._dt
-            self._last_v[a.id] = st.v
-            states[a.id] = st.replace(a=acc)
-            self._last_a[a.id] = acc
-        return states
+        return {a.id: self.measure(a.id, t_end) for a in self._agents}
 
     def events(self) -> list[BackendEvent]:
         return list(self._events)
@@ -131,7 +125,8 @@ class MujocoBackend:
     # --- measuring and actuating -------------------------------------------------------------
     def measure(self, agent_id: int, t: float) -> State:
         """The car's state in the `State` convention (centre, yaw from +x, speed, yaw rate,
-        single-track steering angle; acceleration as of the last scenario step)."""
+        single-track steering angle). The acceleration is the speed's rate of change between
+        measurements, low-pass filtered with `ACCEL_FILTER_S`."""
         w, car = self.world, self.world.cars[agent_id]
         q, v = w.data.qpos, w.data.qvel
         x, y = float(q[car.qpos]), float(q[car.qpos + 1])
@@ -146,8 +141,12 @@ class MujocoBackend:
         yaw_rate = float(2 * (qx * qz - qw * qy) * wl[0] + 2 * (qy * qz + qw * qx) * wl[1]
                          + (1 - 2 * (qx * qx + qy * qy)) * wl[2])
         steer = single_track_angle(float(q[car.steer_qpos[0]]), float(q[car.steer_qpos[1]]))
-        return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=self._last_a.get(agent_id, 0.0),
-                     yaw_rate=yaw_rate, steer=steer)
+        t_prev, v_prev, accel = self._accel[agent_id]
+        if t > t_prev + 1e-9:
+            raw = (speed - v_prev) / (t - t_prev)
+            accel += (raw - accel) * min(1.0, (t - t_prev) / ACCEL_FILTER_S)
+            self._accel[agent_id] = (t, speed, accel)
+        return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)
 
     def _actuate(self, agent_id: int, command: Command, period: float) -> None:
         w, car = self.world, self.world.cars[agent_id]

@@ -154,12 +154,16 @@ def add_road(spec: mujoco.MjSpec, network: LaneletNetwork) -> None:
 
 
 class SurfaceMap:
-    """Which surface a point of the ground belongs to: a lanelet (road) or the verge (off-road)."""
+    """Which surface a point of the ground belongs to: a lanelet (road) or the verge (off-road).
+    A network without lanelets is an open proving ground: asphalt everywhere."""
 
     def __init__(self, network: LaneletNetwork, tolerance: float = 0.02):
-        area = unary_union([l.polygon.shapely_object.buffer(tolerance) for l in network.lanelets])
-        shapely.prepare(area)
-        self.area = area
+        self.area = None
+        if network.lanelets:
+            self.area = unary_union([l.polygon.shapely_object.buffer(tolerance) for l in network.lanelets])
+            shapely.prepare(self.area)
 
     def on_road(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        if self.area is None:
+            return np.ones(np.shape(x), dtype=bool)
         return shapely.contains_xy(self.area, x, y)

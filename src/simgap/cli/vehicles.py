@@ -1,0 +1,84 @@
+"""`simgap vehicles`: the vehicle catalogue, and one vehicle in full."""
+
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+import typer
+import yaml
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from simgap.cli.main import app
+from simgap.vehicles import load_vehicle, vehicle_names
+
+vehicles_app = typer.Typer(help="The vehicle catalogue (one data file per vehicle).", no_args_is_help=False,
+                           invoke_without_command=True)
+app.add_typer(vehicles_app, name="vehicles")
+
+
+@vehicles_app.callback()
+def catalogue(ctx: typer.Context) -> None:
+    """List the catalogue with each vehicle's key parameters.
+
+    Example: simgap vehicles; simgap vehicles show suv
+    """
+    if ctx.invoked_subcommand is not None:
+        return
+    table = Table(title="vehicle catalogue", title_justify="left")
+    for col in ("name", "description", "L x W [m]", "wheelbase [m]", "mass [kg]", "CoG height [m]",
+                "drive", "power [kW]", "tyre mu", "max steer [deg]"):
+        table.add_column(escape(col), justify="left" if col in ("name", "description", "drive") else "right")
+    for name in vehicle_names():
+        v = load_vehicle(name)
+        p = v.physics
+        if p is None:
+            table.add_row(name, v.description, f"{v.length:.2f} x {v.width:.2f}", f"{v.wheelbase:.2f}",
+                          *["—"] * 6)
+            continue
+        table.add_row(name, v.description, f"{v.length:.2f} x {v.width:.2f}", f"{v.wheelbase:.2f}",
+                      f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles, f"{p.max_power / 1000:.0f}",
+                      f"{p.tyre_friction:.2f}", f"{math.degrees(p.steering.max_angle):.0f}")
+    Console().print(table)
+    Console().print("data files: src/simgap/vehicles/data/NAME.yaml (units: SI); "
+                    "`simgap vehicles show NAME` prints one")
+
+
+@vehicles_app.command()
+def show(name: str = typer.Argument(..., help="catalogue name or path of a vehicle data file"),
+         as_yaml: Optional[bool] = typer.Option(False, "--yaml", help="print the data file's content as YAML")) -> None:
+    """Print one vehicle: every parameter with its unit and source.
+
+    Example: simgap vehicles show sedan
+    """
+    v = load_vehicle(name)
+    console = Console()
+    if as_yaml:
+        console.print(yaml.safe_dump(v.model_dump(), sort_keys=False), end="", markup=False, highlight=False)
+        return
+    console.print(f"[bold]{v.name}[/bold] — {v.description}")
+    if v.source:
+        console.print(f"source: {escape(v.source)}")
+    table = Table(show_header=True)
+    table.add_column("parameter")
+    table.add_column("value", justify="right")
+    table.add_column("meaning")
+    for field_name in ("length", "width", "wheelbase", "rear_axle_to_center"):
+        table.add_row(field_name, f"{getattr(v, field_name):g}", escape(type(v).model_fields[field_name].description or ""))
+    for field_name, info in type(v.limits).model_fields.items():
+        table.add_row(f"limits.{field_name}", f"{getattr(v.limits, field_name):g}", escape(info.description or ""))
+    if v.physics is not None:
+        for field_name, info in type(v.physics).model_fields.items():
+            value = getattr(v.physics, field_name)
+            if hasattr(value, "model_fields"):
+                for sub, sub_info in type(value).model_fields.items():
+                    table.add_row(f"physics.{field_name}.{sub}", f"{getattr(value, sub):g}",
+                                  escape(sub_info.description or ""))
+            else:
+                table.add_row(f"physics.{field_name}", value if isinstance(value, str) else f"{value:g}",
+                              escape(info.description or ""))
+    for controller, gains in v.controllers.items():
+        table.add_row(f"controllers.{controller}", str(gains), "gains overriding the defaults")
+    console.print(table)
