@@ -14,6 +14,7 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.cosim import CosimSettings, Run
+from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
 
@@ -24,7 +25,13 @@ def run(
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
     backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking) or mujoco (3D physics)"),
     vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
-    controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends)"),
+    controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
+                                             "pure_pursuit, stanley, lqr"),
+    controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
+    physics_hz: Optional[float] = typer.Option(None, help="physics rate [Hz] (mujoco, >= 200, a multiple of the "
+                                               "controller rate)"),
+    road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
+    offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
     max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
@@ -34,7 +41,16 @@ def run(
 
     Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
     """
-    backend_settings = {"controller": controller} if controller else {}
+    physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
+                "road_friction": road_friction, "offroad_friction": offroad_friction}
+    backend_settings = {k: v for k, v in physical.items() if v is not None}
+    if backend_settings and backend == "ideal":
+        raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
+                         "the ideal backend executes every plan exactly", field="backend",
+                         allowed="dynamic, mujoco")
+    if backend == "dynamic" and set(backend_settings) - {"controller", "controller_hz"}:
+        raise InputError("the dynamic backend has no 3D world: physics rate and surface friction are mujoco "
+                         "settings", field="backend", allowed="mujoco")
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
                          backend_settings=backend_settings,
                          planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),

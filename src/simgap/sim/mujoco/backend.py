@@ -68,8 +68,19 @@ class MujocoBackend:
         self.world = build_world(scenario, agents, self.settings)
         self._controllers = {a.id: make_controller(self.controller_name, a.vehicle, self.controller_hz,
                                                    self.controller_gains) for a in agents}
-        self._wheel_bodies = {a.id: [self.world.model.body(f"agent{a.id}_wheel_{c}").id for c in CORNERS]
-                              for a in agents}
+        cars = [self.world.cars[a.id] for a in agents]
+        self._wheel_bodies = np.array([b for car in cars for b in car.wheel_bodies], dtype=int)
+        self._tyre_pairs = np.array([p for car in cars for p in car.tyre_pairs], dtype=int)
+        self._tyre_friction = np.repeat([car.physics.tyre_friction for car in cars], 4)
+        self._steer_limit = {a.id: max_single_track_angle(self.world.cars[a.id].physics, a.vehicle.wheelbase)
+                             for a in agents}
+        model = self.world.model
+        self._owner = np.full(model.ngeom, -1, dtype=int)
+        for geom, aid in self.world.owner.items():
+            self._owner[geom] = aid
+        self._traffic_owner = np.full(model.ngeom, -1, dtype=int)
+        for geom, oid in self.world.traffic_geoms.items():
+            self._traffic_owner[geom] = oid
 
     def reset(self) -> dict[int, State]:
         w = self.world
@@ -79,7 +90,7 @@ class MujocoBackend:
         for a in self._agents:
             w.place(a.id, a.initial_state)
         self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
-        self._surface_mu = {a.id: [None] * 4 for a in self._agents}
+        self._surface_mu = np.full(len(self._tyre_pairs), np.nan)
         w.move_traffic(self._t0)
         mujoco.mj_forward(w.model, w.data)
         self._accel = {a.id: (self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
@@ -102,6 +113,7 @@ class MujocoBackend:
             c0 = time.perf_counter()
             if w.traffic:
                 w.move_traffic(t)
+            self.apply_surface()
             for a in self._agents:
                 measured = self.measure(a.id, t)
                 command = self._controllers[a.id].command(measured, plans[a.id], t)
@@ -152,7 +164,7 @@ class MujocoBackend:
         w, car = self.world, self.world.cars[agent_id]
         ph, d, m = car.physics, w.data, w.model
         # steering: rate, then angle limit of the steering system; Ackermann at the wheels
-        limit = max_single_track_angle(ph, car.vehicle.wheelbase)
+        limit = self._steer_limit[agent_id]
         target = self._steer_target[agent_id]
         step = ph.steering.max_rate * period
         target += min(max(command.steer - target, -step), step)
@@ -185,51 +197,53 @@ class MujocoBackend:
         speed = math.hypot(vx, vy)
         drag = 0.5 * AIR_DENSITY * ph.drag_coefficient_area * speed
         d.xfrc_applied[car.chassis_body, 0:2] = [-drag * vx, -drag * vy]
-        # the surface under each tyre: road or verge
-        xy = d.xpos[self._wheel_bodies[agent_id], :2]
+
+    def apply_surface(self) -> None:
+        """Give every tyre the friction of the surface it stands on: road or verge."""
+        w = self.world
+        xy = w.data.xpos[self._wheel_bodies, :2]
         on_road = w.surface.on_road(xy[:, 0], xy[:, 1])
-        for i, pair in enumerate(car.tyre_pairs):
-            mu = ph.tyre_friction * (w.settings.road_friction if on_road[i] else w.settings.offroad_friction)
-            if self._surface_mu[agent_id][i] != mu:
-                m.pair_friction[pair, 0:2] = mu
-                self._surface_mu[agent_id][i] = mu
+        mu = self._tyre_friction * np.where(on_road, w.settings.road_friction, w.settings.offroad_friction)
+        changed = mu != self._surface_mu
+        if changed.any():
+            pairs = self._tyre_pairs[changed]
+            w.model.pair_friction[pairs, 0] = mu[changed]
+            w.model.pair_friction[pairs, 1] = mu[changed]
+            self._surface_mu = mu
 
     # --- events --------------------------------------------------------------------------------
     def _check(self, t: float) -> None:
         w = self.world
-        bad = w.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+        d = w.data
+        finite = np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()
+        if not finite or d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+            raise PhysicsDiverged(f"the physics state is no longer finite at t = {t:.2f} s")
         for a in self._agents:
             car = w.cars[a.id]
-            q = w.data.qpos[car.qpos:car.qpos + 7]
-            x, y = float(q[0]), float(q[1])
-            if bad or not (np.all(np.isfinite(q)) and np.all(np.isfinite(w.data.qvel))):
-                raise PhysicsDiverged(f"agent {a.id}: the physics state is no longer finite at t = {t:.2f} s")
+            q = d.qpos[car.qpos:car.qpos + 7]
             if up_z(q[3:7]) < FLIPPED_UP_Z:
                 raise PhysicsDiverged(f"agent {a.id}: chassis on its side or roof at t = {t:.2f} s, "
-                                      f"x = {x:.1f} m, y = {y:.1f} m")
+                                      f"x = {q[0]:.1f} m, y = {q[1]:.1f} m")
 
     def _collect_contacts(self, t: float, seen: set) -> None:
-        w = self.world
-        d = w.data
-        for i in range(d.ncon):
-            g1, g2 = int(d.contact.geom1[i]), int(d.contact.geom2[i])
-            a1, a2 = w.owner.get(g1), w.owner.get(g2)
-            if a1 is None and a2 is None:
-                continue
-            for me, other_geom, other_agent in ((a1, g2, a2), (a2, g1, a1)):
-                if me is None:
+        """Contacts between two cars, or a car and recorded traffic, become collision events
+        (each pair once per step)."""
+        d = self.world.data
+        if d.ncon == 0:
+            return
+        g1, g2 = d.contact.geom1[:d.ncon], d.contact.geom2[:d.ncon]
+        a1, a2 = self._owner[g1], self._owner[g2]
+        o1, o2 = self._traffic_owner[g1], self._traffic_owner[g2]
+        hits = ((a1 >= 0) & (a2 >= 0) & (a1 != a2)) | ((a1 >= 0) & (o2 >= 0)) | ((a2 >= 0) & (o1 >= 0))
+        for i in np.flatnonzero(hits):
+            pos = d.contact.pos[i]
+            for me, other_agent, other_obstacle in ((a1[i], a2[i], o2[i]), (a2[i], a1[i], o1[i])):
+                if me < 0:
                     continue
-                if other_agent is not None and other_agent != me:
-                    other = other_agent
-                elif other_geom in w.traffic_geoms:
-                    other = w.traffic_geoms[other_geom]
-                else:
+                kind, other = ("agent", int(other_agent)) if other_agent >= 0 else ("obstacle", int(other_obstacle))
+                if (int(me), other) in seen:
                     continue
-                if (me, other) in seen:
-                    continue
-                seen.add((me, other))
-                pos = d.contact.pos[i]
-                kind = "agent" if other_agent is not None else "obstacle"
-                self._events.append(BackendEvent(t, me, "collision",
+                seen.add((int(me), other))
+                self._events.append(BackendEvent(t, int(me), "collision",
                                                  f"physical contact with {kind} {other} at "
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))

@@ -89,6 +89,7 @@ class CarIndex:
     suspension_qpos: list[int] = field(default_factory=list)   # in CORNERS order
     drive_actuators: list[int] = field(default_factory=list)   # in CORNERS order (-1: not driven)
     tyre_pairs: list[int] = field(default_factory=list)        # in CORNERS order
+    wheel_bodies: list[int] = field(default_factory=list)      # in CORNERS order
     geoms: set[int] = field(default_factory=set)               # every geom of this car
 
     def resolve(self, model: mujoco.MjModel) -> "CarIndex":
@@ -107,6 +108,7 @@ class CarIndex:
             except KeyError:
                 self.drive_actuators.append(-1)
         self.tyre_pairs = [model.pair(f"{p}tyre_{c}").id for c in CORNERS]
+        self.wheel_bodies = [model.body(f"{p}wheel_{c}").id for c in CORNERS]
         self.geoms = {g for g in range(model.ngeom)
                       if model.body(model.geom_bodyid[g]).name.startswith(p)}
         return self

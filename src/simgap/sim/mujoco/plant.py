@@ -42,6 +42,7 @@ class MujocoPlant:
 
     def step(self, command: Command, period: float) -> State:
         b = self.backend
+        b.apply_surface()
         b._actuate(AGENT, command, period)
         steps = max(1, round(period * b.settings.physics_hz))
         t = b.world.data.time
