@@ -113,3 +113,37 @@ def test_unknown_or_missing_backend_and_vehicle_are_refused(tmp_path):
                        "no vehicle given for planning problem 2")
     assert_clean_error(simgap("run", xml, "--vehicle", "tank", "--out", str(tmp_path / "r")), "unknown vehicle 'tank'")
     assert not (tmp_path / "r").exists()
+
+
+def test_physics_options_are_refused_where_they_do_not_apply(tmp_path):
+    simgap("generate", "curve", "--set", "radius=10", "--set", "angle=90", "--no-preview", "--out", str(tmp_path))
+    xml = str(tmp_path / "curve_radius-10_angle-90.xml")
+    assert_clean_error(simgap("run", xml, "--road-friction", "0.5", "--out", str(tmp_path / "r")),
+                       "--road-friction applies to physics backends only")
+    assert_clean_error(simgap("run", xml, "--backend", "mujoco", "--physics-hz", "250", "--out", str(tmp_path / "r")),
+                       "backend_settings.physics_hz", "whole multiple")
+    assert_clean_error(simgap("run", xml, "--backend", "mujoco", "--road-friction", "3", "--out", str(tmp_path / "r")),
+                       "backend_settings.road_friction")
+    assert not (tmp_path / "r").exists()
+
+
+def test_vehicles_lists_the_catalogue_and_shows_one():
+    proc = simgap("vehicles")
+    assert proc.returncode == 0, proc.stderr
+    for name in ("sedan", "suv", "city", "mass [kg]", "rear", "all", "front"):
+        assert name in proc.stdout
+    proc = simgap("vehicles", "show", "suv")
+    assert proc.returncode == 0, proc.stderr
+    for text in ("physics.suspension_front.stiffness", "26000", "wheel rate [N/m]", "source:"):
+        assert text in proc.stdout
+    assert_clean_error(simgap("vehicles", "show", "tank"), "unknown vehicle 'tank'", "sedan")
+
+
+def test_a_bad_vehicle_file_names_the_file_and_the_field(tmp_path):
+    from importlib import resources
+
+    text = (resources.files("simgap.vehicles") / "data" / "sedan.yaml").read_text()
+    bad = tmp_path / "wobbly.yaml"
+    bad.write_text(text.replace("driven_axles: rear", "driven_axles: middle"))
+    proc = simgap("vehicles", "show", str(bad))
+    assert_clean_error(proc, "wobbly.yaml", "physics.driven_axles", "front", "rear", "all")

@@ -28,21 +28,25 @@ def catalogue(ctx: typer.Context) -> None:
     if ctx.invoked_subcommand is not None:
         return
     table = Table(title="vehicle catalogue", title_justify="left")
-    for col in ("name", "description", "L x W [m]", "wheelbase [m]", "mass [kg]", "CoG height [m]",
-                "drive", "power [kW]", "tyre mu", "max steer [deg]"):
-        table.add_column(escape(col), justify="left" if col in ("name", "description", "drive") else "right")
+    for col in ("name", "L x W [m]", "wheelbase [m]", "mass [kg]", "CoG [m]", "drive", "power [kW]",
+                "tyre mu", "steer [deg]"):
+        table.add_column(escape(col), justify="left" if col in ("name", "drive") else "right")
+    descriptions = []
     for name in vehicle_names():
         v = load_vehicle(name)
         p = v.physics
+        descriptions.append(f"{name}: {v.description}")
+        size = (f"{v.length:.2f}x{v.width:.2f}", f"{v.wheelbase:.2f}")
         if p is None:
-            table.add_row(name, v.description, f"{v.length:.2f} x {v.width:.2f}", f"{v.wheelbase:.2f}",
-                          *["—"] * 6)
+            table.add_row(name, *size, *["—"] * 6)
             continue
-        table.add_row(name, v.description, f"{v.length:.2f} x {v.width:.2f}", f"{v.wheelbase:.2f}",
-                      f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles, f"{p.max_power / 1000:.0f}",
-                      f"{p.tyre_friction:.2f}", f"{math.degrees(p.steering.max_angle):.0f}")
-    Console().print(table)
-    Console().print("data files: src/simgap/vehicles/data/NAME.yaml (units: SI); "
+        table.add_row(name, *size, f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles,
+                      f"{p.max_power / 1000:.0f}", f"{p.tyre_friction:.2f}",
+                      f"{math.degrees(p.steering.max_angle):.0f}")
+    console = Console()
+    console.print(table)
+    console.print("\n".join(escape(d) for d in descriptions))
+    console.print("data files: src/simgap/vehicles/data/NAME.yaml (units: SI); "
                     "`simgap vehicles show NAME` prints one")
 
 
