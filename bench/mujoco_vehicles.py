@@ -100,12 +100,18 @@ def cornering_sweep(vehicle, speeds) -> list[dict]:
         states, lateral = circle_drive(vehicle, "pure_pursuit", speed, duration=20.0)
         if states is None:
             rows.append({"speed": speed, "lateral_acceleration": float("nan"), "steer": float("nan"),
+                         "sideslip": float("nan"),
                          "yaw_rate": float("nan"), "lateral_error": float("inf"), "lost": lateral})
             continue
         t = np.array([s.t for s in states])
         steady = t >= 12.0
         yaw_rate = float(np.mean([s.yaw_rate for s, k in zip(states, steady) if k]))
+        # sideslip at the centre: direction of travel (from successive positions) minus heading
+        x, y, yaw = (np.array([getattr(s, f) for s in states]) for f in ("x", "y", "yaw"))
+        travel = np.arctan2(np.diff(y), np.diff(x))
+        slip = np.angle(np.exp(1j * (travel - yaw[:-1])))
         rows.append({"speed": speed, "lateral_acceleration": speed * yaw_rate,
+                     "sideslip": float(np.mean(slip[steady[:-1]])),
                      "steer": float(np.mean([s.steer for s, k in zip(states, steady) if k])),
                      "yaw_rate": yaw_rate, "lateral_error": float(np.abs(lateral[steady]).max())})
     return rows
@@ -124,22 +130,38 @@ def cornering(vehicles) -> None:
         vehicle = load_vehicle(vname)
         rows = cornering_sweep(vehicle, speeds)
         held = [r for r in rows if r["lateral_error"] < 0.5]
+        lost = [r["speed"] for r in rows if r["lateral_error"] >= 0.5]
+        if held and lost:        # refine the limit by bisection between the last held and first lost speed
+            lo, hi = max(r["speed"] for r in held), min(lost)
+            for _ in range(3):
+                mid = (lo + hi) / 2
+                row = cornering_sweep(vehicle, [mid])[0]
+                if row["lateral_error"] < 0.5:
+                    lo = mid
+                    held.append(row)
+                else:
+                    hi = mid
         limit = max(r["lateral_acceleration"] for r in held) if held else float("nan")
         print(f"\n{vname}: steady lateral-acceleration limit held on the circle: {limit:.2f} m/s^2 "
               f"(tyre friction {vehicle.physics.tyre_friction:g} -> mu g = {vehicle.physics.tyre_friction * 9.81:.2f})")
-        header = f"{'v':>5} {'a_y':>6} {'steer [deg]':>11} {'yaw rate':>8} {'lat err':>7}"
+        header = f"{'v':>5} {'a_y':>6} {'steer [deg]':>11} {'yaw rate':>8} {'beta [deg]':>10} {'lat err':>7}"
         if vname == "sedan" and mb:
-            header += f" | {'MB a_y':>6} {'MB steer':>8} {'MB yaw r':>8} | {'d steer':>7} {'d yaw r':>7}"
+            header += (f" | {'MB a_y':>6} {'MB steer':>8} {'MB yaw r':>8} {'MB beta':>7} | {'d steer':>7} "
+                       f"{'d yaw r':>7} {'d beta':>6}")
         print(header)
         mb_by_speed = {round(r["speed"], 3): r for r in (mb or [])}
         for r in rows:
             line = (f"{r['speed']:>5.1f} {r['lateral_acceleration']:>6.2f} {math.degrees(r['steer']):>11.3f} "
-                    f"{r['yaw_rate']:>8.4f} {r['lateral_error']:>7.3f}")
+                    f"{r['yaw_rate']:>8.4f} {math.degrees(r['sideslip']):>10.3f} {r['lateral_error']:>7.3f}")
             m = mb_by_speed.get(round(r["speed"], 3)) if vname == "sedan" else None
             if m:
                 line += (f" | {m['lateral_acceleration']:>6.2f} {math.degrees(m['steer']):>8.3f} {m['yaw_rate']:>8.4f}"
-                         f" | {math.degrees(r['steer'] - m['steer']):>+7.3f} {r['yaw_rate'] - m['yaw_rate']:>+7.4f}")
+                         f" {math.degrees(m['sideslip']):>7.3f} | {math.degrees(r['steer'] - m['steer']):>+7.3f} "
+                         f"{r['yaw_rate'] - m['yaw_rate']:>+7.4f} {math.degrees(r['sideslip'] - m['sideslip']):>+6.2f}")
             print(line)
+        if vname == "sedan" and mb:
+            print(f"MB model held the circle up to {mb[-1]['speed']:g} m/s "
+                  f"({mb[-1]['lateral_acceleration']:.2f} m/s^2); above, it is reported as not held")
 
 
 def realtime(vehicle_name: str, controller: str) -> None:

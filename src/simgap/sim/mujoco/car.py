@@ -147,9 +147,9 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle, ground: str,
     unsprung_yaw = sum(ph.wheel_mass * (x * x + y * y) for x, y in corners.values())
     chassis.inertia = [ph.inertia_roll, ph.inertia_pitch, max(ph.inertia_yaw - unsprung_yaw, 0.5 * ph.inertia_yaw)]
 
-    # lower body: a box from above the wheel centres' ground clearance to the waist line; it
-    # collides with other cars and traffic. The cabin above it is only drawn.
-    bottom, waist, roof = 0.6 * r - h, 0.55 * ph.height - h, ph.height - h
+    # lower body: a box from the wheel centres' height to the waist line; it collides with
+    # other cars and traffic. The cabin above it is only drawn.
+    bottom, waist, roof = r - h, 0.58 * ph.height - h, ph.height - h
     chassis.add_geom(name=f"{prefix}body", type=mujoco.mjtGeom.mjGEOM_BOX,
                      size=[vehicle.length / 2, vehicle.width / 2, (waist - bottom) / 2],
                      pos=[0, 0, (waist + bottom) / 2], rgba=list(rgba), contype=1, conaffinity=1,

@@ -101,6 +101,8 @@ class MeshBuilder:
         self._n = 0
 
     def add_strip(self, left: np.ndarray, right: np.ndarray, z: float) -> None:
+        """A slab between two polylines running in the same direction, ``left`` on the left
+        (its top faces up)."""
         n = len(left)
         if n < 2 or len(right) != n:
             return
@@ -139,8 +141,7 @@ def add_road(spec: mujoco.MjSpec, network: LaneletNetwork) -> None:
     for lanelet in network.lanelets:
         left = np.asarray(lanelet.left_vertices, dtype=float)
         right = np.asarray(lanelet.right_vertices, dtype=float)
-        # the strip's top faces up when the right bound is on the right, as CommonRoad has it
-        road.add_strip(right, left, ROAD_Z)
+        road.add_strip(left, right, ROAD_Z)
     if road.add_to(spec, "road_surface"):
         spec.worldbody.add_geom(name="road_surface", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="road_surface",
                                 material="asphalt", contype=0, conaffinity=0, group=1, mass=0)

@@ -48,6 +48,7 @@ class World:
     surface: SurfaceMap
     settings: WorldSettings
     owner: dict[int, int] = field(default_factory=dict)   # geom id -> agent id
+    road_bounds: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)   # x0, y0, x1, y1 of the lanelets
 
     def place(self, agent_id: int, state: State) -> None:
         """Put a car at ``state`` (pose and velocity), at rest on its suspension."""
@@ -106,11 +107,11 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     pts = np.vstack([np.asarray(l.polygon.vertices) for l in lanelets]) if lanelets else np.zeros((1, 2))
     centre = (pts.min(axis=0) + pts.max(axis=0)) / 2
     extent = float(np.max(pts.max(axis=0) - pts.min(axis=0))) / 2 + 60.0
-    _add_scenery(spec, 2 * extent)
+    _add_scenery(spec, 6 * extent)
     spec.stat.center = [float(centre[0]), float(centre[1]), 0.0]
     spec.stat.extent = extent
     spec.visual.map.zfar = 50.0
-    spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[extent, extent, 1.0],
+    spec.worldbody.add_geom(name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3 * extent, 3 * extent, 1.0],
                             pos=[float(centre[0]), float(centre[1]), 0.0], material="grass",
                             contype=1, conaffinity=1, friction=[settings.offroad_friction, 0.005, 0.0001])
     add_road(spec, scenario.lanelet_network)
@@ -134,4 +135,6 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     traffic = [(o, int(model.body_mocapid[model.body(f"obstacle{o.id}").id])) for o in traffic_specs]
     traffic_geoms = {model.geom(f"obstacle{o.id}").id: o.id for o in traffic_specs}
     owner = {g: aid for aid, car in cars.items() for g in car.geoms}
-    return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, owner)
+    bounds = (*pts.min(axis=0).tolist(), *pts.max(axis=0).tolist())
+    return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, owner,
+                 bounds)
