@@ -50,12 +50,10 @@ def _replay_world(scenario, run: Run) -> World:
 
 
 def _pose(world: World, run: Run, step: int) -> None:
-    t = None
+    """Every car at its driven state of ``step`` (held at its last one when it finished early)."""
     for agent in run.agents:
         driven = run.driven[agent.id]
-        state = driven[min(step, len(driven) - 1)]
-        world.place(agent.id, state)
-        t = state.t if t is None else t
+        world.place(agent.id, driven[min(step, len(driven) - 1)])
     world.move_traffic(step * run.dt)
     mujoco.mj_forward(world.model, world.data)
 
