@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from simgap.evaluate.errors import Aggregate, lateral_displacement_by_s, time_aligned_errors
+from simgap.evaluate.errors import (Aggregate, comfort, frenet_tracking_errors, lateral_displacement_by_s,
+                                    time_aligned_errors, tracking_errors)
 from simgap.evaluate.frenet_frame import ReferencePath
 from simgap.trajectory import Trajectory
 
@@ -60,3 +61,37 @@ def test_aggregates():
     agg = Aggregate.of(np.array([3.0, -4.0]))
     assert agg.max == 4.0 and agg.mean == 3.5
     assert agg.rms == pytest.approx(math.sqrt(12.5))
+
+
+def _plans_along(traj: Trajectory, dx: float = 0.0, dy: float = 0.0, every: int = 1, n: int = 30):
+    """Plans made every ``every`` steps that promise ``traj`` shifted by (dx, dy)."""
+    plans = []
+    for k in range(0, len(traj) - 1, every):
+        m = min(n, len(traj) - k)
+        plans.append(Trajectory(DT, t=traj.t[k:k + m], x=traj.x[k:k + m] + dx, y=traj.y[k:k + m] + dy,
+                                yaw=traj.yaw[k:k + m], v=traj.v[k:k + m], a=traj.a[k:k + m],
+                                yaw_rate=traj.yaw_rate[k:k + m], steer=traj.steer[k:k + m]))
+    return plans
+
+
+def test_frenet_tracking_splits_the_error_into_lateral_and_longitudinal():
+    ref = ReferencePath(np.array([[-10.0, 0.0], [200.0, 0.0]]))
+    driven = straight()
+    # the plans promised 0.3 m further left and 1.5 m further ahead than the car got
+    errs = frenet_tracking_errors(driven, _plans_along(driven, dx=1.5, dy=0.3), ref)
+    assert len(errs.t) == len(driven) - 1
+    assert np.allclose(errs.lateral, -0.3) and np.allclose(errs.longitudinal, -1.5)
+    exact = tracking_errors(driven, _plans_along(driven))
+    assert np.allclose(exact.position, 0.0) and np.allclose(exact.orientation, 0.0)
+
+
+def test_comfort_peaks():
+    n = 50
+    t = DT * np.arange(n)
+    a = np.where(t < 2.0, 0.0, 2.0)             # a step of 2 m/s^2 in one step: 20 m/s^3
+    traj = Trajectory(DT, t=t, x=5.0 * t, y=np.zeros(n), yaw=np.zeros(n), v=np.full(n, 5.0), a=a,
+                      yaw_rate=np.full(n, 0.4), steer=np.zeros(n))
+    c = comfort(traj)
+    assert c.peak_lateral_acceleration == pytest.approx(2.0)
+    assert c.peak_longitudinal_acceleration == pytest.approx(2.0)
+    assert c.peak_jerk == pytest.approx(20.0)

@@ -70,6 +70,7 @@ class Run:
     settings: dict[str, Any] = field(default_factory=dict)
     scenario_path: str | None = None
     parameters: dict[str, Any] = field(default_factory=dict)
+    sections: dict[str, str] = field(default_factory=dict)     # lanelet id -> road section kind
     versions: dict[str, str] = field(default_factory=dict)
     seed: int = 0
     failure: str | None = None
@@ -110,6 +111,7 @@ class Run:
                 "settings": self.settings,
                 "scenario_path": self.scenario_path,
                 "parameters": self.parameters,
+                "sections": self.sections,
                 "versions": self.versions,
                 "seed": self.seed,
             }
@@ -183,7 +185,7 @@ class Run:
             events=[Event(**e) for e in meta.get("events", [])],
             timings=meta.get("timings", {}), wall_time_s=meta.get("wall_time_s", 0.0),
             settings=meta.get("settings", {}), scenario_path=meta.get("scenario_path"),
-            parameters=meta.get("parameters", {}), versions=meta.get("versions", {}),
+            parameters=meta.get("parameters", {}), sections=meta.get("sections", {}), versions=meta.get("versions", {}),
             seed=meta.get("seed", 0), failure=meta.get("failure"),
         )
 

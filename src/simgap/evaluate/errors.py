@@ -100,9 +100,18 @@ def plan_in_force(plans: list[Trajectory], t: float, dt: float) -> Trajectory | 
     return chosen
 
 
-def tracking_errors(driven: Trajectory, plans: list[Trajectory]) -> TimeAlignedErrors:
-    """Planned versus driven within one run (the assumption of perfect tracking): at every driven
-    step, the state reached against the state the plan in force promised for that instant."""
+@dataclass(frozen=True)
+class PromisedStates:
+    """For each driven step after the first: the state the plan in force promised for it."""
+
+    index: np.ndarray          # driven step indices
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    v: np.ndarray
+
+
+def promised_states(driven: Trajectory, plans: list[Trajectory]) -> PromisedStates:
     plans = sorted(plans, key=lambda p: p.t[0])
     rows = []
     for k in range(1, len(driven)):
@@ -110,11 +119,61 @@ def tracking_errors(driven: Trajectory, plans: list[Trajectory]) -> TimeAlignedE
         plan = plan_in_force(plans, t, driven.dt)
         if plan is None or t > plan.t_end + 1e-9:
             continue
-        promised = plan.at(t)
-        rows.append((t, float(np.hypot(driven.x[k] - promised.x, driven.y[k] - promised.y)),
-                     float(wrap_angle(driven.yaw[k] - promised.yaw)), float(driven.v[k] - promised.v)))
+        st = plan.at(t)
+        rows.append((k, st.x, st.y, st.yaw, st.v))
     if not rows:
+        return PromisedStates(*(np.array([]) for _ in range(5)))
+    k, x, y, yaw, v = (np.array(c) for c in zip(*rows))
+    return PromisedStates(k.astype(int), x, y, yaw, v)
+
+
+def tracking_errors(driven: Trajectory, plans: list[Trajectory]) -> TimeAlignedErrors:
+    """Planned versus driven within one run (the assumption of perfect tracking): at every driven
+    step, the state reached against the state the plan in force promised for that instant."""
+    p = promised_states(driven, plans)
+    k = p.index
+    return TimeAlignedErrors(driven.t[k], np.hypot(driven.x[k] - p.x, driven.y[k] - p.y),
+                             wrap_angle(driven.yaw[k] - p.yaw), driven.v[k] - p.v)
+
+
+@dataclass(frozen=True)
+class FrenetTrackingErrors:
+    t: np.ndarray
+    s: np.ndarray              # driven arc length along the reference path [m]
+    lateral: np.ndarray        # d_driven - d_promised [m] (> 0: left of the promise)
+    longitudinal: np.ndarray   # s_driven - s_promised [m] (> 0: ahead of the promise)
+
+
+def frenet_tracking_errors(driven: Trajectory, plans: list[Trajectory],
+                           reference: ReferencePath) -> FrenetTrackingErrors:
+    """Planned versus driven, split into the reference path's lateral and longitudinal
+    directions."""
+    p = promised_states(driven, plans)
+    k = p.index
+    if len(k) == 0:
         empty = np.array([])
-        return TimeAlignedErrors(empty, empty, empty, empty)
-    t, pos, yaw, v = (np.array(c) for c in zip(*rows))
-    return TimeAlignedErrors(t, pos, yaw, v)
+        return FrenetTrackingErrors(empty, empty, empty, empty)
+    s_d, d_d = reference.project(np.column_stack([driven.x[k], driven.y[k]]))
+    s_p, d_p = reference.project(np.column_stack([p.x, p.y]))
+    return FrenetTrackingErrors(driven.t[k], s_d, d_d - d_p, s_d - s_p)
+
+
+@dataclass(frozen=True)
+class Comfort:
+    peak_lateral_acceleration: float      # max |v * yaw rate| [m/s^2]
+    peak_longitudinal_acceleration: float  # max |a| [m/s^2]
+    peak_jerk: float                      # max |da/dt| [m/s^3]
+
+    def as_dict(self) -> dict[str, float]:
+        return {"peak_lateral_acceleration": self.peak_lateral_acceleration,
+                "peak_longitudinal_acceleration": self.peak_longitudinal_acceleration,
+                "peak_jerk": self.peak_jerk}
+
+
+def comfort(driven: Trajectory) -> Comfort:
+    """Peak accelerations and jerk of a driven trajectory."""
+    if len(driven) < 2:
+        return Comfort(0.0, 0.0, 0.0)
+    lateral = np.abs(driven.v * driven.yaw_rate)
+    jerk = np.abs(np.diff(driven.a)) / driven.dt
+    return Comfort(float(lateral.max()), float(np.abs(driven.a).max()), float(jerk.max()))

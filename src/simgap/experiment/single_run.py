@@ -85,6 +85,7 @@ def execute(request: RunRequest, out: Path | None = None,
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)
     run.parameters = meta.get("parameters", {})
+    run.sections = meta.get("sections", {})
     run.versions = software_versions()
     run.seed = request.seed
     run.settings |= {"planner": request.planner.model_dump(), "backend": request.backend_settings,

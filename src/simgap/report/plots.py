@@ -4,7 +4,7 @@ over time t (the paper's two line plots), with the road sections shaded."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Mapping
 
 import matplotlib
 
@@ -65,13 +65,3 @@ def _finish(fig, ax, path: Path, xlabel: str, ylabel: str, title: str) -> Path:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
-
-
-def runtime_rows(wall_times: Mapping[str, Sequence[float]]) -> list[dict]:
-    """The paper's Table I per fidelity: min, max, mean, median, standard deviation [s]."""
-    rows = []
-    for fidelity, times in wall_times.items():
-        t = np.asarray(times, dtype=float)
-        rows.append({"fidelity": fidelity, "runs": len(t), "min": t.min(), "max": t.max(), "mean": t.mean(),
-                     "median": float(np.median(t)), "std": t.std(ddof=1) if len(t) > 1 else 0.0})
-    return rows

@@ -11,13 +11,10 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
-import imageio.v2 as imageio  # noqa: E402
-import matplotlib  # noqa: E402
+import imageio.v2 as imageio
+import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402

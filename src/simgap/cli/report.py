@@ -1,0 +1,29 @@
+"""`simgap report`: the HTML report of a set of runs."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from simgap.cli.main import app
+
+
+@app.command()
+def report(
+    runs: Path = typer.Argument(..., help="a directory with run directories below it (an experiment, a demo, runs/)"),
+    out: Path = typer.Option(..., "--out", "-o", help="report directory to write (open its index.html)"),
+) -> None:
+    """Write the HTML report of every run below RUNS: an overview page and a page per scenario.
+
+    Example: simgap report simgap-demo/runs --out simgap-demo/report
+    """
+    from simgap.report.site import build_report
+
+    console = Console()
+    start = time.perf_counter()
+    with console.status("building the report") as status:
+        index = build_report(runs, out, say=lambda text: status.update(f"building the report: {text}"))
+    console.print(f"report written to [bold]{index}[/bold] in {time.perf_counter() - start:.1f} s")

@@ -1,0 +1,360 @@
+"""The HTML report of a set of runs: one self-contained folder, opened as a file, no network.
+
+``index.html`` — what was run, headline numbers per fidelity, heatmaps of the largest lateral
+displacement over the scenario parameters (hover a cell for its values), the runtime table,
+outcomes, and the scenarios ranked by their largest gap. ``scenarios/NAME.html`` — one page per
+scenario: parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
+s and v over t (wheel to zoom, drag to pan, double-click to reset), the paths from above, error
+box plots, criticality of agent pairs, and the run's 2D and 3D pictures where they exist.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import shutil
+from collections import Counter
+from dataclasses import asdict
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from simgap.evaluate.errors import lateral_profile
+from simgap.evaluate.route_centre import route_centre
+from simgap.report.collection import REFERENCE, ScenarioGroup, collect
+from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
+                                   plot_paths_from_above, runtime_table)
+from simgap.report.plots import plot_d_over_s, plot_v_over_t
+
+PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.gif", "run.gif")
+
+STYLE = """
+body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; padding: 0 1em; }
+table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.85em; }
+th, td { border: 1px solid #bbb; padding: 3px 7px; text-align: right; }
+th { background: #eee; } td.text { text-align: left; }
+.good { color: #006d2c; } .bad { color: #a50f15; font-weight: bold; }
+figure { display: inline-block; margin: 0 1em 1em 0; vertical-align: top; max-width: 100%; }
+figure.half { max-width: 48%; }
+figcaption { font-size: 0.85em; color: #555; }
+img { max-width: 100%; border: 1px solid #ddd; }
+.zoom { overflow: hidden; border: 1px solid #ddd; cursor: zoom-in; }
+.zoom img { border: none; transform-origin: 0 0; display: block; }
+table.heatmap td { text-align: center; min-width: 3.2em; }
+nav { font-size: 0.9em; margin-bottom: 1em; }
+"""
+
+SCRIPT = """
+document.querySelectorAll('.zoom').forEach(function (box) {
+  var img = box.querySelector('img'), s = 1, x = 0, y = 0, drag = null;
+  function apply() { img.style.transform = 'translate(' + x + 'px,' + y + 'px) scale(' + s + ')'; }
+  box.addEventListener('wheel', function (e) {
+    e.preventDefault();
+    var r = box.getBoundingClientRect(), px = e.clientX - r.left, py = e.clientY - r.top;
+    var k = e.deltaY < 0 ? 1.25 : 0.8, ns = Math.min(12, Math.max(1, s * k));
+    x = px - (px - x) * ns / s; y = py - (py - y) * ns / s; s = ns;
+    if (s === 1) { x = 0; y = 0; }
+    apply();
+  }, {passive: false});
+  box.addEventListener('mousedown', function (e) { drag = [e.clientX - x, e.clientY - y]; e.preventDefault(); });
+  window.addEventListener('mouseup', function () { drag = null; });
+  window.addEventListener('mousemove', function (e) { if (drag && s > 1) { x = e.clientX - drag[0]; y = e.clientY - drag[1]; apply(); } });
+  box.addEventListener('dblclick', function () { s = 1; x = 0; y = 0; apply(); });
+});
+window.addEventListener('load', function () {
+  var missing = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
+  document.body.setAttribute('data-images', missing.length ? 'missing: ' + missing.map(function (i) { return i.getAttribute('src'); }).join(' ') : 'ok ' + document.images.length);
+});
+"""
+
+BAD_OUTCOMES = ("collision", "off_road", "planner_failure", "timeout", "diverged", "failed")
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return "—" if not math.isfinite(value) else f"{value:.3f}"
+    return html.escape(str(value))
+
+
+def _cell(value) -> str:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return f"<td>{_fmt(value)}</td>"
+    cls = "text good" if value == "goal_reached" else "text bad" if value in BAD_OUTCOMES else "text"
+    return f'<td class="{cls}">{value if isinstance(value, Raw) else _fmt(value)}</td>'
+
+
+class Raw(str):
+    """Already-escaped HTML for a table cell (a link)."""
+
+
+def table(rows: Sequence[dict], caption: str = "") -> str:
+    if not rows:
+        return "<p><em>nothing to show</em></p>"
+    cols = list(dict.fromkeys(c for r in rows for c in r))
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(_cell(r.get(c, "")) for c in cols) + "</tr>" for r in rows)
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f"<table>{cap}<tr>{head}</tr>{body}</table>"
+
+
+def figure(src: str, caption: str, zoom: bool = False, half: bool = False) -> str:
+    img = f"<img src='{html.escape(src)}' alt='{html.escape(caption)}'>"
+    if zoom:
+        img = f"<div class='zoom' title='wheel: zoom, drag: pan, double-click: reset'>{img}</div>"
+    cls = " class='half'" if half else ""
+    return f"<figure{cls}>{img}<figcaption>{html.escape(caption)}</figcaption></figure>"
+
+
+def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
+    text = ("<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+            "<link rel='icon' href='data:,'>"
+            f"<title>{html.escape(title)}</title><link rel='stylesheet' href='{root}report.css'></head><body>"
+            f"<nav><a href='{root}index.html'>overview</a></nav><h1>{html.escape(title)}</h1>"
+            + "\n".join(body) + f"<script src='{root}report.js'></script></body></html>")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    return path
+
+
+def _slug(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "-" for c in text)
+
+
+# ------------------------------------------------------------------------------ heatmaps
+def _varying_parameters(groups: Sequence[ScenarioGroup]) -> list[str]:
+    """Numeric parameters that take more than one value, most values first."""
+    values: dict[str, set] = {}
+    for g in groups:
+        for k, v in g.parameters.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                values.setdefault(k, set()).add(float(v))
+    return sorted((k for k, v in values.items() if len(v) > 1), key=lambda k: (-len(values[k]), k))
+
+
+def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict) -> str:
+    xs, ys, grid = heatmap_grid(points)
+    finite = grid[np.isfinite(grid)]
+    lo, hi = (float(finite.min()), float(finite.max())) if len(finite) else (0.0, 0.0)
+    rows = [f"<tr><th>{html.escape(ylabel)} \\ {html.escape(xlabel)}</th>"
+            + "".join(f"<th>{x:g}</th>" for x in xs) + "</tr>"]
+    for i in reversed(range(len(ys))):
+        cells = []
+        for j, x in enumerate(xs):
+            v = grid[i, j]
+            bg, fg = heatmap_colour(v, lo, hi)
+            tip = f"{xlabel} = {x:g}, {ylabel} = {ys[i]:g}: {v:.3f} m" if np.isfinite(v) else "no run"
+            text = f"{v:.2f}" if np.isfinite(v) else ""
+            href = links.get((x, ys[i]))
+            if href and text:
+                text = f"<a href='{href}' style='color:{fg}'>{text}</a>"
+            cells.append(f"<td style='background:{bg};color:{fg}' title='{html.escape(tip)}'>{text}</td>")
+        rows.append(f"<tr><th>{ys[i]:g}</th>" + "".join(cells) + "</tr>")
+    lo_bg, lo_fg = heatmap_colour(lo, lo, hi)
+    hi_bg, hi_fg = heatmap_colour(hi, lo, hi)
+    legend = (f"<p>colour scale: <span style='background:{lo_bg};color:{lo_fg};padding:0 6px'>{lo:.2f} m</span> → "
+              f"<span style='background:{hi_bg};color:{hi_fg};padding:0 6px'>{hi:.2f} m</span> "
+              "(cividis; hover a cell for its value, click it for the scenario)</p>")
+    return f"<h3>{html.escape(title)}</h3><table class='heatmap'>{''.join(rows)}</table>{legend}"
+
+
+# ------------------------------------------------------------------------------ pages
+def _criticality(entry) -> list[dict]:
+    """Most critical TTC, THW, BTN, STN per agent pair (cached in the run directory)."""
+    if len(entry.run.driven) < 2:
+        return []
+    cache = entry.run_dir / "criticality.json"
+    if cache.exists():
+        return json.loads(cache.read_text())
+    from commonroad.common.file_reader import CommonRoadFileReader
+
+    from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
+    from simgap.evaluate.criticality import pair_criticality
+
+    driven, _ = CommonRoadFileReader(str(entry.run_dir / "driven.xml")).open()
+    rows = [asdict(r) for r in pair_criticality(driven, {aid: AGENT_ID_OFFSET + aid for aid in entry.run.driven})]
+    cache.write_text(json.dumps(rows))
+    return rows
+
+
+def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
+    name = _slug(group.scenario_id)
+    adir = assets / name
+    adir.mkdir(parents=True, exist_ok=True)
+    rel = f"../assets/{name}/"
+    body = ["<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()])]
+
+    group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))
+    rows = []
+    for fidelity, entry in group.runs.items():
+        outcomes = {a.id: a for a in entry.run.agents}
+        for t in entry.tracking:
+            a = outcomes[t.agent_id]
+            rows.append({"fidelity": fidelity, "agent": t.agent_id, "outcome": a.outcome,
+                         "time to goal [s]": a.time_to_goal_s if a.time_to_goal_s is not None else "—",
+                         "max excursion [m]": a.max_road_excursion_m, "planner failures": a.planner_failures,
+                         "min distance [m]": a.min_distance_to_traffic_m if a.min_distance_to_traffic_m is not None else "—",
+                         "peak a_lat [m/s²]": t.comfort.peak_lateral_acceleration, "peak jerk [m/s³]": t.comfort.peak_jerk,
+                         "tracking lateral rms/max [m]": f"{t.lateral.rms:.3f} / {t.lateral.max:.3f}",
+                         "tracking longitudinal rms/max [m]": f"{t.longitudinal.rms:.3f} / {t.longitudinal.max:.3f}",
+                         "wall time [s]": entry.run.wall_time_s})
+    body += ["<h2>Outcome and tracking per fidelity</h2>",
+             "<p>Tracking: where each vehicle was against where the plan in force said it would be, in the "
+             "route's Frenet frame (lateral, longitudinal). The ideal backend tracks perfectly by construction.</p>",
+             table(rows)]
+
+    gap_rows = []
+    for fidelity, comps in group.comparisons.items():
+        for c in comps:
+            row = {"fidelity": fidelity, "agent": c.agent_id, "max |d| [m]": c.lateral_displacement.max,
+                   "rms |d| [m]": c.lateral_displacement.rms, "p95 |d| [m]": c.lateral_displacement.p95}
+            for kind, agg in c.by_section.items():
+                row[f"max |d| {kind} [m]"] = agg.max
+            row |= {"max |Δv| [m/s]": c.velocity_error.max, "rms |Δv| [m/s]": c.velocity_error.rms,
+                    "max position error [m]": c.position_error.max, "max |Δψ| [rad]": c.orientation_error.max}
+            gap_rows.append(row)
+    body += ["<h2>Against the ideal run</h2>",
+             "<p>d: lateral offset from the route's lane centre, compared at equal arc length s; Δv, position and "
+             "orientation errors at equal time.</p>", table(gap_rows)]
+
+    figures = []
+    agents = sorted({aid for e in group.runs.values() for aid in e.run.driven})
+    for aid in agents:
+        frame = route_centre(group.scenario.lanelet_network, group.problems.planning_problem_dict[aid]) \
+            if aid in group.problems.planning_problem_dict else None
+        curves, shading = {}, None
+        if frame is not None:
+            for fidelity, entry in group.runs.items():
+                if aid in entry.run.driven:
+                    curves[fidelity] = lateral_profile(entry.run.driven[aid], frame)
+            for comps in group.comparisons.values():
+                for c in comps:
+                    if c.agent_id == aid and c.section_along_s is not None:
+                        shading = (c.s, c.section_along_s)
+        if curves:
+            sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
+            plot_d_over_s(sorted_curves, adir / f"d_over_s_{aid}.png",
+                          f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading)
+            figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity", zoom=True,
+                                  half=True))
+        trajs = {f: e.run.driven[aid] for f, e in group.runs.items() if aid in e.run.driven}
+        plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
+        figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
+    plot_paths_from_above(group.scenario, {f: e.run for f, e in group.runs.items()}, adir / "paths.png",
+                          f"{group.scenario_id}: planned and driven paths of every fidelity")
+    figures.append(figure(rel + "paths.png", "planned (thin, every 10th plan) and driven (thick) paths", zoom=True,
+                          half=True))
+    if group.comparisons:
+        d_samples = {}
+        for fidelity, comps in group.comparisons.items():
+            d_samples[fidelity] = np.concatenate([c.d_b - c.d_a for c in comps]) if comps else np.array([])
+        plot_error_boxes(d_samples, adir / "d_boxes.png", f"{group.scenario_id}: |d| against the ideal run",
+                         "|d_fidelity - d_ideal| [m]")
+        figures.append(figure(rel + "d_boxes.png", "distribution of the lateral displacement per fidelity", half=True))
+    body += ["<h2>Plots</h2>"] + figures
+
+    crit = []
+    for fidelity, entry in group.runs.items():
+        for r in _criticality(entry):
+            crit.append({"fidelity": fidelity} | r)
+    if crit:
+        body += ["<h2>Criticality of agent pairs (commonroad-crime)</h2>",
+                 "<p>Most critical value over the run per ordered pair: smallest TTC and THW, largest BTN and STN.</p>",
+                 table(crit)]
+
+    pictures = []
+    for fidelity, entry in group.runs.items():
+        for pic in PICTURES:
+            src = entry.run_dir / pic
+            if src.exists():
+                target = adir / f"{_slug(fidelity)}_{pic}"
+                shutil.copyfile(src, target)
+                pictures.append(figure(rel + target.name, f"{fidelity}: {pic.rsplit('.', 1)[0].replace('_', ' ')}",
+                                       half=True))
+    if pictures:
+        body += ["<h2>Pictures</h2>"] + pictures
+    return page(out / "scenarios" / f"{name}.html", f"Scenario {group.scenario_id}", body, "../")
+
+
+def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None) -> Path:
+    """Write the report of every run below ``root`` into ``out``; returns ``out/index.html``."""
+    root, out = Path(root), Path(out)
+    groups = collect(root)
+    assets = out / "assets"
+    assets.mkdir(parents=True, exist_ok=True)
+    (out / "report.css").write_text(STYLE)
+    (out / "report.js").write_text(SCRIPT)
+    for i, group in enumerate(groups):
+        say(f"scenario {i + 1}/{len(groups)}: {group.scenario_id}")
+        _scenario_page(group, out, assets)
+
+    fidelities = sorted({f for g in groups for f in g.runs}, key=lambda f: (f != REFERENCE, f))
+    n_runs = sum(len(g.runs) for g in groups)
+    n_failed = sum(e.failed for g in groups for e in g.runs.values())
+    body = [f"<p>{len(groups)} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}): "
+            f"{n_runs} runs from <code>{html.escape(str(root))}</code>; {n_failed} did not reach every goal.</p>"]
+
+    headline = []
+    for fidelity in fidelities:
+        entries = [g.runs[fidelity] for g in groups if fidelity in g.runs]
+        goals = sum(a.outcome == "goal_reached" for e in entries for a in e.run.agents)
+        agents = sum(len(e.run.agents) for e in entries)
+        gaps = [c.lateral_displacement.max for g in groups for c in g.comparisons.get(fidelity, [])
+                if math.isfinite(c.lateral_displacement.max)]
+        headline.append({"fidelity": fidelity, "runs": len(entries), "goals reached": f"{goals}/{agents}",
+                         "median max |d| [m]": float(np.median(gaps)) if gaps else "—",
+                         "largest max |d| [m]": max(gaps) if gaps else "—",
+                         "mean wall time [s]": float(np.mean([e.run.wall_time_s for e in entries]))})
+    body += ["<h2>Headline numbers</h2>",
+             "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario, "
+             "at equal arc length along the route's lane centre.</p>", table(headline)]
+
+    params = _varying_parameters(groups)
+    if len(params) >= 2:
+        xp, yp = params[0], params[1]
+        body.append("<h2>Where the gap is largest</h2>")
+        for fidelity in fidelities:
+            if fidelity == REFERENCE:
+                continue
+            points, links = [], {}
+            for g in groups:
+                if fidelity in g.comparisons and xp in g.parameters and yp in g.parameters:
+                    gap = max((c.lateral_displacement.max for c in g.comparisons[fidelity]), default=float("nan"))
+                    key = (float(g.parameters[xp]), float(g.parameters[yp]))
+                    points.append((*key, gap))
+                    links[key] = f"scenarios/{_slug(g.scenario_id)}.html"
+            if not points:
+                continue
+            title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
+            body.append(heatmap_table(points, xp, yp, title, links))
+            png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xp, yp, "max |d| [m]")
+            body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
+
+    wall = {f: [g.runs[f].run.wall_time_s for g in groups if f in g.runs] for f in fidelities}
+    phases = {f: [g.runs[f].run.timings for g in groups if f in g.runs] for f in fidelities}
+    body += ["<h2>Run times per fidelity</h2>",
+             "<p>Wall time of a run (min, max, mean, median, standard deviation; the paper's Table I) and the mean "
+             "time of each phase.</p>", table(runtime_table(wall, phases))]
+
+    outcome_rows = []
+    for fidelity in fidelities:
+        counts = Counter(a.outcome for g in groups if fidelity in g.runs for a in g.runs[fidelity].run.agents)
+        outcome_rows.append({"fidelity": fidelity} | dict(sorted(counts.items())))
+    body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows)]
+
+    ranked = sorted(groups, key=lambda g: -(g.largest_gap()[0] if math.isfinite(g.largest_gap()[0]) else -1))
+    rank_rows = []
+    for g in ranked:
+        gap, fidelity = g.largest_gap()
+        outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.agents}))
+        rank_rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.scenario_id)}.html'>"
+                                          f"{html.escape(g.scenario_id)}</a>"),
+                          "largest max |d| [m]": gap, "in fidelity": fidelity or "—",
+                          "parameters": ", ".join(f"{k}={g.parameters[k]:g}" for k in params if k in g.parameters),
+                          "outcomes": outcomes})
+    body += ["<h2>Scenarios, largest gap first</h2>", table(rank_rows)]
+    return page(out / "index.html", "simgap report", body, "")
+
