@@ -147,3 +147,11 @@ def test_a_bad_vehicle_file_names_the_file_and_the_field(tmp_path):
     bad.write_text(text.replace("driven_axles: rear", "driven_axles: middle"))
     proc = simgap("vehicles", "show", str(bad))
     assert_clean_error(proc, "wobbly.yaml", "physics.driven_axles", "front", "rear", "all")
+
+
+def test_report_refuses_a_directory_without_runs(tmp_path):
+    (tmp_path / "empty").mkdir()
+    assert_clean_error(simgap("report", str(tmp_path / "empty"), "--out", str(tmp_path / "r")),
+                       "no run directories")
+    assert_clean_error(simgap("report", str(tmp_path / "missing"), "--out", str(tmp_path / "r")), "no such directory")
+    assert not (tmp_path / "r" / "index.html").exists()

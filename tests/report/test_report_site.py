@@ -53,7 +53,7 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
                      "Scenarios, largest gap first", "mujoco/city", "median [s]", "std [s]"):
         assert fragment in text
     # the heatmap covers radius x angle: four cells with hover text, each linking to its page
-    assert len(re.findall(r"title='angle = \d+, radius = \d+: [\d.]+ m'", text)) == len(CURVES)
+    assert len(re.findall(r"title='angle \[deg\] = \d+, radius \[m\] = \d+: [\d.]+ m'", text)) == len(CURVES)
     for ref in re.findall(r"(?:src|href)='([^']+)'", text):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref

@@ -60,7 +60,7 @@ def compare(
                          file=run_b, field="scenario_id", allowed=f"a run of '{a.scenario_id}'")
     xml = Path(a.scenario_path) if a.scenario_path and Path(a.scenario_path).exists() else run_a / "driven.xml"
     scenario, problems = load_scenario(xml)
-    sections = read_metadata(xml).get("sections")
+    sections = a.sections or read_metadata(xml).get("sections")
     comparisons = compare_runs(a, b, scenario, problems, sections)
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
               "agents": [c.as_dict() for c in comparisons],
@@ -92,9 +92,11 @@ def compare(
             table.add_row(str(c.agent_id), escape(f"  d on {kind} sections [m]"),
                           *(f"{agg[k]:.3f}" for k in ("max", "rms", "mean", "p95")))
         for side in ("a", "b"):
-            agg = d[f"tracking_error_{side}"]
-            table.add_row(str(c.agent_id), escape(f"tracking error in {side.upper()} [m]"),
-                          *(f"{agg[k]:.3f}" for k in ("max", "rms", "mean", "p95")))
+            for key, name in (("tracking_error", "tracking error"), ("lateral_tracking_error", "  lateral"),
+                              ("longitudinal_tracking_error", "  longitudinal")):
+                agg = d[f"{key}_{side}"]
+                table.add_row(str(c.agent_id), escape(f"{name} in {side.upper()} [m]"),
+                              *(f"{agg[k]:.3f}" for k in ("max", "rms", "mean", "p95")))
     console.print(table)
     console.print("lateral displacement: |d_b - d_a| at equal arc length along the route's lane centre; "
                   "position, orientation and velocity errors at equal time; tracking error: where a run's "

@@ -13,8 +13,8 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.record import Run
-from simgap.evaluate.errors import (Aggregate, interp_by_s, lateral_displacement_by_s, time_aligned_errors,
-                                    tracking_errors)
+from simgap.evaluate.errors import (Aggregate, frenet_tracking_errors, interp_by_s, lateral_displacement_by_s,
+                                    time_aligned_errors, tracking_errors)
 from simgap.evaluate.route_centre import route_centre, section_of_s
 
 
@@ -32,6 +32,10 @@ class AgentComparison:
     section_along_s: np.ndarray | None = None                         # road section kind at each s
     tracking_a: Aggregate | None = None      # planned vs driven position error within run A [m]
     tracking_b: Aggregate | None = None
+    tracking_lateral_a: Aggregate | None = None       # ... its lateral part in the route's frame [m]
+    tracking_lateral_b: Aggregate | None = None
+    tracking_longitudinal_a: Aggregate | None = None  # ... and its longitudinal part [m]
+    tracking_longitudinal_b: Aggregate | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -43,6 +47,12 @@ class AgentComparison:
             "lateral_displacement_by_section": {k: v.as_dict() for k, v in self.by_section.items()},
             "tracking_error_a": self.tracking_a.as_dict() if self.tracking_a else None,
             "tracking_error_b": self.tracking_b.as_dict() if self.tracking_b else None,
+            "lateral_tracking_error_a": self.tracking_lateral_a.as_dict() if self.tracking_lateral_a else None,
+            "lateral_tracking_error_b": self.tracking_lateral_b.as_dict() if self.tracking_lateral_b else None,
+            "longitudinal_tracking_error_a":
+                self.tracking_longitudinal_a.as_dict() if self.tracking_longitudinal_a else None,
+            "longitudinal_tracking_error_b":
+                self.tracking_longitudinal_b.as_dict() if self.tracking_longitudinal_b else None,
         }
 
 
@@ -65,10 +75,14 @@ def compare_runs(a: Run, b: Run, scenario: Scenario, problems: PlanningProblemSe
             kinds = section_of_s(scenario.lanelet_network, problem, sections, s)
             for kind in dict.fromkeys(kinds):
                 by_section[str(kind)] = Aggregate.of(dd[kinds == kind])
+        fa = frenet_tracking_errors(ta, a.plans.get(aid, []), frame)
+        fb = frenet_tracking_errors(tb, b.plans.get(aid, []), frame)
         out.append(AgentComparison(aid, s, d_a, d_b, Aggregate.of(dd), Aggregate.of(errs.position),
                                    Aggregate.of(errs.orientation), Aggregate.of(errs.velocity), by_section,
                                    kinds,
                                    Aggregate.of(tracking_errors(ta, a.plans.get(aid, [])).position),
-                                   Aggregate.of(tracking_errors(tb, b.plans.get(aid, [])).position)))
+                                   Aggregate.of(tracking_errors(tb, b.plans.get(aid, [])).position),
+                                   Aggregate.of(fa.lateral), Aggregate.of(fb.lateral),
+                                   Aggregate.of(fa.longitudinal), Aggregate.of(fb.longitudinal)))
     return out
 

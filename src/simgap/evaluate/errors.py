@@ -91,15 +91,6 @@ def interp_by_s(grid: np.ndarray, s: np.ndarray, d: np.ndarray) -> np.ndarray:
     return np.interp(grid, s_sorted[keep], d_sorted[keep])
 
 
-def plan_in_force(plans: list[Trajectory], t: float, dt: float) -> Trajectory | None:
-    """The latest plan made strictly before ``t`` (the one the vehicle was executing at ``t``)."""
-    chosen = None
-    for plan in plans:                      # plans are in the order they were made
-        if plan.t[0] <= t - dt + 1e-9:
-            chosen = plan
-    return chosen
-
-
 @dataclass(frozen=True)
 class PromisedStates:
     """For each driven step after the first: the state the plan in force promised for it."""
@@ -113,13 +104,15 @@ class PromisedStates:
 
 def promised_states(driven: Trajectory, plans: list[Trajectory]) -> PromisedStates:
     plans = sorted(plans, key=lambda p: p.t[0])
+    starts = np.array([p.t[0] for p in plans])
     rows = []
     for k in range(1, len(driven)):
         t = float(driven.t[k])
-        plan = plan_in_force(plans, t, driven.dt)
-        if plan is None or t > plan.t_end + 1e-9:
+        # the plan in force: the latest one made at or before t - dt (the vehicle executed it at t)
+        i = int(np.searchsorted(starts, t - driven.dt + 1e-9, side="right")) - 1
+        if i < 0 or t > plans[i].t_end + 1e-9:
             continue
-        st = plan.at(t)
+        st = plans[i].at(t)
         rows.append((k, st.x, st.y, st.yaw, st.v))
     if not rows:
         return PromisedStates(*(np.array([]) for _ in range(5)))

@@ -88,7 +88,8 @@ def execute(request: RunRequest, out: Path | None = None,
     run.sections = meta.get("sections", {})
     run.versions = software_versions()
     run.seed = request.seed
-    run.settings |= {"planner": request.planner.model_dump(), "backend": request.backend_settings,
+    run.settings |= {"parameter_units": meta.get("units", {}),
+                     "planner": request.planner.model_dump(), "backend": request.backend_settings,
                      "planner_vehicle": request.planner_vehicle}
     if out is not None:
         t0 = time.perf_counter()

@@ -313,8 +313,11 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
              "at equal arc length along the route's lane centre.</p>", table(headline)]
 
     params = _varying_parameters(groups)
+    units = {k: u for g in groups for e in g.runs.values()
+             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
     if len(params) >= 2:
         xp, yp = params[0], params[1]
+        xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
         body.append("<h2>Where the gap is largest</h2>")
         for fidelity in fidelities:
             if fidelity == REFERENCE:
@@ -329,8 +332,9 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
             if not points:
                 continue
             title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
-            body.append(heatmap_table(points, xp, yp, title, links))
-            png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xp, yp, "max |d| [m]")
+            body.append(heatmap_table(points, xlabel, ylabel, title, links))
+            png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xlabel, ylabel,
+                               "max |d| [m]")
             body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
 
     wall = {f: [g.runs[f].run.wall_time_s for g in groups if f in g.runs] for f in fidelities}

@@ -132,7 +132,9 @@ class LogicalScenario(BaseModel):
             raise InputError(f"unknown parameter '{sorted(unknown)[0]}' of logical scenario '{self.name}'",
                              field=sorted(unknown)[0], allowed=", ".join(self.parameters))
         full = {n: par.coerce(par.default) for n, par in self.parameters.items()} | params
-        return TEMPLATES[self.template](self.scenario_name(full), self.name, self.fixed | full)
+        concrete = TEMPLATES[self.template](self.scenario_name(full), self.name, self.fixed | full)
+        concrete.units = {n: par.unit for n, par in self.parameters.items()}
+        return concrete
 
 
 def _fmt(v: float) -> str:

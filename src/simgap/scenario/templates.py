@@ -36,9 +36,10 @@ class ConcreteScenario:
     scenario: Scenario
     problems: PlanningProblemSet
     sections: dict[int, str] = field(default_factory=dict)   # lanelet id -> straight|curve|clothoid|junction
+    units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
 
     def metadata(self) -> dict[str, Any]:
-        return {"name": self.name, "logical": self.logical, "parameters": self.parameters,
+        return {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
                 "sections": {str(k): v for k, v in sorted(self.sections.items())}}
 
 
