@@ -25,10 +25,12 @@ def footprint(state: State, length: float, width: float) -> Polygon:
 
 
 class DrivableArea:
-    """The union of all lanelets; a footprint that leaves it (beyond ``tolerance``) is off road."""
+    """The union of all lanelets (or of ``lanelet_ids``: a route's lanes); a footprint that leaves
+    it (beyond ``tolerance``) is off road (or off its lanes)."""
 
-    def __init__(self, network: LaneletNetwork, tolerance: float = 0.05):
-        polygons = [Polygon(l.polygon.vertices).buffer(0) for l in network.lanelets]
+    def __init__(self, network: LaneletNetwork, tolerance: float = 0.05, lanelet_ids: list[int] | None = None):
+        lanelets = network.lanelets if lanelet_ids is None else [network.find_lanelet_by_id(i) for i in lanelet_ids]
+        polygons = [Polygon(l.polygon.vertices).buffer(0) for l in lanelets]
         self.area = unary_union(polygons).buffer(tolerance)
         shapely.prepare(self.area)
 

@@ -195,7 +195,8 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
             a = outcomes[t.agent_id]
             rows.append({"fidelity": fidelity, "agent": t.agent_id, "outcome": a.outcome,
                          "time to goal [s]": a.time_to_goal_s if a.time_to_goal_s is not None else "—",
-                         "max excursion [m]": a.max_road_excursion_m, "planner failures": a.planner_failures,
+                         "beyond road [m]": a.max_road_excursion_m, "beyond lane [m]": t.lane_excursion,
+                         "planner failures": a.planner_failures,
                          "min distance [m]": a.min_distance_to_traffic_m if a.min_distance_to_traffic_m is not None else "—",
                          "peak a_lat [m/s²]": t.comfort.peak_lateral_acceleration, "peak jerk [m/s³]": t.comfort.peak_jerk,
                          "tracking lateral rms/max [m]": f"{t.lateral.rms:.3f} / {t.lateral.max:.3f}",

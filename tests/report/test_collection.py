@@ -1,0 +1,45 @@
+"""Runs gathered for a report: fidelity labels, one run per scenario and fidelity, lane departure."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from simgap.errors import InputError
+from simgap.experiment.single_run import RunRequest, execute
+from simgap.report.collection import collect
+from simgap.scenario import build_scenario
+from simgap.scenario.files import write_scenario
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    xml = write_scenario(build_scenario("curve", {"radius": 10, "angle": 90}), root / "scenarios", preview=False)
+    execute(RunRequest(scenario=xml, backend="ideal"), root / "runs" / "ideal")
+    # on a slippery road the suv cannot make the sharp turn the planner assumes
+    execute(RunRequest(scenario=xml, backend="mujoco", vehicles="suv",
+                       backend_settings={"controller": "stanley", "road_friction": 0.3}), root / "runs" / "suv")
+    return root / "runs"
+
+
+def test_runs_are_labelled_compared_and_a_lane_departure_is_measured(runs):
+    (group,) = collect(runs)
+    assert sorted(group.runs) == ["ideal", "mujoco/suv/stanley"]
+    suv = group.runs["mujoco/suv/stanley"]
+    outcome = suv.run.agents[0]
+    assert outcome.outcome == "off_road"
+    # leaving the road means leaving the lane first, by at least as much
+    assert suv.tracking[0].lane_excursion >= outcome.max_road_excursion_m > 0.0
+    assert group.runs["ideal"].tracking[0].lane_excursion == 0.0
+    (comparison,) = group.comparisons["mujoco/suv/stanley"]
+    assert comparison.lateral_displacement.max > 0.1       # the run ends where it left the road
+    assert group.largest_gap() == (comparison.lateral_displacement.max, "mujoco/suv/stanley")
+
+
+def test_two_runs_of_one_scenario_and_fidelity_are_refused(runs, tmp_path):
+    shutil.copytree(runs, tmp_path / "runs")
+    shutil.copytree(runs / "ideal", tmp_path / "runs" / "ideal-again")
+    with pytest.raises(InputError, match="two runs of scenario"):
+        collect(tmp_path / "runs")
