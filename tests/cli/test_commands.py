@@ -155,3 +155,16 @@ def test_report_refuses_a_directory_without_runs(tmp_path):
                        "no run directories")
     assert_clean_error(simgap("report", str(tmp_path / "missing"), "--out", str(tmp_path / "r")), "no such directory")
     assert not (tmp_path / "r" / "index.html").exists()
+
+
+def test_experiment_commands_refuse_bad_input_clearly(tmp_path):
+    assert_clean_error(simgap("experiment", "run", "nope", "--out", str(tmp_path / "x")),
+                       "unknown experiment 'nope'", "paper-curves")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: b\nlogical: curve\nfidelities: [{backend: ideal}]\nsampler: {kind: lhs}\n")
+    assert_clean_error(simgap("experiment", "run", str(bad), "--out", str(tmp_path / "x")),
+                       "bad.yaml", "field 'sampler'", "needs 'samples'")
+    assert_clean_error(simgap("experiment", "status", str(tmp_path)), "not an experiment directory")
+    assert_clean_error(simgap("experiment", "run", "demo", "--out", str(tmp_path / "x"), "--address", "a:1"),
+                       "--address is for the ray executor")
+    assert not (tmp_path / "x" / "store").exists()

@@ -14,9 +14,10 @@ from simgap.cli.main import app
 def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="where to write everything")) -> None:
     """Run a small real experiment on built-in curve scenarios and write an HTML report.
 
-    Three curve scenarios of the paper's grid run in every installed fidelity (ideal; MuJoCo
-    with the sedan and the city car when that backend is installed), are compared with the
-    ideal run and summarised in REPORT/index.html.
+    The built-in `demo` experiment: four curve scenarios of the paper's grid, ideal against
+    MuJoCo with the sedan and the city car, run in parallel on all cores, drawn in 2D (the
+    sharpest also in 3D), compared with the ideal runs and summarised in OUT/report/index.html.
+    Running it again resumes (finished runs are kept).
 
     Example: simgap demo --out simgap-demo
     """

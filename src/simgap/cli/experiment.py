@@ -1,0 +1,104 @@
+"""`simgap experiment`: run a spec (resumably, in parallel, locally or on Ray), see its status,
+query its results store."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from simgap.cli.main import app
+
+experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
+                             no_args_is_help=True)
+app.add_typer(experiment_app, name="experiment")
+
+
+@experiment_app.command("run")
+def run_cmd(
+    spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
+    out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
+    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    executor: str = typer.Option("local", help="local (process pool) or ray"),
+    address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
+    no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
+) -> None:
+    """Generate the scenarios, run every combination, store the results, build the report.
+
+    Running it again on the same --out resumes: finished runs are kept, runs that were cut off
+    are run again. Example: simgap experiment run paper-curves --out studies/paper --workers 2
+    """
+    from simgap.experiment.runner import run_experiment
+
+    console = Console()
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
+                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console) as bar:
+        task = bar.add_task("runs", total=None, counts="")
+
+        def show(p) -> None:
+            bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
+                       counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
+
+        result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report)
+    console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
+                  f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
+    for key, reason in result.failures[:20]:
+        console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
+    console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
+                  f"(simgap experiment query {out} \"SELECT ...\")")
+    if result.report:
+        console.print(f"report: [bold]{result.report}[/bold]")
+
+
+@experiment_app.command("status")
+def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> None:
+    """What is done, what failed (with reasons) and what is left.
+
+    Example: simgap experiment status studies/paper
+    """
+    from simgap.experiment.runner import experiment_status
+
+    st = experiment_status(out)
+    console = Console()
+    console.print(f"{st.total} runs: {len(st.ok)} done, {len(st.failed)} failed, {len(st.left)} left")
+    for key, reason in st.failed:
+        console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
+    if st.left:
+        shown = ", ".join(st.left[:5]) + (" ..." if len(st.left) > 5 else "")
+        console.print(f"  left: {escape(shown)}")
+
+
+@experiment_app.command("query")
+def query_cmd(
+    out: Path = typer.Argument(..., help="experiment directory"),
+    sql: str = typer.Argument(..., help="DuckDB SQL over the view 'runs' (one row per run)"),
+    to_csv: Optional[Path] = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
+) -> None:
+    """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,
+    controller, param_*, status, failure, outcome, wall_time_s, time_*_s, version_*, ...
+
+    Example: simgap experiment query studies/paper "SELECT fidelity, median(wall_time_s) FROM runs GROUP BY 1"
+    """
+    from simgap.experiment.store import ResultsStore
+
+    columns, rows = ResultsStore(out).query(sql)
+    if to_csv is not None:
+        with to_csv.open("w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(columns)
+            writer.writerows(rows)
+        Console().print(f"{len(rows)} rows written to [bold]{to_csv}[/bold]")
+        return
+    table = Table()
+    for c in columns:
+        table.add_column(escape(c))
+    for r in rows:
+        table.add_row(*(f"{v:.4g}" if isinstance(v, float) else escape(str(v)) for v in r))
+    Console().print(table)

@@ -1,0 +1,173 @@
+"""An experiment end to end: scenarios from the spec, every run (resuming where a previous
+invocation stopped), the results store, the cross-fidelity pairs, and the report."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from simgap.errors import InputError
+from simgap.experiment.executors import make_executor
+from simgap.experiment.spec import ExperimentSpec, Job, jobs, load_spec
+from simgap.experiment.store import ResultsStore
+from simgap.scenario import write_scenario
+
+META = "experiment.json"
+
+
+@dataclass
+class Progress:
+    total: int
+    done: int = 0
+    failed: int = 0
+    skipped: int = 0                 # finished in an earlier invocation
+    started: float = field(default_factory=time.monotonic)
+
+    @property
+    def remaining(self) -> int:
+        return self.total - self.done - self.failed - self.skipped
+
+
+@dataclass
+class ExperimentResult:
+    root: Path
+    total: int
+    ran: int
+    failed: int
+    skipped: int
+    wall_time_s: float
+    report: Path | None
+    failures: list[tuple[str, str]]
+
+
+def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
+    keys = sorted(set(old) | set(new))
+    out = []
+    for k in keys:
+        a, b = old.get(k), new.get(k)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += _diff(a, b, f"{prefix}{k}.")
+        elif a != b:
+            out.append(f"{prefix}{k}")
+    return out
+
+
+def _claim(root: Path, spec: ExperimentSpec, logical_ref: str) -> None:
+    """Record the spec in ``root``, or refuse if ``root`` holds results of a different one."""
+    meta_path = root / META
+    relevant = spec.model_dump(exclude={"name", "description", "run_timeout_s"})
+    if meta_path.exists():
+        meta = json.loads(meta_path.read_text())
+        if meta.get("results_hash") != spec.results_hash():
+            changed = ", ".join(_diff(meta.get("spec_results", {}), relevant)) or "the spec"
+            raise InputError(f"this directory holds results of a different spec (changed: {changed}); "
+                             "mixing them would make the results meaningless", file=root,
+                             allowed="the same spec, or a new --out directory")
+        return
+    from simgap.experiment.single_run import software_versions
+
+    root.mkdir(parents=True, exist_ok=True)
+    meta = {"spec": spec.model_dump(), "logical_ref": logical_ref, "spec_results": relevant,
+            "results_hash": spec.results_hash(), "versions": software_versions()}
+    tmp = meta_path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(meta, indent=2, default=str))
+    tmp.replace(meta_path)
+
+
+def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], dict[str, str]]:
+    """The spec, all its jobs, and the scenario file of each scenario (written if missing)."""
+    spec, logical, _ = load_spec(spec_ref)
+    all_jobs, scenarios = [], {}
+    for params, runs in jobs(spec, logical):
+        name = runs[0].scenario
+        xml = root / "scenarios" / f"{name}.xml"
+        if not xml.exists():
+            xml = write_scenario(logical.build(params), root / "scenarios", preview=False)
+        scenarios[name] = str(xml)
+        all_jobs += runs
+    return spec, all_jobs, scenarios
+
+
+def _clean_partial_runs(root: Path) -> None:
+    """Remove run directories a killed worker left half-built (they are never read)."""
+    runs = root / "runs"
+    if runs.exists():
+        for tmp in runs.rglob(".*"):
+            if tmp.is_dir():
+                shutil.rmtree(tmp, ignore_errors=True)
+
+
+def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str = "local",
+                   address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
+                   report: bool = True) -> ExperimentResult:
+    root = Path(root)
+    spec, _, path = load_spec(spec_ref)
+    runner = make_executor(executor, workers, spec.run_timeout_s, address)
+    logical_ref = spec.logical
+    if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
+        logical_ref = str((path.parent / logical_ref).resolve())
+    _claim(root, spec, logical_ref)
+    spec, all_jobs, scenarios = plan(spec_ref, root)
+    store = ResultsStore(root)
+    store.prepare()
+    _clean_partial_runs(root)
+    finished = store.finished_keys()
+    todo = [j for j in all_jobs if j.key not in finished]
+    progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
+    failures: list[tuple[str, str]] = []
+    if on_progress:
+        on_progress(progress)
+
+    def on_result(job: Job, row: dict[str, Any]) -> None:
+        store.write_row(row)
+        if row.get("status") == "ok":
+            progress.done += 1
+        else:
+            progress.failed += 1
+            failures.append((job.key, row.get("failure", "")))
+        if on_progress:
+            on_progress(progress)
+
+    start = time.perf_counter()
+    context = {"root": str(root), "scenarios": scenarios, "planner": spec.planner, "cosim": spec.cosim}
+    if todo:
+        runner.run(todo, context, on_result)
+    store.consolidate()
+    index = None
+    if report:
+        from simgap.report.site import build_report
+
+        index = build_report(root / "runs", root / "report")
+    return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
+                            progress.skipped, time.perf_counter() - start, index, failures)
+
+
+@dataclass
+class Status:
+    total: int
+    ok: list[str]
+    failed: list[tuple[str, str]]
+    left: list[str]
+
+
+def experiment_status(root: Path) -> Status:
+    root = Path(root)
+    meta_path = root / META
+    if not meta_path.exists():
+        raise InputError("not an experiment directory (no experiment.json)", file=root)
+    from simgap.experiment.spec import ExperimentSpec
+    from simgap.scenario.logical import load_logical
+
+    meta = json.loads(meta_path.read_text())
+    spec = ExperimentSpec.model_validate(meta["spec"])
+    logical = load_logical(meta.get("logical_ref", spec.logical))
+    rows = {r["key"]: r for r in ResultsStore(root).rows()}
+    keys = [j.key for _, runs in jobs(spec, logical) for j in runs]
+    ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
+    failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]
+    left = [k for k in keys if k not in rows]
+    return Status(len(keys), ok, failed, left)

@@ -1,0 +1,267 @@
+"""The experiment spec: a YAML file saying which scenarios to sample, in which fidelities, with
+which vehicles and controllers, how often — and the one expansion of it into runs (`jobs`).
+
+Example (the built-in `demo`)::
+
+    name: demo
+    logical: curve                    # built-in logical scenario, or a YAML file beside the spec
+    parameters:                       # optional: narrow the logical scenario's space
+      radius: {values: [10, 30, 75]}
+      angle: {values: [90]}
+    sampler: {kind: grid}             # grid | random | lhs | sobol (with samples and seed)
+    fidelities:
+      - backend: ideal
+      - backend: mujoco
+        vehicles: [sedan, city]
+        controllers: [pure_pursuit]
+    cosim: {replan_every: 1}
+
+A wrong key, type or range is an `InputError` naming the file, the field path and what is allowed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from simgap.cosim import CosimSettings
+from simgap.errors import InputError, pydantic_to_input_error
+from simgap.planning.frenet import FrenetSettings
+from simgap.scenario.logical import LogicalScenario, load_logical
+
+
+class ParameterRange(BaseModel):
+    """How a spec narrows one parameter: a list of values, or a range for random samplers."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    values: list[float] | None = None
+    min: float | None = None
+    max: float | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> "ParameterRange":
+        if self.values is not None and (self.min is not None or self.max is not None):
+            raise ValueError("give either values or min/max, not both")
+        if self.values is not None and not self.values:
+            raise ValueError("values must not be empty")
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError("min must not exceed max")
+        return self
+
+
+class SamplerSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    kind: Literal["grid", "random", "lhs", "sobol"] = "grid"
+    samples: int | None = Field(None, ge=1, le=100_000, description="number of samples (not for grid)")
+    seed: int = 0
+
+    @model_validator(mode="after")
+    def _samples_given(self) -> "SamplerSpec":
+        if self.kind == "grid" and self.samples is not None:
+            raise ValueError("a grid has no 'samples': it takes every combination")
+        if self.kind != "grid" and self.samples is None:
+            raise ValueError(f"the {self.kind} sampler needs 'samples'")
+        return self
+
+
+class FidelitySpec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    backend: str
+    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
+    controllers: list[str] = Field(default_factory=lambda: ["pure_pursuit"], min_length=1)
+    settings: dict[str, Any] = Field(default_factory=dict, description="backend settings (physics_hz, ...)")
+
+
+class ExperimentSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+    description: str = ""
+    logical: str
+    parameters: dict[str, ParameterRange] = Field(default_factory=dict)
+    sampler: SamplerSpec = Field(default_factory=SamplerSpec)
+    fidelities: list[FidelitySpec] = Field(min_length=1)
+    repeats: int = Field(1, ge=1, le=1000)
+    seed: int = 0
+    planner: dict[str, Any] = Field(default_factory=dict)
+    cosim: dict[str, Any] = Field(default_factory=dict)
+    run_timeout_s: float = Field(600.0, gt=0, description="a run taking longer is stopped and recorded as failed")
+
+    def results_hash(self) -> str:
+        """Over everything that changes results (not the name, description or timeout)."""
+        relevant = self.model_dump(exclude={"name", "description", "run_timeout_s"})
+        return hashlib.sha256(json.dumps(relevant, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Job:
+    """One run of an experiment."""
+
+    key: str                      # unique and stable: scenario/fidelity[/repeat]
+    scenario: str                 # scenario name
+    parameters: dict[str, Any]
+    backend: str
+    vehicle: str
+    controller: str | None
+    backend_settings: dict[str, Any]
+    repeat: int
+    seed: int
+
+    @property
+    def fidelity(self) -> str:
+        if self.backend == "ideal":
+            return "ideal"
+        label = f"{self.backend}/{self.vehicle}"
+        return label if self.controller in (None, "pure_pursuit") else f"{label}/{self.controller}"
+
+
+def _builtin_dir() -> Path:
+    return Path(str(resources.files("simgap.experiment") / "builtin"))
+
+
+def builtin_specs() -> list[str]:
+    return sorted(p.stem for p in _builtin_dir().glob("*.yaml"))
+
+
+def spec_path(name_or_path: str | Path) -> Path:
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or "/" in str(name_or_path):
+        return path
+    builtin = _builtin_dir() / f"{name_or_path}.yaml"
+    if not builtin.exists():
+        raise InputError(f"unknown experiment '{name_or_path}'", field="spec",
+                         allowed=f"a YAML file, or one of {', '.join(builtin_specs())}")
+    return builtin
+
+
+def _error_path(loc) -> str:
+    return ".".join(str(p) for p in loc)
+
+
+def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario, Path]:
+    """The spec, its logical scenario, and the spec file; every problem is an `InputError`."""
+    path = spec_path(name_or_path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise InputError(f"cannot read the experiment spec: {exc.strerror}", file=path) from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"not valid YAML: {exc}", file=path) from None
+    if not isinstance(raw, dict):
+        raise InputError("an experiment spec is a mapping", file=path, allowed="name, logical, fidelities, ...")
+    try:
+        spec = ExperimentSpec.model_validate(raw)
+    except ValidationError as err:
+        first = err.errors()[0]
+        field = _error_path(first.get("loc", ()))
+        allowed = None
+        if first.get("type") == "extra_forbidden":
+            allowed = _allowed_keys(first.get("loc", ()))
+        elif "expected" in (first.get("ctx") or {}):  # a literal's choices
+            allowed = str(first["ctx"]["expected"])
+        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=path, field=field,
+                         allowed=allowed) from None
+    logical_ref = spec.logical
+    if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
+        logical_ref = str(path.parent / logical_ref)
+    logical = load_logical(logical_ref)
+    _check_against(spec, logical, path)
+    return spec, logical, path
+
+
+def _allowed_keys(loc, model: Any = ExperimentSpec) -> str:
+    """The keys allowed where ``loc`` (a pydantic error location) put an unknown one."""
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        field = model.model_fields.get(part)
+        ann = getattr(field, "annotation", None)
+        args = getattr(ann, "__args__", ())
+        candidates = [a for a in (ann, *args) if isinstance(a, type) and issubclass(a, BaseModel)]
+        if not candidates:
+            break
+        model = candidates[0]
+    return ", ".join(model.model_fields)
+
+
+def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -> None:
+    from simgap.control import controller_names
+    from simgap.sim.registry import BACKENDS
+    from simgap.vehicles import vehicle_names
+
+    for name, rng in spec.parameters.items():
+        if name not in logical.parameters:
+            raise InputError(f"'{name}' is not a parameter of logical scenario '{logical.name}'", file=path,
+                             field=f"parameters.{name}", allowed=", ".join(logical.parameters))
+        par = logical.parameters[name]
+        for v in (rng.values or []) + [x for x in (rng.min, rng.max) if x is not None]:
+            if not par.min <= v <= par.max:
+                raise InputError(f"{v:g} {par.unit} is out of range", file=path, field=f"parameters.{name}",
+                                 allowed=f"{par.min:g} to {par.max:g} {par.unit}")
+    for i, fid in enumerate(spec.fidelities):
+        if fid.backend not in BACKENDS:
+            raise InputError(f"unknown backend '{fid.backend}'", file=path, field=f"fidelities.{i}.backend",
+                             allowed=", ".join(BACKENDS))
+        for v in fid.vehicles:
+            if v not in vehicle_names() and not v.endswith((".yaml", ".yml")):
+                raise InputError(f"unknown vehicle '{v}'", file=path, field=f"fidelities.{i}.vehicles",
+                                 allowed=", ".join(vehicle_names()))
+        for c in fid.controllers:
+            if c not in controller_names():
+                raise InputError(f"unknown controller '{c}'", file=path, field=f"fidelities.{i}.controllers",
+                                 allowed=", ".join(controller_names()))
+    for section, model in (("planner", FrenetSettings), ("cosim", CosimSettings)):
+        try:
+            _settings(model, getattr(spec, section))
+        except ValidationError as err:
+            inner = pydantic_to_input_error(err, None)
+            first = err.errors()[0]
+            extra = first.get("type") == "extra_forbidden"
+            raise InputError(inner.reason, file=path, field=f"{section}.{inner.field}",
+                             allowed=_allowed_keys(first.get("loc", ()), model) if extra else inner.allowed) from None
+
+
+
+def _settings(model, values: dict):
+    return model.model_validate(dict(values or {}))
+
+
+def planner_settings(spec: ExperimentSpec) -> FrenetSettings:
+    return _settings(FrenetSettings, spec.planner)
+
+
+def cosim_settings(spec: ExperimentSpec) -> CosimSettings:
+    return _settings(CosimSettings, spec.cosim)
+
+
+def jobs(spec: ExperimentSpec, logical: LogicalScenario) -> list[tuple[dict[str, Any], list[Job]]]:
+    """Every concrete parameter set of the spec with the runs it takes, in a stable order."""
+    from simgap.experiment.samplers import sample
+
+    out = []
+    for params in sample(spec, logical):
+        name = logical.scenario_name(params)
+        runs = []
+        for fid in spec.fidelities:
+            combos = [("sedan", None)] if fid.backend == "ideal" else \
+                [(v, c) for v in fid.vehicles for c in fid.controllers]
+            for vehicle, controller in combos:
+                for r in range(spec.repeats):
+                    settings = dict(fid.settings)
+                    if controller is not None:
+                        settings["controller"] = controller
+                    job = Job("", name, params, fid.backend, vehicle, controller, settings, r, spec.seed + r)
+                    key = f"{name}/{job.fidelity}" + (f"/r{r}" if spec.repeats > 1 else "")
+                    runs.append(replace(job, key=key))
+        out.append((params, runs))
+    return out

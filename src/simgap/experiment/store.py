@@ -1,0 +1,108 @@
+"""The results store of an experiment: one row per finished run, queryable with DuckDB.
+
+Layout of an experiment directory::
+
+    experiment.json            the spec, its results hash, the software versions
+    scenarios/                 the generated CommonRoad scenarios (XML + metadata)
+    runs/SCENARIO/FIDELITY/    each run's own directory (run.json, trajectories.parquet, driven.xml)
+    store/rows/KEY.parquet     one row per finished run (ok or failed), written atomically
+    store/results.parquet      all rows in one file, rebuilt from the rows
+    report/                    the HTML report
+
+A row is written (to a temporary file, then renamed) only after its run directory is complete,
+so a row always describes a whole run; a run killed half-way leaves no row and is run again on
+resume. Nothing else in the directory is read as a result.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from simgap.errors import InputError
+
+
+def row_file_name(key: str) -> str:
+    """A file name for a job key (readable, and unique through a short hash)."""
+    safe = "".join(c if c.isalnum() or c in "-_." else "~" for c in key)
+    return f"{safe[:150]}__{hashlib.sha1(key.encode()).hexdigest()[:8]}.parquet"
+
+
+class ResultsStore:
+    def __init__(self, root: Path):
+        self.root = Path(root)
+        self.rows_dir = self.root / "store" / "rows"
+
+    def prepare(self) -> None:
+        self.rows_dir.mkdir(parents=True, exist_ok=True)
+        for stale in self.rows_dir.glob(".*.tmp"):       # a writer killed mid-write
+            stale.unlink(missing_ok=True)
+
+    def write_row(self, row: dict[str, Any]) -> Path:
+        table = pa.Table.from_pylist([row])
+        target = self.rows_dir / row_file_name(row["key"])
+        fd, tmp = tempfile.mkstemp(prefix=".", suffix=".tmp", dir=self.rows_dir)
+        os.close(fd)
+        try:
+            pq.write_table(table, tmp)
+            os.replace(tmp, target)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return target
+
+    def row_files(self) -> list[Path]:
+        return sorted(p for p in self.rows_dir.glob("*.parquet") if not p.name.startswith("."))
+
+    def rows(self) -> list[dict[str, Any]]:
+        out = []
+        for path in self.row_files():
+            out.extend(pq.read_table(path).to_pylist())
+        return out
+
+    def finished_keys(self) -> dict[str, str]:
+        """Job key -> status ('ok' or 'failed') of every finished run."""
+        return {r["key"]: r["status"] for r in self.rows()}
+
+    def consolidate(self) -> Path | None:
+        """Write ``store/results.parquet`` with every row (columns: the union over rows)."""
+        rows = self.rows()
+        if not rows:
+            return None
+        columns = list(dict.fromkeys(k for r in rows for k in r))
+        table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows])
+        target = self.root / "store" / "results.parquet"
+        fd, tmp = tempfile.mkstemp(prefix=".", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+        pq.write_table(table, tmp)
+        os.replace(tmp, target)
+        return target
+
+    def connect(self):
+        """A DuckDB connection with the view ``runs`` (one row per run)."""
+        import duckdb
+
+        if not self.row_files():
+            raise InputError("no finished runs in this experiment yet", file=self.root)
+        con = duckdb.connect()
+        pattern = str(self.rows_dir / "*.parquet").replace("'", "''")
+        con.execute(f"CREATE VIEW runs AS SELECT * FROM read_parquet('{pattern}', union_by_name=true)")
+        return con
+
+    def query(self, sql: str) -> tuple[list[str], list[tuple]]:
+        import duckdb
+
+        con = self.connect()
+        try:
+            cursor = con.execute(sql)
+        except duckdb.Error as exc:
+            raise InputError(f"query failed: {str(exc).splitlines()[0]}", field="SQL",
+                             allowed="DuckDB SQL over the view 'runs'") from None
+        columns = [d[0] for d in cursor.description] if cursor.description else []
+        return columns, cursor.fetchall()

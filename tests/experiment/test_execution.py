@@ -1,0 +1,107 @@
+"""Running experiments: resume after SIGKILL, failures and timeouts recorded per run, Ray."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+
+from simgap.errors import InputError
+from simgap.experiment.runner import experiment_status, run_experiment
+from simgap.experiment.store import ResultsStore
+
+SMALL = {"name": "small", "logical": "curve",
+         "parameters": {"radius": {"values": [20, 50]}, "angle": {"values": [30, 90]}},
+         "fidelities": [{"backend": "ideal"}], "cosim": {"replan_every": 3}}
+
+
+def spec_file(tmp_path, name="spec.yaml", **changes):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(SMALL | changes))
+    return path
+
+
+def rows_by_key(root):
+    rows = ResultsStore(root).rows()
+    return {r["key"]: r for r in rows}, [r["key"] for r in rows]
+
+
+def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path):
+    spec = spec_file(tmp_path)
+    out = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
+                             "--workers", "2", "--no-report"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    rows_dir = out / "store" / "rows"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (rows_dir.exists() and any(rows_dir.glob("*.parquet"))):
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)          # the whole process group: driver and workers
+    proc.wait()
+    before, _ = rows_by_key(out)
+    assert 1 <= len(before) < 4, "the kill came after the first and before the last run finished"
+
+    result = run_experiment(spec, out, workers=2, report=False)
+    assert result.skipped == len(before) and result.ran == 4 - len(before) and result.failed == 0
+    after, keys = rows_by_key(out)
+    assert len(keys) == len(set(keys)) == 4
+    assert all(after[k]["fingerprint"] == before[k]["fingerprint"] for k in before)   # kept, not rerun
+    assert not list(out.rglob(".*.tmp")) and not [p for p in (out / "runs").rglob(".*") if p.is_dir()]
+
+    clean = tmp_path / "clean"
+    run_experiment(spec, clean, workers=2, report=False)
+    uninterrupted, _ = rows_by_key(clean)
+    assert {k: r["fingerprint"] for k, r in uninterrupted.items()} == {k: r["fingerprint"] for k, r in after.items()}
+    status = experiment_status(out)
+    assert (len(status.ok), len(status.failed), len(status.left)) == (4, 0, 0)
+
+
+def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path):
+    spec = spec_file(tmp_path, fidelities=[{"backend": "ideal"},
+                                           {"backend": "mujoco", "settings": {"physics_hz": 250}}],
+                     parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
+    result = run_experiment(spec, tmp_path / "out", workers=2, report=False)
+    rows, _ = rows_by_key(tmp_path / "out")
+    assert result.total == 2 and result.failed == 1
+    assert rows["curve_radius-50_angle-30/ideal"]["status"] == "ok"
+    failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
+    assert failed["status"] == "failed" and "whole multiple of the controller rate" in failed["failure"]
+    # a failed run is finished too: resuming does not run it again
+    assert run_experiment(spec, tmp_path / "out", workers=1, report=False).ran == 0
+
+
+def test_a_run_over_its_time_limit_is_stopped_and_recorded(tmp_path):
+    spec = spec_file(tmp_path, run_timeout_s=0.5, parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
+    start = time.monotonic()
+    result = run_experiment(spec, tmp_path / "out", workers=1, report=False)
+    assert time.monotonic() - start < 30
+    (row,) = ResultsStore(tmp_path / "out").rows()
+    assert result.failed == 1 and row["status"] == "failed" and row["failure"].startswith("timeout")
+
+
+def test_a_changed_spec_is_refused_on_the_same_directory(tmp_path):
+    out = tmp_path / "out"
+    run_experiment(spec_file(tmp_path, parameters={"radius": {"values": [50]}, "angle": {"values": [30]}}),
+                   out, workers=1, report=False)
+    changed = spec_file(tmp_path, "changed.yaml", parameters={"radius": {"values": [50]}, "angle": {"values": [30]}},
+                        cosim={"replan_every": 1})
+    with pytest.raises(InputError, match=r"different spec \(changed: cosim.replan_every\)"):
+        run_experiment(changed, out, workers=1, report=False)
+
+
+def test_the_ray_executor_fills_the_same_store_as_the_local_one(tmp_path):
+    pytest.importorskip("ray")
+    spec = spec_file(tmp_path, parameters={"radius": {"values": [20, 50]}, "angle": {"values": [30]}})
+    run_experiment(spec, tmp_path / "local", workers=2, report=False)
+    run_experiment(spec, tmp_path / "ray", workers=2, executor="ray", report=False)
+    local, _ = rows_by_key(tmp_path / "local")
+    remote, _ = rows_by_key(tmp_path / "ray")
+    assert sorted(local) == sorted(remote) and len(local) == 2
+    for key in local:
+        for column in ("status", "outcome", "fingerprint", "time_to_goal_max_s", "distance_m"):
+            assert local[key][column] == remote[key][column], (key, column)
