@@ -65,9 +65,10 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
     spec = spec_file(tmp_path, fidelities=[{"backend": "ideal"},
                                            {"backend": "mujoco", "settings": {"physics_hz": 250}}],
                      parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
-    result = run_experiment(spec, tmp_path / "out", workers=2, report=False)
+    result = run_experiment(spec, tmp_path / "out", workers=2)
     rows, _ = rows_by_key(tmp_path / "out")
     assert result.total == 2 and result.failed == 1
+    assert "whole multiple of the controller rate" in result.report.read_text()   # the report lists it
     assert rows["curve_radius-50_angle-30/ideal"]["status"] == "ok"
     failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
     assert failed["status"] == "failed" and "whole multiple of the controller rate" in failed["failure"]

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Callable
 
 from simgap.experiment.runner import run_experiment
+from simgap.experiment.store import ResultsStore
 from simgap.report.scene2d import render_run
 from simgap.report.site import build_report
 
@@ -46,5 +47,5 @@ def run_demo(out: Path, workers: int | None = None, say: Callable[[str], None] =
         say(f"rendering {RENDER_3D} in 3D")
         render_run_3d(sharp, frame_every=5)
     say("building the report")
-    index = build_report(out / "runs", out / "report")
+    index = build_report(out / "runs", out / "report", store_rows=ResultsStore(out).rows())
     return DemoResult(index, result.total, result.failed, time.perf_counter() - t0)

@@ -138,10 +138,10 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
         runner.run(todo, context, on_result)
     store.consolidate()
     index = None
-    if report:
+    if report and any((root / "runs").rglob("run.json")):      # every run failed: nothing to draw
         from simgap.report.site import build_report
 
-        index = build_report(root / "runs", root / "report")
+        index = build_report(root / "runs", root / "report", store_rows=store.rows())
     return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
                             progress.skipped, time.perf_counter() - start, index, failures)
 

@@ -280,8 +280,26 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
     return page(out / "scenarios" / f"{name}.html", f"Scenario {group.scenario_id}", body, "../")
 
 
-def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None) -> Path:
-    """Write the report of every run below ``root`` into ``out``; returns ``out/index.html``."""
+def _store_section(rows: list[dict]) -> list[str]:
+    """What the experiment's results store holds, including runs that left no run directory."""
+    by_fidelity: dict[str, Counter] = {}
+    for r in rows:
+        by_fidelity.setdefault(r.get("fidelity", "?"), Counter())[r.get("status", "?")] += 1
+    table_rows = [{"fidelity": f, "ok": c.get("ok", 0), "failed": c.get("failed", 0)}
+                  for f, c in sorted(by_fidelity.items())]
+    failed = [{"run": r["key"], "reason": r.get("failure", "")} for r in rows if r.get("status") != "ok"]
+    body = ["<h2>Results store</h2>",
+            f"<p>{len(rows)} rows in the experiment's store (one per finished run; "
+            "<code>simgap experiment query</code> runs SQL over them).</p>", table(table_rows)]
+    if failed:
+        body += ["<h3>Failed runs</h3>", table(failed)]
+    return body
+
+
+def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None,
+                 store_rows: list[dict] | None = None) -> Path:
+    """Write the report of every run below ``root`` into ``out``; returns ``out/index.html``.
+    ``store_rows`` (an experiment's results store) adds what the store holds, failures included."""
     root, out = Path(root), Path(out)
     groups = collect(root)
     assets = out / "assets"
@@ -361,5 +379,7 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
                           "parameters": ", ".join(f"{k}={g.parameters[k]:g}" for k in params if k in g.parameters),
                           "outcomes": outcomes})
     body += ["<h2>Scenarios, largest gap first</h2>", table(rank_rows)]
+    if store_rows is not None:
+        body += _store_section(store_rows)
     return page(out / "index.html", "simgap report", body, "")
 
