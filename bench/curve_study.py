@@ -1,7 +1,8 @@
 """The curve heatmap study: `curve` at radius {10, 20, 30, 50, 75, 100} m x angle {0, 30, ..., 180}
-deg (42 scenarios) in the ideal world and MuJoCo with the sedan, plus suv and city on the
-sharpest curves, as one experiment (100 runs) — then the heatmap of max |d| and the per-vehicle
-gaps of one scenario, from the report's collection.
+deg (42 scenarios) in the ideal world and MuJoCo with the sedan, plus suv and city on the first
+eight scenarios of the grid (radius 10 m at every angle, and radius 20 m at 0 deg): 100 runs as
+three experiments — then the report, the heatmap of max |d| and the per-vehicle gaps of one
+scenario, from the report's collection.
 
 Usage: python bench/curve_study.py [--out DIR] [--workers N]
 """
@@ -27,7 +28,10 @@ SPECS = [
      "parameters": {"radius": {"values": RADII}, "angle": {"values": ANGLES}},
      "fidelities": [{"backend": "ideal"}, {"backend": "mujoco", "vehicles": ["sedan"]}]},
     {"name": "curve-heatmap-vehicles", "logical": "curve",
-     "parameters": {"radius": {"values": [10]}, "angle": {"values": ANGLES[1:]} },
+     "parameters": {"radius": {"values": [10]}, "angle": {"values": ANGLES}},
+     "fidelities": [{"backend": "mujoco", "vehicles": ["suv", "city"]}]},
+    {"name": "curve-heatmap-vehicles-20", "logical": "curve",
+     "parameters": {"radius": {"values": [20]}, "angle": {"values": [0]}},
      "fidelities": [{"backend": "mujoco", "vehicles": ["suv", "city"]}]},
 ]
 
