@@ -72,8 +72,11 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
     assert rows["curve_radius-50_angle-30/ideal"]["status"] == "ok"
     failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
     assert failed["status"] == "failed" and "whole multiple of the controller rate" in failed["failure"]
-    # a failed run is finished too: resuming does not run it again
+    # a failed run is finished too: resuming does not run it again, unless asked to
     assert run_experiment(spec, tmp_path / "out", workers=1, report=False).ran == 0
+    again = run_experiment(spec, tmp_path / "out", workers=1, report=False, retry_failed=True)
+    assert (again.ran, again.failed, again.skipped) == (1, 1, 1)
+    assert len(ResultsStore(tmp_path / "out").rows()) == 2
 
 
 def test_a_run_over_its_time_limit_is_stopped_and_recorded(tmp_path):

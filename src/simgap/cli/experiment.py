@@ -29,6 +29,7 @@ def run_cmd(
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
+    retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
 ) -> None:
     """Generate the scenarios, run every combination, store the results, build the report.
 
@@ -46,7 +47,8 @@ def run_cmd(
             bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
                        counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
 
-        result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report)
+        result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report,
+                                retry_failed=retry_failed)
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
     for key, reason in result.failures[:20]:

@@ -103,7 +103,9 @@ def _clean_partial_runs(root: Path) -> None:
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   report: bool = True) -> ExperimentResult:
+                   report: bool = True, retry_failed: bool = False) -> ExperimentResult:
+    """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
+    never run again, unless ``retry_failed`` asks to run the failed ones once more."""
     root = Path(root)
     spec, _, path = load_spec(spec_ref)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
@@ -116,7 +118,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     store.prepare()
     _clean_partial_runs(root)
     finished = store.finished_keys()
-    todo = [j for j in all_jobs if j.key not in finished]
+    todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
     progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
     failures: list[tuple[str, str]] = []
     if on_progress:

@@ -40,14 +40,16 @@ def heatmap_grid(points: Sequence[tuple[float, float, float]]) -> tuple[list[flo
 
 
 def plot_heatmap(points: Sequence[tuple[float, float, float]], path: Path, title: str, xlabel: str, ylabel: str,
-                 value_label: str) -> Path:
+                 value_label: str, scale: tuple[float, float] | None = None) -> Path:
+    """``scale``: (low, high) of the colour map (default: the values' range)."""
     xs, ys, grid = heatmap_grid(points)
     fig, ax = plt.subplots(figsize=(max(5.0, 0.7 * len(xs) + 2.5), max(3.5, 0.45 * len(ys) + 1.8)))
-    image = ax.imshow(grid, cmap=HEATMAP_CMAP, origin="lower", aspect="auto")
+    lo, hi = scale if scale else (None, None)
+    image = ax.imshow(grid, cmap=HEATMAP_CMAP, origin="lower", aspect="auto", vmin=lo, vmax=hi)
     ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
     ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
     finite = grid[np.isfinite(grid)]
-    threshold = (finite.min() + finite.max()) / 2 if len(finite) else 0.0
+    threshold = (sum(scale) / 2 if scale else (finite.min() + finite.max()) / 2) if len(finite) else 0.0
     for i in range(len(ys)):
         for j in range(len(xs)):
             if np.isfinite(grid[i, j]):

@@ -135,10 +135,11 @@ def _varying_parameters(groups: Sequence[ScenarioGroup]) -> list[str]:
     return sorted((k for k, v in values.items() if len(v) > 1), key=lambda k: (-len(values[k]), k))
 
 
-def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict) -> str:
+def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
+                  scale: tuple[float, float] | None = None) -> str:
     xs, ys, grid = heatmap_grid(points)
     finite = grid[np.isfinite(grid)]
-    lo, hi = (float(finite.min()), float(finite.max())) if len(finite) else (0.0, 0.0)
+    lo, hi = scale or ((float(finite.min()), float(finite.max())) if len(finite) else (0.0, 0.0))
     rows = [f"<tr><th>{html.escape(ylabel)} \\ {html.escape(xlabel)}</th>"
             + "".join(f"<th>{x:g}</th>" for x in xs) + "</tr>"]
     for i in reversed(range(len(ys))):
@@ -338,6 +339,7 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
         xp, yp = params[0], params[1]
         xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
         body.append("<h2>Where the gap is largest</h2>")
+        maps = {}
         for fidelity in fidelities:
             if fidelity == REFERENCE:
                 continue
@@ -348,12 +350,18 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
                     key = (float(g.parameters[xp]), float(g.parameters[yp]))
                     points.append((*key, gap))
                     links[key] = f"scenarios/{_slug(g.scenario_id)}.html"
-            if not points:
-                continue
+            if points:
+                maps[fidelity] = (points, links)
+        # one colour scale for every fidelity, so colours compare across vehicles and backends
+        values = [v for points, _ in maps.values() for *_, v in points if math.isfinite(v)]
+        scale = (min(values), max(values)) if values else (0.0, 0.0)
+        if len(maps) > 1:
+            body.append(f"<p>All heatmaps share one colour scale, {scale[0]:.2f} to {scale[1]:.2f} m.</p>")
+        for fidelity, (points, links) in maps.items():
             title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
-            body.append(heatmap_table(points, xlabel, ylabel, title, links))
+            body.append(heatmap_table(points, xlabel, ylabel, title, links, scale))
             png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xlabel, ylabel,
-                               "max |d| [m]")
+                               "max |d| [m]", scale)
             body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
 
     wall = {f: [g.runs[f].run.wall_time_s for g in groups if f in g.runs] for f in fidelities}
