@@ -39,3 +39,17 @@ def pydantic_to_input_error(err, file: str | Path | None) -> InputError:
     if "expected" in ctx:
         allowed = str(ctx["expected"])
     return InputError(msg, file=file, field=field or None, allowed=allowed)
+
+
+def validated_settings(model, values: dict, prefix: str = "backend_settings"):
+    """``model(**values)``, or an InputError naming ``prefix.FIELD`` and, for an unknown key, the
+    keys ``model`` has."""
+    from pydantic import ValidationError
+
+    try:
+        return model(**values)
+    except ValidationError as err:
+        error = pydantic_to_input_error(err, None)
+        extra = err.errors()[0].get("type") == "extra_forbidden"
+        allowed = ", ".join(model.model_fields) if extra else error.allowed
+        raise InputError(error.reason, field=f"{prefix}.{error.field}", allowed=allowed) from None

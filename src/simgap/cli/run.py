@@ -23,7 +23,8 @@ from simgap.planning.frenet import FrenetSettings
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
-    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking) or mujoco (3D physics)"),
+    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking), dynamic (single-track model) or "
+                                "mujoco (3D physics)"),
     vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
@@ -32,6 +33,9 @@ def run(
                                                "controller rate)"),
     road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
     offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
+    knob: Optional[list[str]] = typer.Option(None, "--knob", help="reality knob NAME=VALUE (repeatable): "
+                                             "road_friction, steer_delay, pedal_delay, position_noise, yaw_noise, "
+                                             "speed_noise, road_bank, road_grade"),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
     max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
@@ -40,6 +44,7 @@ def run(
     """Run a scenario and print a per-agent summary.
 
     Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
+    (on snow, with a late steering: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.1)
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
@@ -48,13 +53,14 @@ def run(
         raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
                          allowed="dynamic, mujoco")
-    if backend == "dynamic" and set(backend_settings) - {"controller", "controller_hz"}:
-        raise InputError("the dynamic backend has no 3D world: physics rate and surface friction are mujoco "
+    if backend == "dynamic" and set(backend_settings) - {"controller", "controller_hz", "road_friction"}:
+        raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
                          "settings", field="backend", allowed="mujoco")
+    knob_settings, knob_cosim = _knobs(knob or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
-                         backend_settings=backend_settings,
+                         backend_settings=backend_settings | knob_settings,
                          planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
-                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time))
+                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
@@ -70,6 +76,31 @@ def run(
     console.print(f"run written to [bold]{out}[/bold]")
     if result.failure:
         raise typer.Exit(1)
+
+
+def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
+    """``--knob NAME=VALUE`` options as (backend settings, loop settings), checked."""
+    from simgap.experiment.knobs import KNOBS, apply_knobs
+
+    values = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        knob = KNOBS.get(name.strip())
+        if knob is None:
+            raise InputError(f"unknown reality knob '{name}'", field="knob", allowed=", ".join(KNOBS))
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"'{item}' is not NAME=NUMBER", field=f"knob {name}",
+                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}") from None
+        if not knob.low <= value <= knob.high:
+            raise InputError(f"{value:g} {knob.unit} is out of range", field=f"knob {name}",
+                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}")
+        if backend not in knob.backends:
+            raise InputError(f"the knob '{name}' does not apply to the {backend} backend", field=f"knob {name}",
+                             allowed=", ".join(knob.backends))
+        values[knob.name] = value
+    return apply_knobs(backend, values)
 
 
 def print_summary(console: Console, result: Run) -> None:

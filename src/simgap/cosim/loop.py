@@ -4,6 +4,10 @@ Every dt: observe each agent's state from the backend → every active agent pla
 ``replan_every`` steps, or at once if its plan failed or ran out) → the backend advances one dt
 → the loop checks goal, collision, road departure and timeout. The loop knows nothing about
 any concrete backend or planner: it is handed a `Backend` and one `Planner` per agent.
+
+Observation noise (a reality knob, off by default as in the ideal world): each time an agent
+plans, it sees its own state with seeded Gaussian noise on position, heading and speed; the
+backend, the record and the monitors keep the true state.
 """
 
 from __future__ import annotations
@@ -16,13 +20,36 @@ from typing import Callable, Mapping
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Run
 from simgap.cosim.traffic import DrivableArea, footprint, non_agent_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import State, Trajectory, wrap_angle
+
+
+class ObservationNoise(BaseModel):
+    """Standard deviations of the noise on the state a planner observes (0: none)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    position_m: float = Field(0.0, ge=0, le=5.0, description="on x and y, each [m]")
+    yaw_deg: float = Field(0.0, ge=0, le=30.0, description="on the heading [deg]")
+    speed_mps: float = Field(0.0, ge=0, le=5.0, description="on the speed [m/s]")
+
+    @property
+    def active(self) -> bool:
+        return bool(self.position_m or self.yaw_deg or self.speed_mps)
+
+    def observe(self, state: State, rng: np.random.Generator) -> State:
+        if not self.active:
+            return state
+        dx, dy, dyaw, dv = rng.standard_normal(4)
+        return state.replace(x=state.x + self.position_m * dx, y=state.y + self.position_m * dy,
+                             yaw=wrap_angle(state.yaw + math.radians(self.yaw_deg) * dyaw),
+                             v=max(0.0, state.v + self.speed_mps * dv))
 
 
 class CosimSettings(BaseModel):
@@ -36,6 +63,8 @@ class CosimSettings(BaseModel):
     planner_failure_limit: int = Field(
         10, ge=1, description="consecutive failed planning cycles before an agent is given up")
     offroad_tolerance: float = Field(0.05, ge=0, description="footprint may exceed the road by [m]")
+    observation_noise: ObservationNoise = Field(default_factory=ObservationNoise,
+                                                description="noise on the state each planner observes")
 
 
 @dataclass
@@ -92,9 +121,12 @@ def simulate(
     planners: Mapping[int, Planner],
     settings: CosimSettings | None = None,
     progress: Callable[[float], None] | None = None,
+    seed: int = 0,
 ) -> Run:
-    """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``."""
+    """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``; ``seed``
+    seeds the observation noise."""
     settings = settings or CosimSettings()
+    noise, rng = settings.observation_noise, np.random.default_rng(seed)
     dt = float(scenario.dt)
     wall_start = time.perf_counter()
     timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
@@ -142,7 +174,7 @@ def simulate(
                               tuple(_traffic_for(aid, snapshot, obstacles)))
                 reason = "no feasible collision-free sample; emergency stop"
                 try:
-                    plan = p.planner.plan(state, t, world)
+                    plan = p.planner.plan(noise.observe(state, rng), t, world)
                 except Exception as exc:  # a planner that crashes fails its cycle, not the run
                     plan, reason = None, f"planner raised {type(exc).__name__}: {exc}; emergency stop"
                 if plan is None:

@@ -5,6 +5,11 @@ leaks into them), hands each one run at a time, and watches them: a worker that 
 a kill) or overruns the per-run timeout is replaced, and only its run is recorded as failed, with
 the reason. `RayExecutor` submits the same job function to a Ray cluster (a local one when no
 address is given); results come back to the driver, which alone writes the store.
+
+Both take the jobs as a list, or as a `JobSource`: a function asked for the next job whenever a
+worker is free, which returns ``None`` when it has nothing to give right now (a search that
+waits for results before it proposes more). The executor stops when the source has nothing and
+no job is in flight.
 """
 
 from __future__ import annotations
@@ -18,6 +23,14 @@ from typing import Any, Callable
 from simgap.experiment.spec import Job
 
 OnResult = Callable[[Job, dict[str, Any]], None]
+JobSource = Callable[[], "Job | None"]
+
+
+def _source(jobs: "list[Job] | JobSource") -> JobSource:
+    if callable(jobs):
+        return jobs
+    queue = list(jobs)
+    return lambda: queue.pop(0) if queue else None
 
 
 def failed_row(job: Job, reason: str) -> dict[str, Any]:
@@ -79,16 +92,21 @@ class LocalExecutor:
         self.workers = max(1, workers)
         self.timeout_s = timeout_s
 
-    def run(self, jobs: list[Job], context: dict, on_result: OnResult) -> None:
+    def run(self, jobs: "list[Job] | JobSource", context: dict, on_result: OnResult) -> None:
         ctx = mp.get_context("spawn")
-        queue = list(jobs)
-        pool = [_Worker(ctx) for _ in range(min(self.workers, len(queue)))]
+        size = self.workers if callable(jobs) else min(self.workers, len(jobs))
+        next_job = _source(jobs)
+        pool = [_Worker(ctx) for _ in range(size)]
         try:
-            while queue or any(w.job is not None for w in pool):
+            while True:
                 for w in pool:
-                    if w.job is None and queue:
-                        w.give(queue.pop(0), context)
+                    if w.job is None:
+                        job = next_job()
+                        if job is not None:
+                            w.give(job, context)
                 busy = [w for w in pool if w.job is not None]
+                if not busy:
+                    break
                 ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout=0.5)
                 now = time.monotonic()
                 for i, w in enumerate(pool):
@@ -137,7 +155,7 @@ class RayExecutor:
         self.timeout_s = timeout_s
         self.address = address
 
-    def run(self, jobs: list[Job], context: dict, on_result: OnResult) -> None:
+    def run(self, jobs: "list[Job] | JobSource", context: dict, on_result: OnResult) -> None:
         import ray
 
         started_here = not ray.is_initialized()
@@ -149,13 +167,17 @@ class RayExecutor:
             else:
                 ray.init(num_cpus=self.workers, **kwargs)
         remote = ray.remote(max_retries=0, num_cpus=1)(_ray_job)
-        queue = list(jobs)
+        next_job = _source(jobs)
         pending: dict[Any, tuple[Job, float]] = {}
         try:
-            while queue or pending:
-                while queue and len(pending) < self.workers:
-                    job = queue.pop(0)
+            while True:
+                while len(pending) < self.workers:
+                    job = next_job()
+                    if job is None:
+                        break
                     pending[remote.remote(job, context)] = (job, time.monotonic())
+                if not pending:
+                    break
                 done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
                 for ref in done:
                     job, _ = pending.pop(ref)

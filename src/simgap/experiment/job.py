@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -47,18 +48,31 @@ def run_row(job: Job, run: Run, run_dir: Path, root: Path) -> dict[str, Any]:
         "wall_time_s": run.wall_time_s, "fingerprint": run.fingerprint,
         "run_dir": str(run_dir.relative_to(root)),
     }
+    row |= _run_metrics(job, run)
     row |= {f"time_{phase}_s": float(v) for phase, v in run.timings.items()}
     row |= {f"version_{name}": v for name, v in run.versions.items()}
     return row
 
 
+def _run_metrics(job: Job, run: Run) -> dict[str, float]:
+    from simgap.evaluate.run_metrics import run_metrics
+    from simgap.scenario import load_scenario
+
+    scenario, problems = load_scenario(run.scenario_path)
+    return run_metrics(run, scenario, problems, float(job.backend_settings.get("road_friction", 1.0)))
+
+
 def execute_job(job: Job, context: dict[str, Any]) -> dict[str, Any]:
     """Run ``job`` into its run directory under ``context['root']`` and return its store row."""
+    started = time.perf_counter()
     root = Path(context["root"])
     run_dir = run_dir_of(root, job)
-    request = RunRequest(scenario=Path(context["scenarios"][job.scenario]), backend=job.backend,
-                         vehicles=job.vehicle, backend_settings=dict(job.backend_settings),
+    cosim = dict(context.get("cosim") or {}) | dict(job.cosim)
+    request = RunRequest(scenario=Path(job.scenario_path or context["scenarios"][job.scenario]),
+                         backend=job.backend, vehicles=job.vehicle, backend_settings=dict(job.backend_settings),
                          planner=FrenetSettings.from_mapping(context.get("planner")),
-                         cosim=CosimSettings(**(context.get("cosim") or {})), seed=job.seed)
+                         cosim=CosimSettings(**cosim), seed=job.seed)
     run = execute(request, run_dir)
-    return run_row(job, run, run_dir, root)
+    row = run_row(job, run, run_dir, root)
+    row["job_time_s"] = time.perf_counter() - started
+    return row

@@ -80,7 +80,7 @@ def execute(request: RunRequest, out: Path | None = None,
         for a in agents
     }
     backend = make_backend(request.backend, **request.backend_settings)
-    run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress)
+    run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
     meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)

@@ -19,10 +19,9 @@ from simgap.cosim import Run
 from simgap.errors import InputError
 from simgap.evaluate.compare import AgentComparison, compare_runs
 from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
-from simgap.cosim.traffic import DrivableArea, footprint
-from simgap.evaluate.route_centre import route_centre, route_lanelets
+from simgap.evaluate.route_centre import route_centre
+from simgap.evaluate.run_metrics import lane_excursion
 from simgap.scenario import load_scenario
-from simgap.vehicles import load_vehicle
 
 REFERENCE = "ideal"
 DEFAULT_CONTROLLER = "pure_pursuit"
@@ -94,15 +93,8 @@ def find_run_dirs(root: Path) -> list[Path]:
     return dirs
 
 
-def lane_excursion(run: Run, aid: int, scenario: Scenario, problem) -> float:
-    """How far [m] the agent's footprint reached beyond the lanes of its route (lane departure)."""
-    lanes = route_lanelets(scenario.lanelet_network, problem)
-    if not lanes:
-        return float("nan")
-    area = DrivableArea(scenario.lanelet_network, 0.0, lanes)
-    outcome = next(a for a in run.agents if a.id == aid)
-    vehicle = load_vehicle(outcome.vehicle)
-    return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in run.driven[aid]), default=0.0)
+def _vehicle_of(run: Run, aid: int) -> str:
+    return next(a.vehicle for a in run.agents if a.id == aid)
 
 
 def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> list[AgentTracking]:
@@ -118,7 +110,8 @@ def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> lis
                                  Aggregate.of(frenet.lateral) if frenet else Aggregate.of([]),
                                  Aggregate.of(frenet.longitudinal) if frenet else Aggregate.of([]),
                                  comfort(driven),
-                                 lane_excursion(run, aid, scenario, problem) if problem is not None else float("nan")))
+                                 lane_excursion(driven, _vehicle_of(run, aid), scenario, problem)
+                                 if problem is not None else float("nan")))
     return out
 
 

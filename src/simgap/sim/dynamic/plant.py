@@ -16,6 +16,13 @@ CommonRoad parameter set (2 = BMW 320i). In front of it sit two actuators:
 Integration: classical Runge-Kutta (RK4) with the inputs held over each sub-step of at most
 ``integration_step`` seconds (1 ms by default).
 
+Road friction (a reality knob, 1.0 = the parameter set's dry road) scales the tyres' friction
+coefficient. The single-track model's tyres are linear, so on their own they never run out of
+grip; the plant therefore also caps the longitudinal acceleration by the friction circle,
+``|a| <= sqrt((mu g)^2 - (v yaw_rate)^2)``, so that braking and driving on a slippery road take
+what the road can give. `MultiBodyPlant` is the multi-body (MB) model instead: 29 states,
+Pacejka tyres that saturate, suspension and wheel spin — about ten times slower.
+
 The vehicle's geometry (axle positions), steering and acceleration limits and, when its
 ``physics`` gives one, its mass override the parameter set; the yaw inertia is scaled with
 mass and wheelbase squared. Tyres and the centre-of-gravity height stay those of the set.
@@ -28,10 +35,12 @@ import math
 from functools import lru_cache
 
 from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
+from vehiclemodels.init_mb import init_mb
+from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
 from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_parameters
 
-from simgap.control.longitudinal import LongitudinalMap
+from simgap.control.longitudinal import GRAVITY, LongitudinalMap
 from simgap.control.protocol import Command
 from simgap.errors import InputError
 from simgap.trajectory import State, wrap_angle
@@ -73,12 +82,19 @@ class SingleTrackPlant:
     """One vehicle on CommonRoad's single-track model, driven by steering/throttle/brake."""
 
     def __init__(self, vehicle, params_id: int = 2, *, integration_step: float = 1e-3,
-                 steer_time_constant: float = 0.05, accel_time_constant: float = 0.1):
+                 steer_time_constant: float = 0.05, accel_time_constant: float = 0.1,
+                 road_friction: float = 1.0):
         if integration_step <= 0:
             raise ValueError("integration_step must be > 0")
+        if road_friction <= 0:
+            raise ValueError("road_friction must be > 0")
         self.vehicle = vehicle
         self.params_id = params_id
         self.p = single_track_parameters(vehicle, params_id)
+        self.road_friction = float(road_friction)
+        self.p.tire.p_dy1 *= self.road_friction
+        self.p.tire.p_dx1 *= self.road_friction
+        self.grip = self.p.tire.p_dy1 * GRAVITY          # the friction circle's radius [m/s^2]
         self.pedal_map = LongitudinalMap.for_vehicle(vehicle)
         self.integration_step = float(integration_step)
         self.steer_time_constant = float(steer_time_constant)
@@ -124,6 +140,9 @@ class SingleTrackPlant:
             elif v > 0.0 and v + a * h < 0.0:
                 a = -v / h                   # come to rest exactly at the end of the sub-step
             a = acceleration_constraints(v, a, self.p.longitudinal)
+            lateral = v * x[5]
+            cap = math.sqrt(max(self.grip * self.grip - lateral * lateral, 0.0))
+            a = min(max(a, -cap), cap)
             x = self._rk4(x, target, a, h)
             if x[3] < 0.0:
                 x[3] = 0.0
@@ -159,3 +178,45 @@ class SingleTrackPlant:
         x = self._x
         return State(t=self._t, x=x[0], y=x[1], yaw=wrap_angle(x[4]), v=x[3], a=self._applied,
                      yaw_rate=x[5], steer=x[2])
+
+
+class MultiBodyPlant(SingleTrackPlant):
+    """The same actuators in front of CommonRoad's multi-body model (``vehicle_dynamics_mb``).
+
+    Its reference point is the sprung mass's centre of gravity, taken as the vehicle's centre;
+    speed is the magnitude of the longitudinal and lateral velocity there. The friction circle
+    cap of the single-track plant is kept (the MB tyres saturate on their own as well).
+    """
+
+    def reset(self, state: State) -> State:
+        lwb = self.p.a + self.p.b
+        beta = math.atan(math.tan(state.steer) * self.p.b / lwb)
+        v = max(state.v, 0.0)
+        self._x = list(init_mb([state.x, state.y, state.steer, v, state.yaw, state.yaw_rate, beta], self.p))
+        self._t = float(state.t)
+        self._accel = float(state.a)
+        self._applied = float(state.a)
+        self.state = self._observe()
+        return self.state
+
+    def _rhs(self, x: list[float], target: float, a: float) -> list[float]:
+        steer_rate = ((target - x[2]) / self.steer_time_constant
+                      if self.steer_time_constant > 0 else 0.0)
+        return vehicle_dynamics_mb(x, [steer_rate, a], self.p)
+
+    def _observe(self) -> State:
+        x = self._x
+        return State(t=self._t, x=x[0], y=x[1], yaw=wrap_angle(x[4]), v=math.hypot(x[3], x[10]),
+                     a=self._applied, yaw_rate=x[5], steer=x[2])
+
+
+PLANTS = {"st": SingleTrackPlant, "mb": MultiBodyPlant}
+
+
+def make_plant(model: str, vehicle, params_id: int = 2, road_friction: float = 1.0,
+               integration_step: float = 1e-3) -> SingleTrackPlant:
+    """The plant of vehicle model ``model``: ``st`` (single-track) or ``mb`` (multi-body)."""
+    if model not in PLANTS:
+        raise InputError(f"unknown vehicle model '{model}'", field="backend_settings.model",
+                         allowed=", ".join(PLANTS))
+    return PLANTS[model](vehicle, params_id, road_friction=road_friction, integration_step=integration_step)

@@ -10,6 +10,12 @@ drag and the friction of the surface under each tyre are set; then physics runs 
 (default 500 Hz) until the next controller update. Physical contacts with other cars or with
 traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
+
+Reality knobs beyond the world's friction: ``steer_delay`` and ``pedal_delay`` [s] delay the
+controller's commands (`simgap.control.delay`); ``road_bank`` and ``road_grade`` [deg] tilt the
+road under each car. The ground stays a plane: the slope acts as the component of gravity along
+it, ``m g sin(angle)``, applied to the car across (bank) or along (grade) the nearest lane centre
+line; the small loss of normal load (``cos(angle)``, under 1 % at 8 deg) is neglected.
 """
 
 from __future__ import annotations
@@ -21,12 +27,12 @@ from typing import Any, Mapping, Sequence
 import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
-from pydantic import ValidationError
 
 from simgap.control import make_controller
+from simgap.control.delay import with_actuator_delay
 from simgap.control.longitudinal import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.errors import InputError, validated_settings
 from simgap.sim.mujoco.car import (CORNERS, CarIndex, ackermann_angles, max_single_track_angle,
                                    single_track_angle, up_z, yaw_of)
 from simgap.sim.mujoco.world import World, WorldSettings, build_world
@@ -41,17 +47,17 @@ class MujocoBackend:
     name = "mujoco"
 
     def __init__(self, controller: str = "pure_pursuit", controller_hz: float = 100.0,
-                 controller_gains: Mapping[str, Any] | None = None, **world: Any):
+                 controller_gains: Mapping[str, Any] | None = None, steer_delay: float = 0.0,
+                 pedal_delay: float = 0.0, **world: Any):
         self.controller_name = controller
         self.controller_hz = float(controller_hz)
         self.controller_gains = dict(controller_gains or {})
-        try:
-            self.settings = WorldSettings(**world)
-        except ValidationError as err:
-            error = pydantic_to_input_error(err, None)
-            extra = err.errors()[0].get("type") == "extra_forbidden"
-            allowed = ", ".join(WorldSettings.model_fields) if extra else error.allowed
-            raise InputError(error.reason, field=f"backend_settings.{error.field}", allowed=allowed) from None
+        for name, value in (("steer_delay", steer_delay), ("pedal_delay", pedal_delay)):
+            if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
+                raise InputError(f"{value!r} is not a delay", field=f"backend_settings.{name}",
+                                 allowed="0 to 1 s")
+        self.steer_delay, self.pedal_delay = float(steer_delay), float(pedal_delay)
+        self.settings = validated_settings(WorldSettings, world)
         substeps = self.settings.physics_hz / self.controller_hz
         if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
             raise InputError(f"physics rate {self.settings.physics_hz:g} Hz must be a whole multiple of the "
@@ -66,8 +72,11 @@ class MujocoBackend:
         self._dt = float(scenario.dt)
         self._agents = list(agents)
         self.world = build_world(scenario, agents, self.settings)
-        self._controllers = {a.id: make_controller(self.controller_name, a.vehicle, self.controller_hz,
-                                                   self.controller_gains) for a in agents}
+        self._controllers = {a.id: with_actuator_delay(make_controller(self.controller_name, a.vehicle,
+                                                                       self.controller_hz, self.controller_gains),
+                                                       self.steer_delay, self.pedal_delay) for a in agents}
+        bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
+        self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [self.world.cars[a.id] for a in agents]
         self._wheel_bodies = np.array([b for car in cars for b in car.wheel_bodies], dtype=int)
         self._tyre_pairs = np.array([p for car in cars for p in car.tyre_pairs], dtype=int)
@@ -196,7 +205,16 @@ class MujocoBackend:
         vx, vy = d.qvel[car.qvel], d.qvel[car.qvel + 1]
         speed = math.hypot(vx, vy)
         drag = 0.5 * AIR_DENSITY * ph.drag_coefficient_area * speed
-        d.xfrc_applied[car.chassis_body, 0:2] = [-drag * vx, -drag * vy]
+        fx, fy = -drag * vx, -drag * vy
+        if self._slope is not None:        # gravity along a banked or graded road
+            q = d.qpos
+            tx, ty = w.surface.road_direction(float(q[car.qpos]), float(q[car.qpos + 1]),
+                                              yaw_of(q[car.qpos + 3:car.qpos + 7]))
+            weight = ph.mass * GRAVITY
+            bank, grade = self._slope
+            fx += weight * (bank * ty - grade * tx)       # right of travel: (ty, -tx)
+            fy += weight * (-bank * tx - grade * ty)
+        d.xfrc_applied[car.chassis_body, 0:2] = [fx, fy]
 
     def apply_surface(self) -> None:
         """Give every tyre the friction of the surface it stands on: road or verge."""

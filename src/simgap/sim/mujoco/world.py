@@ -36,6 +36,9 @@ class WorldSettings(BaseModel):
     physics_hz: float = Field(500.0, ge=200.0, le=5000.0, description="physics rate [Hz]")
     road_friction: float = Field(1.0, gt=0, le=1.5, description="road surface friction, scales each tyre's [-]")
     offroad_friction: float = Field(0.6, gt=0, le=1.5, description="off-road (verge) friction, scales each tyre's [-]")
+    road_bank: float = Field(0.0, ge=-15.0, le=15.0,
+                             description="cross slope [deg]; positive: the road falls to the right of the way of travel")
+    road_grade: float = Field(0.0, ge=-15.0, le=15.0, description="grade [deg]; positive: uphill in the way of travel")
 
 
 @dataclass

@@ -1,0 +1,63 @@
+"""The scalars of one run that a search or a failure rule looks at, per agent and worst over
+agents: how far each agent strayed from its lane's centre, whether its footprint left its lanes,
+how far it drifted from its plans, and how much of the road's grip it used.
+
+They are computed from the run alone (no other fidelity needed), in the route-centre Frenet
+frame of `simgap.evaluate.route_centre`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
+
+from simgap.control.longitudinal import GRAVITY
+from simgap.cosim.traffic import DrivableArea, footprint
+from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
+from simgap.evaluate.route_centre import route_centre, route_lanelets
+from simgap.vehicles import load_vehicle
+
+#: name -> (unit, meaning); every one is the worst over the run's agents
+RUN_METRICS = {
+    "max_lateral_offset_m": ("m", "largest |d| of the driven path from its lane's centre line"),
+    "max_lane_excursion_m": ("m", "how far the footprint reached beyond the lanes of its route (0: stayed in)"),
+    "max_tracking_lateral_m": ("m", "largest lateral gap between the driven and the promised (planned) position"),
+    "peak_grip_use": ("-", "peak of sqrt(a_long^2 + a_lat^2) / (road friction x g): above 1 asks more than the road gives"),
+}
+
+
+def lane_excursion(driven, vehicle_name: str, scenario: Scenario, problem) -> float:
+    """How far [m] an agent's footprint reached beyond the lanes of its route (lane departure)."""
+    lanes = route_lanelets(scenario.lanelet_network, problem)
+    if not lanes:
+        return float("nan")
+    area = DrivableArea(scenario.lanelet_network, 0.0, lanes)
+    vehicle = load_vehicle(vehicle_name)
+    return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in driven), default=0.0)
+
+
+def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float = 1.0) -> dict[str, float]:
+    """`RUN_METRICS` of ``run`` (NaN where an agent has no route to its goal)."""
+    worst = {name: -math.inf for name in RUN_METRICS}
+    grip = road_friction * GRAVITY
+    for outcome in run.agents:
+        driven = run.driven[outcome.id]
+        problem = problems.planning_problem_dict.get(outcome.id)
+        frame = route_centre(scenario.lanelet_network, problem) if problem is not None else None
+        values = {name: math.nan for name in RUN_METRICS}
+        if frame is not None and len(driven):
+            _, d = lateral_profile(driven, frame)
+            values["max_lateral_offset_m"] = float(np.max(np.abs(d)))
+            lateral = frenet_tracking_errors(driven, run.plans.get(outcome.id, []), frame).lateral
+            values["max_tracking_lateral_m"] = float(np.max(np.abs(lateral))) if len(lateral) else 0.0
+            values["max_lane_excursion_m"] = lane_excursion(driven, outcome.vehicle, scenario, problem)
+        if len(driven):
+            combined = np.hypot(driven.a, driven.v * driven.yaw_rate)
+            values["peak_grip_use"] = float(combined.max() / grip)
+        for name, v in values.items():
+            if not math.isnan(v):
+                worst[name] = max(worst[name], v)
+    return {name: (v if math.isfinite(v) else math.nan) for name, v in worst.items()}
