@@ -127,6 +127,34 @@ def test_physics_options_are_refused_where_they_do_not_apply(tmp_path):
     assert not (tmp_path / "r").exists()
 
 
+def test_reality_knobs_on_the_command_line(tmp_path):
+    simgap("generate", "curve", "--set", "radius=10", "--set", "angle=90", "--no-preview", "--out", str(tmp_path))
+    xml = str(tmp_path / "curve_radius-10_angle-90.xml")
+    assert_clean_error(simgap("run", xml, "--knob", "grip=0.3", "--out", str(tmp_path / "r")),
+                       "unknown reality knob 'grip'", "road_friction")
+    assert_clean_error(simgap("run", xml, "--backend", "dynamic", "--knob", "road_bank=3", "--out", str(tmp_path / "r")),
+                       "does not apply to the dynamic backend", "mujoco")
+    assert_clean_error(simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=2", "--out", str(tmp_path / "r")),
+                       "out of range", "0 to 1 s")
+    assert not (tmp_path / "r").exists()
+    proc = simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=0.05", "--knob", "position_noise=0.05",
+                  "--json", "--out", str(tmp_path / "r"))
+    assert proc.returncode == 0, proc.stderr
+    saved = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert saved["settings"]["backend"]["steer_delay"] == 0.05
+    assert saved["settings"]["cosim"]["observation_noise"]["position_m"] == 0.05
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["search", "curve-gaps", "--budget", "soon", "--out", "s"], ["'soon' is not a budget", "20m"]),
+    (["search", "nowhere", "--budget", "5", "--out", "s"], ["unknown search 'nowhere'", "curve-gaps"]),
+    (["search-status", "s"], ["not a search directory"]),
+])
+def test_search_refuses_bad_input_clearly(tmp_path, args, fragments):
+    assert_clean_error(simgap(*args, cwd=tmp_path), *fragments)
+    assert not (tmp_path / "s" / "search.json").exists()
+
+
 def test_vehicles_lists_the_catalogue_and_shows_one():
     proc = simgap("vehicles")
     assert proc.returncode == 0, proc.stderr

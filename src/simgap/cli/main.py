@@ -19,7 +19,7 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from simgap.cli import compare, demo, experiment, generate, render, report, run, vehicles  # noqa: F401
+    from simgap.cli import compare, demo, experiment, generate, render, report, run, search, vehicles  # noqa: F401
 
 
 def main() -> None:

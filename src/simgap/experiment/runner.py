@@ -92,7 +92,7 @@ def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], d
     return spec, all_jobs, scenarios
 
 
-def _clean_partial_runs(root: Path) -> None:
+def clean_partial_runs(root: Path) -> None:
     """Remove run directories a killed worker left half-built (they are never read)."""
     runs = root / "runs"
     if runs.exists():
@@ -116,7 +116,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     spec, all_jobs, scenarios = plan(spec_ref, root)
     store = ResultsStore(root)
     store.prepare()
-    _clean_partial_runs(root)
+    clean_partial_runs(root)
     finished = store.finished_keys()
     todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
     progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -116,6 +116,8 @@ class Job:
     backend_settings: dict[str, Any]
     repeat: int
     seed: int
+    cosim: dict[str, Any] = field(default_factory=dict)      # over the experiment's cosim settings
+    scenario_path: str | None = None                          # else the context's scenarios[scenario]
 
     @property
     def fidelity(self) -> str:
@@ -129,52 +131,63 @@ def _builtin_dir() -> Path:
     return Path(str(resources.files("simgap.experiment") / "builtin"))
 
 
-def builtin_specs() -> list[str]:
-    return sorted(p.stem for p in _builtin_dir().glob("*.yaml"))
-
-
-def spec_path(name_or_path: str | Path) -> Path:
+def builtin_or_file(name_or_path: str | Path, folder: Path, what: str) -> Path:
+    """A YAML file given by path, or the built-in ``folder/NAME.yaml``."""
     path = Path(name_or_path)
     if path.suffix in (".yaml", ".yml") or "/" in str(name_or_path):
         return path
-    builtin = _builtin_dir() / f"{name_or_path}.yaml"
+    builtin = folder / f"{name_or_path}.yaml"
     if not builtin.exists():
-        raise InputError(f"unknown experiment '{name_or_path}'", field="spec",
-                         allowed=f"a YAML file, or one of {', '.join(builtin_specs())}")
+        names = ", ".join(sorted(p.stem for p in folder.glob("*.yaml")))
+        raise InputError(f"unknown {what} '{name_or_path}'", field="spec", allowed=f"a YAML file, or one of {names}")
     return builtin
+
+
+def spec_path(name_or_path: str | Path) -> Path:
+    return builtin_or_file(name_or_path, _builtin_dir(), "experiment")
 
 
 def _error_path(loc) -> str:
     return ".".join(str(p) for p in loc)
 
 
-def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario, Path]:
-    """The spec, its logical scenario, and the spec file; every problem is an `InputError`."""
-    path = spec_path(name_or_path)
+def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
+    """``path`` read as YAML and validated as ``model``; every problem is an `InputError` naming
+    the file, the field path and, where it can, what is allowed."""
     try:
         raw = yaml.safe_load(path.read_text())
     except OSError as exc:
-        raise InputError(f"cannot read the experiment spec: {exc.strerror}", file=path) from None
+        raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
     except yaml.YAMLError as exc:
         raise InputError(f"not valid YAML: {exc}", file=path) from None
     if not isinstance(raw, dict):
-        raise InputError("an experiment spec is a mapping", file=path, allowed="name, logical, fidelities, ...")
+        raise InputError(f"a {what} is a mapping", file=path, allowed=keys)
     try:
-        spec = ExperimentSpec.model_validate(raw)
+        return model.model_validate(raw)
     except ValidationError as err:
         first = err.errors()[0]
-        field = _error_path(first.get("loc", ()))
         allowed = None
         if first.get("type") == "extra_forbidden":
-            allowed = _allowed_keys(first.get("loc", ()))
+            allowed = _allowed_keys(first.get("loc", ()), model)
         elif "expected" in (first.get("ctx") or {}):  # a literal's choices
             allowed = str(first["ctx"]["expected"])
-        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=path, field=field,
-                         allowed=allowed) from None
-    logical_ref = spec.logical
-    if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
-        logical_ref = str(path.parent / logical_ref)
-    logical = load_logical(logical_ref)
+        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=path,
+                         field=_error_path(first.get("loc", ())), allowed=allowed) from None
+
+
+def logical_of(spec: Any, path: Path) -> LogicalScenario:
+    """The logical scenario a spec names: built-in, or a YAML file relative to the spec."""
+    ref = spec.logical
+    if ref.endswith((".yaml", ".yml")) and not Path(ref).is_absolute():
+        ref = str(path.parent / ref)
+    return load_logical(ref)
+
+
+def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario, Path]:
+    """The spec, its logical scenario, and the spec file; every problem is an `InputError`."""
+    path = spec_path(name_or_path)
+    spec = read_spec(path, ExperimentSpec, "experiment spec", "name, logical, fidelities, ...")
+    logical = logical_of(spec, path)
     _check_against(spec, logical, path)
     return spec, logical, path
 

@@ -1,0 +1,77 @@
+"""`simgap search`: look for scenarios that pass in the ideal world and fail in a higher fidelity,
+with each strategy of the spec on the same budget; resumable."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from simgap.cli.main import app
+
+
+@app.command("search")
+def search_cmd(
+    spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
+    budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
+    out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)"),
+    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
+    executor: str = typer.Option("local", help="local (process pool) or ray"),
+    address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
+    no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
+) -> None:
+    """Search the spec's space for violated planning assumptions, one strategy after another.
+
+    Running it again on the same --out resumes each strategy where it stopped, with the budget
+    it has left (give a larger --budget to go on). Example:
+    simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
+    """
+    from simgap.experiment.search import parse_budget, run_search
+
+    limit = parse_budget(budget)
+    console = Console()
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
+                  TimeElapsedColumn(), console=console) as bar:
+        tasks: dict[str, int] = {}
+
+        def show(p) -> None:
+            if p.strategy not in tasks:
+                total = limit.seconds if limit.seconds is not None else limit.runs
+                tasks[p.strategy] = bar.add_task(p.strategy, total=total, counts="")
+            done = p.elapsed_s if limit.seconds is not None else p.runs
+            bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
+                       counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
+
+        results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
+                             report=not no_report)
+    _print(console, results)
+    if not no_report:
+        console.print(f"report: [bold]{out / 'report' / 'index.html'}[/bold]")
+
+
+def _print(console: Console, results) -> None:
+    t = Table(title="what each strategy found")
+    for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "per CPU-h"):
+        t.add_column(col, justify="left" if col == "strategy" else "right")
+    for r in results:
+        t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
+                  str(r.violations), str(r.distinct), f"{r.per_cpu_hour:.1f}")
+    console.print(t)
+
+
+@app.command("search-status")
+def status_cmd(out: Path = typer.Argument(..., help="search directory")) -> None:
+    """What each strategy of a search has spent and found so far.
+
+    Example: simgap search-status studies/gaps
+    """
+    from simgap.experiment.search import search_results
+
+    _, results = search_results(out)
+    _print(Console(), results)

@@ -1,0 +1,198 @@
+"""The search spec: which space to search (scenario parameters and reality knobs), in which
+ladder of fidelities, what a failure is, what to maximise, and which strategies to compare.
+
+Example (the built-in ``curve-gaps``, abridged)::
+
+    name: curve-gaps
+    logical: curve
+    parameters:                        # the scenario's dimensions: ranges to search
+      radius: {min: 10, max: 100}
+      initial_speed: {min: 0, max: 25}
+    knobs:                             # reality knobs (see simgap.experiment.knobs)
+      road_friction: {min: 0.2, max: 1.0}
+      steer_delay: {min: 0, max: 0.25}
+    vehicles: [sedan, suv, city]       # more than one: a dimension of the search
+    ladder:                            # cheapest first: ideal, optional screens, the high fidelity
+      - {backend: ideal}
+      - {backend: dynamic, cosim: {replan_every: 5}}
+      - {backend: mujoco}
+    failure:                           # any one of these makes a run a failure
+      goal_missed: true
+      above: {max_lane_excursion_m: 0.0}
+    objective: max_lateral_offset_m    # maximised by the optimising strategies
+    strategies: [grid, random, lhs, bo, multi_fidelity]
+
+A "violated assumption" is a candidate that passes in the ideal fidelity and fails in the high
+one. A wrong key, type or range is an `InputError` naming the file, the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from simgap.errors import InputError
+from simgap.evaluate.run_metrics import RUN_METRICS
+from simgap.experiment.knobs import KNOBS
+from simgap.scenario.logical import LogicalScenario
+
+STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
+#: metrics a failure rule or an objective may name: the per-run metrics and the store's scalars
+METRICS = tuple(RUN_METRICS) + ("max_road_excursion_m", "peak_lateral_acceleration", "peak_jerk",
+                                "min_distance_m", "planner_failures")
+
+
+class Range(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    min: float
+    max: float
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Range":
+        if self.min > self.max:
+            raise ValueError("min must not exceed max")
+        return self
+
+
+class Rung(BaseModel):
+    """One fidelity of the ladder."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    backend: str
+    settings: dict[str, Any] = Field(default_factory=dict, description="backend settings")
+    cosim: dict[str, Any] = Field(default_factory=dict, description="loop settings for this fidelity")
+
+
+class FailureRule(BaseModel):
+    """What makes a run a failure: any one condition."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    goal_missed: bool = Field(True, description="any outcome but reaching the goal (collision, off road, ...)")
+    collision: bool = Field(True, description="a collision")
+    above: dict[str, float] = Field(default_factory=dict, description="metric -> bound it must not exceed")
+    below: dict[str, float] = Field(default_factory=dict, description="metric -> bound it must not fall under")
+
+    def failed(self, row: dict[str, Any]) -> str | None:
+        """Why ``row`` (a finished run) is a failure, or None."""
+        outcome = row.get("outcome")
+        if self.collision and outcome == "collision":
+            return "collision"
+        if self.goal_missed and outcome not in (None, "goal_reached"):
+            return f"goal missed ({outcome})"
+        for name, bound in self.above.items():
+            v = row.get(name)
+            if v is not None and not math.isnan(v) and v > bound:
+                return f"{name} {v:.3g} > {bound:g}"
+        for name, bound in self.below.items():
+            v = row.get(name)
+            if v is not None and not math.isnan(v) and v < bound:
+                return f"{name} {v:.3g} < {bound:g}"
+        return None
+
+
+class SearchSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+    description: str = ""
+    logical: str
+    parameters: dict[str, Range] = Field(default_factory=dict)
+    knobs: dict[str, Range] = Field(default_factory=dict)
+    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
+    controller: str = "pure_pursuit"
+    ladder: list[Rung] = Field(min_length=2)
+    failure: FailureRule = Field(default_factory=FailureRule)
+    objective: str = "max_lateral_offset_m"
+    risk_scale: float = Field(1.0, gt=0, description="objective value the screen counts as risky as a failure")
+    distinct_radius: float = Field(0.1, gt=0, le=1, description="failures closer than this (normalised) are one")
+    strategies: list[Literal["grid", "random", "lhs", "bo", "multi_fidelity"]] = \
+        Field(default_factory=lambda: list(STRATEGIES), min_length=1)
+    grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")
+    lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
+    seed: int = 0
+    planner: dict[str, Any] = Field(default_factory=dict)
+    cosim: dict[str, Any] = Field(default_factory=dict)
+    run_timeout_s: float = Field(300.0, gt=0)
+
+    def results_hash(self) -> str:
+        relevant = self.model_dump(exclude={"name", "description", "run_timeout_s", "strategies"})
+        return hashlib.sha256(json.dumps(relevant, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+    @property
+    def dimensions(self) -> list[tuple[str, str, float, float]]:
+        """(kind, name, low, high) of every continuous dimension, in a fixed order."""
+        return ([("param", n, r.min, r.max) for n, r in self.parameters.items()]
+                + [("knob", n, r.min, r.max) for n, r in self.knobs.items()])
+
+
+def _builtin_dir() -> Path:
+    return Path(str(resources.files("simgap.experiment") / "builtin" / "search"))
+
+
+def load_search_spec(name_or_path: str | Path) -> tuple[SearchSpec, LogicalScenario, Path]:
+    """The spec, its logical scenario and its file; every problem is an `InputError`."""
+    from simgap.experiment.spec import builtin_or_file, logical_of, read_spec
+
+    path = builtin_or_file(name_or_path, _builtin_dir(), "search")
+    spec = read_spec(path, SearchSpec, "search spec", "name, logical, ladder, ...")
+    logical = logical_of(spec, path)
+    _check(spec, logical, path)
+    return spec, logical, path
+
+
+def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
+    from simgap.control import controller_names
+    from simgap.sim.registry import BACKENDS
+    from simgap.vehicles import vehicle_names
+
+    for name, rng in spec.parameters.items():
+        if name not in logical.parameters:
+            raise InputError(f"'{name}' is not a parameter of logical scenario '{logical.name}'", file=path,
+                             field=f"parameters.{name}", allowed=", ".join(logical.parameters))
+        par = logical.parameters[name]
+        if rng.min < par.min or rng.max > par.max:
+            raise InputError(f"[{rng.min:g}, {rng.max:g}] leaves the parameter's range", file=path,
+                             field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
+    for name, rng in spec.knobs.items():
+        if name not in KNOBS:
+            raise InputError(f"unknown reality knob '{name}'", file=path, field=f"knobs.{name}",
+                             allowed=", ".join(KNOBS))
+        knob = KNOBS[name]
+        if rng.min < knob.low or rng.max > knob.high:
+            raise InputError(f"[{rng.min:g}, {rng.max:g}] leaves the knob's range", file=path,
+                             field=f"knobs.{name}", allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}")
+    if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2:
+        raise InputError("nothing to search: no parameter, knob or vehicle varies", file=path,
+                         field="parameters", allowed=", ".join(logical.parameters))
+    for v in spec.vehicles:
+        if v not in vehicle_names():
+            raise InputError(f"unknown vehicle '{v}'", file=path, field="vehicles", allowed=", ".join(vehicle_names()))
+    if spec.controller not in controller_names():
+        raise InputError(f"unknown controller '{spec.controller}'", file=path, field="controller",
+                         allowed=", ".join(controller_names()))
+    for i, rung in enumerate(spec.ladder):
+        if rung.backend not in BACKENDS:
+            raise InputError(f"unknown backend '{rung.backend}'", file=path, field=f"ladder.{i}.backend",
+                             allowed=", ".join(BACKENDS))
+    if spec.ladder[0].backend != "ideal":
+        raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
+                         file=path, field="ladder.0.backend", allowed="ideal")
+    if any(r.backend == "ideal" for r in spec.ladder[1:]):
+        raise InputError("only the first rung is ideal", file=path, field="ladder", allowed="dynamic, mujoco")
+    for where, names in (("objective", [spec.objective]), ("failure.above", list(spec.failure.above)),
+                         ("failure.below", list(spec.failure.below))):
+        for n in names:
+            if n not in METRICS:
+                raise InputError(f"unknown metric '{n}'", file=path, field=where, allowed=", ".join(METRICS))
+    if "multi_fidelity" in spec.strategies and len(spec.ladder) < 3:
+        raise InputError("multi_fidelity needs a screening fidelity between ideal and the high one", file=path,
+                         field="ladder", allowed="ideal, dynamic, mujoco")

@@ -1,0 +1,158 @@
+"""The report of a search: for each strategy, what it spent and what it found — distinct
+violated assumptions over the budget, the failures on the parameter map, and the share of
+ideal-world passes that fail in the high fidelity."""
+
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from simgap.experiment.search import search_results  # noqa: E402
+from simgap.experiment.store import ResultsStore  # noqa: E402
+from simgap.report.plots import COLOURS, STYLES  # noqa: E402
+from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402
+
+
+def _high_rows(root: Path, strategy: str, high: int) -> list[dict]:
+    store = ResultsStore(root / strategy)
+    if not store.rows_dir.exists():
+        return []
+    rows = store.rows()
+    ideal = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 0}
+    out = []
+    for r in rows:
+        if int(r["rung"]) == high and r.get("status") == "ok":
+            i = ideal.get(int(r["candidate"]))
+            ideal_ok = i is not None and i.get("status") == "ok"
+            r = dict(r) | {"violation": bool(r.get("failed")) and ideal_ok and not i.get("failed"),
+                           "ideal_failed": ideal_ok and bool(i.get("failed"))}
+            out.append(r)
+    return out
+
+
+def _violations(per_strategy: dict[str, list[dict]], dims, limit: int = 15) -> list[dict]:
+    out = []
+    for name, rows in per_strategy.items():
+        found = sorted((r for r in rows if r["violation"]), key=lambda r: r["elapsed_s"])[:limit]
+        for r in found:
+            entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r['run_dir'])}/run.json'>"
+                                                 f"c{int(r['candidate']):05d}</a>"), "vehicle": r["vehicle"]}
+            entry |= {n: r.get(f"{'param' if k == 'param' else 'knob'}_{n}", math.nan) for k, n, _, _ in dims}
+            entry["why"] = r.get("failure_reason", "")
+            out.append(entry)
+    return out
+
+
+def _plot_curves(results, path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=110)
+    for k, res in enumerate(results):
+        xs = [0.0] + [t / 60.0 for t, _ in res.curve] + [res.wall_s / 60.0]
+        ys = [0] + [n for _, n in res.curve] + [res.distinct]
+        ax.step(xs, ys, where="post", color=COLOURS[k % len(COLOURS)], linestyle=STYLES[k % len(STYLES)],
+                linewidth=2, label=f"{res.name} ({res.distinct})")
+    ax.set_xlabel("budget spent [min of wall clock]")
+    ax.set_ylabel("distinct violated assumptions")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _map_axes(rows: list[dict], dims) -> tuple[int, int]:
+    """The two dimensions that separate violations from passes best (difference of means)."""
+    if len(dims) < 2:
+        return 0, 0
+    fail = [r for r in rows if r["violation"]]
+    ok = [r for r in rows if not r["failed"]]
+    if not fail or not ok:
+        return 0, 1
+    gaps = [abs(np.mean([r[f"unit_{i}"] for r in fail]) - np.mean([r[f"unit_{i}"] for r in ok])) for i in range(len(dims))]
+    order = np.argsort(gaps)[::-1]
+    return int(order[0]), int(order[1])
+
+
+def _plot_map(per_strategy: dict[str, list[dict]], dims, path: Path) -> Path:
+    every = [r for rows in per_strategy.values() for r in rows]
+    a, b = _map_axes(every, dims)
+    n = len(per_strategy)
+    fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.4), dpi=110, squeeze=False, sharey=True)
+    (ka, na, loa, hia), (kb, nb, lob, hib) = dims[a], dims[b]
+    for ax, (name, rows) in zip(axes[0], per_strategy.items()):
+        for group, style in ((lambda r: not r["failed"], dict(c="#bbbbbb", marker="o", s=10, label="passes")),
+                             (lambda r: r["failed"] and not r["violation"], dict(c=COLOURS[1], marker="x", s=18, label="fails (ideal unchecked or fails too)")),
+                             (lambda r: r["violation"], dict(c=COLOURS[2], marker="^", s=24, label="violated assumption"))):
+            pts = [r for r in rows if group(r)]
+            if pts:
+                ax.scatter([loa + r[f"unit_{a}"] * (hia - loa) for r in pts],
+                           [lob + r[f"unit_{b}"] * (hib - lob) for r in pts], **style)
+        ax.set_title(f"{name} ({len(rows)} high runs)", fontsize=9)
+        ax.set_xlabel(na)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(nb)
+    handles, labels = [], []
+    for ax in axes[0]:
+        for h, l in zip(*ax.get_legend_handles_labels()):
+            if l not in labels:
+                handles.append(h)
+                labels.append(l)
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def build_search_report(root: Path) -> Path:
+    """Write ``root/report/index.html`` for the search in ``root``."""
+    root = Path(root)
+    spec, results = search_results(root)
+    out = root / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.css").write_text(STYLE)
+    (out / "report.js").write_text(SCRIPT)
+    high = len(spec.ladder) - 1
+    per_strategy = {r.name: _high_rows(root, r.name, high) for r in results}
+    summary = []
+    for res in results:
+        rows = per_strategy[res.name]
+        ideal_passes = len(rows) - sum(1 for r in rows if r["ideal_failed"])
+        summary.append({
+            "strategy": res.name, "wall clock [min]": res.wall_s / 60.0, "runs": res.runs,
+            "high-fidelity runs": res.high_runs, "high-fidelity failures": res.high_failures,
+            "violated assumptions": res.violations, "distinct": res.distinct,
+            "CPU hours": res.cpu_s / 3600.0, "distinct per CPU hour": res.per_cpu_hour,
+            "ideal passes failing high [%]": 100.0 * res.violations / ideal_passes if ideal_passes else math.nan,
+            "run errors": res.errors})
+    dims = [(k, n, lo, hi) for k, n, lo, hi in spec.dimensions]
+    body = [f"<p>Search <b>{spec.name}</b> on <code>{spec.logical}</code>: ladder "
+            + " → ".join(r.backend for r in spec.ladder)
+            + f"; objective <code>{spec.objective}</code>; distinct radius {spec.distinct_radius:g} (normalised).</p>",
+            "<p>A <em>violated assumption</em> passes in the ideal world and fails in the high fidelity. "
+            "The ideal world is run where the high fidelity failed; a high-fidelity pass is taken as an "
+            "ideal pass for the share below.</p>",
+            table(summary, "what each strategy spent and found")]
+    if results:
+        body.append(figure(_plot_curves(results, out / "failures_over_budget.png").name,
+                           "distinct violated assumptions over the budget spent"))
+    if any(per_strategy.values()) and len(dims) >= 1:
+        if len(dims) == 1:
+            dims = dims * 2
+        body.append(figure(_plot_map(per_strategy, dims, out / "failure_map.png").name,
+                           "high-fidelity runs on the two dimensions that separate violations from passes best",
+                           zoom=True))
+    body.append(table(_violations(per_strategy, spec.dimensions),
+                      "violated assumptions (the first 15 of each strategy; the run links open its record)"))
+    body.append(table([{"dimension": n, "kind": k, "low": lo, "high": hi} for k, n, lo, hi in spec.dimensions],
+                      "the search space"))
+    return page(out / "index.html", f"search: {spec.name}", body, "")
+

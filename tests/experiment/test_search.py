@@ -1,0 +1,199 @@
+"""The search for violated assumptions: its spec, its budget, its strategies on a planted
+failure region, and resuming a real search."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from simgap.errors import InputError
+from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search, search_results, summarise
+from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
+from simgap.experiment.store import ResultsStore
+from simgap.experiment.strategies import SearchSpace, make_strategy
+from simgap.scenario.logical import load_logical
+
+LADDER = [{"backend": "ideal"},
+          {"backend": "dynamic", "settings": {"integration_step": 0.004, "controller_hz": 50},
+           "cosim": {"replan_every": 10}},
+          {"backend": "mujoco"}]
+
+
+def write(tmp_path: Path, **fields) -> Path:
+    spec = {"name": "t", "logical": "curve", "parameters": {"radius": {"min": 10, "max": 50}},
+            "knobs": {"road_friction": {"min": 0.2, "max": 1.0}}, "ladder": LADDER} | fields
+    path = tmp_path / "search.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    return path
+
+
+@pytest.mark.parametrize("fields, where, allowed", [
+    ({"knobs": {"grip": {"min": 0, "max": 1}}}, "knobs.grip", "road_friction"),
+    ({"knobs": {"road_friction": {"min": 0.0, "max": 1}}}, "knobs.road_friction", "0.1 to 1.5"),
+    ({"parameters": {"bend": {"min": 0, "max": 1}}}, "parameters.bend", "radius"),
+    ({"ladder": [{"backend": "mujoco"}, {"backend": "ideal"}]}, "ladder.0.backend", "ideal"),
+    ({"objective": "fun"}, "objective", "max_lateral_offset_m"),
+    ({"failure": {"above": {"speed": 1}}}, "failure.above", "max_lane_excursion_m"),
+    ({"strategies": ["annealing"]}, "strategies.0", "multi_fidelity"),
+    ({"ladder": [{"backend": "ideal"}, {"backend": "mujoco"}]}, "ladder", "dynamic"),   # multi_fidelity needs a screen
+    ({"distinct_radius": 0}, "distinct_radius", None),
+    ({"budget": 3}, "budget", "ladder"),
+])
+def test_bad_specs_are_refused_naming_the_field(tmp_path, fields, where, allowed):
+    with pytest.raises(InputError) as err:
+        load_search_spec(write(tmp_path, **fields))
+    assert err.value.field == where
+    assert str(err.value.file).endswith("search.yaml")
+    if allowed:
+        assert allowed in (err.value.allowed or "")
+
+
+def test_the_builtin_search_loads():
+    spec, logical, _ = load_search_spec("curve-gaps")
+    assert logical.name == "curve" and spec.ladder[-1].backend == "mujoco"
+    assert {"road_friction", "steer_delay", "position_noise", "road_bank"} <= set(spec.knobs)
+
+
+@pytest.mark.parametrize("text, budget", [("20m", Budget(seconds=1200)), ("90s", Budget(seconds=90)),
+                                          ("1.5h", Budget(seconds=5400)), ("200", Budget(runs=200))])
+def test_budgets(text, budget):
+    assert parse_budget(text) == budget
+
+
+@pytest.mark.parametrize("text", ["", "0", "-3", "2.5", "20 minutes", "m"])
+def test_bad_budgets(text):
+    with pytest.raises(InputError, match="budget|runs"):
+        parse_budget(text)
+
+
+def test_failure_rule():
+    rule = FailureRule(above={"max_lane_excursion_m": 0.1}, below={"min_distance_m": 1.0})
+    assert rule.failed({"outcome": "goal_reached", "max_lane_excursion_m": 0.0, "min_distance_m": 5}) is None
+    assert rule.failed({"outcome": "off_road"}) == "goal missed (off_road)"
+    assert "max_lane_excursion_m" in rule.failed({"outcome": "goal_reached", "max_lane_excursion_m": 0.3})
+    assert "min_distance_m" in rule.failed({"outcome": "goal_reached", "min_distance_m": 0.2})
+    assert FailureRule(goal_missed=False, collision=False).failed({"outcome": "off_road"}) is None
+
+
+# --- strategies on a planted failure region (no simulation: rows made up by a model) --------
+
+def planted_row(job):
+    """Fails in high fidelity where friction < 0.35 and the start is faster than 15 m/s (7.5 % of
+    the space); the screen sees a grip use that crosses 1 on that region's border."""
+    mu = job.backend_settings.get("road_friction", 1.0)
+    speed = job.parameters["initial_speed"]
+    grip = (speed / 15.0) * (0.35 / mu)
+    inside = mu < 0.35 and speed > 15.0
+    failed = inside and job.backend == "mujoco"
+    cost = {"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend]
+    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
+            "max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
+            "peak_grip_use": grip if job.backend != "ideal" else 0.3, "job_time_s": cost, "vehicle": job.vehicle}
+
+
+def search_planted(tmp_path, name, seed, runs):
+    spec = SearchSpec(name="planted", logical="curve",
+                      parameters={"initial_speed": {"min": 0, "max": 25}, "radius": {"min": 10, "max": 100}},
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}}, ladder=LADDER, seed=seed,
+                      failure=FailureRule(), objective="max_lateral_offset_m", distinct_radius=0.1)
+    space = SearchSpace(spec, load_logical("curve"))
+    run = StrategyRun(spec, space, make_strategy(name, space, spec), tmp_path / f"{name}-{seed}", Budget(runs=runs))
+    run._scenario = lambda c: "unused.xml"
+    run.resume()
+    while (job := run.next_job()) is not None:
+        run.on_result(job, planted_row(job))
+    return summarise(run.root, name, len(spec.ladder), spec.distinct_radius)
+
+
+def test_multi_fidelity_finds_a_planted_region_for_less_compute_than_random(tmp_path):
+    found = {name: [search_planted(tmp_path, name, seed, runs=80) for seed in range(3)]
+             for name in ("random", "multi_fidelity", "bo")}
+    distinct = {n: sum(r.distinct for r in rs) for n, rs in found.items()}
+    cpu = {n: sum(r.cpu_s for r in rs) for n, rs in found.items()}
+    rate = {n: distinct[n] / cpu[n] for n in found}
+    assert distinct["random"] >= 1                               # the region is findable at all
+    assert rate["multi_fidelity"] > 2 * rate["random"], (distinct, cpu)
+    assert rate["bo"] > rate["random"], (distinct, cpu)
+    for r in found["multi_fidelity"]:     # each failure is checked in the ideal world (the last may be cut off)
+        assert 0 <= r.high_failures - r.violations <= 1
+
+
+def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):
+    spec = SearchSpec(name="g", logical="curve", parameters={"radius": {"min": 10, "max": 100}},
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}}, vehicles=["sedan", "city"],
+                      ladder=LADDER, grid_levels=3, strategies=["grid"])
+    space = SearchSpace(spec, load_logical("curve"))
+    grid = make_strategy("grid", space, spec)
+    points = [grid.propose(i) for i in range(18)]
+    assert grid.propose(18) is None
+    assert len({(p.params["radius"], p.knobs["road_friction"], p.vehicle) for p in points}) == 18
+    assert {p.params["radius"] for p in points} == {10.0, 55.0, 100.0}
+    again = make_strategy("grid", space, spec)
+    assert [again.propose(i).unit for i in range(18)] == [p.unit for p in points]
+
+
+# --- a real search, interrupted and resumed --------------------------------------------------
+
+def small_search(tmp_path, **fields):
+    return write(tmp_path, **({"parameters": {"radius": {"min": 10, "max": 30}, "initial_speed": {"min": 10, "max": 20}},
+                               "ladder": [{"backend": "ideal"}, LADDER[1], {"backend": "dynamic"}],
+                               "failure": {"above": {"peak_grip_use": 0.9}}, "strategies": ["random", "multi_fidelity"],
+                               "run_timeout_s": 120} | fields))
+
+
+def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
+    spec = small_search(tmp_path)
+    out = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
+                             "--strategy", "random", "--workers", "2", "--no-report"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    rows_dir = out / "random" / "store" / "rows"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (rows_dir.exists() and len(list(rows_dir.glob("*.parquet"))) >= 2):
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)          # the driver and its workers, mid-run
+    proc.wait()
+    before = {r["key"]: r for r in ResultsStore(out / "random").rows()}
+    assert 2 <= len(before) < 8, "the kill came after the second and before the last run finished"
+
+    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"], report=False)
+    rows = ResultsStore(out / "random").rows()
+    keys = [r["key"] for r in rows]
+    assert len(keys) == len(set(keys)) == 8 == result.runs                 # none lost, none twice
+    after = {r["key"]: r for r in rows}
+    assert all(after[k]["fingerprint"] == r["fingerprint"] and after[k]["elapsed_s"] == r["elapsed_s"]
+               for k, r in before.items())                                  # kept as they were
+    assert not list(out.rglob(".*.tmp"))
+    candidates = sorted({int(r["candidate"]) for r in rows})
+    assert candidates == list(range(len(candidates)))                      # no candidate skipped
+
+
+def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
+    spec = small_search(tmp_path)
+    out = tmp_path / "search"
+    first = run_search(spec, out, Budget(runs=3), workers=2, report=False)
+    assert [r.name for r in first] == ["random", "multi_fidelity"]
+    before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
+    assert len(before) == 3
+    run_search(spec, out, Budget(runs=6), workers=2, report=True)
+    rows = ResultsStore(out / "multi_fidelity").rows()
+    keys = [r["key"] for r in rows]
+    assert len(keys) == len(set(keys)) == 6
+    assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
+    assert {r["rung"] for r in rows} >= {1}                                # the screen ran
+    _, results = search_results(out)
+    assert [r.name for r in results] == ["random", "multi_fidelity"] and all(r.runs == 6 for r in results)
+    page = (out / "report" / "index.html").read_text()
+    assert "distinct violated assumptions" in page and "multi_fidelity" in page
+    assert (out / "report" / "failures_over_budget.png").stat().st_size > 10_000
+    # another spec in the same directory is refused, naming what to do
+    other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
+    with pytest.raises(InputError, match="different spec"):
+        run_search(other, out, Budget(runs=1), workers=1, report=False)
