@@ -10,7 +10,7 @@ from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from simgap.scenario import build_scenario
-from simgap.sim.mujoco.road import MARKING_STYLE, marking_lines
+from simgap.scenario.markings import MARKING_STYLE, marking_lines
 from simgap.sim.mujoco.world import build_world
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State

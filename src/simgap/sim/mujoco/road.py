@@ -11,71 +11,17 @@ from __future__ import annotations
 
 import math
 
-from dataclasses import dataclass
-
 import mujoco
 import numpy as np
 import shapely
-from commonroad.scenario.lanelet import LaneletNetwork, LineMarking
+from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.ops import unary_union
+
+from simgap.scenario.markings import MarkingLine, marking_lines, offset_polyline
 
 ROAD_Z = 0.004          # drawn road above the ground plane [m]
 MARKING_Z = 0.008       # drawn markings above the ground plane [m]
 SLAB = 0.02             # thickness of the drawn slabs [m] (closed meshes have a volume)
-
-_SOLID, _DASHED, _BROAD_DASHED = (0.0, 0.0), (3.0, 6.0), (3.0, 3.0)   # (dash, gap) [m]; 0: solid
-#: line width [m] and the painted lines as (offset to the left [m], (dash, gap))
-MARKING_STYLE: dict[LineMarking, tuple[float, tuple[tuple[float, tuple[float, float]], ...]]] = {
-    LineMarking.SOLID: (0.12, ((0.0, _SOLID),)),
-    LineMarking.DASHED: (0.12, ((0.0, _DASHED),)),
-    LineMarking.BROAD_SOLID: (0.25, ((0.0, _SOLID),)),
-    LineMarking.BROAD_DASHED: (0.25, ((0.0, _BROAD_DASHED),)),
-    LineMarking.SOLID_SOLID: (0.12, ((-0.12, _SOLID), (0.12, _SOLID))),
-    LineMarking.DASHED_DASHED: (0.12, ((-0.12, _DASHED), (0.12, _DASHED))),
-    LineMarking.SOLID_DASHED: (0.12, ((0.12, _SOLID), (-0.12, _DASHED))),
-    LineMarking.DASHED_SOLID: (0.12, ((0.12, _DASHED), (-0.12, _SOLID))),
-}
-
-
-@dataclass(frozen=True)
-class MarkingLine:
-    """One drawn line: its centre polyline, width, and (for dashed lines) dash and gap."""
-
-    xy: np.ndarray
-    width: float
-    dash: float
-    gap: float
-
-
-def _offset(xy: np.ndarray, d: float) -> np.ndarray:
-    """The polyline moved ``d`` to its left."""
-    if d == 0.0:
-        return xy
-    tangent = np.gradient(xy, axis=0)
-    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
-    return xy + d * np.column_stack([-tangent[:, 1], tangent[:, 0]])
-
-
-def marking_lines(network: LaneletNetwork) -> list[MarkingLine]:
-    """Every marked lanelet bound once (a bound shared by two lanelets is drawn once)."""
-    seen: set[tuple] = set()
-    lines = []
-    for lanelet in network.lanelets:
-        for xy, marking in ((lanelet.left_vertices, lanelet.line_marking_left_vertices),
-                            (lanelet.right_vertices, lanelet.line_marking_right_vertices)):
-            style = MARKING_STYLE.get(marking)
-            if style is None:
-                continue
-            xy = np.asarray(xy, dtype=float)
-            ends = tuple(sorted([tuple(np.round(xy[0], 2)), tuple(np.round(xy[-1], 2))]))
-            key = (ends, len(xy), marking)
-            if key in seen:
-                continue
-            seen.add(key)
-            width, painted = style
-            for d, (dash, gap) in painted:
-                lines.append(MarkingLine(_offset(xy, d), width, dash, gap))
-    return lines
 
 
 def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
@@ -125,7 +71,7 @@ class MeshBuilder:
         self._n += 4 * n
 
     def add_ribbon(self, xy: np.ndarray, width: float, z: float) -> None:
-        self.add_strip(_offset(xy, width / 2), _offset(xy, -width / 2), z)
+        self.add_strip(offset_polyline(xy, width / 2), offset_polyline(xy, -width / 2), z)
 
     def add_to(self, spec: mujoco.MjSpec, name: str) -> bool:
         if not self.faces:
