@@ -30,7 +30,7 @@ test: $(STAMP) browser
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest
 
 lock:
-	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e '.[test]' \
+	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e '.[test,beamng]' \
 	  && /tmp/simgap-lock/bin/pip freeze --exclude-editable > requirements.lock
 
 clean:

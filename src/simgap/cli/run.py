@@ -23,8 +23,10 @@ from simgap.planning.frenet import FrenetSettings
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
-    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking), dynamic (single-track model) or "
-                                "mujoco (3D physics)"),
+    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking), dynamic (single-track model), "
+                                "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
+    backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
+                                                  "port, home, driver, ...)"),
     vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
@@ -49,13 +51,18 @@ def run(
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     backend_settings = {k: v for k, v in physical.items() if v is not None}
+    if backend_config is not None and backend == "ideal":
+        raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
+                         allowed="dynamic, mujoco, beamng")
     if backend_settings and backend == "ideal":
         raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
-                         allowed="dynamic, mujoco")
+                         allowed="dynamic, mujoco, beamng")
     if backend == "dynamic" and set(backend_settings) - {"controller", "controller_hz", "road_friction"}:
         raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
                          "settings", field="backend", allowed="mujoco")
+    if backend_config is not None:
+        backend_settings = _backend_config(backend_config) | backend_settings
     knob_settings, knob_cosim = _knobs(knob or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
                          backend_settings=backend_settings | knob_settings,
@@ -76,6 +83,20 @@ def run(
     console.print(f"run written to [bold]{out}[/bold]")
     if result.failure:
         raise typer.Exit(1)
+
+
+def _backend_config(path: Path) -> dict:
+    """The mapping of backend settings in a YAML file."""
+    import yaml
+
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(f"cannot read backend settings: {exc}", file=path, field="backend-config") from None
+    if not isinstance(raw, dict):
+        raise InputError("backend settings must be a mapping of setting: value", file=path,
+                         allowed="e.g. host: 10.0.0.5, port: 25252")
+    return raw
 
 
 def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:

@@ -214,6 +214,7 @@ def simulate(
                 finish(p, "diverged", last, str(exc))
     finally:
         backend_timings = getattr(backend, "timings", None) or {}
+        backend_notes = list(getattr(backend, "notes", None) or [])
         backend.close()
     timings.update(backend_timings)
 
@@ -231,7 +232,8 @@ def simulate(
         driven={aid: Trajectory.from_states(p.driven, dt) for aid, p in progress_of.items()},
         plans={aid: p.plans for aid, p in progress_of.items()},
         events=events, timings=timings, wall_time_s=time.perf_counter() - wall_start,
-        settings={"cosim": settings.model_dump()}, failure=failure,
+        settings={"cosim": settings.model_dump()} | ({"backend_notes": backend_notes} if backend_notes else {}),
+        failure=failure,
     )
 
 

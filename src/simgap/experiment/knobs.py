@@ -7,12 +7,16 @@ knob               unit    default  fidelities           meaning
 =================  ======  =======  ===================  ==========================================
 road_friction      -       1.0      dynamic, mujoco      road friction, scales the tyres' (dry 1.0,
                                                          wet about 0.6, snow about 0.3)
-steer_delay        s       0        dynamic, mujoco      steering actuator dead time
-pedal_delay        s       0        dynamic, mujoco      throttle and brake dead time
-position_noise     m       0        dynamic, mujoco      std. dev. of the noise on the x and y the
-                                                         planner observes
-yaw_noise          deg     0        dynamic, mujoco      ... on the heading it observes
-speed_noise        m/s     0        dynamic, mujoco      ... on the speed it observes
+steer_delay        s       0        dynamic, mujoco,     steering actuator dead time
+                                    beamng
+pedal_delay        s       0        dynamic, mujoco,     throttle and brake dead time
+                                    beamng
+position_noise     m       0        dynamic, mujoco,     std. dev. of the noise on the x and y the
+                                    beamng               planner observes
+yaw_noise          deg     0        dynamic, mujoco,     ... on the heading it observes
+                                    beamng
+speed_noise        m/s     0        dynamic, mujoco,     ... on the speed it observes
+                                    beamng
 road_bank          deg     0        mujoco               cross slope; positive falls to the right
 road_grade         deg     0        mujoco               grade; positive uphill
 =================  ======  =======  ===================  ==========================================
@@ -41,13 +45,13 @@ class Knob:
 KNOBS: dict[str, Knob] = {k.name: k for k in (
     Knob("road_friction", "-", 1.0, 0.1, 1.5, ("dynamic", "mujoco"), "road_friction",
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)"),
-    Knob("steer_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco"), "steer_delay", "steering actuator dead time"),
-    Knob("pedal_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco"), "pedal_delay", "throttle and brake dead time"),
-    Knob("position_noise", "m", 0.0, 0.0, 5.0, ("dynamic", "mujoco"), "cosim.observation_noise.position_m",
+    Knob("steer_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco", "beamng"), "steer_delay", "steering actuator dead time"),
+    Knob("pedal_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco", "beamng"), "pedal_delay", "throttle and brake dead time"),
+    Knob("position_noise", "m", 0.0, 0.0, 5.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.position_m",
          "std. dev. of the noise on the x and y the planner observes"),
-    Knob("yaw_noise", "deg", 0.0, 0.0, 30.0, ("dynamic", "mujoco"), "cosim.observation_noise.yaw_deg",
+    Knob("yaw_noise", "deg", 0.0, 0.0, 30.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.yaw_deg",
          "std. dev. of the noise on the heading the planner observes"),
-    Knob("speed_noise", "m/s", 0.0, 0.0, 5.0, ("dynamic", "mujoco"), "cosim.observation_noise.speed_mps",
+    Knob("speed_noise", "m/s", 0.0, 0.0, 5.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.speed_mps",
          "std. dev. of the noise on the speed the planner observes"),
     Knob("road_bank", "deg", 0.0, -15.0, 15.0, ("mujoco",), "road_bank",
          "cross slope; positive: the road falls to the right of the way of travel"),

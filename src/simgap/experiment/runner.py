@@ -15,6 +15,7 @@ from simgap.experiment.executors import make_executor
 from simgap.experiment.spec import ExperimentSpec, Job, jobs, load_spec
 from simgap.experiment.store import ResultsStore
 from simgap.scenario import write_scenario
+from simgap.sim.registry import preflight
 
 META = "experiment.json"
 
@@ -108,6 +109,8 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     never run again, unless ``retry_failed`` asks to run the failed ones once more."""
     root = Path(root)
     spec, _, path = load_spec(spec_ref)
+    for fidelity in spec.fidelities:
+        preflight(fidelity.backend, dict(fidelity.settings))
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():

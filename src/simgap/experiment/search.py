@@ -37,6 +37,7 @@ from simgap.experiment.spec import Job
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
 from simgap.scenario import write_scenario
+from simgap.sim.registry import preflight
 
 META = "search.json"
 
@@ -312,6 +313,8 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
                report: bool = True) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
     spec, logical, _ = load_search_spec(spec_ref)
+    for rung in spec.ladder:
+        preflight(rung.backend, dict(rung.settings))
     names = strategies or list(spec.strategies)
     for n in names:
         if n not in STRATEGIES:

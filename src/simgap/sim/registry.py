@@ -26,15 +26,22 @@ def _mujoco(**settings: Any) -> Backend:
     return MujocoBackend(**settings)
 
 
-BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "dynamic": _dynamic, "mujoco": _mujoco}
+def _beamng(**settings: Any) -> Backend:
+    from simgap.sim.beamng import BeamngBackend
+
+    return BeamngBackend(**settings)
+
+
+BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "dynamic": _dynamic, "mujoco": _mujoco,
+                                               "beamng": _beamng}
 
 
 def backend_available(name: str) -> bool:
-    """Whether the backend's module is installed (optional backends may be missing)."""
+    """Whether the backend's modules are installed (``beamng`` needs the optional beamngpy)."""
     import importlib.util
 
     module = {"ideal": "simgap.sim.ideal", "dynamic": "simgap.sim.dynamic.backend",
-              "mujoco": "simgap.sim.mujoco"}.get(name)
+              "mujoco": "simgap.sim.mujoco", "beamng": "beamngpy"}.get(name)
     return module is not None and importlib.util.find_spec(module) is not None
 
 
@@ -43,6 +50,21 @@ def make_backend(name: str, **settings: Any) -> Backend:
     if name not in BACKENDS:
         raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(available))
     if name not in available:
-        raise InputError(f"the '{name}' backend is not part of this installation", field="backend",
+        hint = " (pip install 'simgap[beamng]')" if name == "beamng" else ""
+        raise InputError(f"the '{name}' backend is not part of this installation{hint}", field="backend",
                          allowed=", ".join(available))
     return BACKENDS[name](**settings)
+
+
+def preflight(name: str, settings: dict[str, Any]) -> None:
+    """Fail now, with the reason, when ``name`` cannot run with ``settings`` at all (a backend
+    behind a server that does not answer), rather than once per run of a batch."""
+    if name != "beamng":
+        return
+    if not backend_available(name):
+        make_backend(name, **settings)          # raises the not-installed error
+    from simgap.sim.beamng.session import probe
+    from simgap.sim.beamng.settings import load_settings
+
+    cfg = load_settings(settings)
+    probe(cfg.host, cfg.port, cfg.connect_timeout)

@@ -1,0 +1,255 @@
+"""The ``beamng`` backend: every agent is a car in a running BeamNG.tech, for users who own the
+paper's simulator (``pip install 'simgap[beamng]'``; see the README).
+
+`load` lays every lanelet and marking out as decal roads (`roads`), spawns one BeamNG car per
+agent (`catalogue` maps simgap vehicles to BeamNG models) and one per recorded obstacle, switches
+physics to deterministic mode at ``physics_hz`` and pauses. `reset` moves each car so that its
+body's centre, not BeamNG's reference node, sits on the agent's initial state. Each scenario dt
+is then ``physics_hz × dt`` physics steps, taken while the simulation is otherwise paused:
+
+- ``driver: controller`` (default): every controller period simgap's tracking controller (the
+  same as in the MuJoCo backend, with the same actuator-delay knobs) turns the plan in force and
+  the measured state into steering, throttle and brake;
+- ``driver: script_ai``: the paper's method, BeamNG's script AI following the plan's
+  time-stamped waypoints, re-sent whenever the planner replans.
+
+The state read back after each step follows simgap's convention (`convert`); a jump in a car's
+damage is a collision, attributed to the nearest other road user. A moving start, which BeamNG
+cannot spawn, is approached by a run-up: the car is pushed to its initial speed with
+``set_velocity`` over ``run_up_s`` and put back on its initial pose without resetting its
+velocity; what was done and the speed reached are written to the run record (``backend_notes``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+from commonroad.scenario.scenario import Scenario
+
+from simgap.control import make_controller
+from simgap.control.delay import with_actuator_delay
+from simgap.cosim.traffic import non_agent_traffic
+from simgap.errors import InputError
+from simgap.sim.beamng.catalogue import model_for
+from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_yaw, reference_offset,
+                                       reference_position, steering_input, to_state)
+from simgap.sim.beamng.roads import decal_roads
+from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
+from simgap.sim.beamng.settings import BeamngSettings, load_settings
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.trajectory import State, Trajectory
+
+ACCEL_FILTER_S = 0.05       # s, low-pass of the speed's rate of change when no IMU reading came
+MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
+
+
+class BeamngBackend:
+    name = "beamng"
+
+    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
+        self.settings = load_settings(settings)
+        self._connect = session_factory or BeamngSession
+        self.timings = {"control": 0.0, "physics": 0.0}
+        self.notes: list[str] = []
+        self._events: list[BackendEvent] = []
+        self.session: Session | None = None
+
+    # --- Backend protocol -------------------------------------------------------------------
+    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+        cfg = self.settings
+        self._dt = float(scenario.dt)
+        self._agents = list(agents)
+        steps = cfg.physics_hz * self._dt
+        if abs(steps - round(steps)) > 1e-6:
+            raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of physics steps at "
+                             f"{cfg.physics_hz} Hz", field="backend_settings.physics_hz",
+                             allowed=f"a multiple of {1 / self._dt:g} Hz")
+        self._steps_per_dt = int(round(steps))
+        self._steps_per_tick = int(round(cfg.physics_hz / cfg.controller_hz))
+        if self._steps_per_dt % self._steps_per_tick:
+            raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
+                             f"{cfg.controller_hz:g} Hz", field="backend_settings.controller_hz",
+                             allowed=f"a multiple of {1 / self._dt:g} Hz that divides {cfg.physics_hz} Hz")
+        self._models = {a.id: model_for(a.vehicle.name, cfg.vehicle_models, cfg.steer_locks) for a in agents}
+        self._traffic = non_agent_traffic(scenario)
+        traffic_model = model_for("traffic", {"traffic": "etk800"} | cfg.vehicle_models, cfg.steer_locks)
+        spawns = [Spawn(_vid(a.id), self._models[a.id].name, (a.initial_state.x, a.initial_state.y, 0.0),
+                        quat_from_yaw(a.initial_state.yaw)) for a in agents]
+        for o in self._traffic:
+            s = o.prediction.at(o.prediction.t[0])
+            spawns.append(Spawn(_obstacle_vid(o.id), traffic_model.name, (s.x, s.y, 0.0), quat_from_yaw(s.yaw)))
+        self._controllers = {a.id: with_actuator_delay(make_controller(cfg.controller, a.vehicle, cfg.controller_hz),
+                                                       cfg.steer_delay, cfg.pedal_delay) for a in agents}
+        roads = decal_roads(scenario.lanelet_network, cfg.materials, cfg.shape_tolerance, cfg.node_spacing)
+        self.session = self._connect(cfg)
+        try:
+            self.session.build(f"simgap_{scenario.scenario_id}", roads, spawns, [_vid(a.id) for a in agents])
+        except BaseException:
+            self.close()
+            raise
+        self.notes.append(f"{len(roads)} decal roads on level {cfg.level}; " + ", ".join(
+            f"agent {a.id}: {a.vehicle.name} as {self._models[a.id].name}" for a in agents)
+            + f"; driver {cfg.driver}; {self._steps_per_dt} physics steps per dt at {cfg.physics_hz} Hz")
+
+    def reset(self) -> dict[int, State]:
+        s, cfg = self.session, self.settings
+        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
+        self._step = 0
+        self._offset: dict[str, np.ndarray] = {}
+        for vid in [_vid(a.id) for a in self._agents] + [_obstacle_vid(o.id) for o in self._traffic]:
+            p = s.poll(vid)
+            self._offset[vid] = reference_offset(p.state, bbox_centre(p.bbox))
+        for a in self._agents:
+            self._place(_vid(a.id), a.initial_state, reset=True)
+        self._move_traffic(self._t0)
+        moving = [a for a in self._agents if a.initial_state.v > MOVING_START]
+        if moving:
+            self._run_up(moving)
+        self._accel = {a.id: (self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
+        self._damage = {}
+        states = {}
+        for a in self._agents:
+            poll = s.poll(_vid(a.id))
+            self._damage[a.id] = float(poll.damage.get("damage", 0.0))
+            states[a.id] = self._measure(a.id, poll, self._t0)
+            self._controllers[a.id].reset(states[a.id])
+        for a in moving:
+            self.notes.append(f"agent {a.id}: moving start at {a.initial_state.v:.2f} m/s approached by a "
+                              f"{cfg.run_up_s:g} s run-up (set_velocity), then placed on its initial pose "
+                              f"keeping its velocity; speed at t0 {states[a.id].v:.2f} m/s")
+        self._states = states
+        self._scripted: dict[int, Trajectory] = {}
+        self._events = []
+        return dict(states)
+
+    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+        s, cfg = self.session, self.settings
+        self._events = []
+        t0 = self._t0 + self._step * self._dt
+        if cfg.driver == "script_ai":
+            for a in self._agents:
+                if self._scripted.get(a.id) is not plans[a.id]:
+                    s.set_script(_vid(a.id), self._script(a.id, plans[a.id], t0))
+                    self._scripted[a.id] = plans[a.id]
+        ticks, per_tick = self._steps_per_dt // self._steps_per_tick, self._steps_per_tick
+        period = per_tick / cfg.physics_hz
+        states = dict(self._states)
+        for k in range(ticks):
+            t = t0 + k * period
+            c0 = time.perf_counter()
+            if k > 0:
+                states = self._poll_all(t)
+            if cfg.driver == "controller":
+                for a in self._agents:
+                    command = self._controllers[a.id].command(states[a.id], plans[a.id], t)
+                    lock = self._models[a.id].steer_lock
+                    s.control(_vid(a.id), steering_input(command.steer, lock), min(max(command.throttle, 0.0), 1.0),
+                              min(max(command.brake, 0.0), 1.0))
+            self._move_traffic(t)
+            c1 = time.perf_counter()
+            s.step(per_tick)
+            self.timings["control"] += c1 - c0
+            self.timings["physics"] += time.perf_counter() - c1
+        self._step += 1
+        t_end = t0 + self._dt
+        polls = {a.id: s.poll(_vid(a.id)) for a in self._agents}
+        self._states = {aid: self._measure(aid, p, t_end) for aid, p in polls.items()}
+        self._collisions(polls, t_end)
+        return dict(self._states)
+
+    def events(self) -> list[BackendEvent]:
+        return list(self._events)
+
+    def close(self) -> None:
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+
+    # --- helpers ------------------------------------------------------------------------------
+    def _place(self, vid: str, state: State, reset: bool) -> None:
+        pos = reference_position(state.x, state.y, 0.0, state.yaw, self._offset[vid])
+        self.session.teleport(vid, pos, quat_from_yaw(state.yaw), reset)
+
+    def _run_up(self, moving: list[Agent]) -> None:
+        s, cfg = self.session, self.settings
+        steps = max(1, round(cfg.run_up_s * cfg.physics_hz))
+        for a in moving:
+            s.set_velocity(_vid(a.id), a.initial_state.v, cfg.run_up_s)
+        for a in self._agents:
+            if a not in moving:
+                s.control(_vid(a.id), 0.0, 0.0, 1.0)
+        s.step(steps)
+        for a in moving:
+            self._place(_vid(a.id), a.initial_state, reset=False)
+        for a in self._agents:
+            if a not in moving:
+                self._place(_vid(a.id), a.initial_state, reset=True)
+
+    def _poll_all(self, t: float) -> dict[int, State]:
+        return {a.id: self._measure(a.id, self.session.poll(_vid(a.id)), t) for a in self._agents}
+
+    def _measure(self, agent_id: int, poll: Poll, t: float) -> State:
+        for key in ("pos", "vel", "rotation"):
+            if not np.all(np.isfinite(np.asarray(poll.state.get(key, [math.nan]), dtype=float))):
+                raise PhysicsDiverged(f"agent {agent_id}: BeamNG reported no finite {key} at t = {t:.2f} s")
+        t_prev, v_prev, accel = self._accel[agent_id]
+        state = to_state(t, poll.state, bbox_centre(poll.bbox), poll.electrics, poll.imu,
+                         self._models[agent_id].steer_lock, accel)
+        if t > t_prev + 1e-9:
+            raw = (state.v - v_prev) / (t - t_prev)
+            accel += (raw - accel) * min(1.0, (t - t_prev) / ACCEL_FILTER_S)
+            self._accel[agent_id] = (t, state.v, accel)
+        return state
+
+    def _script(self, agent_id: int, plan: Trajectory, now: float) -> list[dict[str, float]]:
+        """The plan from ``now`` on as script-AI nodes: reference-node positions, times from now."""
+        offset = self._offset[_vid(agent_id)]
+        nodes = []
+        for st in plan:
+            if st.t < now - 1e-9:
+                continue
+            x, y, z = reference_position(st.x, st.y, 0.0, st.yaw, offset)
+            nodes.append({"x": x, "y": y, "z": z, "t": st.t - now})
+        while len(nodes) < 3:              # the script AI needs three nodes; hold the last one
+            last = dict(nodes[-1]) if nodes else {"x": self._states[agent_id].x, "y": self._states[agent_id].y,
+                                                  "z": 0.0, "t": 0.0}
+            last["t"] += self._dt
+            nodes.append(last)
+        return nodes
+
+    def _move_traffic(self, t: float) -> None:
+        for o in self._traffic:
+            traj = o.prediction
+            if traj.t[0] - 1e-9 <= t <= traj.t_end + 1e-9:
+                self._place(_obstacle_vid(o.id), traj.at(t), reset=True)
+
+    def _collisions(self, polls: Mapping[int, Poll], t: float) -> None:
+        others = {aid: (st.x, st.y, aid) for aid, st in self._states.items()}
+        for o in self._traffic:
+            if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9:
+                st = o.prediction.at(t)
+                others[("obstacle", o.id)] = (st.x, st.y, o.id)
+        for aid, poll in polls.items():
+            damage = float(poll.damage.get("damage", 0.0))
+            rise, self._damage[aid] = damage - self._damage[aid], damage
+            if rise < DAMAGE_COLLISION:
+                continue
+            me = self._states[aid]
+            near = [(math.hypot(x - me.x, y - me.y), oid) for key, (x, y, oid) in others.items() if key != aid]
+            if near:
+                dist, other = min(near)
+                self._events.append(BackendEvent(t, aid, "collision", f"damage rose by {rise:.0f}; nearest road "
+                                                 f"user {other} at {dist:.1f} m", other))
+            else:
+                self._events.append(BackendEvent(t, aid, "damage", f"damage rose by {rise:.0f}"))
+
+
+def _vid(agent_id: int) -> str:
+    return f"agent_{agent_id}"
+
+
+def _obstacle_vid(obstacle_id: int) -> str:
+    return f"obstacle_{obstacle_id}"
