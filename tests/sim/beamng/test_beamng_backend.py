@@ -100,6 +100,22 @@ def test_junction_lanelets_are_included():
     assert {f"lanelet_{l.lanelet_id}" for l in network.lanelets} <= rids
 
 
+def test_roads_and_cars_become_beamngpy_objects_without_a_server():
+    pytest.importorskip("beamngpy")
+    from simgap.sim.beamng.session import Spawn, scenario_objects
+
+    network = build_scenario("curve", {"radius": 10, "angle": 90}).scenario.lanelet_network
+    roads = decal_roads(network, Materials())
+    spawn = Spawn("agent_1", "etk800", (10.0, -1.5, 0.0), quat_from_yaw(0.0))
+    scenario, vehicles = scenario_objects("smallgrid", "simgap_test", roads, [spawn])
+    assert [r.rid for r in scenario.roads] == [r.rid for r in roads]
+    first = scenario.roads[0]
+    assert first.material == "road_rubber_sticky" and first.nodes == list(roads[0].nodes)
+    assert {r.drivability for r in scenario.roads} == {1, -1}
+    car = vehicles["agent_1"]
+    assert car.model == "etk800" and {"electrics", "damage"} <= set(car.sensors.data)
+
+
 # --- catalogue -------------------------------------------------------------------------------
 def test_catalogue_maps_the_papers_cars_and_can_be_overridden():
     assert {v: model_for(v).name for v in DEFAULT_MODELS} == {"sedan": "etk800", "suv": "hopper", "city": "autobello"}

@@ -76,6 +76,28 @@ def probe(host: str, port: int, timeout: float) -> None:
                                     f"settings or {ENV['host']} / {ENV['port']}, and start the server first")
 
 
+def scenario_objects(level: str, name: str, roads: Sequence[DecalRoad], spawns: Sequence[Spawn]):
+    """The beamngpy scenario (roads and vehicles with their electrics and damage sensors) and its
+    vehicles by id, not yet sent to any server."""
+    import beamngpy as bp
+    from beamngpy.sensors import Damage, Electrics
+
+    scenario = bp.Scenario(level, name)
+    for r in roads:
+        road = bp.Road(r.material, rid=r.rid, interpolate=True, drivability=1 if r.drivable else -1,
+                       render_priority=r.render_priority)
+        road.add_nodes(*r.nodes)
+        scenario.add_road(road)
+    vehicles = {}
+    for s in spawns:
+        vehicle = bp.Vehicle(s.vid, model=s.model)
+        vehicle.sensors.attach("electrics", Electrics())
+        vehicle.sensors.attach("damage", Damage())
+        scenario.add_vehicle(vehicle, pos=s.pos, rot_quat=s.rot_quat, cling=True)
+        vehicles[s.vid] = vehicle
+    return scenario, vehicles
+
+
 class BeamngSession:
     """A scenario in a running BeamNG.tech, through beamngpy (``pip install simgap[beamng]``)."""
 
@@ -86,7 +108,6 @@ class BeamngSession:
         except ImportError:
             raise InputError("beamngpy is not installed", field="backend",
                              allowed="install the extra: pip install 'simgap[beamng]'") from None
-        self._bng_mod = beamngpy
         self.settings = settings
         self.bng = beamngpy.BeamNGpy(settings.host, settings.port, home=settings.home, quit_on_close=False)
         self.bng.open(launch=False)
@@ -94,28 +115,18 @@ class BeamngSession:
         self.imus: dict[str, Any] = {}
 
     def build(self, name, roads, spawns, sensors) -> None:
-        bp = self._bng_mod
-        scenario = bp.Scenario(self.settings.level, name)
-        for r in roads:
-            road = bp.Road(r.material, rid=r.rid, interpolate=True, drivability=1 if r.drivable else -1,
-                           render_priority=r.render_priority)
-            road.add_nodes(*r.nodes)
-            scenario.add_road(road)
-        for s in spawns:
-            vehicle = bp.Vehicle(s.vid, model=s.model)
-            vehicle.sensors.attach("electrics", bp.sensors.Electrics())
-            vehicle.sensors.attach("damage", bp.sensors.Damage())
-            scenario.add_vehicle(vehicle, pos=s.pos, rot_quat=s.rot_quat, cling=True)
-            self.vehicles[s.vid] = vehicle
+        from beamngpy.sensors import AdvancedIMU
+
+        scenario, self.vehicles = scenario_objects(self.settings.level, name, roads, spawns)
         scenario.make(self.bng)
         self.bng.settings.set_deterministic(self.settings.physics_hz)
         self.bng.scenario.load(scenario)
         self.bng.scenario.start()
         self.bng.control.pause()
         for vid in sensors:
-            self.imus[vid] = bp.sensors.AdvancedIMU(f"imu_{vid}", self.bng, self.vehicles[vid],
-                                                    physics_update_time=1.0 / self.settings.physics_hz,
-                                                    is_send_immediately=True, is_visualised=False)
+            self.imus[vid] = AdvancedIMU(f"imu_{vid}", self.bng, self.vehicles[vid],
+                                         physics_update_time=1.0 / self.settings.physics_hz,
+                                         is_send_immediately=True, is_visualised=False)
 
     def step(self, physics_steps: int) -> None:
         self.bng.control.step(physics_steps, wait=True)
