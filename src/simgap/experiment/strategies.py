@@ -209,6 +209,9 @@ class BayesianStrategy(_Optimiser):
         return []
 
 
+SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen
+
+
 @dataclass
 class _Evidence:
     promoted: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
@@ -231,7 +234,8 @@ class MultiFidelityStrategy(_Optimiser):
     def risk_of(self, row: dict[str, Any], failed: bool) -> float | None:
         if row.get("status") != "ok":
             return None
-        parts = [2.0 if failed else 0.0, _value(row, "peak_grip_use"), _value(row, self.objective) / self.risk_scale]
+        parts = [SCREEN_FAILURE_RISK if failed else 0.0, _value(row, "peak_grip_use"),
+                 _value(row, self.objective) / self.risk_scale]
         return max(p for p in parts if math.isfinite(p))
 
     def _novelty(self, c: Candidate) -> float:
@@ -270,9 +274,11 @@ class MultiFidelityStrategy(_Optimiser):
             self.failures.append(candidate)
         if risk is None:
             return
+        if candidate.index in self.explored:
+            if failed:
+                self.threshold = min(self.threshold, risk)      # the screen missed this one
+            return                                              # not the screen's judgement: no evidence on it
         self.evidence.promoted.append((risk, failed))
-        if failed and candidate.index in self.explored:
-            self.threshold = min(self.threshold, risk)          # the screen missed this one
         recent = self.evidence.promoted[-10:]
         if len(recent) >= 4:
             precision = sum(f for _, f in recent) / len(recent)
@@ -280,7 +286,8 @@ class MultiFidelityStrategy(_Optimiser):
                 self.threshold *= 0.9
             elif precision < 0.3:
                 self.threshold *= 1.1
-            self.threshold = min(max(self.threshold, 0.2), 3.0)
+            # never above a screen failure's risk: what fails in the screen always goes up
+            self.threshold = min(max(self.threshold, 0.2), SCREEN_FAILURE_RISK)
 
 
 def _value(row: dict[str, Any], name: str) -> float:
