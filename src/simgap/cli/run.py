@@ -62,7 +62,10 @@ def run(
         raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
                          "settings", field="backend", allowed="mujoco")
     if backend_config is not None:
-        backend_settings = _backend_config(backend_config) | backend_settings
+        from simgap.experiment.spec import read_mapping
+
+        backend_settings = read_mapping(backend_config, "backend settings file",
+                                        "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
     knob_settings, knob_cosim = _knobs(knob or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
                          backend_settings=backend_settings | knob_settings,
@@ -83,20 +86,6 @@ def run(
     console.print(f"run written to [bold]{out}[/bold]")
     if result.failure:
         raise typer.Exit(1)
-
-
-def _backend_config(path: Path) -> dict:
-    """The mapping of backend settings in a YAML file."""
-    import yaml
-
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputError(f"cannot read backend settings: {exc}", file=path, field="backend-config") from None
-    if not isinstance(raw, dict):
-        raise InputError("backend settings must be a mapping of setting: value", file=path,
-                         allowed="e.g. host: 10.0.0.5, port: 25252")
-    return raw
 
 
 def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:

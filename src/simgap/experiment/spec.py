@@ -151,9 +151,9 @@ def _error_path(loc) -> str:
     return ".".join(str(p) for p in loc)
 
 
-def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
-    """``path`` read as YAML and validated as ``model``; every problem is an `InputError` naming
-    the file, the field path and, where it can, what is allowed."""
+def read_mapping(path: Path, what: str, keys: str) -> dict:
+    """The YAML mapping in ``path``, or an `InputError` naming the file (``keys``: what a
+    mapping of this kind holds)."""
     try:
         raw = yaml.safe_load(path.read_text())
     except OSError as exc:
@@ -162,6 +162,13 @@ def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
         raise InputError(f"not valid YAML: {exc}", file=path) from None
     if not isinstance(raw, dict):
         raise InputError(f"a {what} is a mapping", file=path, allowed=keys)
+    return raw
+
+
+def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
+    """``path`` read as YAML and validated as ``model``; every problem is an `InputError` naming
+    the file, the field path and, where it can, what is allowed."""
+    raw = read_mapping(path, what, keys)
     try:
         return model.model_validate(raw)
     except ValidationError as err:

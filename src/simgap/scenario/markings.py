@@ -43,6 +43,11 @@ class MarkingLine:
         return self.dash > 0.0
 
 
+def arc_length(xy: np.ndarray) -> np.ndarray:
+    """Distance along the polyline to each of its points."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+
+
 def offset_polyline(xy: np.ndarray, d: float) -> np.ndarray:
     """The polyline moved ``d`` to its left."""
     if d == 0.0:

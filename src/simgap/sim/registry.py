@@ -1,7 +1,11 @@
-"""Backends by name. A new backend registers here: a name and a constructor taking settings."""
+"""Backends by name. A new backend registers here: a name, a constructor taking settings, the
+module it needs installed (and the pip extra that installs it, for an optional one), and, for a
+backend that can be unable to run at all (a server that does not answer), a check that batches
+make once before their first run."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Callable
 
 from simgap.errors import InputError
@@ -32,39 +36,55 @@ def _beamng(**settings: Any) -> Backend:
     return BeamngBackend(**settings)
 
 
-BACKENDS: dict[str, Callable[..., Backend]] = {"ideal": _ideal, "dynamic": _dynamic, "mujoco": _mujoco,
-                                               "beamng": _beamng}
+def _beamng_server(settings: dict[str, Any]) -> None:
+    from simgap.sim.beamng.session import check_server
+
+    check_server(settings)
+
+
+@dataclass(frozen=True)
+class BackendEntry:
+    make: Callable[..., Backend]
+    module: str                                            # must be importable
+    extra: str | None = None                               # pip extra that installs it (optional backends)
+    check: Callable[[dict[str, Any]], None] | None = None  # raises when it cannot run with these settings
+
+
+BACKENDS: dict[str, BackendEntry] = {
+    "ideal": BackendEntry(_ideal, "simgap.sim.ideal"),
+    "dynamic": BackendEntry(_dynamic, "simgap.sim.dynamic.backend"),
+    "mujoco": BackendEntry(_mujoco, "simgap.sim.mujoco"),
+    "beamng": BackendEntry(_beamng, "beamngpy", extra="beamng", check=_beamng_server),
+}
 
 
 def backend_available(name: str) -> bool:
-    """Whether the backend's modules are installed (``beamng`` needs the optional beamngpy)."""
+    """Whether the backend's modules are installed (optional backends may be missing)."""
     import importlib.util
 
-    module = {"ideal": "simgap.sim.ideal", "dynamic": "simgap.sim.dynamic.backend",
-              "mujoco": "simgap.sim.mujoco", "beamng": "beamngpy"}.get(name)
-    return module is not None and importlib.util.find_spec(module) is not None
+    entry = BACKENDS.get(name)
+    return entry is not None and importlib.util.find_spec(entry.module) is not None
 
 
-def make_backend(name: str, **settings: Any) -> Backend:
+def _entry(name: str) -> BackendEntry:
     available = [b for b in BACKENDS if backend_available(b)]
     if name not in BACKENDS:
         raise InputError(f"unknown backend '{name}'", field="backend", allowed=", ".join(available))
+    entry = BACKENDS[name]
     if name not in available:
-        hint = " (pip install 'simgap[beamng]')" if name == "beamng" else ""
+        hint = f" (pip install 'simgap[{entry.extra}]')" if entry.extra else ""
         raise InputError(f"the '{name}' backend is not part of this installation{hint}", field="backend",
                          allowed=", ".join(available))
-    return BACKENDS[name](**settings)
+    return entry
+
+
+def make_backend(name: str, **settings: Any) -> Backend:
+    return _entry(name).make(**settings)
 
 
 def preflight(name: str, settings: dict[str, Any]) -> None:
-    """Fail now, with the reason, when ``name`` cannot run with ``settings`` at all (a backend
-    behind a server that does not answer), rather than once per run of a batch."""
-    if name != "beamng":
-        return
-    if not backend_available(name):
-        make_backend(name, **settings)          # raises the not-installed error
-    from simgap.sim.beamng.session import probe
-    from simgap.sim.beamng.settings import load_settings
-
-    cfg = load_settings(settings)
-    probe(cfg.host, cfg.port, cfg.connect_timeout)
+    """Fail now, with the reason, when ``name`` cannot run with ``settings`` at all, rather than
+    once per run of a batch."""
+    entry = _entry(name)
+    if entry.check is not None:
+        entry.check(settings)

@@ -11,7 +11,7 @@ it tests the backend's plumbing, not BeamNG's vehicle dynamics.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,7 +39,6 @@ class Car:
     target_speed: tuple[float, float] | None = None     # set_velocity: (speed, time left)
     script: list[dict] | None = None
     script_t: float = 0.0
-    history: list[tuple] = field(default_factory=list)
 
     @property
     def lock(self) -> float:
@@ -72,11 +71,8 @@ class FakeServer:
     def build(self, name, roads, spawns, sensors) -> None:
         self._count("build")
         self.roads = list(roads)
-        for s in spawns:        # spawned at the given reference position; cling puts it on the ground
-            yaw = math.atan2(2 * s.rot_quat[3] * s.rot_quat[2], 1 - 2 * s.rot_quat[2] ** 2) - math.pi / 2
-            car = Car(s.model, 0.0, 0.0, yaw)
-            car.x, car.y = s.pos[0], s.pos[1]
-            self.cars[s.vid] = car
+        for s in spawns:        # spawned with its centre at the given position; cling puts it on the ground
+            self.cars[s.vid] = Car(s.model, s.pos[0], s.pos[1], _yaw(s.rot_quat))
         self.sensors = set(sensors)
 
     def step(self, physics_steps: int) -> None:
@@ -128,7 +124,7 @@ class FakeServer:
     def teleport(self, vid, pos, rot_quat, reset) -> None:
         self._count("teleport")
         car = self.cars[vid]
-        car.yaw = math.atan2(2 * rot_quat[3] * rot_quat[2], 1 - 2 * rot_quat[2] ** 2) - math.pi / 2
+        car.yaw = _yaw(rot_quat)
         c, s = math.cos(car.yaw), math.sin(car.yaw)
         car.x = pos[0] - (REF_OFFSET[0] * c - REF_OFFSET[1] * s)
         car.y = pos[1] - (REF_OFFSET[0] * s + REF_OFFSET[1] * c)
@@ -192,3 +188,9 @@ class FakeServer:
         want = seg / max(ts[k] - ts[k - 1], 1e-3)
         err = want - car.v
         car.throttle, car.brake = (min(1.0, 0.5 * err), 0.0) if err > 0 else (0.0, min(1.0, -0.5 * err))
+
+
+def _yaw(quat) -> float:
+    """Heading of an upright car from its BeamNG rotation (x, y, z, w): a turn about z whose
+    local forward is -y (decoded here independently of `simgap.sim.beamng.convert`)."""
+    return math.atan2(2 * quat[3] * quat[2], 1 - 2 * quat[2] ** 2) - math.pi / 2

@@ -40,9 +40,9 @@ from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.trajectory import State, Trajectory
 
-ACCEL_FILTER_S = 0.05       # s, low-pass of the speed's rate of change when no IMU reading came
 MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
 
 
@@ -68,7 +68,8 @@ class BeamngBackend:
                              f"{cfg.physics_hz} Hz", field="backend_settings.physics_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
         self._steps_per_dt = int(round(steps))
-        self._steps_per_tick = int(round(cfg.physics_hz / cfg.controller_hz))
+        self._steps_per_tick = steps_per_tick(cfg.physics_hz, cfg.controller_hz, "backend_settings.controller_hz")
+        self._ticks = self._steps_per_dt // self._steps_per_tick
         if self._steps_per_dt % self._steps_per_tick:
             raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
                              f"{cfg.controller_hz:g} Hz", field="backend_settings.controller_hz",
@@ -108,7 +109,7 @@ class BeamngBackend:
         moving = [a for a in self._agents if a.initial_state.v > MOVING_START]
         if moving:
             self._run_up(moving)
-        self._accel = {a.id: (self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
+        self._accel = {a.id: SpeedRate(self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._damage = {}
         states = {}
         for a in self._agents:
@@ -134,15 +135,14 @@ class BeamngBackend:
                 if self._scripted.get(a.id) is not plans[a.id]:
                     s.set_script(_vid(a.id), self._script(a.id, plans[a.id], t0))
                     self._scripted[a.id] = plans[a.id]
-        ticks, per_tick = self._steps_per_dt // self._steps_per_tick, self._steps_per_tick
-        period = per_tick / cfg.physics_hz
-        states = dict(self._states)
-        for k in range(ticks):
+        period = self._steps_per_tick / cfg.physics_hz
+        states = self._states
+        for k in range(self._ticks):
             t = t0 + k * period
             c0 = time.perf_counter()
-            if k > 0:
-                states = self._poll_all(t)
-            if cfg.driver == "controller":
+            if cfg.driver == "controller":           # the script AI drives itself: nothing to measure
+                if k > 0:
+                    states = {a.id: self._measure(a.id, s.poll(_vid(a.id)), t) for a in self._agents}
                 for a in self._agents:
                     command = self._controllers[a.id].command(states[a.id], plans[a.id], t)
                     lock = self._models[a.id].steer_lock
@@ -150,7 +150,7 @@ class BeamngBackend:
                               min(max(command.brake, 0.0), 1.0))
             self._move_traffic(t)
             c1 = time.perf_counter()
-            s.step(per_tick)
+            s.step(self._steps_per_tick)
             self.timings["control"] += c1 - c0
             self.timings["physics"] += time.perf_counter() - c1
         self._step += 1
@@ -174,35 +174,27 @@ class BeamngBackend:
         self.session.teleport(vid, pos, quat_from_yaw(state.yaw), reset)
 
     def _run_up(self, moving: list[Agent]) -> None:
+        """Push the ``moving`` cars to their initial speeds (the others hold still on the brake),
+        then put every car back on its initial pose; only the moving ones keep their velocity."""
         s, cfg = self.session, self.settings
-        steps = max(1, round(cfg.run_up_s * cfg.physics_hz))
-        for a in moving:
-            s.set_velocity(_vid(a.id), a.initial_state.v, cfg.run_up_s)
+        running = {a.id for a in moving}
         for a in self._agents:
-            if a not in moving:
+            if a.id in running:
+                s.set_velocity(_vid(a.id), a.initial_state.v, cfg.run_up_s)
+            else:
                 s.control(_vid(a.id), 0.0, 0.0, 1.0)
-        s.step(steps)
-        for a in moving:
-            self._place(_vid(a.id), a.initial_state, reset=False)
+        s.step(max(1, round(cfg.run_up_s * cfg.physics_hz)))
         for a in self._agents:
-            if a not in moving:
-                self._place(_vid(a.id), a.initial_state, reset=True)
-
-    def _poll_all(self, t: float) -> dict[int, State]:
-        return {a.id: self._measure(a.id, self.session.poll(_vid(a.id)), t) for a in self._agents}
+            self._place(_vid(a.id), a.initial_state, reset=a.id not in running)
 
     def _measure(self, agent_id: int, poll: Poll, t: float) -> State:
         for key in ("pos", "vel", "rotation"):
             if not np.all(np.isfinite(np.asarray(poll.state.get(key, [math.nan]), dtype=float))):
                 raise PhysicsDiverged(f"agent {agent_id}: BeamNG reported no finite {key} at t = {t:.2f} s")
-        t_prev, v_prev, accel = self._accel[agent_id]
         state = to_state(t, poll.state, bbox_centre(poll.bbox), poll.electrics, poll.imu,
-                         self._models[agent_id].steer_lock, accel)
-        if t > t_prev + 1e-9:
-            raw = (state.v - v_prev) / (t - t_prev)
-            accel += (raw - accel) * min(1.0, (t - t_prev) / ACCEL_FILTER_S)
-            self._accel[agent_id] = (t, state.v, accel)
-        return state
+                         self._models[agent_id].steer_lock)
+        accel = self._accel[agent_id].update(t, state.v)
+        return state.replace(a=accel) if math.isnan(state.a) else state
 
     def _script(self, agent_id: int, plan: Trajectory, now: float) -> list[dict[str, float]]:
         """The plan from ``now`` on as script-AI nodes: reference-node positions, times from now."""
@@ -220,25 +212,25 @@ class BeamngBackend:
             nodes.append(last)
         return nodes
 
+    def _traffic_at(self, t: float) -> list[tuple[int, State]]:
+        """The recorded obstacles present at ``t``, with their recorded states."""
+        return [(o.id, o.prediction.at(t)) for o in self._traffic
+                if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9]
+
     def _move_traffic(self, t: float) -> None:
-        for o in self._traffic:
-            traj = o.prediction
-            if traj.t[0] - 1e-9 <= t <= traj.t_end + 1e-9:
-                self._place(_obstacle_vid(o.id), traj.at(t), reset=True)
+        for oid, state in self._traffic_at(t):
+            self._place(_obstacle_vid(oid), state, reset=True)
 
     def _collisions(self, polls: Mapping[int, Poll], t: float) -> None:
-        others = {aid: (st.x, st.y, aid) for aid, st in self._states.items()}
-        for o in self._traffic:
-            if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9:
-                st = o.prediction.at(t)
-                others[("obstacle", o.id)] = (st.x, st.y, o.id)
+        traffic = self._traffic_at(t)
         for aid, poll in polls.items():
             damage = float(poll.damage.get("damage", 0.0))
             rise, self._damage[aid] = damage - self._damage[aid], damage
             if rise < DAMAGE_COLLISION:
                 continue
             me = self._states[aid]
-            near = [(math.hypot(x - me.x, y - me.y), oid) for key, (x, y, oid) in others.items() if key != aid]
+            others = [(oid, st) for oid, st in self._states.items() if oid != aid] + traffic
+            near = [(math.hypot(st.x - me.x, st.y - me.y), oid) for oid, st in others]
             if near:
                 dist, other = min(near)
                 self._events.append(BackendEvent(t, aid, "collision", f"damage rose by {rise:.0f}; nearest road "

@@ -67,10 +67,11 @@ def _world(reading: Mapping[str, Any], key: str) -> np.ndarray:
 
 
 def to_state(t: float, state: Mapping[str, Any], centre: np.ndarray, electrics: Mapping[str, Any],
-             imu: Any, steer_lock: float, fallback_accel: float = 0.0) -> State:
+             imu: Any, steer_lock: float) -> State:
     """A simgap `State` from one poll of the vehicle: ``state`` (the vehicle's state message),
     ``centre`` (of the bounding box), ``electrics`` and ``imu`` (the advanced IMU's readings).
-    Without an IMU reading the acceleration is ``fallback_accel`` and the yaw rate 0."""
+    Without an IMU reading the acceleration is NaN (the caller knows the speed's history) and
+    the yaw rate 0."""
     forward = forward_of(state["rotation"])
     heading = forward[:2] / max(float(np.linalg.norm(forward[:2])), 1e-12)
     vel = np.asarray(state["vel"], dtype=float)
@@ -80,7 +81,7 @@ def to_state(t: float, state: Mapping[str, Any], centre: np.ndarray, electrics: 
         accel = float(np.dot(_world(reading, "accSmooth")[:2], heading))
         yaw_rate = float(_world(reading, "angVelSmooth")[2])
     else:
-        accel, yaw_rate = fallback_accel, 0.0
+        accel, yaw_rate = math.nan, 0.0
     steer = STEERING_SIGN * float(electrics.get("steering_input", 0.0)) * steer_lock
     return State(t=t, x=float(centre[0]), y=float(centre[1]), yaw=math.atan2(heading[1], heading[0]),
                  v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.scenario.markings import CURB_WIDTH, marking_lines
+from simgap.scenario.markings import CURB_WIDTH, arc_length, marking_lines
 from simgap.sim.beamng.settings import Materials
 
 ROAD_PRIORITY, MARKING_PRIORITY = 10, 9        # BeamNG draws lower render priorities on top
@@ -39,10 +39,6 @@ class DecalRoad:
     kind: str                  # "lanelet" | "marking" | "curb"
 
 
-def _arc_length(xy: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
-
-
 def node_indices(xy: np.ndarray, width: float, tolerance: float, min_spacing: float,
                  max_spacing: float) -> list[int]:
     """Indices of the points of polyline ``xy`` kept as road nodes (see the module doc): a
@@ -51,7 +47,7 @@ def node_indices(xy: np.ndarray, width: float, tolerance: float, min_spacing: fl
     n = len(xy)
     if n <= 2:
         return list(range(n))
-    s = _arc_length(xy)
+    s = arc_length(xy)
     floor = max(min_spacing, 0.5 * width)
     keep = [0]
     for i in range(1, n - 1):
@@ -80,7 +76,7 @@ def _deviation(xy: np.ndarray, i: int, j: int) -> float:
 
 def _densify(xy: np.ndarray, step: float) -> np.ndarray:
     """``xy`` resampled every ``step`` metres or closer (keeps its own points' shape)."""
-    s = _arc_length(xy)
+    s = arc_length(xy)
     if s[-1] <= 0:
         return xy
     ss = np.unique(np.concatenate([s, np.linspace(0.0, s[-1], int(math.ceil(s[-1] / step)) + 1)]))
@@ -91,7 +87,7 @@ def _densify(xy: np.ndarray, step: float) -> np.ndarray:
 def _nodes(xy: np.ndarray, widths: np.ndarray, z: float, tolerance: float, spacing: tuple[float, float]
            ) -> tuple[tuple[float, float, float, float], ...]:
     fine = _densify(xy, min(spacing[0], 0.5))
-    fine_w = np.interp(_arc_length(fine), _arc_length(xy), widths)
+    fine_w = np.interp(arc_length(fine), arc_length(xy), widths)
     keep = node_indices(fine, float(np.max(widths)), tolerance, spacing[0], spacing[1])
     return tuple((float(fine[i, 0]), float(fine[i, 1]), z, float(fine_w[i])) for i in keep)
 

@@ -15,7 +15,7 @@ from typing import Any, Protocol, Sequence
 
 from simgap.errors import InputError
 from simgap.sim.beamng.roads import DecalRoad
-from simgap.sim.beamng.settings import ENV, BeamngSettings
+from simgap.sim.beamng.settings import ENV, BeamngSettings, load_settings
 
 
 @dataclass(frozen=True)
@@ -96,6 +96,12 @@ def scenario_objects(level: str, name: str, roads: Sequence[DecalRoad], spawns: 
         scenario.add_vehicle(vehicle, pos=s.pos, rot_quat=s.rot_quat, cling=True)
         vehicles[s.vid] = vehicle
     return scenario, vehicles
+
+
+def check_server(settings: dict[str, Any]) -> None:
+    """Raise `ServerUnreachable` unless the server the backend ``settings`` name answers."""
+    cfg = load_settings(settings)
+    probe(cfg.host, cfg.port, cfg.connect_timeout)
 
 
 class BeamngSession:

@@ -11,6 +11,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.errors import InputError, validated_settings
+from simgap.sim.rates import steps_per_tick
 
 ENV = {"host": "SIMGAP_BEAMNG_HOST", "port": "SIMGAP_BEAMNG_PORT", "home": "SIMGAP_BEAMNG_HOME"}
 
@@ -53,11 +54,8 @@ class BeamngSettings(BaseModel):
 def load_settings(values: dict) -> BeamngSettings:
     """Validated settings: the environment fills host, port and home where not given."""
     settings = validated_settings(BeamngSettings, with_environment(values))
-    ratio = settings.physics_hz / settings.controller_hz
-    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        raise InputError(f"physics rate {settings.physics_hz} Hz must be a whole multiple of the controller rate "
-                         f"{settings.controller_hz:g} Hz", field="backend_settings.controller_hz",
-                         allowed=", ".join(f"{settings.physics_hz / k:g}" for k in range(1, 5)))
+    steps_per_tick(settings.physics_hz, settings.controller_hz, "backend_settings.controller_hz",
+                   ", ".join(f"{settings.physics_hz / k:g}" for k in range(1, 5)))
     low, high = settings.node_spacing
     if not 0 < low <= high:
         raise InputError(f"({low:g}, {high:g}) is not a spacing range", field="backend_settings.node_spacing",

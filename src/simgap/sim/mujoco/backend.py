@@ -37,9 +37,9 @@ from simgap.sim.mujoco.car import (CORNERS, CarIndex, ackermann_angles, max_sing
                                    single_track_angle, up_z, yaw_of)
 from simgap.sim.mujoco.world import World, WorldSettings, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.trajectory import State, Trajectory
 
-ACCEL_FILTER_S = 0.05       # s, time constant of the measured acceleration's low-pass filter
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
 
@@ -58,11 +58,7 @@ class MujocoBackend:
                                  allowed="0 to 1 s")
         self.steer_delay, self.pedal_delay = float(steer_delay), float(pedal_delay)
         self.settings = validated_settings(WorldSettings, world)
-        substeps = self.settings.physics_hz / self.controller_hz
-        if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
-            raise InputError(f"physics rate {self.settings.physics_hz:g} Hz must be a whole multiple of the "
-                             f"controller rate {self.controller_hz:g} Hz", field="backend_settings.physics_hz")
-        self.substeps = int(round(substeps))
+        self.substeps = steps_per_tick(self.settings.physics_hz, self.controller_hz)
         self.timings = {"control": 0.0, "physics": 0.0}
         self.world: World | None = None
         self._events: list[BackendEvent] = []
@@ -102,7 +98,7 @@ class MujocoBackend:
         self._surface_mu = np.full(len(self._tyre_pairs), np.nan)
         w.move_traffic(self._t0)
         mujoco.mj_forward(w.model, w.data)
-        self._accel = {a.id: (self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
+        self._accel = {a.id: SpeedRate(self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         states = {a.id: self.measure(a.id, self._t0) for a in self._agents}
         for a in self._agents:
             self._controllers[a.id].reset(states[a.id])
@@ -147,7 +143,7 @@ class MujocoBackend:
     def measure(self, agent_id: int, t: float) -> State:
         """The car's state in the `State` convention (centre, yaw from +x, speed, yaw rate,
         single-track steering angle). The acceleration is the speed's rate of change between
-        measurements, low-pass filtered with `ACCEL_FILTER_S`."""
+        measurements, low-pass filtered (`SpeedRate`)."""
         w, car = self.world, self.world.cars[agent_id]
         q, v = w.data.qpos, w.data.qvel
         x, y = float(q[car.qpos]), float(q[car.qpos + 1])
@@ -162,11 +158,7 @@ class MujocoBackend:
         yaw_rate = float(2 * (qx * qz - qw * qy) * wl[0] + 2 * (qy * qz + qw * qx) * wl[1]
                          + (1 - 2 * (qx * qx + qy * qy)) * wl[2])
         steer = single_track_angle(float(q[car.steer_qpos[0]]), float(q[car.steer_qpos[1]]))
-        t_prev, v_prev, accel = self._accel[agent_id]
-        if t > t_prev + 1e-9:
-            raw = (speed - v_prev) / (t - t_prev)
-            accel += (raw - accel) * min(1.0, (t - t_prev) / ACCEL_FILTER_S)
-            self._accel[agent_id] = (t, speed, accel)
+        accel = self._accel[agent_id].update(t, speed)
         return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)
 
     def _actuate(self, agent_id: int, command: Command, period: float) -> None:

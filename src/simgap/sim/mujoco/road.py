@@ -17,7 +17,7 @@ import shapely
 from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.ops import unary_union
 
-from simgap.scenario.markings import MarkingLine, marking_lines, offset_polyline
+from simgap.scenario.markings import MarkingLine, arc_length, marking_lines, offset_polyline
 
 ROAD_Z = 0.004          # drawn road above the ground plane [m]
 MARKING_Z = 0.008       # drawn markings above the ground plane [m]
@@ -27,10 +27,9 @@ SLAB = 0.02             # thickness of the drawn slabs [m] (closed meshes have a
 def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
     """The polylines that are painted: the whole line, or its dashes."""
     xy = line.xy
-    if line.dash <= 0.0:
+    if not line.dashed:
         return [xy]
-    seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
+    s = arc_length(xy)
     pieces, start = [], 0.0
     while start < s[-1]:
         end = min(start + line.dash, s[-1])

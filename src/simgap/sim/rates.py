@@ -1,0 +1,34 @@
+"""Rates shared by the physics backends: how many physics steps a controller period holds, and
+the acceleration a backend reports when its world only gives speeds."""
+
+from __future__ import annotations
+
+from simgap.errors import InputError
+
+ACCEL_FILTER_S = 0.05       # s, time constant of the measured acceleration's low-pass filter
+
+
+def steps_per_tick(physics_hz: float, controller_hz: float, field: str = "backend_settings.physics_hz",
+                   allowed: str | None = None) -> int:
+    """Physics steps per controller period; an `InputError` on ``field`` unless it is whole."""
+    ratio = physics_hz / controller_hz
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        raise InputError(f"physics rate {physics_hz:g} Hz must be a whole multiple of the controller rate "
+                         f"{controller_hz:g} Hz", field=field, allowed=allowed)
+    return int(round(ratio))
+
+
+class SpeedRate:
+    """Acceleration as the speed's rate of change between measurements, low-pass filtered with
+    `ACCEL_FILTER_S`; starts from a known (t, speed, acceleration)."""
+
+    def __init__(self, t: float, speed: float, accel: float):
+        self.t, self.speed, self.accel = t, speed, accel
+
+    def update(self, t: float, speed: float) -> float:
+        """The filtered acceleration at ``t`` (a repeated ``t`` changes nothing)."""
+        if t > self.t + 1e-9:
+            raw = (speed - self.speed) / (t - self.t)
+            self.accel += (raw - self.accel) * min(1.0, (t - self.t) / ACCEL_FILTER_S)
+            self.t, self.speed = t, speed
+        return self.accel
