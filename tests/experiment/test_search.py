@@ -14,6 +14,7 @@ import pytest
 import yaml
 
 from simgap.errors import InputError
+from simgap.experiment.job import job_columns
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search, search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
 from simgap.experiment.store import ResultsStore
@@ -95,7 +96,8 @@ def planted_row(job):
     cost = {"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend]
     return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
             "max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
-            "peak_grip_use": grip if job.backend != "ideal" else 0.3, "job_time_s": cost, "vehicle": job.vehicle}
+            "peak_grip_use": grip if job.backend != "ideal" else 0.3, "job_time_s": cost, "vehicle": job.vehicle,
+            **job_columns(job)}
 
 
 def search_planted(tmp_path, name, seed, runs):
@@ -123,6 +125,65 @@ def test_multi_fidelity_finds_a_planted_region_for_less_compute_than_random(tmp_
     assert rate["bo"] > rate["random"], (distinct, cpu)
     for r in found["multi_fidelity"]:     # each failure is checked in the ideal world (the last may be cut off)
         assert 0 <= r.high_failures - r.violations <= 1
+
+
+def test_multi_fidelity_skips_the_screen_where_neighbours_keep_failing(tmp_path):
+    result = search_planted(tmp_path, "multi_fidelity", seed=0, runs=120)
+    rows = ResultsStore(tmp_path / "multi_fidelity-0").rows()
+    rungs: dict[int, set[int]] = {}
+    for r in rows:
+        rungs.setdefault(int(r["candidate"]), set()).add(int(r["rung"]))
+    direct = [c for c, k in rungs.items() if 2 in k and 1 not in k]
+    screened = [c for c, k in rungs.items() if 1 in k]
+    assert direct and screened                     # both: near known failures, and elsewhere
+    high = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 2}
+    assert sum(high[c]["failed"] for c in direct) > 0.5 * len(direct)   # where it skipped, failures were likely
+    assert result.scenarios < result.distinct      # some failures are knob variations of one scenario
+
+
+def knob_row(job):
+    """Fails in high fidelity where friction < 0.5; the ideal world always passes."""
+    failed = job.backend == "mujoco" and job.backend_settings.get("road_friction", 1.0) < 0.5
+    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
+            "max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0, "job_time_s": 2.0, "vehicle": job.vehicle,
+            **job_columns(job)}
+
+
+def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
+    spec = SearchSpec(name="knobs", logical="curve", knobs={"road_friction": {"min": 0.1, "max": 1.0},
+                                                             "steer_delay": {"min": 0.0, "max": 0.1}},
+                      ladder=LADDER, grid_levels=4, strategies=["grid"], distinct_radius=0.1)
+    space = SearchSpace(spec, load_logical("curve"))
+    run = StrategyRun(spec, space, make_strategy("grid", space, spec), root, Budget(runs=runs))
+    run._scenario = lambda c: "unused.xml"
+    run.resume()
+    return run
+
+
+def test_candidates_that_differ_only_in_knobs_share_one_ideal_run(tmp_path):
+    run = knob_grid_run(tmp_path / "s")
+    started = []
+    jobs = [run.next_job() for _ in range(16)]           # the whole grid in flight at once
+    assert run.next_job() is None
+    for job in jobs:
+        run.on_result(job, knob_row(job))
+    while (job := run.next_job()) is not None:           # the ideal checks: one runs, the rest wait for it
+        started.append(job)
+    assert len(started) == 1 and started[0].backend == "ideal"
+    run.on_result(started[0], knob_row(started[0]))
+    rows = ResultsStore(tmp_path / "s").rows()
+    ideal = [r for r in rows if int(r["rung"]) == 0]
+    failing = [r for r in rows if int(r["rung"]) == 2 and r["failed"]]
+    assert len(failing) == 8 and len(ideal) == 8         # friction 0.1 and 0.4, four steer delays each
+    copies = [r for r in ideal if "ideal_of" in r]
+    assert len(copies) == 7 and {r["ideal_of"] for r in copies} == {int(started[0].scenario[1:])}
+    assert all(r["job_time_s"] == 0.0 for r in copies)
+    result = summarise(tmp_path / "s", "grid", 3, 0.1)
+    assert result.violations == 8 and result.scenarios == 1
+    assert result.runs == 17 and result.cpu_s == 17 * 2.0        # the copies are neither runs nor cost
+    # a resumed search knows the verdict and copies it again rather than running the ideal world
+    again = knob_grid_run(tmp_path / "s")
+    assert again.runs() == 17 and again.ideal_verdicts
 
 
 def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):

@@ -57,11 +57,12 @@ def search_cmd(
 
 def _print(console: Console, results) -> None:
     t = Table(title="what each strategy found")
-    for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "per CPU-h"):
+    for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "scenarios",
+                "per CPU-h"):
         t.add_column(col, justify="left" if col == "strategy" else "right")
     for r in results:
         t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
-                  str(r.violations), str(r.distinct), f"{r.per_cpu_hour:.1f}")
+                  str(r.violations), str(r.distinct), str(r.scenarios), f"{r.per_cpu_hour:.1f}")
     console.print(t)
 
 

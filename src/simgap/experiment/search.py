@@ -13,7 +13,10 @@ Layout::
 Every run's row carries the candidate (``candidate``, ``param_*``, ``knob_*``, ``vehicle``), its
 rung of the ladder (0 = ideal, last = high), whether it failed by the spec's rule and why, and
 ``elapsed_s``: the strategy's clock when it finished. A high-fidelity failure is checked in the
-ideal world; if the ideal run passes, the candidate is a *violated assumption*. Distinct
+ideal world; if the ideal run passes, the candidate is a *violated assumption*. The ideal world
+takes no reality knob, so candidates that differ only in their knobs share one ideal run: the
+later ones get a copy of its row with ``ideal_of`` (the candidate that ran it) and no cost, and
+are not counted as runs. Distinct
 violations are counted after de-duplication: one closer than ``distinct_radius`` (in the
 normalised space, same vehicle) to an earlier one is the same failure.
 """
@@ -75,6 +78,7 @@ class StrategyResult:
     high_failures: int = 0
     violations: int = 0
     distinct: int = 0
+    scenarios: int = 0                # distinct scenarios (road, start, vehicle) among the violations
     errors: int = 0
     wall_s: float = 0.0
     cpu_s: float = 0.0
@@ -102,6 +106,9 @@ class StrategyRun:
         self.in_flight: set[tuple[int, int]] = set()
         self.next_index = 0
         self.missing: list[int] = []                  # candidates started earlier that never finished a run
+        self.ideal_verdicts: dict[str, int] = {}      # what an ideal run depends on -> candidate that ran it
+        self.ideal_running: dict[str, int] = {}
+        self.ideal_waiting: dict[str, list[int]] = {}
         self.exhausted = False
         self.spent_before, self.runs_before = 0.0, 0
         self.started = time.monotonic()
@@ -111,7 +118,7 @@ class StrategyRun:
         return self.spent_before + time.monotonic() - self.started
 
     def runs(self) -> int:
-        return len(self.rows)
+        return sum(1 for r in self.rows.values() if "ideal_of" not in r)
 
     def out_of_budget(self) -> bool:
         return self.budget.spent(self.elapsed(), self.runs() + len(self.in_flight))
@@ -140,14 +147,14 @@ class StrategyRun:
         for r in rows:
             index, rung = int(r["candidate"]), int(r["rung"])
             self.rows[(index, rung)] = r
+            if rung == 0 and r.get("status") == "ok":
+                self.ideal_verdicts.setdefault(self._ideal_key(self.candidates[index]), index)
             failed = bool(r.get("failed"))
             self.strategy.restore(self.candidates[index], rung, r, failed)
             if rung == self.high and r.get("status") == "ok":
                 self.strategy.confirmed(self.candidates[index], failed)
         # follow-ups that were due but never finished: first runs, ideal checks and promotions
         for index, c in self.candidates.items():
-            if (index, self._first_rung()) not in self.rows:
-                self.queue.append((index, self._first_rung()))
             high = self.rows.get((index, self.high))
             if high is not None and high.get("failed") and (index, 0) not in self.rows:
                 self.queue.append((index, 0))
@@ -173,7 +180,8 @@ class StrategyRun:
             return str(existing[0])
         return str(write_scenario(self.space.logical.build(c.params), folder, preview=False))
 
-    def job(self, c: Candidate, rung_index: int) -> Job:
+    def _run_settings(self, c: Candidate, rung_index: int) -> tuple[str | None, dict[str, Any], dict[str, Any]]:
+        """(controller, backend settings, cosim settings) of ``c`` in a rung."""
         rung = self.spec.ladder[rung_index]
         settings, cosim = apply_knobs(rung.backend, c.knobs)
         settings = dict(rung.settings) | settings
@@ -184,36 +192,75 @@ class StrategyRun:
         merged = dict(rung.cosim)
         for key, value in cosim.items():
             merged[key] = dict(merged.get(key) or {}) | value
+        return controller, settings, merged
+
+    def job(self, c: Candidate, rung_index: int) -> Job:
+        controller, settings, cosim = self._run_settings(c, rung_index)
         name = f"c{c.index:05d}"
         key = f"{name}/{_rung_name(rung_index, len(self.spec.ladder))}"
-        return Job(key=key, scenario=name, parameters=c.params, backend=rung.backend, vehicle=c.vehicle,
-                   controller=controller, backend_settings=settings, repeat=0, seed=self.spec.seed + c.index,
-                   cosim=merged, scenario_path=self._scenario(c))
+        return Job(key=key, scenario=name, parameters=c.params, backend=self.spec.ladder[rung_index].backend,
+                   vehicle=c.vehicle, controller=controller, backend_settings=settings, repeat=0,
+                   seed=self.spec.seed + c.index, cosim=cosim, scenario_path=self._scenario(c))
+
+    def _ideal_key(self, c: Candidate) -> str:
+        """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
+        rung's settings, and the seed only if that rung observes with noise."""
+        _, settings, cosim = self._run_settings(c, 0)
+        noisy = any(v for v in (cosim.get("observation_noise") or {}).values())
+        return json.dumps([c.params, c.vehicle, settings, cosim, self.spec.seed + c.index if noisy else None],
+                          sort_keys=True, default=str)
+
+    def _settle_ideal(self, index: int) -> bool:
+        """Settle ``index``'s ideal check without running it, if its scenario's ideal verdict is
+        known (copied now) or being run (copied when it comes); False if it has to run."""
+        key = self._ideal_key(self.candidates[index])
+        if key in self.ideal_verdicts:
+            self._copy_ideal(index, self.ideal_verdicts[key])
+            return True
+        if key in self.ideal_running:
+            self.ideal_waiting.setdefault(key, []).append(index)
+            return True
+        self.ideal_running[key] = index
+        return False
+
+    def _copy_ideal(self, index: int, source: int) -> None:
+        c = self.candidates[index]
+        row = dict(self.rows[(source, 0)]) | {"key": f"c{index:05d}/ideal", "scenario": f"c{index:05d}",
+                                               "candidate": index, "ideal_of": source, "elapsed_s": self.elapsed()}
+        row |= {k: 0.0 for k in row if k.startswith("time_") or k in ("job_time_s", "wall_time_s")}
+        row |= {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
+        self.strategy.observe(c, 0, row, bool(row.get("failed")))
+        row["promote"] = False
+        self.store.write_row(row)
+        self.rows[(index, 0)] = row
 
     def next_job(self) -> Job | None:
         if self.out_of_budget():
             return None
         while self.queue:
             index, rung = self.queue.pop(0)
-            if (index, rung) not in self.rows and (index, rung) not in self.in_flight:
-                return self._start(index, rung)
+            if (index, rung) in self.rows or (index, rung) in self.in_flight:
+                continue
+            if rung == 0 and self._settle_ideal(index):
+                continue
+            return self._start(index, rung)
         if self.exhausted:
             return None
         if self.missing:
             c = self.strategy.propose(self.missing.pop(0))
             if c is not None:
                 self.candidates[c.index] = c
-                return self._start(c.index, self._first_rung())
+                return self._start(c.index, self._first_rung(c))
         c = self.strategy.propose(self.next_index)
         if c is None:
             self.exhausted = True
             return None
         self.next_index += 1
         self.candidates[c.index] = c
-        return self._start(c.index, self._first_rung())
+        return self._start(c.index, self._first_rung(c))
 
-    def _first_rung(self) -> int:
-        return self.strategy.first_rung % len(self.spec.ladder)
+    def _first_rung(self, c: Candidate) -> int:
+        return (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
 
     def _start(self, index: int, rung: int) -> Job:
         self.in_flight.add((index, rung))
@@ -240,6 +287,16 @@ class StrategyRun:
                 self.queue.insert(0, (index, 0))           # is it a violated assumption?
         for r in follow:
             self.queue.append((index, r))
+        if rung == 0:
+            key = self._ideal_key(c)
+            self.ideal_running.pop(key, None)
+            waiting = self.ideal_waiting.pop(key, [])
+            if row.get("status") == "ok":
+                self.ideal_verdicts.setdefault(key, index)
+                for other in waiting:
+                    self._copy_ideal(other, index)
+            else:                                           # that run failed: each runs its own
+                self.queue[:0] = [(other, 0) for other in waiting]
         self._save_budget()
 
 
@@ -253,10 +310,11 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
     by_candidate: dict[int, dict[int, dict]] = {}
     for r in rows:
         by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-        res.runs += 1
+        res.runs += "ideal_of" not in r
         res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
         res.errors += r.get("status") != "ok"
     found: list[tuple[float, tuple[float, ...], str]] = []
+    scenarios: set[tuple] = set()
     for index, runs in by_candidate.items():
         h = runs.get(high)
         if h is None or h.get("status") != "ok":
@@ -269,6 +327,7 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
             continue
         res.violations += 1
+        scenarios.add((h["vehicle"],) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
         when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
         unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
         found.append((when, unit, h["vehicle"]))
@@ -278,6 +337,7 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
             distinct.append((unit, vehicle))
             res.curve.append((when, len(distinct)))
     res.distinct = len(distinct)
+    res.scenarios = len(scenarios)
     return res
 
 

@@ -11,17 +11,28 @@ and tells the strategy each result.
 * ``lhs``: a Latin hypercube design of ``lhs_samples`` points, in its order.
 * ``bo``: Bayesian optimisation in the high fidelity alone: optuna's TPE (multivariate, with a
   constant liar for runs in flight) maximising the objective.
-* ``multi_fidelity``: the cheap fidelities screen, the expensive one confirms. A TPE study over
-  the screen's *risk* proposes candidates; each runs in the first screening fidelity; one whose
-  risk reaches the promotion threshold goes up a rung, ending in the high fidelity. Risk is the
-  largest of: 2 if the screen run already fails, the peak grip use (combined acceleration over
-  what the road's friction allows — a single-track screen can ask for more than the road gives
-  without failing), and the objective over ``risk_scale``. It is discounted near failures that
-  are already confirmed, so proposals move on to new regions instead of re-finding one. The
-  allocation adapts as evidence comes in: the threshold falls when most promoted candidates fail
-  in high fidelity (the screen is trustworthy: cast a wider net) and rises when few do; one
-  candidate in ten is promoted whatever its risk, and if such a candidate fails in high
-  fidelity the threshold drops to its risk (the screen missed it).
+* ``multi_fidelity``: the cheap fidelities screen, the expensive one confirms. Each candidate
+  runs first in the screening fidelity; one whose *risk* reaches the promotion threshold goes up
+  a rung, ending in the high fidelity. Risk is the largest of: 2 if the screen run already fails,
+  the peak grip use (combined acceleration over what the road's friction allows — a single-track
+  screen can ask for more than the road gives without failing), and the objective over
+  ``risk_scale``. A candidate within the distinct radius of a confirmed failure is never
+  promoted: it would find nothing new.
+
+  Candidates come from three kinds of move: *global* (uniform over the space), *knobs* (a
+  confirmed failure's road, start and vehicle under reality knobs one to one and a half distinct
+  radii away — the ideal world takes no knob, so its verdict on that scenario is already known
+  and is not paid for again) and *scenario* (the same distance away in every dimension: a new
+  road or start). The allocation adapts as evidence comes in, at two levels: Thompson sampling
+  on each move's failures per CPU second picks the move (one candidate in ten is global
+  regardless), and on each failure's share of failing neighbours picks whose neighbourhood to
+  search. Both weigh the n-th failure on one road, start and vehicle by ``1/n^scenario_spread``
+  (a spec field, default 0.5), so that new scenarios keep being sought. A neighbourhood whose
+  neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
+  which ends early, costs about what the screen would. The promotion threshold falls when most promoted candidates fail in high fidelity
+  (the screen is trustworthy: cast a wider net) and rises when few do; one candidate in ten is
+  promoted whatever its risk, and if such a candidate fails in high fidelity the threshold drops
+  to its risk (the screen missed it).
 """
 
 from __future__ import annotations
@@ -34,7 +45,6 @@ from typing import Any
 import numpy as np
 from scipy.stats import qmc
 
-from simgap.experiment.knobs import KNOBS
 from simgap.experiment.search_spec import SearchSpec
 from simgap.scenario.logical import LogicalScenario
 
@@ -49,6 +59,7 @@ class Candidate:
     params: dict[str, float]           # every scenario parameter (defaults filled in)
     knobs: dict[str, float]
     trial: Any = None                  # the optuna trial that proposed it, if any
+    start_rung: int | None = None      # the rung it runs in first, if not the strategy's usual one
 
     def distance(self, other: "Candidate") -> float:
         if self.vehicle != other.vehicle:
@@ -164,13 +175,16 @@ class LatinHypercubeStrategy(Strategy):
         return self.space.candidate(index, row[:n], vehicle)
 
 
-class _Optimiser(Strategy):
-    """A TPE study over the space, maximising a score told per candidate."""
+class BayesianStrategy(Strategy):
+    """A TPE study over the space, maximising the objective in the high fidelity."""
 
-    def __init__(self, space: SearchSpace, seed: int):
+    name = "bo"
+
+    def __init__(self, space: SearchSpace, seed: int, objective: str):
         import optuna
 
         super().__init__(space, seed)
+        self.objective = objective
         optuna.logging.set_verbosity(optuna.logging.WARNING)
         sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, constant_liar=True,
                                              n_startup_trials=10)
@@ -195,14 +209,6 @@ class _Optimiser(Strategy):
             self.study.add_trial(optuna.trial.create_trial(
                 params=self.space.trial_params(candidate), distributions=self.distributions, value=score))
 
-
-class BayesianStrategy(_Optimiser):
-    name = "bo"
-
-    def __init__(self, space: SearchSpace, seed: int, objective: str):
-        super().__init__(space, seed)
-        self.objective = objective
-
     def observe(self, candidate, rung, row, failed):
         if rung == self.high:
             self.tell(candidate, _value(row, self.objective) if row.get("status") == "ok" else None)
@@ -210,6 +216,10 @@ class BayesianStrategy(_Optimiser):
 
 
 SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen
+MOVES = ("global", "knobs", "scenario")
+COST_PRIOR_S = 20.0           # a move's yield starts as one failure per this many CPU seconds
+PROPOSAL_TRIES = 30
+SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
 
 
 @dataclass
@@ -217,20 +227,118 @@ class _Evidence:
     promoted: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
 
 
-class MultiFidelityStrategy(_Optimiser):
+@dataclass
+class _Yield:
+    """What one kind of proposal (or one parent) has cost and found."""
+    cost_s: float = 0.0
+    found: float = 0.0
+    tried: int = 0
+
+
+class MultiFidelityStrategy(Strategy):
     name = "multi_fidelity"
     first_rung = 1
 
     def __init__(self, space: SearchSpace, seed: int, objective: str, risk_scale: float,
-                 distinct_radius: float):
+                 distinct_radius: float, scenario_spread: float = 0.5):
         super().__init__(space, seed)
         self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
+        self.spread = scenario_spread
+        self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]
         self.threshold = 1.0
         self.evidence = _Evidence()
-        self.failures: list[Candidate] = []
+        self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
+        self._failure_units: dict[str, list[tuple[float, ...]]] = {}     # ... their points, per vehicle
+        self._failure_array: dict[str, np.ndarray] = {}
+        self.live: dict[int, Candidate] = {}         # proposed, verdict still open
         self.risk: dict[int, float] = {}
         self.explored: set[int] = set()
+        self.move_of: dict[int, tuple[str, int | None]] = {}    # candidate -> (move, parent)
+        self.moves = {m: _Yield() for m in MOVES}
+        self.parents: dict[int, _Yield] = {}         # failure index -> what its neighbours found
+        self.ideal_fails: set[tuple] = set()         # scenarios that already fail in the ideal world
+        self.on_scenario: dict[tuple, int] = {}      # high-fidelity failures per scenario
 
+    # --- proposing ----------------------------------------------------------------------------
+    def propose(self, index: int) -> Candidate | None:
+        rng = np.random.default_rng([self.seed, index])
+        move, parent = self._choose_move(rng, index)
+        c = None
+        if move != "global":
+            c = self._neighbour(index, self.failures[parent], move, rng)
+            if c is None:
+                move, parent = "global", None
+        if c is None:
+            c = self._global(index, rng)
+        elif self._fail_share(parent) >= SKIP_SCREEN_AT:
+            c.start_rung = self.high        # the screen would only add its cost
+        self.move_of[index] = (move, parent)
+        self.moves[move].tried += 1
+        if parent is not None:
+            self.parents[parent].tried += 1
+        self.live[index] = c
+        return c
+
+    def _parents(self) -> list[int]:
+        return [i for i, f in self.failures.items() if _scenario_key(f) not in self.ideal_fails]
+
+    def _choose_move(self, rng: np.random.Generator, index: int) -> tuple[str, int | None]:
+        parents = self._parents()
+        if not parents or index % EXPLORE_EVERY == 0:
+            return "global", None
+        # Thompson sampling on each move's failures per CPU second (a gamma posterior)
+        rate = {m: rng.gamma(y.found + 1.0, 1.0 / (y.cost_s + COST_PRIOR_S)) for m, y in self.moves.items()}
+        move = max(rate, key=rate.get)
+        if move == "global":
+            return move, None
+        # ... and on each parent's share of neighbours that failed (a beta posterior), discounted by
+        # the failures its road and start already have: a new scenario is worth more than another knob
+        found = np.array([self.parents[p].found for p in parents])
+        tried = np.array([self.parents[p].tried for p in parents])
+        crowd = np.array([self.on_scenario.get(_scenario_key(self.failures[p]), 1) for p in parents], dtype=float)
+        draws = rng.beta(found + 1.0, tried - found + 1.0) / crowd ** self.spread
+        return move, parents[int(np.argmax(draws))]
+
+    def _fail_share(self, parent: int) -> float:
+        y = self.parents[parent]
+        return (y.found + 1.0) / (y.tried + 2.0)
+
+    def _global(self, index: int, rng: np.random.Generator) -> Candidate:
+        unit = rng.random(len(self.space.dims))
+        return self.space.candidate(index, unit, self.space.vehicles[rng.integers(len(self.space.vehicles))])
+
+    def _neighbour(self, index: int, parent: Candidate, move: str, rng: np.random.Generator) -> Candidate | None:
+        """A point one to one and a half distinct radii from ``parent`` — in the knobs only (the same
+        road and start, so its ideal verdict is known) or in every dimension — and at least a
+        distinct radius from every failure and open proposal."""
+        dims = self.knob_dims if move == "knobs" else list(range(len(self.space.dims)))
+        if not dims:
+            return None
+        for _ in range(PROPOSAL_TRIES):
+            direction = rng.normal(size=len(dims))
+            direction /= np.linalg.norm(direction)
+            unit = np.array(parent.unit)
+            unit[dims] = np.clip(unit[dims] + rng.uniform(1.0, 1.5) * self.radius * direction, 0.0, 1.0)
+            c = self.space.candidate(index, unit, parent.vehicle)
+            if move == "scenario" and _scenario_key(c) == _scenario_key(parent):
+                continue
+            if self._novelty(c, include_live=True) >= 1.0:
+                return c
+        return None
+
+    def _novelty(self, c: Candidate, include_live: bool = False) -> float:
+        """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
+        units = self._failure_units.get(c.vehicle)
+        nearest = math.inf
+        if units:
+            if len(units) != len(self._failure_array.get(c.vehicle, ())):
+                self._failure_array[c.vehicle] = np.asarray(units)
+            nearest = float(np.sqrt(((self._failure_array[c.vehicle] - c.unit) ** 2).sum(axis=1)).min())
+        if include_live:
+            nearest = min([nearest] + [c.distance(o) for o in self.live.values() if o.index != c.index])
+        return min(1.0, nearest / self.radius)
+
+    # --- learning -----------------------------------------------------------------------------
     def risk_of(self, row: dict[str, Any], failed: bool) -> float | None:
         if row.get("status") != "ok":
             return None
@@ -238,40 +346,55 @@ class MultiFidelityStrategy(_Optimiser):
                  _value(row, self.objective) / self.risk_scale]
         return max(p for p in parts if math.isfinite(p))
 
-    def _novelty(self, c: Candidate) -> float:
-        nearest = min((c.distance(f) for f in self.failures), default=math.inf)
-        return min(1.0, nearest / self.radius)
+    def _charge(self, candidate: Candidate, row: dict[str, Any]) -> None:
+        move, parent = self.move_of.get(candidate.index, ("global", None))
+        cost = _value(row, "job_time_s")
+        self.moves[move].cost_s += cost if math.isfinite(cost) else 0.0
+
+    def _close(self, candidate: Candidate, found: bool) -> None:
+        self.live.pop(candidate.index, None)
+        move, parent = self.move_of.get(candidate.index, ("global", None))
+        if found:
+            key = _scenario_key(candidate)
+            self.on_scenario[key] = self.on_scenario.get(key, 0) + 1
+            self.moves[move].found += self.on_scenario[key] ** -self.spread   # the n-th on a scenario: 1/n^spread
+            if parent is not None and parent in self.parents:
+                self.parents[parent].found += 1
 
     def observe(self, candidate, rung, row, failed):
-        if not 0 < rung < self.high:
+        self._charge(candidate, row)
+        if rung == 0:
+            if row.get("status") == "ok" and failed:
+                self.ideal_fails.add(_scenario_key(candidate))
+            return []
+        if rung == self.high:
+            if row.get("status") != "ok":
+                self._close(candidate, False)
             return []
         risk = self.risk_of(row, failed)
-        novelty = self._novelty(candidate)
-        if rung == self.first_rung:
-            self.tell(candidate, None if risk is None else risk * novelty)
         if risk is None:
+            self._close(candidate, False)
             return []
         self.risk[candidate.index] = risk
         explore = candidate.index % EXPLORE_EVERY == EXPLORE_EVERY - 1
-        if novelty < 1.0:           # a failure is already confirmed this close: nothing new to find
-            return []
-        if risk >= self.threshold or explore:
+        if self._novelty(candidate) >= 1.0 and (risk >= self.threshold or explore):
             if risk < self.threshold:
                 self.explored.add(candidate.index)
             return [rung + 1]
+        self._close(candidate, False)      # not promoted: a failure already this close, or too safe
         return []
 
     def restore(self, candidate, rung, row, failed):
-        if rung == self.first_rung and rung < self.high:
-            risk = self.risk_of(row, failed)
-            self.tell(candidate, None if risk is None else risk * self._novelty(candidate))
-            if risk is not None:
-                self.risk[candidate.index] = risk
+        self.move_of.setdefault(candidate.index, ("global", None))
+        self.observe(candidate, rung, row, failed)
 
     def confirmed(self, candidate: Candidate, failed: bool) -> None:
-        risk = self.risk.get(candidate.index)
+        self._close(candidate, failed)
         if failed:
-            self.failures.append(candidate)
+            self.failures[candidate.index] = candidate
+            self._failure_units.setdefault(candidate.vehicle, []).append(candidate.unit)
+            self.parents[candidate.index] = _Yield()
+        risk = self.risk.get(candidate.index)
         if risk is None:
             return
         if candidate.index in self.explored:
@@ -290,6 +413,11 @@ class MultiFidelityStrategy(_Optimiser):
             self.threshold = min(max(self.threshold, 0.2), SCREEN_FAILURE_RISK)
 
 
+def _scenario_key(c: Candidate) -> tuple:
+    """What the ideal world sees of a candidate: its road and start, and its vehicle."""
+    return (c.vehicle, tuple(sorted(c.params.items())))
+
+
 def _value(row: dict[str, Any], name: str) -> float:
     v = row.get(name)
     return float(v) if v is not None and not (isinstance(v, float) and math.isnan(v)) else math.nan
@@ -305,5 +433,6 @@ def make_strategy(name: str, space: SearchSpace, spec: SearchSpec) -> Strategy:
     if name == "bo":
         return BayesianStrategy(space, spec.seed, spec.objective)
     if name == "multi_fidelity":
-        return MultiFidelityStrategy(space, spec.seed, spec.objective, spec.risk_scale, spec.distinct_radius)
+        return MultiFidelityStrategy(space, spec.seed, spec.objective, spec.risk_scale, spec.distinct_radius,
+                                     spec.scenario_spread)
     raise ValueError(name)

@@ -129,14 +129,17 @@ def build_search_report(root: Path) -> Path:
         summary.append({
             "strategy": res.name, "wall clock [min]": res.wall_s / 60.0, "runs": res.runs,
             "high-fidelity runs": res.high_runs, "high-fidelity failures": res.high_failures,
-            "violated assumptions": res.violations, "distinct": res.distinct,
+            "violated assumptions": res.violations, "distinct": res.distinct, "scenarios": res.scenarios,
             "CPU hours": res.cpu_s / 3600.0, "distinct per CPU hour": res.per_cpu_hour,
             "ideal passes failing high [%]": 100.0 * res.violations / ideal_passes if ideal_passes else math.nan,
             "run errors": res.errors})
     dims = [(k, n, lo, hi) for k, n, lo, hi in spec.dimensions]
     body = [f"<p>Search <b>{spec.name}</b> on <code>{spec.logical}</code>: ladder "
             + " → ".join(r.backend for r in spec.ladder)
-            + f"; objective <code>{spec.objective}</code>; distinct radius {spec.distinct_radius:g} (normalised).</p>",
+            + f"; objective <code>{spec.objective}</code>; distinct radius {spec.distinct_radius:g} (normalised).</p>"
+            "<p><em>Distinct</em> counts violations after de-duplication over every dimension, reality knobs "
+            "included; <em>scenarios</em> counts the different roads, starts and vehicles among them (the same "
+            "road under other knob settings is one scenario).</p>",
             "<p>A <em>violated assumption</em> passes in the ideal world and fails in the high fidelity. "
             "The ideal world is run where the high fidelity failed; a high-fidelity pass is taken as an "
             "ideal pass for the share below.</p>",
