@@ -228,7 +228,7 @@ class StrategyRun:
         row = dict(self.rows[(source, 0)]) | {"key": f"c{index:05d}/ideal", "scenario": f"c{index:05d}",
                                                "candidate": index, "ideal_of": source, "elapsed_s": self.elapsed()}
         row |= {k: 0.0 for k in row if k.startswith("time_") or k in ("job_time_s", "wall_time_s")}
-        row |= {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
+        row |= _candidate_columns(c)
         self.strategy.observe(c, 0, row, bool(row.get("failed")))
         row["promote"] = False
         self.store.write_row(row)
@@ -275,8 +275,7 @@ class StrategyRun:
         row = dict(row) | {"strategy": self.strategy.name, "candidate": index, "rung": rung,
                            "rung_backend": job.backend, "failed": reason is not None, "failure_reason": reason or "",
                            "elapsed_s": self.elapsed()}
-        row |= {f"unit_{i}": u for i, u in enumerate(c.unit)}
-        row |= {f"knob_{k}": v for k, v in c.knobs.items()}
+        row |= _candidate_columns(c)
         follow = self.strategy.observe(c, rung, row, reason is not None)
         row["promote"] = bool(follow)
         self.store.write_row(row)
@@ -298,6 +297,10 @@ class StrategyRun:
             else:                                           # that run failed: each runs its own
                 self.queue[:0] = [(other, 0) for other in waiting]
         self._save_budget()
+
+
+def _candidate_columns(c: Candidate) -> dict[str, float]:
+    return {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
 
 
 def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:

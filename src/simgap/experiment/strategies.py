@@ -29,10 +29,10 @@ and tells the strategy each result.
   search. Both weigh the n-th failure on one road, start and vehicle by ``1/n^scenario_spread``
   (a spec field, default 0.5), so that new scenarios keep being sought. A neighbourhood whose
   neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
-  which ends early, costs about what the screen would. The promotion threshold falls when most promoted candidates fail in high fidelity
-  (the screen is trustworthy: cast a wider net) and rises when few do; one candidate in ten is
-  promoted whatever its risk, and if such a candidate fails in high fidelity the threshold drops
-  to its risk (the screen missed it).
+  which ends early, costs about what the screen would. The promotion threshold falls when most
+  promoted candidates fail in high fidelity (the screen is trustworthy: cast a wider net) and
+  rises when few do; one candidate in ten is promoted whatever its risk, and if such a candidate
+  fails in high fidelity the threshold drops to its risk (the screen missed it).
 """
 
 from __future__ import annotations
@@ -152,9 +152,12 @@ class RandomStrategy(Strategy):
     name = "random"
 
     def propose(self, index: int) -> Candidate | None:
-        rng = np.random.default_rng([self.seed, index])
-        unit = rng.random(len(self.space.dims))
-        return self.space.candidate(index, unit, self.space.vehicles[rng.integers(len(self.space.vehicles))])
+        return _uniform(self.space, index, np.random.default_rng([self.seed, index]))
+
+
+def _uniform(space: SearchSpace, index: int, rng: np.random.Generator) -> Candidate:
+    unit = rng.random(len(space.dims))
+    return space.candidate(index, unit, space.vehicles[rng.integers(len(space.vehicles))])
 
 
 class LatinHypercubeStrategy(Strategy):
@@ -248,8 +251,8 @@ class MultiFidelityStrategy(Strategy):
         self.threshold = 1.0
         self.evidence = _Evidence()
         self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
-        self._failure_units: dict[str, list[tuple[float, ...]]] = {}     # ... their points, per vehicle
-        self._failure_array: dict[str, np.ndarray] = {}
+        self.scenario_of: dict[int, tuple] = {}      # ... their scenarios
+        self._failure_points: dict[str, np.ndarray] = {}     # ... their points, per vehicle
         self.live: dict[int, Candidate] = {}         # proposed, verdict still open
         self.risk: dict[int, float] = {}
         self.explored: set[int] = set()
@@ -269,7 +272,7 @@ class MultiFidelityStrategy(Strategy):
             if c is None:
                 move, parent = "global", None
         if c is None:
-            c = self._global(index, rng)
+            c = _uniform(self.space, index, rng)
         elif self._fail_share(parent) >= SKIP_SCREEN_AT:
             c.start_rung = self.high        # the screen would only add its cost
         self.move_of[index] = (move, parent)
@@ -280,7 +283,7 @@ class MultiFidelityStrategy(Strategy):
         return c
 
     def _parents(self) -> list[int]:
-        return [i for i, f in self.failures.items() if _scenario_key(f) not in self.ideal_fails]
+        return [i for i, key in self.scenario_of.items() if key not in self.ideal_fails]
 
     def _choose_move(self, rng: np.random.Generator, index: int) -> tuple[str, int | None]:
         parents = self._parents()
@@ -295,17 +298,13 @@ class MultiFidelityStrategy(Strategy):
         # the failures its road and start already have: a new scenario is worth more than another knob
         found = np.array([self.parents[p].found for p in parents])
         tried = np.array([self.parents[p].tried for p in parents])
-        crowd = np.array([self.on_scenario.get(_scenario_key(self.failures[p]), 1) for p in parents], dtype=float)
+        crowd = np.array([self.on_scenario[self.scenario_of[p]] for p in parents], dtype=float)
         draws = rng.beta(found + 1.0, tried - found + 1.0) / crowd ** self.spread
         return move, parents[int(np.argmax(draws))]
 
     def _fail_share(self, parent: int) -> float:
         y = self.parents[parent]
         return (y.found + 1.0) / (y.tried + 2.0)
-
-    def _global(self, index: int, rng: np.random.Generator) -> Candidate:
-        unit = rng.random(len(self.space.dims))
-        return self.space.candidate(index, unit, self.space.vehicles[rng.integers(len(self.space.vehicles))])
 
     def _neighbour(self, index: int, parent: Candidate, move: str, rng: np.random.Generator) -> Candidate | None:
         """A point one to one and a half distinct radii from ``parent`` — in the knobs only (the same
@@ -328,12 +327,8 @@ class MultiFidelityStrategy(Strategy):
 
     def _novelty(self, c: Candidate, include_live: bool = False) -> float:
         """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
-        units = self._failure_units.get(c.vehicle)
-        nearest = math.inf
-        if units:
-            if len(units) != len(self._failure_array.get(c.vehicle, ())):
-                self._failure_array[c.vehicle] = np.asarray(units)
-            nearest = float(np.sqrt(((self._failure_array[c.vehicle] - c.unit) ** 2).sum(axis=1)).min())
+        points = self._failure_points.get(c.vehicle)
+        nearest = math.inf if points is None else float(np.sqrt(((points - c.unit) ** 2).sum(axis=1)).min())
         if include_live:
             nearest = min([nearest] + [c.distance(o) for o in self.live.values() if o.index != c.index])
         return min(1.0, nearest / self.radius)
@@ -392,7 +387,9 @@ class MultiFidelityStrategy(Strategy):
         self._close(candidate, failed)
         if failed:
             self.failures[candidate.index] = candidate
-            self._failure_units.setdefault(candidate.vehicle, []).append(candidate.unit)
+            self.scenario_of[candidate.index] = _scenario_key(candidate)
+            points = self._failure_points.get(candidate.vehicle, np.empty((0, len(candidate.unit))))
+            self._failure_points[candidate.vehicle] = np.vstack([points, candidate.unit])
             self.parents[candidate.index] = _Yield()
         risk = self.risk.get(candidate.index)
         if risk is None:
