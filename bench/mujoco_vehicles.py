@@ -186,8 +186,10 @@ def realtime(vehicle_name: str, controller: str) -> None:
                 plans[k + 1] = _shift(plan, *offsets[k])
             backend.step(plans)
         wall = time.perf_counter() - start
+        tm = backend.timings
         print(f"{n} car(s): {20.0 / wall:6.1f}x real time (wall {wall:.2f} s for 20 s; control "
-              f"{backend.timings['control']:.2f} s, physics {backend.timings['physics']:.2f} s)")
+              f"{tm['control']:.2f} s, physics {tm['physics']:.2f} s, tyres {tm['tyres']:.2f} s = "
+              f"{100 * tm['tyres'] / wall:.0f} % of the wall time)")
 
 
 def _shift(plan, dx: float, dy: float):

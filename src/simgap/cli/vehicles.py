@@ -14,6 +14,8 @@ from rich.table import Table
 from simgap.cli.main import app
 from simgap.vehicles import load_vehicle, vehicle_names
 
+LONG_TEXT = 40      # characters: a longer text field is printed under the table
+
 vehicles_app = typer.Typer(help="The vehicle catalogue (one data file per vehicle).", no_args_is_help=False,
                            invoke_without_command=True)
 app.add_typer(vehicles_app, name="vehicles")
@@ -29,7 +31,7 @@ def catalogue(ctx: typer.Context) -> None:
         return
     table = Table(title="vehicle catalogue", title_justify="left")
     for col in ("name", "L x W [m]", "wheelbase [m]", "mass [kg]", "CoG [m]", "drive", "power [kW]",
-                "tyre mu", "steer [deg]"):
+                "tyre mu", "understeer [deg/g]", "steer [deg]"):
         table.add_column(escape(col), justify="left" if col in ("name", "drive") else "right")
     descriptions = []
     for name in vehicle_names():
@@ -38,10 +40,11 @@ def catalogue(ctx: typer.Context) -> None:
         descriptions.append(f"{name}: {v.description}")
         size = (f"{v.length:.2f}x{v.width:.2f}", f"{v.wheelbase:.2f}")
         if p is None:
-            table.add_row(name, *size, *["—"] * 6)
+            table.add_row(name, *size, *["—"] * 7)
             continue
         table.add_row(name, *size, f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles,
                       f"{p.max_power / 1000:.0f}", f"{p.tyre_friction:.2f}",
+                      f"{math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * 9.81):.2f}",
                       f"{math.degrees(p.steering.max_angle):.0f}")
     console = Console()
     console.print(table)
@@ -73,16 +76,26 @@ def show(name: str = typer.Argument(..., help="catalogue name or path of a vehic
         table.add_row(field_name, f"{getattr(v, field_name):g}", escape(type(v).model_fields[field_name].description or ""))
     for field_name, info in type(v.limits).model_fields.items():
         table.add_row(f"limits.{field_name}", f"{getattr(v.limits, field_name):g}", escape(info.description or ""))
+    notes: list[str] = []
     if v.physics is not None:
-        for field_name, info in type(v.physics).model_fields.items():
-            value = getattr(v.physics, field_name)
-            if hasattr(value, "model_fields"):
-                for sub, sub_info in type(value).model_fields.items():
-                    table.add_row(f"physics.{field_name}.{sub}", f"{getattr(value, sub):g}",
-                                  escape(sub_info.description or ""))
-            else:
-                table.add_row(f"physics.{field_name}", value if isinstance(value, str) else f"{value:g}",
-                              escape(info.description or ""))
+        _add_model_rows(table, "physics", v.physics, notes)
     for controller, gains in v.controllers.items():
         table.add_row(f"controllers.{controller}", str(gains), "gains overriding the defaults")
     console.print(table)
+    for note in notes:
+        console.print(escape(note))
+
+
+def _add_model_rows(table: Table, prefix: str, model, notes: list[str]) -> None:
+    """One row per field of a (nested) data model: dotted name, value, meaning; long texts (a
+    source) go to ``notes``, printed under the table."""
+    for field_name, info in type(model).model_fields.items():
+        value = getattr(model, field_name)
+        name = f"{prefix}.{field_name}"
+        if hasattr(value, "model_fields"):
+            _add_model_rows(table, name, value, notes)
+        elif isinstance(value, str) and len(value) > LONG_TEXT:
+            notes.append(f"{name}: {value}")
+        else:
+            shown = "—" if value is None else value if isinstance(value, str) else f"{value:g}"
+            table.add_row(name, escape(shown), escape(info.description or ""))

@@ -120,10 +120,12 @@ class LqrController(TrackingController):
         preview = path.index_at_s(proj.s + v * g.preview_time)
         kappa = path.value("curvature", preview)
         steer_ff = g.curvature_feedforward * self.feedforward_steer(kappa, v)
-        heading_error = wrap_angle(measured.yaw - proj.heading)
+        offset = self.steady_heading_offset(kappa, v)
+        heading_error = wrap_angle(measured.yaw - proj.heading - offset)
+        lateral = proj.lateral - self.reference_offset * math.sin(offset)   # the rear axle swings out
         deviation = measured.steer - steer_ff
         k = self.gain(v, steer_ff)
-        steer = (steer_ff - (k[0] * proj.lateral + k[1] * heading_error + k[2] * deviation)
+        steer = (steer_ff - (k[0] * lateral + k[1] * heading_error + k[2] * deviation)
                  + self.lateral_integral(v, dt))
         self.diagnostics.update(heading_error=heading_error, curvature=kappa)
         return steer, proj

@@ -57,6 +57,11 @@ class PurePursuitController(TrackingController):
     def __init__(self, vehicle, gains: PurePursuitGains | None = None, rate_hz: float = 100.0):
         super().__init__(vehicle, gains or PurePursuitGains(), rate_hz)
         self.reference_offset = -self.rear_axle_to_center
+        self._plan_curvature = 0.0
+
+    def _reset_lateral(self, state: State) -> None:
+        super()._reset_lateral(state)
+        self._plan_curvature = 0.0
 
     def lookahead(self, v: float) -> float:
         g = self.gains
@@ -65,12 +70,15 @@ class PurePursuitController(TrackingController):
 
     def _steer(self, measured: State, path: PlannedPath, t: float, dt: float
                ) -> tuple[float, Projection]:
-        rx, ry = self.reference_point(measured)
-        proj = path.project(rx, ry)
         v = max(measured.v, 0.0)
+        # the pose of the kinematic car the plan is for: a real car in a turn runs turned in by
+        # the steady heading offset (curvature of the last update: feed-forward, no feedback)
+        yaw = measured.yaw - self.steady_heading_offset(self._plan_curvature, v)
+        rx, ry = self.reference_point(measured.replace(yaw=yaw))
+        proj = path.project(rx, ry)
         ld = self.lookahead(v)
         tx, ty = path.point_at(proj.s + ld)
-        kappa_pp = _pursuit_curvature(rx, ry, measured.yaw, tx, ty)
+        kappa_pp = _pursuit_curvature(rx, ry, yaw, tx, ty)
         w = self.gains.curvature_feedforward
         kappa = kappa_pp
         if w > 0.0:
@@ -79,5 +87,6 @@ class PurePursuitController(TrackingController):
             kappa_plan = path.value(
                 "curvature", path.index_at_s(proj.s + v * self.gains.preview_time))
             kappa += w * (kappa_plan - kappa_pp_ref)
+            self._plan_curvature = kappa_plan
         self.diagnostics.update(lookahead=ld, curvature=kappa)
         return self.feedforward_steer(kappa, v) + self.lateral_integral(v, dt), proj

@@ -50,8 +50,11 @@ class StanleyController(TrackingController):
         proj = path.project(fx, fy)
         v = max(measured.v, 0.0)
         kappa = path.value("curvature", proj.index)
-        heading_error = wrap_angle(path.value("yaw", proj.index) - measured.yaw)
-        cross_track = -math.atan2(g.cross_track_gain * proj.lateral, g.softening_speed + v)
+        offset = self.steady_heading_offset(kappa, v)
+        heading_error = wrap_angle(path.value("yaw", proj.index) + offset - measured.yaw)
+        # the front axle of a car turned in by ``offset`` sits that much inside the planned one
+        lateral = proj.lateral - self.reference_offset * math.sin(offset)
+        cross_track = -math.atan2(g.cross_track_gain * lateral, g.softening_speed + v)
         damping = g.yaw_rate_damping * (kappa * v - measured.yaw_rate)
         steer = (g.curvature_feedforward * self.feedforward_steer(kappa, v)
                  + g.heading_gain * heading_error + cross_track + damping

@@ -19,6 +19,7 @@ from simgap.control.longitudinal import LongitudinalMap, SpeedController, SpeedG
 from simgap.control.planned_path import PlannedPath, Projection
 from simgap.control.protocol import Command
 from simgap.trajectory import State, Trajectory
+from simgap.vehicles.physics import VehiclePhysics
 
 MIN_RATE_HZ = 50.0
 _STOP_LOOKAHEAD = 0.5    # s of plan checked for a planned standstill
@@ -32,9 +33,10 @@ class TrackingGains(BaseModel):
     curvature_feedforward: float = Field(
         1.0, ge=0, le=1.5,
         description="weight of the steering feed-forward from the plan's curvature [-]")
-    understeer_gradient: float = Field(
-        0.0, description="extra steering per lateral acceleration, K_us in "
-        "delta = atan(L kappa) + K_us v^2 kappa [rad s^2/m]; 0 for a neutral-steer vehicle")
+    understeer_gradient: float | None = Field(
+        None, description="extra steering per lateral acceleration, K_us in "
+        "delta = atan(L kappa) + K_us v^2 kappa [rad s^2/m]; default: the linear-range value of "
+        "the vehicle's tyres at its axle loads (0 for a vehicle without physics)")
     lateral_integral_gain: float = Field(
         2.0, ge=0, description="integral of the centre's lateral error, as lateral "
         "acceleration [1/s^3]: the steering term grows at gain * L / v^2 * error [rad/s]; it "
@@ -69,6 +71,17 @@ class TrackingController:
         self.front_axle_to_center = float(vehicle.wheelbase - vehicle.rear_axle_to_center)
         self.max_steer = float(vehicle.limits.max_steer)
         self.pedal_map = LongitudinalMap.for_vehicle(vehicle)
+        physics = vehicle.physics if isinstance(vehicle.physics, VehiclePhysics) else None
+        self.understeer_gradient = gains.understeer_gradient
+        if self.understeer_gradient is None:
+            self.understeer_gradient = (physics.understeer_gradient(vehicle.wheelbase, vehicle.rear_axle_to_center)
+                                        if physics is not None else 0.0)
+        # heading of a real car in a steady turn minus the kinematic model's, per v^2 kappa: its
+        # tyres slip, so it runs with less sideslip (beta_kin - beta = m a v^2 kappa / (L C_r))
+        self._sideslip_gain = 0.0
+        if physics is not None:
+            _, c_rear = physics.axle_cornering_stiffness(vehicle.wheelbase, vehicle.rear_axle_to_center)
+            self._sideslip_gain = physics.mass * self.front_axle_to_center / (vehicle.wheelbase * c_rear)
         self.speed = SpeedController(gains.speed, self.pedal_map, vehicle.limits.max_accel)
         self._path: PlannedPath | None = None
         self._path_plan: Trajectory | None = None
@@ -157,10 +170,16 @@ class TrackingController:
         c, s = math.cos(state.yaw), math.sin(state.yaw)
         return state.x + self.reference_offset * c, state.y + self.reference_offset * s
 
+    def steady_heading_offset(self, curvature: float, v: float) -> float:
+        """How far a real car's heading turns inside the plan's (kinematic) heading in a steady
+        turn of ``curvature`` at speed ``v`` [rad]: controllers that feed back heading compare
+        against the plan's heading plus this, so they do not fight the car's natural sideslip."""
+        return self._sideslip_gain * v * v * curvature
+
     def feedforward_steer(self, curvature: float, v: float) -> float:
         """Steering angle that holds ``curvature`` at speed ``v`` (kinematic + understeer)."""
         return (math.atan(self.wheelbase * curvature)
-                + self.gains.understeer_gradient * v * v * curvature)
+                + self.understeer_gradient * v * v * curvature)
 
     def _planned_path(self, plan: Trajectory) -> PlannedPath:
         if self._path is None or self._path_plan is not plan:

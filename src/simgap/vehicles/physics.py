@@ -13,6 +13,8 @@ Conventions:
 * Suspension stiffness and damping are per wheel at the wheel centre (wheel rates).
 * ``max_drive_torque`` is the torque at the driven wheels, summed, in first gear at full
   throttle; ``max_power`` caps it at speed (``torque <= power / wheel speed``).
+* ``tyres`` are the four (alike) tyres (`simgap.vehicles.tyres`); ``wheel_radius`` is their
+  loaded rolling radius at static load.
 * ``max_brake_torque`` is the summed torque of all four brakes at full pedal;
   ``brake_front_share`` of it acts on the front axle.
 """
@@ -22,6 +24,8 @@ from __future__ import annotations
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
+
+from simgap.vehicles.tyres import Tyres
 
 
 class Suspension(BaseModel):
@@ -63,7 +67,7 @@ class VehiclePhysics(BaseModel):
     wheel_inertia: float = Field(gt=0, description="wheel spin inertia [kg m^2]")
     suspension_front: Suspension
     suspension_rear: Suspension
-    tyre_friction: float = Field(gt=0, le=2.0, description="peak tyre-road friction on dry asphalt [-]")
+    tyres: Tyres = Field(description="the tyres: Magic Formula coefficients, radial stiffness, relaxation lengths")
     steering: Steering
     max_drive_torque: float = Field(gt=0, description="summed drive torque at the wheels [N m]")
     max_power: float = Field(gt=0, description="max power at the wheels [W]")
@@ -73,6 +77,46 @@ class VehiclePhysics(BaseModel):
     brake_front_share: float = Field(gt=0, lt=1, description="front axle share of brake torque [-]")
     drag_coefficient_area: float = Field(0.64, ge=0, description="drag coefficient times frontal area [m^2]")
     rolling_resistance: float = Field(0.012, ge=0, description="rolling-resistance coefficient [-]")
+
+    @property
+    def tyre_friction(self) -> float:
+        """Peak tyre-road friction on the reference (dry) road."""
+        return self.tyres.peak_friction
+
+    def axle_cornering_stiffness(self, wheelbase: float, rear_axle_to_center: float,
+                                 gravity: float = 9.81) -> tuple[float, float]:
+        """Cornering stiffness of the front and of the rear axle (both tyres) at static load [N/rad]."""
+        b = rear_axle_to_center
+        a = wheelbase - b
+        front_load = self.mass * gravity * b / wheelbase / 2.0
+        rear_load = self.mass * gravity * a / wheelbase / 2.0
+        return (2.0 * abs(self.tyres.cornering_stiffness(front_load)),
+                2.0 * abs(self.tyres.cornering_stiffness(rear_load)))
+
+    def understeer_gradient(self, wheelbase: float, rear_axle_to_center: float) -> float:
+        """Linear-range understeer gradient of the tyres at static axle loads [rad s^2/m]:
+        K_us = m / L (b / C_f - a / C_r), C the axle's cornering stiffness (steering angle
+        delta = L / R + K_us a_y on a steady circle). Load transfer, roll and compliance are not
+        in it; `bench/vehicle_dynamics.py` measures the whole car."""
+        c_front, c_rear = self.axle_cornering_stiffness(wheelbase, rear_axle_to_center)
+        b = rear_axle_to_center
+        return self.mass / wheelbase * (b / c_front - (wheelbase - b) / c_rear)
+
+    def steady_sideslip(self, wheelbase: float, rear_axle_to_center: float, speed: float, yaw_rate: float) -> float:
+        """Sideslip at the centre of gravity [rad] in steady cornering at ``speed`` and
+        ``yaw_rate`` with linear tyres: beta = b / R - m a v^2 / (L C_r R)."""
+        _, c_rear = self.axle_cornering_stiffness(wheelbase, rear_axle_to_center)
+        a = wheelbase - rear_axle_to_center
+        return rear_axle_to_center * yaw_rate / speed - self.mass * a * speed * yaw_rate / (wheelbase * c_rear)
+
+    def steady_roll(self, lateral_acceleration: float, gravity: float = 9.81) -> float:
+        """Body roll [rad, about the forward axis, > 0 left side up] in steady cornering at
+        ``lateral_acceleration`` (> 0 turning left): the sprung mass's moment about the ground,
+        held by the springs' roll stiffness ``k t^2 / 2`` per axle."""
+        stiffness = (self.suspension_front.stiffness * self.track_front ** 2
+                     + self.suspension_rear.stiffness * self.track_rear ** 2) / 2.0
+        moment_arm = self.sprung_mass * self.cg_height
+        return moment_arm * lateral_acceleration / (stiffness - moment_arm * gravity)
 
     @property
     def sprung_mass(self) -> float:

@@ -79,7 +79,7 @@ def test_each_vehicle_stands_still_at_its_static_ride_height(name):
     mujoco.mj_forward(world.model, world.data)
     for i in range(4):      # hold the car on its brakes, as a parked car
         world.model.dof_frictionloss[car.spin_dofs[i]] = 500.0
-    mujoco.mj_step(world.model, world.data, nstep=1500)          # 3 s
+    world.step(1500)                                             # 3 s
     q, v = world.data.qpos, world.data.qvel
     assert q[car.qpos + 2] == pytest.approx(vehicle.physics.cg_height, abs=0.005)
     for adr in car.suspension_qpos:

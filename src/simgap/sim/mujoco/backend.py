@@ -7,7 +7,8 @@ steering angle — the ideal backend's convention) and its controller turns the 
 steering, throttle and brake; the steering target moves towards the request at the steering
 system's rate and within its angle; drive torque (capped by the powertrain's power), brakes,
 drag and the friction of the surface under each tyre are set; then physics runs at its own rate
-(default 500 Hz) until the next controller update. Physical contacts with other cars or with
+(default 500 Hz) until the next controller update, with slip-based tyre forces computed every
+physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). Physical contacts with other cars or with
 traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
 
@@ -59,7 +60,7 @@ class MujocoBackend:
         self.steer_delay, self.pedal_delay = float(steer_delay), float(pedal_delay)
         self.settings = validated_settings(WorldSettings, world)
         self.substeps = steps_per_tick(self.settings.physics_hz, self.controller_hz)
-        self.timings = {"control": 0.0, "physics": 0.0}
+        self.timings = {"control": 0.0, "physics": 0.0, "tyres": 0.0}
         self.world: World | None = None
         self._events: list[BackendEvent] = []
 
@@ -75,8 +76,6 @@ class MujocoBackend:
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [self.world.cars[a.id] for a in agents]
         self._wheel_bodies = np.array([b for car in cars for b in car.wheel_bodies], dtype=int)
-        self._tyre_pairs = np.array([p for car in cars for p in car.tyre_pairs], dtype=int)
-        self._tyre_friction = np.repeat([car.physics.tyre_friction for car in cars], 4)
         self._steer_limit = {a.id: max_single_track_angle(self.world.cars[a.id].physics, a.vehicle.wheelbase)
                              for a in agents}
         model = self.world.model
@@ -95,9 +94,10 @@ class MujocoBackend:
         for a in self._agents:
             w.place(a.id, a.initial_state)
         self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
-        self._surface_mu = np.full(len(self._tyre_pairs), np.nan)
+        w.tyres.reset()
         w.move_traffic(self._t0)
         mujoco.mj_forward(w.model, w.data)
+        w.tyres.apply(settle=True)
         self._accel = {a.id: SpeedRate(self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         states = {a.id: self.measure(a.id, self._t0) for a in self._agents}
         for a in self._agents:
@@ -123,10 +123,8 @@ class MujocoBackend:
                 measured = self.measure(a.id, t)
                 command = self._controllers[a.id].command(measured, plans[a.id], t)
                 self._actuate(a.id, command, period)
-            c1 = time.perf_counter()
-            mujoco.mj_step(w.model, w.data, nstep=self.substeps)
-            self.timings["control"] += c1 - c0
-            self.timings["physics"] += time.perf_counter() - c1
+            self.timings["control"] += time.perf_counter() - c0
+            self.advance(self.substeps)
             self._check(t + period)
             self._collect_contacts(t + period, seen)
         self._step += 1
@@ -209,17 +207,21 @@ class MujocoBackend:
         d.xfrc_applied[car.chassis_body, 0:2] = [fx, fy]
 
     def apply_surface(self) -> None:
-        """Give every tyre the friction of the surface it stands on: road or verge."""
+        """Give every tyre the friction of the surface it stands on: road or verge (a factor on
+        the tyre's own peak friction)."""
         w = self.world
         xy = w.data.xpos[self._wheel_bodies, :2]
         on_road = w.surface.on_road(xy[:, 0], xy[:, 1])
-        mu = self._tyre_friction * np.where(on_road, w.settings.road_friction, w.settings.offroad_friction)
-        changed = mu != self._surface_mu
-        if changed.any():
-            pairs = self._tyre_pairs[changed]
-            w.model.pair_friction[pairs, 0] = mu[changed]
-            w.model.pair_friction[pairs, 1] = mu[changed]
-            self._surface_mu = mu
+        w.tyres.mu[:] = np.where(on_road, w.settings.road_friction, w.settings.offroad_friction)
+
+    def advance(self, steps: int) -> None:
+        """``steps`` physics steps with the actuation in force, timed as physics and tyres."""
+        w = self.world
+        start, tyres_before = time.perf_counter(), w.tyres.seconds
+        w.step(steps)
+        tyres = w.tyres.seconds - tyres_before
+        self.timings["tyres"] += tyres
+        self.timings["physics"] += time.perf_counter() - start - tyres
 
     # --- events --------------------------------------------------------------------------------
     def _check(self, t: float) -> None:

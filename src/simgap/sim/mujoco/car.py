@@ -11,8 +11,8 @@ Actuation, all at the wheels: the front steering hinges follow position servos (
 angles of the requested road-wheel angle, after the rate and angle limits of the steering
 system); drive torque through motors on the driven wheels' spin joints; brakes as dry friction
 on every spin joint (MuJoCo's ``frictionloss``, solved implicitly, so a braked car holds still).
-Tyre-road contact: one explicit contact pair per wheel with the ground, elliptic friction cone,
-the friction coefficient of the surface under the tyre (see `simgap.sim.mujoco.world`).
+Tyre-road forces: not MuJoCo contacts but slip-based tyres (`simgap.sim.mujoco.tyre`) applied
+at each wheel's contact patch every physics step; the wheels' geoms only draw.
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ UPRIGHT_MASS = 2.0          # kg of each corner's unsprung mass that does not sp
 STEER_ARMATURE = 2.0        # kg m^2 reflected inertia of the steering rack at each wheel
 STEER_KP = 6.0e4            # N m/rad steering servo stiffness at each wheel
 STEER_KV = 1.2e3            # N m s/rad steering servo damping
-TYRE_SOLREF = (0.01, 1.0)   # contact time constant [s] and damping ratio of the tyre-road pair
 ROLLING_BRAKE_SPEED = 0.5   # m/s: below this the rolling resistance torque fades in
 
 
@@ -88,9 +87,15 @@ class CarIndex:
     spin_dofs: list[int] = field(default_factory=list)         # in CORNERS order
     suspension_qpos: list[int] = field(default_factory=list)   # in CORNERS order
     drive_actuators: list[int] = field(default_factory=list)   # in CORNERS order (-1: not driven)
-    tyre_pairs: list[int] = field(default_factory=list)        # in CORNERS order
     wheel_bodies: list[int] = field(default_factory=list)      # in CORNERS order
+    upright_bodies: list[int] = field(default_factory=list)    # in CORNERS order
     geoms: set[int] = field(default_factory=set)               # every geom of this car
+
+    @property
+    def corners(self) -> list[tuple[float, float]]:
+        """(x forward, y left) of each wheel centre from the centre of gravity, in CORNERS order."""
+        geometry = _corner_geometry(self.vehicle, self.physics)
+        return [geometry[c] for c in CORNERS]
 
     def resolve(self, model: mujoco.MjModel) -> "CarIndex":
         p = self.prefix
@@ -107,8 +112,8 @@ class CarIndex:
                 self.drive_actuators.append(model.actuator(f"{p}drive_{c}").id)
             except KeyError:
                 self.drive_actuators.append(-1)
-        self.tyre_pairs = [model.pair(f"{p}tyre_{c}").id for c in CORNERS]
         self.wheel_bodies = [model.body(f"{p}wheel_{c}").id for c in CORNERS]
+        self.upright_bodies = [model.body(f"{p}upright_{c}").id for c in CORNERS]
         self.geoms = {g for g in range(model.ngeom)
                       if model.body(model.geom_bodyid[g]).name.startswith(p)}
         return self
@@ -128,7 +133,13 @@ def static_wheel_loads(vehicle: Vehicle, physics: VehiclePhysics) -> dict[str, f
     return {"front_left": front, "front_right": front, "rear_left": rear, "rear_right": rear}
 
 
-def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle, ground: str,
+def static_tyre_loads(vehicle: Vehicle, physics: VehiclePhysics) -> list[float]:
+    """Load on each tyre at standstill [N], in CORNERS order: its spring's share and its corner."""
+    springs = static_wheel_loads(vehicle, physics)
+    return [springs[c] + physics.wheel_mass * GRAVITY for c in CORNERS]
+
+
+def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
             rgba: tuple[float, float, float, float]) -> CarIndex:
     """Add a car named ``prefix`` to ``spec`` at the origin (`place` puts it elsewhere)."""
     ph = requires_physics(vehicle)
@@ -184,9 +195,6 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle, ground: str,
         wheel.mass = ph.wheel_mass - UPRIGHT_MASS
         wheel.inertia = [ph.wheel_inertia * 0.55, ph.wheel_inertia, ph.wheel_inertia * 0.55]
         wheel.add_joint(name=f"{prefix}spin_{corner}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
-        # contact: a sphere of the rolling radius (a single, smooth contact point); looks: a tyre
-        wheel.add_geom(name=f"{prefix}tyre_{corner}", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0],
-                       contype=0, conaffinity=0, group=3, mass=0)
         wheel.add_geom(name=f"{prefix}tyre_look_{corner}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                        size=[r, ph.wheel_width / 2, 0], quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0],
                        rgba=[0.08, 0.08, 0.08, 1.0], contype=0, conaffinity=0, mass=0)
@@ -194,10 +202,6 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle, ground: str,
                        size=[0.6 * r, ph.wheel_width / 2 + 0.005, 0],
                        quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0],
                        rgba=[0.75, 0.75, 0.78, 1.0], contype=0, conaffinity=0, mass=0)
-        pair = spec.add_pair(name=f"{prefix}tyre_{corner}", geomname1=f"{prefix}tyre_{corner}",
-                             geomname2=ground, condim=3)
-        pair.friction = [ph.tyre_friction, ph.tyre_friction, 0.0, 0.0, 0.0]
-        pair.solref = list(TYRE_SOLREF)
 
         if front:
             act = spec.add_actuator(name=f"{prefix}steer_{corner}", target=f"{prefix}steer_{corner}",

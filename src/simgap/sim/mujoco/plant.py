@@ -4,7 +4,8 @@ benchmarks (`simgap.sim.dynamic.track_plans` drives it like the single-track pla
 
 from __future__ import annotations
 
-import mujoco
+from typing import Any
+
 from commonroad.common.util import Interval
 from commonroad.scenario.scenario import Scenario
 
@@ -24,11 +25,14 @@ def proving_ground(dt: float = 0.1) -> Scenario:
 
 class MujocoPlant:
     """``reset(state)`` places the car; ``step(command, period)`` holds ``command`` for ``period``
-    seconds of physics and returns the measured state."""
+    seconds of physics and returns the measured state. ``world`` takes the backend's world
+    settings (``road_grade``, ``road_bank``, ...); on the proving ground a slope runs along the
+    car's heading."""
 
-    def __init__(self, vehicle: Vehicle, physics_hz: float = 500.0, road_friction: float = 1.0):
+    def __init__(self, vehicle: Vehicle, physics_hz: float = 500.0, road_friction: float = 1.0, **world: Any):
         self.vehicle = vehicle
-        self.backend = MujocoBackend(controller_hz=100.0, physics_hz=physics_hz, road_friction=road_friction)
+        self.backend = MujocoBackend(controller_hz=100.0, physics_hz=physics_hz, road_friction=road_friction,
+                                     **world)
         self._scenario = proving_ground()
         self._period_steps: dict[float, int] = {}
 
@@ -46,7 +50,7 @@ class MujocoPlant:
         b._actuate(AGENT, command, period)
         steps = max(1, round(period * b.settings.physics_hz))
         t = b.world.data.time
-        mujoco.mj_step(b.world.model, b.world.data, nstep=steps)
+        b.advance(steps)
         b._check(t + period)
         state = b.measure(AGENT, self.t0 + b.world.data.time)
         return state

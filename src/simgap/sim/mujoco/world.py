@@ -17,8 +17,9 @@ from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
-from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
+from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, static_tyre_loads, yaw_quaternion
 from simgap.sim.mujoco.road import SurfaceMap, add_road
+from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State
 
@@ -26,6 +27,9 @@ from simgap.trajectory import State
 CAR_COLOURS = [(0.0, 0.45, 0.70, 1), (0.84, 0.37, 0.0, 1), (0.0, 0.62, 0.45, 1), (0.8, 0.47, 0.65, 1),
                (0.9, 0.62, 0.0, 1), (0.34, 0.71, 0.91, 1)]
 TRAFFIC_HEIGHT = 1.5    # m, height of a recorded obstacle's box
+SETTLED_MIN_SPEED = 0.5  # m/s: a car placed slower than this starts without sideslip or roll
+MAX_PLACED_ROLL = 0.1    # rad: bound on the body roll of a car placed in a turn
+NOSLIP_ITERATIONS = 2    # MuJoCo's post-pass on friction constraints (the brakes)
 
 
 class WorldSettings(BaseModel):
@@ -50,22 +54,45 @@ class World:
     traffic_geoms: dict[int, int]                   # geom id -> obstacle id
     surface: SurfaceMap
     settings: WorldSettings
+    tyres: SlipTyres                                # every car's four, in the order of `cars`
     owner: dict[int, int] = field(default_factory=dict)   # geom id -> agent id
     road_bounds: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)   # x0, y0, x1, y1 of the lanelets
 
+    def step(self, n: int) -> None:
+        """``n`` physics steps, the tyre forces computed for each from its positions and velocities."""
+        m, d, tyres = self.model, self.data, self.tyres
+        for _ in range(n):
+            mujoco.mj_step1(m, d)
+            tyres.apply()
+            mujoco.mj_step2(m, d)
+
     def place(self, agent_id: int, state: State) -> None:
-        """Put a car at ``state`` (pose and velocity), at rest on its suspension."""
-        car = self.cars[agent_id]
+        """Put a car at ``state`` (pose and velocity), at rest on its suspension.
+
+        The state says where the car goes: its centre moves in the direction ``yaw + atan(b
+        tan(steer) / L)`` of the planner's kinematic model. A real car on that course at that
+        speed and yaw rate has the sideslip of steady cornering (`VehiclePhysics.steady_sideslip`),
+        so its heading is set to the course minus that sideslip; with its tyres settled
+        (`SlipTyres.apply`) it starts as if it had long been driving so."""
+        car, vehicle = self.cars[agent_id], self.cars[agent_id].vehicle
+        course = heading = state.yaw
+        roll = 0.0
+        if abs(state.v) > SETTLED_MIN_SPEED:
+            course += math.atan(vehicle.rear_axle_to_center / vehicle.wheelbase * math.tan(state.steer))
+            heading = course - car.physics.steady_sideslip(vehicle.wheelbase, vehicle.rear_axle_to_center,
+                                                           state.v, state.yaw_rate)
+            roll = min(max(car.physics.steady_roll(state.v * state.yaw_rate), -MAX_PLACED_ROLL), MAX_PLACED_ROLL)
         q = self.data.qpos
         q[car.qpos:car.qpos + 3] = [state.x, state.y, car.physics.cg_height]
-        q[car.qpos + 3:car.qpos + 7] = yaw_quaternion(state.yaw)
+        mujoco.mju_mulQuat(q[car.qpos + 3:car.qpos + 7], yaw_quaternion(heading),
+                           np.array([math.cos(roll / 2), math.sin(roll / 2), 0.0, 0.0]))
         v = self.data.qvel
-        v[car.qvel:car.qvel + 3] = [state.v * math.cos(state.yaw), state.v * math.sin(state.yaw), 0.0]
+        v[car.qvel:car.qvel + 3] = [state.v * math.cos(course), state.v * math.sin(course), 0.0]
         v[car.qvel + 3:car.qvel + 6] = [0.0, 0.0, state.yaw_rate]
         for dof in car.spin_dofs:
             v[dof] = state.v / car.physics.wheel_radius
-        for adr in car.suspension_qpos:
-            q[adr] = 0.0
+        for adr, (_, y) in zip(car.suspension_qpos, car.corners):
+            q[adr] = -y * math.sin(roll)            # every wheel stays on the ground under the rolled body
         left, right = ackermann_angles(state.steer, car.vehicle.wheelbase, car.physics.track_front)
         q[car.steer_qpos[0]], q[car.steer_qpos[1]] = left, right
         self.data.ctrl[car.steer_actuators[0]], self.data.ctrl[car.steer_actuators[1]] = left, right
@@ -104,6 +131,9 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     spec.option.timestep = 1.0 / settings.physics_hz
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    # brakes are dry friction on the wheels' spin joints: the noslip pass makes that friction
+    # rigid (a soft one lets a braked wheel creep under a steady torque, a car down a slope)
+    spec.option.noslip_iterations = NOSLIP_ITERATIONS
     spec.option.gravity = [0, 0, -9.81]
 
     lanelets = scenario.lanelet_network.lanelets
@@ -121,7 +151,7 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
 
     cars = {}
     for i, agent in enumerate(agents):
-        cars[agent.id] = add_car(spec, f"agent{agent.id}_", agent.vehicle, "ground", CAR_COLOURS[i % len(CAR_COLOURS)])
+        cars[agent.id] = add_car(spec, f"agent{agent.id}_", agent.vehicle, CAR_COLOURS[i % len(CAR_COLOURS)])
 
     traffic_specs = []
     for obstacle in recorded_obstacles(scenario):
@@ -139,5 +169,8 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     traffic_geoms = {model.geom(f"obstacle{o.id}").id: o.id for o in traffic_specs}
     owner = {g: aid for aid, car in cars.items() for g in car.geoms}
     bounds = (*pts.min(axis=0).tolist(), *pts.max(axis=0).tolist())
-    return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, owner,
-                 bounds)
+    tyres = SlipTyres(model, data, [(car.wheel_bodies[k], car.upright_bodies[k], car.spin_dofs[k], car.physics, load)
+                                    for car in cars.values()
+                                    for k, load in enumerate(static_tyre_loads(car.vehicle, car.physics))])
+    return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, tyres,
+                 owner, bounds)

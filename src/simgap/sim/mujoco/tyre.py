@@ -1,0 +1,253 @@
+"""Slip-based tyres for the MuJoCo cars: Magic Formula forces applied at each contact patch.
+
+MuJoCo's own contact would make a Coulomb tyre (no slip below the friction limit, so a car
+corners on the kinematic steering angle and breaks away all at once). Here MuJoCo keeps the
+rigid bodies, suspension, steering, drive and brakes; the tyre-road forces come from this module,
+every physics step, for all wheels of all cars at once:
+
+1. **Vertical load** from a radial spring-damper between the wheel centre and the ground plane
+   (``vertical_stiffness``, ``vertical_damping``): the suspension's motion, and so load transfer in
+   braking and cornering, changes each tyre's load.
+2. **Slip** from the contact-patch velocity in the wheel frame (the upright's heading, projected
+   onto the ground) and the wheel's spin, through first-order *transient slip* (Pacejka, *Tire and
+   Vehicle Dynamics*, ch. 7): the tyre deflections u, v obey
+   ``du/dt = -|V_x| u / sigma_kappa - V_sx`` and ``dv/dt = -|V_x| v / sigma_alpha + V_sy``, with
+   ``kappa = u / sigma_kappa`` and ``tan(alpha) = v / sigma_alpha``. At speed they lag the
+   slip by the relaxation length; at standstill they become springs, so a braked car holds on a
+   slope without creeping. They are updated implicitly in their own decay, stable at any speed.
+3. **Forces** by the Magic Formula, pure and combined slip (`simgap.vehicles.tyres`), the peak
+   scaled by the friction of the surface under the tyre (road, verge, the ``road_friction`` knob).
+4. **Low speed**: below ``low_speed`` a damping force on the slip velocity fades in (as MF-Tyre's
+   low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
+   reflected to the patch, and critical damping of the tyre spring). The total force never
+   exceeds the tyre's peak friction times its load.
+
+The force and its moment are applied to the wheel body (``xfrc_applied``) at a point one rolling
+radius below the wheel centre, so the longitudinal force brakes or drives the wheel's spin and the
+lateral force rolls the body, as at a real contact patch. Forces enter between ``mj_step1`` (which
+computes positions and velocities) and ``mj_step2`` (which integrates), so they belong to the
+state they are integrated from. The kernel is compiled by numba (cached on disk): one call for
+every wheel of the world costs a few microseconds.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Sequence
+
+import mujoco
+import numpy as np
+from numba import njit
+
+from simgap.vehicles.physics import VehiclePhysics
+
+GRAVITY = 9.81
+# columns of the per-wheel parameter table
+(R_ROLL, R_FREE, K_Z, C_Z, SIGMA_X, SIGMA_Y, P_CX1, P_DX1, P_DX3, P_EX1, P_KX1, P_CY1, P_DY1, P_DY3,
+ P_EY1, P_KY1, P_KY2, F_Z0, R_BX1, R_BX2, R_CX1, R_EX1, R_BY1, R_BY2, R_CY1, R_EY1, V_LOW, C_LOW_X,
+ C_LOW_Y) = range(29)
+N_PARAMS = 29
+# columns of the per-wheel output table
+OUT_FZ, OUT_KAPPA, OUT_ALPHA, OUT_FX, OUT_FY, OUT_CAMBER = range(6)
+MAX_SLIP_RATIO = 2.0        # |kappa| bound of the transient state (a locked wheel is -1)
+MAX_TAN_SLIP_ANGLE = 1.5    # |tan alpha| bound of the transient state (about 56 deg)
+SETTLE_MIN_SPEED = 0.5     # m/s: `settle` leaves slower tyres undeflected
+LOW_SPEED_DAMPING_SHARE = 0.3   # of the largest damping one explicit physics step can take
+EPS = 1e-9
+
+
+@njit(cache=True)
+def _magic(b: float, c: float, d: float, e: float, x: float) -> float:
+    bx = b * x
+    return d * math.sin(c * math.atan(bx - e * (bx - math.atan(bx))))
+
+
+@njit(cache=True)
+def _weight(b: float, c: float, e: float, x: float) -> float:
+    bx = b * x
+    return math.cos(c * math.atan(bx - e * (bx - math.atan(bx))))
+
+
+@njit(cache=True)
+def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root, spin,
+                par, mu, u, v, dt, settle, out):     # pragma: no cover - compiled
+    for i in range(wheel.shape[0]):
+        wb, ub, rb = wheel[i], upright[i], root[i]
+        p = par[i]
+        re = p[R_ROLL]
+        cz = xipos[wb, 2]
+        deflection = p[R_FREE] - cz
+        m = xmat[ub]
+        hx, hy = m[0], m[3]                      # upright x axis (wheel heading) on the ground
+        norm = math.sqrt(hx * hx + hy * hy) + EPS
+        ex_x, ex_y = hx / norm, hy / norm
+        ey_x, ey_y = -ex_y, ex_x
+        camber = math.asin(min(max(m[7], -1.0), 1.0))
+        # velocity of the upright at the contact point (world frame)
+        rx = xipos[wb, 0] - subtree_com[rb, 0]
+        ry = xipos[wb, 1] - subtree_com[rb, 1]
+        rz = cz - re - subtree_com[rb, 2]
+        w0, w1, w2 = cvel[ub, 0], cvel[ub, 1], cvel[ub, 2]
+        vpx = cvel[ub, 3] + w1 * rz - w2 * ry
+        vpy = cvel[ub, 4] + w2 * rx - w0 * rz
+        vpz = cvel[ub, 5] + w0 * ry - w1 * rx
+        vx = vpx * ex_x + vpy * ex_y
+        vy = vpx * ey_x + vpy * ey_y
+        ax = abs(vx)
+        fz = p[K_Z] * deflection - p[C_Z] * vpz
+        if deflection <= 0.0 or fz <= 0.0:       # wheel in the air: the deflections relax
+            u[i] /= 1.0 + dt * max(ax, 1.0) / p[SIGMA_X]
+            v[i] /= 1.0 + dt * max(ax, 1.0) / p[SIGMA_Y]
+            for k in range(6):
+                xfrc[wb, k] = 0.0
+            out[i, OUT_FZ] = 0.0
+            out[i, OUT_FX] = 0.0
+            out[i, OUT_FY] = 0.0
+            continue
+        if settle:          # a free-rolling wheel, deflected as if it had long been rolling so
+            qvel[spin[i]] = vx / re
+            u[i] = 0.0
+            v[i] = p[SIGMA_Y] * vy / ax if ax > SETTLE_MIN_SPEED else 0.0
+        vsx = vx - qvel[spin[i]] * re
+        u_max = MAX_SLIP_RATIO * p[SIGMA_X]
+        v_max = MAX_TAN_SLIP_ANGLE * p[SIGMA_Y]
+        if not settle:
+            u[i] = (u[i] - dt * vsx) / (1.0 + dt * ax / p[SIGMA_X])
+            v[i] = (v[i] + dt * vy) / (1.0 + dt * ax / p[SIGMA_Y])
+        u[i] = min(max(u[i], -u_max), u_max)
+        v[i] = min(max(v[i], -v_max), v_max)
+        kappa = u[i] / p[SIGMA_X]
+        alpha = math.atan(v[i] / p[SIGMA_Y])
+        # pure slip
+        g2 = camber * camber
+        lam = mu[i]
+        dx = lam * p[P_DX1] * (1.0 - p[P_DX3] * g2) * fz
+        bx = p[P_KX1] * fz / (p[P_CX1] * dx + EPS)
+        fx0 = _magic(bx, p[P_CX1], dx, p[P_EX1], kappa)
+        dy = lam * p[P_DY1] * (1.0 - p[P_DY3] * g2) * fz
+        if p[P_KY2] > 0.0:
+            ky = p[P_KY1] * p[F_Z0] * math.sin(2.0 * math.atan(fz / (p[P_KY2] * p[F_Z0])))
+        else:
+            ky = p[P_KY1] * fz
+        by = ky / (p[P_CY1] * dy + EPS)
+        fy0 = _magic(by, p[P_CY1], dy, p[P_EY1], alpha)
+        # combined slip
+        bxa = p[R_BX1] * math.cos(math.atan(p[R_BX2] * kappa))
+        byk = p[R_BY1] * math.cos(math.atan(p[R_BY2] * alpha))
+        fx = fx0 * _weight(bxa, p[R_CX1], p[R_EX1], alpha)
+        fy = fy0 * _weight(byk, p[R_CY1], p[R_EY1], kappa)
+        # low-speed damping, then the friction limit
+        if ax < p[V_LOW]:
+            blend = 1.0 - ax / p[V_LOW]
+            fx -= blend * p[C_LOW_X] * vsx
+            fy -= blend * p[C_LOW_Y] * vy
+        limit = max(dx, dy)
+        mag = math.sqrt(fx * fx + fy * fy)
+        if mag > limit:
+            fx *= limit / mag
+            fy *= limit / mag
+        fwx = fx * ex_x + fy * ey_x
+        fwy = fx * ex_y + fy * ey_y
+        xfrc[wb, 0] = fwx
+        xfrc[wb, 1] = fwy
+        xfrc[wb, 2] = fz
+        xfrc[wb, 3] = re * fwy                  # (0, 0, -re) x F: the force acts at the patch
+        xfrc[wb, 4] = -re * fwx
+        xfrc[wb, 5] = 0.0
+        out[i, OUT_FZ] = fz
+        out[i, OUT_KAPPA] = kappa
+        out[i, OUT_ALPHA] = alpha
+        out[i, OUT_FX] = fx
+        out[i, OUT_FY] = fy
+        out[i, OUT_CAMBER] = camber
+
+
+def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], timestep: float) -> np.ndarray:
+    """The parameter table rows of one car's four wheels (`corner_loads`: static load per wheel, N)."""
+    t, mf = physics.tyres, physics.tyres.magic_formula
+    rows = np.zeros((len(corner_loads), N_PARAMS))
+    spin_mass = physics.wheel_inertia / physics.wheel_radius ** 2
+    for k, load in enumerate(corner_loads):
+        row = rows[k]
+        row[R_ROLL] = physics.wheel_radius
+        row[R_FREE] = physics.wheel_radius + load / t.vertical_stiffness
+        row[K_Z], row[C_Z] = t.vertical_stiffness, t.vertical_damping
+        row[SIGMA_X], row[SIGMA_Y] = t.relaxation_length_longitudinal, t.relaxation_length_lateral
+        row[P_CX1], row[P_DX1], row[P_DX3], row[P_EX1], row[P_KX1] = mf.p_cx1, mf.p_dx1, mf.p_dx3, mf.p_ex1, mf.p_kx1
+        row[P_CY1], row[P_DY1], row[P_DY3], row[P_EY1], row[P_KY1] = mf.p_cy1, mf.p_dy1, mf.p_dy3, mf.p_ey1, mf.p_ky1
+        row[P_KY2] = mf.p_ky2 or 0.0
+        row[F_Z0] = t.nominal_load or 0.0
+        row[R_BX1], row[R_BX2], row[R_CX1], row[R_EX1] = mf.r_bx1, mf.r_bx2, mf.r_cx1, mf.r_ex1
+        row[R_BY1], row[R_BY2], row[R_CY1], row[R_EY1] = mf.r_by1, mf.r_by2, mf.r_cy1, mf.r_ey1
+        row[V_LOW] = t.low_speed
+        # low-speed damping: critical for the tyre's spring at standstill, capped so that one
+        # explicit step cannot overshoot (the spin inertia at the patch, the corner's mass)
+        corner_mass = load / GRAVITY
+        k_x = mf.p_kx1 * load / t.relaxation_length_longitudinal
+        k_y = abs(t.cornering_stiffness(load)) / t.relaxation_length_lateral
+        row[C_LOW_X] = min(2.0 * math.sqrt(k_x * corner_mass), LOW_SPEED_DAMPING_SHARE * spin_mass / timestep)
+        row[C_LOW_Y] = min(2.0 * math.sqrt(k_y * corner_mass), LOW_SPEED_DAMPING_SHARE * corner_mass / timestep)
+    return rows
+
+
+class SlipTyres:
+    """The tyres of every car in one compiled world: parameters, transient state, forces.
+
+    ``wheels`` are (wheel body, upright body, spin dof, physics, static load) per wheel, in the
+    order the backend's per-wheel arrays use. ``mu`` scales each tyre's peak friction (the
+    surface under it); `apply` computes and applies the forces for the current positions and
+    velocities (call it between ``mj_step1`` and ``mj_step2``)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
+                 wheels: Sequence[tuple[int, int, int, VehiclePhysics, float]]):
+        self.model, self.data = model, data
+        self.wheel = np.array([w[0] for w in wheels], dtype=np.int64)
+        self.upright = np.array([w[1] for w in wheels], dtype=np.int64)
+        self.root = np.array([model.body_rootid[w[0]] for w in wheels], dtype=np.int64)
+        self.spin = np.array([w[2] for w in wheels], dtype=np.int64)
+        self.params = np.vstack([wheel_parameters(w[3], [w[4]], model.opt.timestep) for w in wheels]) \
+            if wheels else np.zeros((0, N_PARAMS))
+        self.mu = np.ones(len(wheels))
+        self.u = np.zeros(len(wheels))
+        self.v = np.zeros(len(wheels))
+        self.out = np.zeros((len(wheels), 6))
+        self._dt = float(model.opt.timestep)
+        self.seconds = 0.0              # wall time spent in `apply`
+        # views into MjData: its buffers never move, so they can be held
+        self._views = (data.xipos, data.xmat, data.cvel, data.subtree_com, data.qvel, data.xfrc_applied)
+
+    def reset(self) -> None:
+        self.u[:] = 0.0
+        self.v[:] = 0.0
+        self.out[:] = 0.0
+
+    def apply(self, settle: bool = False) -> None:
+        """Compute and apply the forces; ``settle``: first set each tyre's deflections to the
+        steady values of its present motion (for a car placed in motion, see `World.place`)."""
+        start = time.perf_counter()
+        xipos, xmat, cvel, com, qvel, xfrc = self._views
+        tyre_forces(xipos, xmat, cvel, com, qvel, xfrc, self.wheel, self.upright, self.root, self.spin,
+                    self.params, self.mu, self.u, self.v, self._dt, settle, self.out)
+        self.seconds += time.perf_counter() - start
+
+    # --- what the tyres do now, per wheel (for monitors, tests and benchmarks) -----------------
+    @property
+    def load(self) -> np.ndarray:
+        return self.out[:, OUT_FZ]
+
+    @property
+    def slip_ratio(self) -> np.ndarray:
+        return self.out[:, OUT_KAPPA]
+
+    @property
+    def slip_angle(self) -> np.ndarray:
+        return self.out[:, OUT_ALPHA]
+
+    @property
+    def longitudinal_force(self) -> np.ndarray:
+        return self.out[:, OUT_FX]
+
+    @property
+    def lateral_force(self) -> np.ndarray:
+        return self.out[:, OUT_FY]

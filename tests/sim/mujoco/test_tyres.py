@@ -1,0 +1,119 @@
+"""The slip-based tyres of the MuJoCo cars: the physics a kinematic bicycle does not have."""
+
+from __future__ import annotations
+
+import math
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from simgap.control import make_controller, manoeuvres
+from simgap.control.protocol import Command
+from simgap.errors import InputError
+from simgap.sim.dynamic import track_plans
+from simgap.sim.mujoco.plant import MujocoPlant
+from simgap.sim.protocol import PhysicsDiverged
+from simgap.trajectory import State
+from simgap.vehicles import load_vehicle
+from simgap.vehicles.catalogue import load_vehicle_file
+
+RADIUS = 50.0
+
+
+@pytest.fixture(scope="module")
+def sedan():
+    return load_vehicle("sedan")
+
+
+def _circle(vehicle, speed: float, duration: float = 8.0, **world):
+    """Drive a R = 50 m circle; the plant (its tyres in their last state) and the states."""
+    man = manoeuvres.circle(vehicle, RADIUS, speed, duration=duration)
+    plant = MujocoPlant(vehicle, **world)
+    states = track_plans(plant, make_controller("pure_pursuit", vehicle, 100.0),
+                         lambda t, s: man.plan(t, 3.0), man.initial_state(), man.duration)
+    lateral = np.array([man.lateral_error(s.x, s.y) for s in states])
+    return plant, states, lateral
+
+
+def _sideslip(plant) -> float:
+    """Angle from the heading to the centre's velocity [rad], from the physics state."""
+    world, car = plant.world, plant.world.cars[1]
+    vx, vy = world.data.qvel[car.qvel:car.qvel + 2]
+    state = plant.backend.measure(1, 0.0)
+    return math.remainder(math.atan2(vy, vx) - state.yaw, math.tau)
+
+
+def test_a_slip_angle_appears_and_grows_with_lateral_acceleration(sedan):
+    slow, _, _ = _circle(sedan, 8.0)         # 0.13 g
+    fast, _, _ = _circle(sedan, 16.0)        # 0.52 g
+    alpha_slow = np.degrees(np.abs(slow.world.tyres.slip_angle))
+    alpha_fast = np.degrees(np.abs(fast.world.tyres.slip_angle))
+    assert alpha_slow.min() > 0.1                  # a Coulomb tyre: exactly 0 below the limit
+    assert alpha_fast.min() > 3.0 * alpha_slow.max()   # a_y grew 4x; the linear range of the tyre
+    assert alpha_fast.max() < 6.0                  # well below the peak, still held
+
+
+def test_sideslip_falls_with_speed_on_a_circle(sedan):
+    betas = [math.degrees(_sideslip(_circle(sedan, v)[0])) for v in (6.0, 12.0, 18.0)]
+    kinematic = math.degrees(math.atan(sedan.rear_axle_to_center / RADIUS))     # 1.63 deg
+    assert betas[0] == pytest.approx(kinematic, abs=0.3)      # slow: nearly the kinematic angle
+    assert betas[0] > betas[1] + 0.3 > betas[2] + 0.6         # falls with speed ...
+    assert betas[2] < 0.0                                     # ... and turns (the nose points in)
+
+
+def test_yaw_lags_a_steering_step(sedan):
+    speed = 80.0 / 3.6
+    plant = MujocoPlant(sedan)
+    state = plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=speed))
+    target = math.radians(1.5)
+    states = [state]
+    for _ in range(300):                       # 3 s, 10 ms steps; a little throttle holds the speed
+        states.append(plant.step(Command(target, 0.08, 0.0), 0.01))
+    t = np.array([s.t for s in states])
+    steer = np.array([s.steer for s in states])
+    yaw_rate = np.array([s.yaw_rate for s in states])
+    steady = yaw_rate[t > 2.5].mean()
+    assert steady > 0.0
+    steer_done = t[np.argmax(steer >= 0.9 * target)]
+    yaw_done = t[np.argmax(yaw_rate >= 0.9 * steady)]
+    assert yaw_done - steer_done > 0.05           # the tyres must build slip first
+    assert yaw_rate[np.argmax(steer >= target * 0.999)] < 0.8 * steady
+
+
+def test_lower_road_friction_lowers_the_limit(sedan):
+    speed = 17.0                                     # 0.59 g on the 50 m circle
+    _, _, dry = _circle(sedan, speed, duration=10.0)
+    _, states, wet = _circle(sedan, speed, duration=10.0, road_friction=0.5)
+    assert np.abs(dry[-200:]).max() < 0.1
+    assert np.abs(wet).max() > 2.0                  # beyond 0.5 g: the car leaves the circle
+
+
+def test_a_braked_car_holds_still_on_a_slope(sedan):
+    plant = MujocoPlant(sedan, road_grade=8.0)       # 14 % uphill ahead of the car
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=0.0))
+    states = [plant.step(Command(0.0, 0.0, 1.0), 0.01) for _ in range(500)]    # 5 s on the brakes
+    x = np.array([s.x for s in states])
+    v = np.array([s.v for s in states])
+    assert abs(x[-1] - x[0]) < 0.01                  # no creep down the slope
+    assert np.abs(v[-200:]).max() < 2e-3             # and no jitter
+    assert np.ptp(x[-200:]) < 1e-3
+
+
+def test_a_car_on_its_side_is_diverged_physics_with_its_reason(sedan):
+    plant = MujocoPlant(sedan)
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=10.0))
+    car, data = plant.world.cars[1], plant.world.data
+    data.qpos[car.qpos + 2] = 1.0
+    data.qpos[car.qpos + 3:car.qpos + 7] = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]    # rolled 90 deg
+    with pytest.raises(PhysicsDiverged, match="on its side or roof"):
+        plant.step(Command(0.0, 0.0, 0.0), 0.01)
+
+
+def test_bad_tyre_data_names_the_file_and_field(tmp_path):
+    text = (resources.files("simgap.vehicles") / "data" / "sedan.yaml").read_text()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace("p_ky1: -21.92", "p_ky1: 21.92"))
+    with pytest.raises(InputError) as err:
+        load_vehicle_file(bad)
+    assert "bad.yaml" in str(err.value) and "physics.tyres.magic_formula.p_ky1" in str(err.value)
