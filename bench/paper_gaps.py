@@ -32,7 +32,8 @@ def print_table(name: str, cells: dict[tuple[float, float], float]) -> None:
     radii = sorted({r for r, _ in cells})
     angles = sorted({a for _, a in cells})
     print(f"\n{name}: max |d| [m] between the ideal and the MuJoCo run (rows: radius [m], columns: angle [deg])")
-    print(f"{'r \\ angle':>9} " + " ".join(f"{a:>6.0f}" for a in angles))
+    corner = "r / angle"
+    print(f"{corner:>9} " + " ".join(f"{a:>6.0f}" for a in angles))
     for r in radii:
         print(f"{r:>9.0f} " + " ".join(f"{cells.get((r, a), float('nan')):>6.2f}" for a in angles))
     worst = max(cells, key=cells.get)

@@ -37,6 +37,10 @@ class TrackingGains(BaseModel):
         None, description="extra steering per lateral acceleration, K_us in "
         "delta = atan(L kappa) + K_us v^2 kappa [rad s^2/m]; default: the linear-range value of "
         "the vehicle's tyres at its axle loads (0 for a vehicle without physics)")
+    sideslip_compensation: float = Field(
+        1.0, ge=0, le=1.5, description="weight of the steady-sideslip compensation: heading feedback "
+        "compares against the plan's heading turned in by the sideslip a real car runs with in a "
+        "steady turn (from the vehicle's tyres); 0: against the kinematic heading [-]")
     lateral_integral_gain: float = Field(
         2.0, ge=0, description="integral of the centre's lateral error, as lateral "
         "acceleration [1/s^3]: the steering term grows at gain * L / v^2 * error [rad/s]; it "
@@ -174,7 +178,7 @@ class TrackingController:
         """How far a real car's heading turns inside the plan's (kinematic) heading in a steady
         turn of ``curvature`` at speed ``v`` [rad]: controllers that feed back heading compare
         against the plan's heading plus this, so they do not fight the car's natural sideslip."""
-        return self._sideslip_gain * v * v * curvature
+        return self.gains.sideslip_compensation * self._sideslip_gain * v * v * curvature
 
     def feedforward_steer(self, curvature: float, v: float) -> float:
         """Steering angle that holds ``curvature`` at speed ``v`` (kinematic + understeer)."""

@@ -40,7 +40,7 @@ def _sideslip(plant) -> float:
     """Angle from the heading to the centre's velocity [rad], from the physics state."""
     world, car = plant.world, plant.world.cars[1]
     vx, vy = world.data.qvel[car.qvel:car.qvel + 2]
-    state = plant.backend.measure(1, 0.0)
+    state = plant.physics.measure(1, 0.0)
     return math.remainder(math.atan2(vy, vx) - state.yaw, math.tau)
 
 

@@ -14,17 +14,17 @@ knobs ``road_friction`` (1.0 = dry), ``steer_delay`` and ``pedal_delay`` [s].
 from __future__ import annotations
 
 import time
-from typing import Mapping, Sequence
+from typing import Sequence
 
 from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.control import make_controller
-from simgap.control.delay import with_actuator_delay
+from simgap.control.protocol import Command
 from simgap.errors import InputError, validated_settings
 from simgap.sim.dynamic.plant import PLANTS, make_plant
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
-from simgap.trajectory import State, Trajectory
+from simgap.sim.tracked import TrackedBackend
+from simgap.trajectory import State
 
 
 class DynamicSettings(BaseModel):
@@ -42,62 +42,58 @@ class DynamicSettings(BaseModel):
     pedal_delay: float = Field(0.0, ge=0, le=1.0, description="throttle/brake actuator delay [s]")
 
 
-class DynamicBackend:
-    name = "dynamic"
+class SingleTrackWorld:
+    """The `Plant` of the ``dynamic`` backend: one CommonRoad vehicle model per agent, each
+    integrated on its own (the cars of this world do not touch)."""
 
-    def __init__(self, **settings):
-        self.settings = validated_settings(DynamicSettings, settings)
-        if self.settings.model not in PLANTS:
-            raise InputError(f"unknown vehicle model '{self.settings.model}'", field="backend_settings.model",
-                             allowed=", ".join(PLANTS))
-        self.controller_name = self.settings.controller
-        self.controller_hz = self.settings.controller_hz
-        self.timings = {"control": 0.0, "physics": 0.0}
+    def __init__(self, settings: DynamicSettings):
+        self.settings = settings
+        self.timings = {"physics": 0.0}
         self._agents: list[Agent] = []
-        self._dt = 0.1
-        self._step = 0
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
-        self._dt = float(scenario.dt)
-        self._agents = list(agents)
         cfg = self.settings
+        self._agents = list(agents)
         self._plants = {a.id: make_plant(cfg.model, a.vehicle, cfg.params_id, cfg.road_friction, cfg.integration_step)
                         for a in agents}
-        self._controllers = {a.id: with_actuator_delay(make_controller(cfg.controller, a.vehicle, cfg.controller_hz),
-                                                       cfg.steer_delay, cfg.pedal_delay)
-                             for a in agents}
+        self._commands: dict[int, Command] = {}
 
-    def reset(self) -> dict[int, State]:
-        self._step = 0
-        self._states = {}
-        for a in self._agents:
-            self._states[a.id] = self._plants[a.id].reset(a.initial_state)
-            self._controllers[a.id].reset(self._states[a.id])
-        return dict(self._states)
+    def reset(self, t0: float) -> None:
+        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents}
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
-        ticks = max(1, round(self._dt * self.controller_hz))
-        period = self._dt / ticks
-        self._step += 1
+    def begin_step(self, t: float) -> None:
+        pass
+
+    def measure(self, agent_id: int, t: float) -> State:
+        return self._states[agent_id].replace(t=t)
+
+    def actuate(self, agent_id: int, command: Command, period: float) -> None:
+        self._commands[agent_id] = command
+
+    def advance(self, t: float, period: float) -> None:
+        start = time.perf_counter()
         for a in self._agents:
-            state, plan = self._states[a.id], plans[a.id]
-            plant, controller = self._plants[a.id], self._controllers[a.id]
-            t0 = a.initial_state.t + (self._step - 1) * self._dt
-            for k in range(ticks):
-                c0 = time.perf_counter()
-                command = controller.command(state, plan, t0 + k * period)
-                c1 = time.perf_counter()
-                try:
-                    state = plant.step(command, period)
-                except FloatingPointError as exc:
-                    raise PhysicsDiverged(f"agent {a.id}: {exc}") from None
-                self.timings["control"] += c1 - c0
-                self.timings["physics"] += time.perf_counter() - c1
-            self._states[a.id] = state.replace(t=a.initial_state.t + self._step * self._dt)
-        return dict(self._states)
+            try:
+                self._states[a.id] = self._plants[a.id].step(self._commands[a.id], period)
+            except FloatingPointError as exc:
+                raise PhysicsDiverged(f"agent {a.id}: {exc}") from None
+        self.timings["physics"] += time.perf_counter() - start
 
     def events(self) -> list[BackendEvent]:
         return []
 
     def close(self) -> None:
         pass
+
+
+class DynamicBackend(TrackedBackend):
+    """The ``dynamic`` backend: `SingleTrackWorld` under a tracking controller per car."""
+
+    def __init__(self, **settings):
+        cfg = validated_settings(DynamicSettings, settings)
+        if cfg.model not in PLANTS:
+            raise InputError(f"unknown vehicle model '{cfg.model}'", field="backend_settings.model",
+                             allowed=", ".join(PLANTS))
+        self.settings = cfg
+        super().__init__("dynamic", SingleTrackWorld(cfg), cfg.controller, cfg.controller_hz,
+                         steer_delay=cfg.steer_delay, pedal_delay=cfg.pedal_delay)

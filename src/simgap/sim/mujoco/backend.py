@@ -8,8 +8,9 @@ steering, throttle and brake; the steering target moves towards the request at t
 system's rate and within its angle; drive torque (capped by the powertrain's power), brakes,
 drag and the friction of the surface under each tyre are set; then physics runs at its own rate
 (default 500 Hz) until the next controller update, with slip-based tyre forces computed every
-physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). Physical contacts with other cars or with
-traffic are reported as collision events; a state that is no longer finite, a solver warning,
+physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). The controllers
+and that loop are `simgap.sim.tracked`'s; this module is the plant, `MujocoPhysics`. Physical
+contacts with other cars or with traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
 
 Reality knobs beyond the world's friction: ``steer_delay`` and ``pedal_delay`` [s] delay the
@@ -29,49 +30,34 @@ import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
-from simgap.control import make_controller
-from simgap.control.delay import with_actuator_delay
 from simgap.control.longitudinal import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
-from simgap.errors import InputError, validated_settings
-from simgap.sim.mujoco.car import (CORNERS, CarIndex, ackermann_angles, max_single_track_angle,
-                                   single_track_angle, up_z, yaw_of)
+from simgap.errors import validated_settings
+from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.world import World, WorldSettings, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
 from simgap.sim.rates import SpeedRate, steps_per_tick
-from simgap.trajectory import State, Trajectory
+from simgap.sim.tracked import TrackedBackend
+from simgap.trajectory import State
 
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
 
-class MujocoBackend:
-    name = "mujoco"
+class MujocoPhysics:
+    """The MuJoCo world as the `Plant` of a tracked backend: it measures, actuates and advances
+    every car of a scenario (see the module doc)."""
 
-    def __init__(self, controller: str = "pure_pursuit", controller_hz: float = 100.0,
-                 controller_gains: Mapping[str, Any] | None = None, steer_delay: float = 0.0,
-                 pedal_delay: float = 0.0, **world: Any):
-        self.controller_name = controller
-        self.controller_hz = float(controller_hz)
-        self.controller_gains = dict(controller_gains or {})
-        for name, value in (("steer_delay", steer_delay), ("pedal_delay", pedal_delay)):
-            if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:
-                raise InputError(f"{value!r} is not a delay", field=f"backend_settings.{name}",
-                                 allowed="0 to 1 s")
-        self.steer_delay, self.pedal_delay = float(steer_delay), float(pedal_delay)
+    def __init__(self, **world: Any):
         self.settings = validated_settings(WorldSettings, world)
-        self.substeps = steps_per_tick(self.settings.physics_hz, self.controller_hz)
-        self.timings = {"control": 0.0, "physics": 0.0, "tyres": 0.0}
+        self.timings = {"physics": 0.0, "tyres": 0.0}
         self.world: World | None = None
         self._events: list[BackendEvent] = []
+        self._seen: set[tuple[int, int | None]] = set()
 
-    # --- Backend protocol -------------------------------------------------------------------
+    # --- Plant protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
-        self._dt = float(scenario.dt)
         self._agents = list(agents)
         self.world = build_world(scenario, agents, self.settings)
-        self._controllers = {a.id: with_actuator_delay(make_controller(self.controller_name, a.vehicle,
-                                                                       self.controller_hz, self.controller_gains),
-                                                       self.steer_delay, self.pedal_delay) for a in agents}
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [self.world.cars[a.id] for a in agents]
@@ -86,56 +72,45 @@ class MujocoBackend:
         for geom, oid in self.world.traffic_geoms.items():
             self._traffic_owner[geom] = oid
 
-    def reset(self) -> dict[int, State]:
+    def reset(self, t0: float) -> None:
         w = self.world
         mujoco.mj_resetData(w.model, w.data)
-        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
-        self._step = 0
         for a in self._agents:
             w.place(a.id, a.initial_state)
         self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
         w.tyres.reset()
-        w.move_traffic(self._t0)
+        w.move_traffic(t0)
         mujoco.mj_forward(w.model, w.data)
         w.tyres.apply(settle=True)
-        self._accel = {a.id: SpeedRate(self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
-        states = {a.id: self.measure(a.id, self._t0) for a in self._agents}
-        for a in self._agents:
-            self._controllers[a.id].reset(states[a.id])
+        self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._events = []
-        return states
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
-        w = self.world
+    def begin_step(self, t: float) -> None:
         self._events = []
-        ticks = max(1, round(self._dt * self.controller_hz))
-        period = self._dt / ticks
-        t0 = self._t0 + self._step * self._dt
-        seen: set[tuple[int, int | None]] = set()
-        self._check(t0)
-        for k in range(ticks):
-            t = t0 + k * period
-            c0 = time.perf_counter()
-            if w.traffic:
-                w.move_traffic(t)
-            self.apply_surface()
-            for a in self._agents:
-                measured = self.measure(a.id, t)
-                command = self._controllers[a.id].command(measured, plans[a.id], t)
-                self._actuate(a.id, command, period)
-            self.timings["control"] += time.perf_counter() - c0
-            self.advance(self.substeps)
-            self._check(t + period)
-            self._collect_contacts(t + period, seen)
-        self._step += 1
-        t_end = t0 + self._dt
-        return {a.id: self.measure(a.id, t_end) for a in self._agents}
+        self._seen = set()
+        self.check(t)
+
+    def advance(self, t: float, period: float) -> None:
+        """Traffic and surface friction for the period, the physics sub-steps (tyre forces every
+        one), then the checks and contacts at its end."""
+        w = self.world
+        start, tyres_before = time.perf_counter(), w.tyres.seconds
+        if w.traffic:
+            w.move_traffic(t)
+        self.apply_surface()
+        w.step(max(1, round(period * self.settings.physics_hz)))
+        tyres = w.tyres.seconds - tyres_before
+        self.timings["tyres"] += tyres
+        self.timings["physics"] += time.perf_counter() - start - tyres
+        self.check(t + period)
+        self._collect_contacts(t + period, self._seen)
 
     def events(self) -> list[BackendEvent]:
         return list(self._events)
 
     def close(self) -> None:
         self.world = None
+
 
     # --- measuring and actuating -------------------------------------------------------------
     def measure(self, agent_id: int, t: float) -> State:
@@ -159,7 +134,7 @@ class MujocoBackend:
         accel = self._accel[agent_id].update(t, speed)
         return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)
 
-    def _actuate(self, agent_id: int, command: Command, period: float) -> None:
+    def actuate(self, agent_id: int, command: Command, period: float) -> None:
         w, car = self.world, self.world.cars[agent_id]
         ph, d, m = car.physics, w.data, w.model
         # steering: rate, then angle limit of the steering system; Ackermann at the wheels
@@ -214,17 +189,8 @@ class MujocoBackend:
         on_road = w.surface.on_road(xy[:, 0], xy[:, 1])
         w.tyres.mu[:] = np.where(on_road, w.settings.road_friction, w.settings.offroad_friction)
 
-    def advance(self, steps: int) -> None:
-        """``steps`` physics steps with the actuation in force, timed as physics and tyres."""
-        w = self.world
-        start, tyres_before = time.perf_counter(), w.tyres.seconds
-        w.step(steps)
-        tyres = w.tyres.seconds - tyres_before
-        self.timings["tyres"] += tyres
-        self.timings["physics"] += time.perf_counter() - start - tyres
-
     # --- events --------------------------------------------------------------------------------
-    def _check(self, t: float) -> None:
+    def check(self, t: float) -> None:
         w = self.world
         d = w.data
         finite = np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()
@@ -259,3 +225,22 @@ class MujocoBackend:
                 self._events.append(BackendEvent(t, int(me), "collision",
                                                  f"physical contact with {kind} {other} at "
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))
+
+
+class MujocoBackend(TrackedBackend):
+    """The ``mujoco`` backend: `MujocoPhysics` under a tracking controller per car."""
+
+    def __init__(self, controller: str = "pure_pursuit", controller_hz: float = 100.0,
+                 controller_gains: Mapping[str, Any] | None = None, steer_delay: float = 0.0,
+                 pedal_delay: float = 0.0, **world: Any):
+        physics = MujocoPhysics(**world)
+        steps_per_tick(physics.settings.physics_hz, float(controller_hz))
+        super().__init__("mujoco", physics, controller, controller_hz, controller_gains, steer_delay, pedal_delay)
+
+    @property
+    def world(self) -> World | None:
+        return self.plant.world
+
+    @property
+    def settings(self) -> WorldSettings:
+        return self.plant.settings

@@ -6,11 +6,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from commonroad.common.util import Interval
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
-from simgap.sim.mujoco.backend import MujocoBackend
+from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle
@@ -25,36 +24,28 @@ def proving_ground(dt: float = 0.1) -> Scenario:
 
 class MujocoPlant:
     """``reset(state)`` places the car; ``step(command, period)`` holds ``command`` for ``period``
-    seconds of physics and returns the measured state. ``world`` takes the backend's world
-    settings (``road_grade``, ``road_bank``, ...); on the proving ground a slope runs along the
-    car's heading."""
+    seconds of physics and returns the measured state. ``world`` takes the world settings
+    (``road_friction``, ``road_grade``, ...); on the proving ground a slope runs along the car's
+    heading."""
 
     def __init__(self, vehicle: Vehicle, physics_hz: float = 500.0, road_friction: float = 1.0, **world: Any):
         self.vehicle = vehicle
-        self.backend = MujocoBackend(controller_hz=100.0, physics_hz=physics_hz, road_friction=road_friction,
-                                     **world)
+        self.physics = MujocoPhysics(physics_hz=physics_hz, road_friction=road_friction, **world)
         self._scenario = proving_ground()
-        self._period_steps: dict[float, int] = {}
+        self._t = 0.0
 
     @property
     def world(self):
-        return self.backend.world
+        return self.physics.world
 
     def reset(self, initial: State) -> State:
-        self.backend.load(self._scenario, [Agent(AGENT, self.vehicle, initial)])
-        return self.backend.reset()[AGENT]
+        self.physics.load(self._scenario, [Agent(AGENT, self.vehicle, initial)])
+        self._t = initial.t
+        self.physics.reset(initial.t)
+        return self.physics.measure(AGENT, initial.t)
 
     def step(self, command: Command, period: float) -> State:
-        b = self.backend
-        b.apply_surface()
-        b._actuate(AGENT, command, period)
-        steps = max(1, round(period * b.settings.physics_hz))
-        t = b.world.data.time
-        b.advance(steps)
-        b._check(t + period)
-        state = b.measure(AGENT, self.t0 + b.world.data.time)
-        return state
-
-    @property
-    def t0(self) -> float:
-        return self.backend._t0
+        self.physics.actuate(AGENT, command, period)
+        self.physics.advance(self._t, period)
+        self._t += period
+        return self.physics.measure(AGENT, self._t)
