@@ -15,10 +15,12 @@ import yaml
 
 from simgap.errors import InputError
 from simgap.experiment.job import job_columns
-from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search, search_results, summarise
+from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
+from simgap.experiment.search_results import search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import SearchSpace, make_strategy
+from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
 LADDER = [{"backend": "ideal"},
@@ -224,7 +226,7 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
     before = {r["key"]: r for r in ResultsStore(out / "random").rows()}
     assert 2 <= len(before) < 8, "the kill came after the second and before the last run finished"
 
-    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"], report=False)
+    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"])
     rows = ResultsStore(out / "random").rows()
     keys = [r["key"] for r in rows]
     assert len(keys) == len(set(keys)) == 8 == result.runs                 # none lost, none twice
@@ -239,17 +241,18 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
 def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "search"
-    first = run_search(spec, out, Budget(runs=3), workers=2, report=False)
+    first = run_search(spec, out, Budget(runs=3), workers=2)
     assert [r.name for r in first] == ["random", "multi_fidelity"]
     before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
     assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2, report=True)
+    run_search(spec, out, Budget(runs=6), workers=2)
+    build_search_report(search_results(out))
     rows = ResultsStore(out / "multi_fidelity").rows()
     keys = [r["key"] for r in rows]
     assert len(keys) == len(set(keys)) == 6
     assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
     assert {r["rung"] for r in rows} >= {1}                                # the screen ran
-    _, results = search_results(out)
+    results = search_results(out).strategies
     assert [r.name for r in results] == ["random", "multi_fidelity"] and all(r.runs == 6 for r in results)
     page = (out / "report" / "index.html").read_text()
     assert "distinct violated assumptions" in page and "multi_fidelity" in page
@@ -257,4 +260,4 @@ def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     # another spec in the same directory is refused, naming what to do
     other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
     with pytest.raises(InputError, match="different spec"):
-        run_search(other, out, Budget(runs=1), workers=1, report=False)
+        run_search(other, out, Budget(runs=1), workers=1)

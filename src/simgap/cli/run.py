@@ -13,8 +13,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import CosimSettings, Run
+from simgap.cosim import CosimSettings, Outcome, Run
 from simgap.errors import InputError
+from simgap.files import read_yaml_mapping
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
 
@@ -62,9 +63,7 @@ def run(
         raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
                          "settings", field="backend", allowed="mujoco")
     if backend_config is not None:
-        from simgap.experiment.spec import read_mapping
-
-        backend_settings = read_mapping(backend_config, "backend settings file",
+        backend_settings = read_yaml_mapping(backend_config, "backend settings file",
                                         "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
     knob_settings, knob_cosim = _knobs(knob or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
@@ -118,7 +117,7 @@ def print_summary(console: Console, result: Run) -> None:
     for col in ("agent", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed"):
         table.add_column(escape(col), justify="left" if col in ("vehicle", "outcome") else "right", no_wrap=True)
     for a in result.agents:
-        colour = "green" if a.outcome == "goal_reached" else "red"
+        colour = "green" if a.outcome == Outcome.GOAL_REACHED else "red"
         table.add_row(str(a.id), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
                       "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
                       f"{a.distance_m:.1f}",

@@ -18,6 +18,7 @@ import os
 import shutil
 import tempfile
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +29,22 @@ import pyarrow.parquet as pq
 from simgap.errors import InputError
 from simgap.trajectory import STATE_FIELDS, Trajectory
 
-OUTCOMES = ("goal_reached", "collision", "off_road", "planner_failure", "timeout", "diverged")
+
+
+class Outcome(StrEnum):
+    """How an agent's run ended (a string enum: it compares and serialises as its value)."""
+
+    GOAL_REACHED = "goal_reached"
+    COLLISION = "collision"
+    OFF_ROAD = "off_road"
+    PLANNER_FAILURE = "planner_failure"      # no feasible plan for too long
+    TIMEOUT = "timeout"                      # the goal not reached by its deadline
+    DIVERGED = "diverged"                    # the physics blew up
+
+    @classmethod
+    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
+        """The first outcome that is not reaching the goal, else reaching it."""
+        return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
 
 
 @dataclass(frozen=True)
@@ -48,12 +64,15 @@ class Event:
 class AgentOutcome:
     id: int
     vehicle: str
-    outcome: str
+    outcome: Outcome
     time_to_goal_s: float | None
     distance_m: float
     min_distance_to_traffic_m: float | None
     max_road_excursion_m: float = 0.0
     planner_failures: int = 0
+
+    def __post_init__(self) -> None:
+        self.outcome = Outcome(self.outcome)          # as read back from run.json
 
 
 @dataclass

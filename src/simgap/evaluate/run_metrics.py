@@ -14,11 +14,11 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.control.longitudinal import GRAVITY
 from simgap.cosim.traffic import DrivableArea, footprint
 from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
 from simgap.vehicles import load_vehicle
+from simgap.vehicles.constants import GRAVITY
 
 #: name -> (unit, meaning); every one is the worst over the run's agents
 RUN_METRICS = {

@@ -1,5 +1,6 @@
 """An experiment end to end: scenarios from the spec, every run (resuming where a previous
-invocation stopped), the results store, the cross-fidelity pairs, and the report."""
+invocation stopped) and the results store. The report is drawn from them by `simgap.report`
+(the CLI builds it)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
 from simgap.experiment.spec import ExperimentSpec, Job, jobs, load_spec
 from simgap.experiment.store import ResultsStore
+from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
 from simgap.sim.registry import preflight
 
@@ -41,7 +43,6 @@ class ExperimentResult:
     failed: int
     skipped: int
     wall_time_s: float
-    report: Path | None
     failures: list[tuple[str, str]]
 
 
@@ -74,9 +75,7 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str) -> None:
     root.mkdir(parents=True, exist_ok=True)
     meta = {"spec": spec.model_dump(), "logical_ref": logical_ref, "spec_results": relevant,
             "results_hash": spec.results_hash(), "versions": software_versions()}
-    tmp = meta_path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(meta, indent=2, default=str))
-    tmp.replace(meta_path)
+    atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
 
 
 def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], dict[str, str]]:
@@ -104,7 +103,7 @@ def clean_partial_runs(root: Path) -> None:
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   report: bool = True, retry_failed: bool = False) -> ExperimentResult:
+                   retry_failed: bool = False) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
     never run again, unless ``retry_failed`` asks to run the failed ones once more."""
     root = Path(root)
@@ -142,13 +141,8 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()
-    index = None
-    if report and any((root / "runs").rglob("run.json")):      # every run failed: nothing to draw
-        from simgap.report.site import build_report
-
-        index = build_report(root / "runs", root / "report", store_rows=store.rows())
     return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                            progress.skipped, time.perf_counter() - start, index, failures)
+                            progress.skipped, time.perf_counter() - start, failures)
 
 
 @dataclass

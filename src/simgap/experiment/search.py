@@ -24,8 +24,6 @@ normalised space, same vehicle) to an earlier one is the same failure.
 from __future__ import annotations
 
 import json
-import math
-import os
 import re
 import time
 from dataclasses import dataclass, field
@@ -35,14 +33,14 @@ from typing import Any, Callable
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
 from simgap.experiment.knobs import apply_knobs
+from simgap.experiment.search_results import META, StrategyResult, summarise
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_spec
 from simgap.experiment.spec import Job
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
+from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
 from simgap.sim.registry import preflight
-
-META = "search.json"
 
 
 @dataclass(frozen=True)
@@ -68,25 +66,6 @@ def parse_budget(text: str) -> Budget:
             raise InputError(f"'{text}' is not a whole number of runs", field="budget", allowed="200, or 20m")
         return Budget(runs=int(value))
     return Budget(seconds=value * {"s": 1, "m": 60, "h": 3600}[unit])
-
-
-@dataclass
-class StrategyResult:
-    name: str
-    runs: int = 0
-    high_runs: int = 0
-    high_failures: int = 0
-    violations: int = 0
-    distinct: int = 0
-    scenarios: int = 0                # distinct scenarios (road, start, vehicle) among the violations
-    errors: int = 0
-    wall_s: float = 0.0
-    cpu_s: float = 0.0
-    curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
-
-    @property
-    def per_cpu_hour(self) -> float:
-        return self.distinct / (self.cpu_s / 3600.0) if self.cpu_s > 0 else 0.0
 
 
 def _rung_name(rung: int, ladder_len: int) -> str:
@@ -124,10 +103,8 @@ class StrategyRun:
         return self.budget.spent(self.elapsed(), self.runs() + len(self.in_flight))
 
     def _save_budget(self) -> None:
-        path = self.root / "budget.json"
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps({"spent_s": self.elapsed(), "runs": self.runs(), "budget": str(self.budget)}))
-        os.replace(tmp, path)
+        atomic_write_text(self.root / "budget.json",
+                          json.dumps({"spent_s": self.elapsed(), "runs": self.runs(), "budget": str(self.budget)}))
 
     def resume(self) -> None:
         """Load what an earlier invocation finished and replay it into the strategy."""
@@ -303,47 +280,6 @@ def _candidate_columns(c: Candidate) -> dict[str, float]:
     return {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
 
 
-def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
-    """What a strategy found, from its store alone."""
-    store = ResultsStore(root)
-    rows = sorted(store.rows(), key=lambda r: r.get("elapsed_s", 0.0)) if store.rows_dir.exists() else []
-    high, res = ladder_len - 1, StrategyResult(name)
-    budget = root / "budget.json"
-    res.wall_s = json.loads(budget.read_text()).get("spent_s", 0.0) if budget.exists() else 0.0
-    by_candidate: dict[int, dict[int, dict]] = {}
-    for r in rows:
-        by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-        res.runs += "ideal_of" not in r
-        res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
-        res.errors += r.get("status") != "ok"
-    found: list[tuple[float, tuple[float, ...], str]] = []
-    scenarios: set[tuple] = set()
-    for index, runs in by_candidate.items():
-        h = runs.get(high)
-        if h is None or h.get("status") != "ok":
-            continue
-        res.high_runs += 1
-        if not h.get("failed"):
-            continue
-        res.high_failures += 1
-        ideal = runs.get(0)
-        if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
-            continue
-        res.violations += 1
-        scenarios.add((h["vehicle"],) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
-        when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
-        unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, h["vehicle"]))
-    distinct: list[tuple[tuple[float, ...], str]] = []
-    for when, unit, vehicle in sorted(found):
-        if all(v != vehicle or math.dist(unit, u) >= radius for u, v in distinct):
-            distinct.append((unit, vehicle))
-            res.curve.append((when, len(distinct)))
-    res.distinct = len(distinct)
-    res.scenarios = len(scenarios)
-    return res
-
-
 def _claim(root: Path, spec: SearchSpec) -> None:
     meta = root / META
     if meta.exists():
@@ -355,10 +291,8 @@ def _claim(root: Path, spec: SearchSpec) -> None:
     from simgap.experiment.single_run import software_versions
 
     root.mkdir(parents=True, exist_ok=True)
-    tmp = meta.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
-                               "versions": software_versions()}, indent=2, default=str))
-    os.replace(tmp, meta)
+    atomic_write_text(meta, json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
+                                        "versions": software_versions()}, indent=2, default=str))
 
 
 @dataclass
@@ -372,8 +306,7 @@ class SearchProgress:
 
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
-               on_progress: Callable[[SearchProgress], None] | None = None,
-               report: bool = True) -> list[StrategyResult]:
+               on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
     spec, logical, _ = load_search_spec(spec_ref)
     for rung in spec.ladder:
@@ -403,20 +336,4 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         runner.run(run.next_job, context, on_result)
         run._save_budget()
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
-    if report:
-        from simgap.report.search_page import build_search_report
-
-        build_search_report(root)
     return results
-
-
-def search_results(root: Path) -> tuple[SearchSpec, list[StrategyResult]]:
-    """The spec and each strategy's summary of a search directory."""
-    root = Path(root)
-    meta = root / META
-    if not meta.exists():
-        raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
-    spec = SearchSpec.model_validate(json.loads(meta.read_text())["spec"])
-    out = [summarise(root / n, n, len(spec.ladder), spec.distinct_radius)
-           for n in STRATEGIES if (root / n / "store" / "rows").exists()]
-    return spec, out

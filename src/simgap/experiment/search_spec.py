@@ -37,6 +37,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from simgap.cosim import Outcome
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import KNOBS
@@ -84,9 +85,9 @@ class FailureRule(BaseModel):
     def failed(self, row: dict[str, Any]) -> str | None:
         """Why ``row`` (a finished run) is a failure, or None."""
         outcome = row.get("outcome")
-        if self.collision and outcome == "collision":
+        if self.collision and outcome == Outcome.COLLISION:
             return "collision"
-        if self.goal_missed and outcome not in (None, "goal_reached"):
+        if self.goal_missed and outcome not in (None, Outcome.GOAL_REACHED):
             return f"goal missed ({outcome})"
         for name, bound in self.above.items():
             v = row.get(name)

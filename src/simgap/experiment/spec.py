@@ -28,11 +28,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.cosim import CosimSettings
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.errors import InputError, validated
+from simgap.files import read_model
 from simgap.planning.frenet import FrenetSettings
 from simgap.scenario.logical import LogicalScenario, load_logical
 
@@ -147,39 +147,9 @@ def spec_path(name_or_path: str | Path) -> Path:
     return builtin_or_file(name_or_path, _builtin_dir(), "experiment")
 
 
-def _error_path(loc) -> str:
-    return ".".join(str(p) for p in loc)
-
-
-def read_mapping(path: Path, what: str, keys: str) -> dict:
-    """The YAML mapping in ``path``, or an `InputError` naming the file (``keys``: what a
-    mapping of this kind holds)."""
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
-    except yaml.YAMLError as exc:
-        raise InputError(f"not valid YAML: {exc}", file=path) from None
-    if not isinstance(raw, dict):
-        raise InputError(f"a {what} is a mapping", file=path, allowed=keys)
-    return raw
-
-
 def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
-    """``path`` read as YAML and validated as ``model``; every problem is an `InputError` naming
-    the file, the field path and, where it can, what is allowed."""
-    raw = read_mapping(path, what, keys)
-    try:
-        return model.model_validate(raw)
-    except ValidationError as err:
-        first = err.errors()[0]
-        allowed = None
-        if first.get("type") == "extra_forbidden":
-            allowed = _allowed_keys(first.get("loc", ()), model)
-        elif "expected" in (first.get("ctx") or {}):  # a literal's choices
-            allowed = str(first["ctx"]["expected"])
-        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=path,
-                         field=_error_path(first.get("loc", ())), allowed=allowed) from None
+    """``path`` read as YAML and validated as ``model``; every problem is an `InputError`."""
+    return read_model(path, model, what, keys)
 
 
 def logical_of(spec: Any, path: Path) -> LogicalScenario:
@@ -197,21 +167,6 @@ def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario
     logical = logical_of(spec, path)
     _check_against(spec, logical, path)
     return spec, logical, path
-
-
-def _allowed_keys(loc, model: Any = ExperimentSpec) -> str:
-    """The keys allowed where ``loc`` (a pydantic error location) put an unknown one."""
-    for part in loc[:-1]:
-        if isinstance(part, int):
-            continue
-        field = model.model_fields.get(part)
-        ann = getattr(field, "annotation", None)
-        args = getattr(ann, "__args__", ())
-        candidates = [a for a in (ann, *args) if isinstance(a, type) and issubclass(a, BaseModel)]
-        if not candidates:
-            break
-        model = candidates[0]
-    return ", ".join(model.model_fields)
 
 
 def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -> None:
@@ -241,15 +196,7 @@ def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -
                 raise InputError(f"unknown controller '{c}'", file=path, field=f"fidelities.{i}.controllers",
                                  allowed=", ".join(controller_names()))
     for section, model in (("planner", FrenetSettings), ("cosim", CosimSettings)):
-        try:
-            _settings(model, getattr(spec, section))
-        except ValidationError as err:
-            inner = pydantic_to_input_error(err, None)
-            first = err.errors()[0]
-            extra = first.get("type") == "extra_forbidden"
-            raise InputError(inner.reason, file=path, field=f"{section}.{inner.field}",
-                             allowed=_allowed_keys(first.get("loc", ()), model) if extra else inner.allowed) from None
-
+        validated(model, getattr(spec, section), file=path, prefix=section)
 
 
 def _settings(model, values: dict):

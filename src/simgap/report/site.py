@@ -22,8 +22,11 @@ from typing import Callable, Sequence
 import numpy as np
 
 from simgap.evaluate.errors import lateral_profile
+from simgap.files import atomic_write_text
 from simgap.evaluate.route_centre import route_centre
-from simgap.report.collection import REFERENCE, ScenarioGroup, collect
+from simgap.experiment.store import ResultsStore
+from simgap.cosim import REFERENCE, Outcome
+from simgap.report.collection import ScenarioGroup, collect
 from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
                                    plot_paths_from_above, runtime_table)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -69,7 +72,7 @@ window.addEventListener('load', function () {
 });
 """
 
-BAD_OUTCOMES = ("collision", "off_road", "planner_failure", "timeout", "diverged", "failed")
+BAD_OUTCOMES = tuple(o.value for o in Outcome if o != Outcome.GOAL_REACHED) + ("failed",)   # "failed": a run that failed
 
 
 def _fmt(value) -> str:
@@ -81,7 +84,7 @@ def _fmt(value) -> str:
 def _cell(value) -> str:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return f"<td>{_fmt(value)}</td>"
-    cls = "text good" if value == "goal_reached" else "text bad" if value in BAD_OUTCOMES else "text"
+    cls = "text good" if value == Outcome.GOAL_REACHED else "text bad" if value in BAD_OUTCOMES else "text"
     return f'<td class="{cls}">{value if isinstance(value, Raw) else _fmt(value)}</td>'
 
 
@@ -114,10 +117,7 @@ def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
             f"<nav><a href='{root}index.html'>overview</a></nav><h1>{html.escape(title)}</h1>"
             + "\n".join(body) + f"<script src='{root}report.js'></script></body></html>")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
-    return path
+    return atomic_write_text(path, text)
 
 
 def _slug(text: str) -> str:
@@ -177,7 +177,7 @@ def _criticality(entry) -> list[dict]:
 
     driven, _ = CommonRoadFileReader(str(entry.run_dir / "driven.xml")).open()
     rows = [asdict(r) for r in pair_criticality(driven, {aid: AGENT_ID_OFFSET + aid for aid in entry.run.driven})]
-    cache.write_text(json.dumps(rows))
+    atomic_write_text(cache, json.dumps(rows))
     return rows
 
 
@@ -320,7 +320,7 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
     headline = []
     for fidelity in fidelities:
         entries = [g.runs[fidelity] for g in groups if fidelity in g.runs]
-        goals = sum(a.outcome == "goal_reached" for e in entries for a in e.run.agents)
+        goals = sum(a.outcome == Outcome.GOAL_REACHED for e in entries for a in e.run.agents)
         agents = sum(len(e.run.agents) for e in entries)
         gaps = [c.lateral_displacement.max for g in groups for c in g.comparisons.get(fidelity, [])
                 if math.isfinite(c.lateral_displacement.max)]
@@ -391,3 +391,11 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
         body += _store_section(store_rows)
     return page(out / "index.html", "simgap report", body, "")
 
+
+def build_experiment_report(root: Path, say: Callable[[str], None] = lambda _: None) -> Path | None:
+    """Write ``root/report`` for the experiment in ``root`` (its runs and its results store);
+    None when no run left a run directory (every run failed: nothing to draw)."""
+    root = Path(root)
+    if not any((root / "runs").rglob("run.json")):
+        return None
+    return build_report(root / "runs", root / "report", say, store_rows=ResultsStore(root).rows())

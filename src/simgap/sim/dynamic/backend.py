@@ -53,6 +53,7 @@ class DynamicBackend:
         self.controller_name = self.settings.controller
         self.controller_hz = self.settings.controller_hz
         self.timings = {"control": 0.0, "physics": 0.0}
+        self.notes: list[str] = []
         self._agents: list[Agent] = []
         self._dt = 0.1
         self._step = 0

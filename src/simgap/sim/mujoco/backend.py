@@ -31,7 +31,7 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control import make_controller
 from simgap.control.delay import with_actuator_delay
-from simgap.control.longitudinal import AIR_DENSITY, GRAVITY
+from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError, validated_settings
 from simgap.sim.mujoco.car import (CORNERS, CarIndex, ackermann_angles, max_single_track_angle,
@@ -61,6 +61,7 @@ class MujocoBackend:
         self.settings = validated_settings(WorldSettings, world)
         self.substeps = steps_per_tick(self.settings.physics_hz, self.controller_hz)
         self.timings = {"control": 0.0, "physics": 0.0, "tyres": 0.0}
+        self.notes: list[str] = []
         self.world: World | None = None
         self._events: list[BackendEvent] = []
 
