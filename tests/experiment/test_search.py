@@ -14,7 +14,9 @@ import pytest
 import yaml
 
 from simgap.errors import InputError
-from simgap.experiment.job import job_columns
+from simgap.cosim import Outcome
+from simgap.experiment.knobs import knob_value
+from simgap.experiment.records import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
 from simgap.experiment.search_results import search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
@@ -90,16 +92,15 @@ def test_failure_rule():
 def planted_row(job):
     """Fails in high fidelity where friction < 0.35 and the start is faster than 15 m/s (7.5 % of
     the space); the screen sees a grip use that crosses 1 on that region's border."""
-    mu = job.backend_settings.get("road_friction", 1.0)
+    mu = knob_value("road_friction", job.backend_settings)
     speed = job.parameters["initial_speed"]
     grip = (speed / 15.0) * (0.35 / mu)
     inside = mu < 0.35 and speed > 15.0
     failed = inside and job.backend == "mujoco"
     cost = {"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend]
-    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
-            "max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
-            "peak_grip_use": grip if job.backend != "ideal" else 0.3, "job_time_s": cost, "vehicle": job.vehicle,
-            **job_columns(job)}
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s=cost, metrics={"max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
+                                            "peak_grip_use": grip if job.backend != "ideal" else 0.3})
 
 
 def search_planted(tmp_path, name, seed, runs):
@@ -145,10 +146,9 @@ def test_multi_fidelity_skips_the_screen_where_neighbours_keep_failing(tmp_path)
 
 def knob_row(job):
     """Fails in high fidelity where friction < 0.5; the ideal world always passes."""
-    failed = job.backend == "mujoco" and job.backend_settings.get("road_friction", 1.0) < 0.5
-    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
-            "max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0, "job_time_s": 2.0, "vehicle": job.vehicle,
-            **job_columns(job)}
+    failed = job.backend == "mujoco" and knob_value("road_friction", job.backend_settings) < 0.5
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s=2.0, metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0})
 
 
 def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:

@@ -16,8 +16,12 @@ from simgap.cli.main import app
 from simgap.cosim import CosimSettings, Outcome, Run
 from simgap.errors import InputError
 from simgap.files import read_yaml_mapping
+from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
+
+KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
+    f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
 
 
 @app.command()
@@ -36,9 +40,7 @@ def run(
                                                "controller rate)"),
     road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
     offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
-    knob: Optional[list[str]] = typer.Option(None, "--knob", help="reality knob NAME=VALUE (repeatable): "
-                                             "road_friction, steer_delay, pedal_delay, position_noise, yaw_noise, "
-                                             "speed_noise, road_bank, road_grade"),
+    knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
     max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
@@ -65,7 +67,7 @@ def run(
     if backend_config is not None:
         backend_settings = read_yaml_mapping(backend_config, "backend settings file",
                                         "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
-    knob_settings, knob_cosim = _knobs(knob or [], backend)
+    knob_settings, knob_cosim = _knobs(knobs or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
                          backend_settings=backend_settings | knob_settings,
                          planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
@@ -89,26 +91,17 @@ def run(
 
 def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
     """``--knob NAME=VALUE`` options as (backend settings, loop settings), checked."""
-    from simgap.experiment.knobs import KNOBS, apply_knobs
-
     values = {}
     for item in items:
-        name, _, text = item.partition("=")
-        knob = KNOBS.get(name.strip())
-        if knob is None:
-            raise InputError(f"unknown reality knob '{name}'", field="knob", allowed=", ".join(KNOBS))
+        name, _, text = (part.strip() for part in item.partition("="))
+        k = knob(name)
         try:
             value = float(text)
         except ValueError:
             raise InputError(f"'{item}' is not NAME=NUMBER", field=f"knob {name}",
-                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}") from None
-        if not knob.low <= value <= knob.high:
-            raise InputError(f"{value:g} {knob.unit} is out of range", field=f"knob {name}",
-                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}")
-        if backend not in knob.backends:
-            raise InputError(f"the knob '{name}' does not apply to the {backend} backend", field=f"knob {name}",
-                             allowed=", ".join(knob.backends))
-        values[knob.name] = value
+                             allowed=f"{k.low:g} to {k.high:g} {k.unit}") from None
+        values[name] = value
+        check_knob(name, value, value, where=f"knob {name}", backend=backend)
     return apply_knobs(backend, values)
 
 

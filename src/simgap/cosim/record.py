@@ -28,6 +28,7 @@ import pyarrow.parquet as pq
 
 from simgap.errors import InputError
 from simgap.trajectory import STATE_FIELDS, Trajectory
+from simgap.vehicles import Vehicle, load_vehicle
 
 
 
@@ -93,8 +94,17 @@ class Run:
     versions: dict[str, str] = field(default_factory=dict)
     seed: int = 0
     failure: str | None = None
+    vehicles: dict[int, Vehicle] = field(default_factory=dict)    # the model each agent drove
+    metrics: dict[str, float] = field(default_factory=dict)       # simgap.evaluate.run_metrics, worst over agents
 
     # ------------------------------------------------------------------ derived
+    def vehicle_of(self, agent_id: int) -> Vehicle:
+        """The vehicle model agent ``agent_id`` drove: as recorded (a run written before runs
+        recorded their vehicles: the catalogue's vehicle of that name)."""
+        if agent_id in self.vehicles:
+            return self.vehicles[agent_id]
+        return load_vehicle(next(a.vehicle for a in self.agents if a.id == agent_id))
+
     @property
     def fingerprint(self) -> str:
         """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
@@ -133,6 +143,8 @@ class Run:
                 "sections": self.sections,
                 "versions": self.versions,
                 "seed": self.seed,
+                "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
+                "metrics": self.metrics,
             }
             (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
@@ -206,6 +218,8 @@ class Run:
             settings=meta.get("settings", {}), scenario_path=meta.get("scenario_path"),
             parameters=meta.get("parameters", {}), sections=meta.get("sections", {}), versions=meta.get("versions", {}),
             seed=meta.get("seed", 0), failure=meta.get("failure"),
+            vehicles={int(aid): Vehicle.model_validate(v) for aid, v in (meta.get("vehicles") or {}).items()},
+            metrics=meta.get("metrics") or {},
         )
 
 

@@ -30,17 +30,23 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from simgap.errors import InputError
+from simgap.cosim import CosimSettings, Fidelity
+from simgap.errors import InputError, validated
 from simgap.experiment.executors import make_executor
 from simgap.experiment.knobs import apply_knobs
 from simgap.experiment.search_results import META, StrategyResult, summarise
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_spec
-from simgap.experiment.spec import Job
+from simgap.experiment.records import Job, JobContext, JobId, RunRow
+from simgap.experiment.runner import clean_partial_runs
+from simgap.experiment.single_run import software_versions
+from simgap.experiment.spec import vehicle_ref
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
 from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
+from simgap.planning.settings import FrenetSettings
 from simgap.sim.registry import preflight
+from simgap.vehicles import load_vehicle
 
 
 @dataclass(frozen=True)
@@ -82,7 +88,7 @@ class StrategyRun:
         self.candidates: dict[int, Candidate] = {}
         self.rows: dict[tuple[int, int], dict[str, Any]] = {}
         self.queue: list[tuple[int, int]] = []        # (candidate, rung) follow-ups
-        self.in_flight: set[tuple[int, int]] = set()
+        self.in_flight: dict[str, tuple[int, int]] = {}    # job key -> (candidate, rung)
         self.next_index = 0
         self.missing: list[int] = []                  # candidates started earlier that never finished a run
         self.ideal_verdicts: dict[str, int] = {}      # what an ideal run depends on -> candidate that ran it
@@ -108,8 +114,6 @@ class StrategyRun:
 
     def resume(self) -> None:
         """Load what an earlier invocation finished and replay it into the strategy."""
-        from simgap.experiment.runner import clean_partial_runs
-
         self.store.prepare()
         clean_partial_runs(self.root)
         path = self.root / "budget.json"
@@ -151,7 +155,7 @@ class StrategyRun:
 
     # --- jobs --------------------------------------------------------------------------------
     def _scenario(self, c: Candidate) -> str:
-        folder = self.root / "scenarios" / f"c{c.index:05d}"
+        folder = self.root / "scenarios" / _scenario_name(c.index)
         existing = sorted(folder.glob("*.xml"))
         if existing:
             return str(existing[0])
@@ -173,11 +177,10 @@ class StrategyRun:
 
     def job(self, c: Candidate, rung_index: int) -> Job:
         controller, settings, cosim = self._run_settings(c, rung_index)
-        name = f"c{c.index:05d}"
-        key = f"{name}/{_rung_name(rung_index, len(self.spec.ladder))}"
-        return Job(key=key, scenario=name, parameters=c.params, backend=self.spec.ladder[rung_index].backend,
-                   vehicle=c.vehicle, controller=controller, backend_settings=settings, repeat=0,
-                   seed=self.spec.seed + c.index, cosim=cosim, scenario_path=self._scenario(c))
+        fidelity = Fidelity(self.spec.ladder[rung_index].backend, load_vehicle(c.vehicle).name, controller)
+        job_id = JobId(_scenario_name(c.index), fidelity, seed=self.spec.seed + c.index,
+                       stage=_rung_name(rung_index, len(self.spec.ladder)))
+        return Job(job_id, c.params, c.vehicle, settings, cosim, self._scenario(c))
 
     def _ideal_key(self, c: Candidate) -> str:
         """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
@@ -202,13 +205,15 @@ class StrategyRun:
 
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.candidates[index]
-        row = dict(self.rows[(source, 0)]) | {"key": f"c{index:05d}/ideal", "scenario": f"c{index:05d}",
-                                               "candidate": index, "ideal_of": source, "elapsed_s": self.elapsed()}
+        name = _scenario_name(index)
+        row = dict(self.rows[(source, 0)]) | {"key": f"{name}/{_rung_name(0, len(self.spec.ladder))}",
+                                               "scenario": name, "candidate": index, "ideal_of": source,
+                                               "elapsed_s": self.elapsed()}
         row |= {k: 0.0 for k in row if k.startswith("time_") or k in ("job_time_s", "wall_time_s")}
         row |= _candidate_columns(c)
         self.strategy.observe(c, 0, row, bool(row.get("failed")))
         row["promote"] = False
-        self.store.write_row(row)
+        self.store.write_columns(row)
         self.rows[(index, 0)] = row
 
     def next_job(self) -> Job | None:
@@ -216,7 +221,7 @@ class StrategyRun:
             return None
         while self.queue:
             index, rung = self.queue.pop(0)
-            if (index, rung) in self.rows or (index, rung) in self.in_flight:
+            if (index, rung) in self.rows or (index, rung) in self.in_flight.values():
                 continue
             if rung == 0 and self._settle_ideal(index):
                 continue
@@ -240,22 +245,21 @@ class StrategyRun:
         return (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
 
     def _start(self, index: int, rung: int) -> Job:
-        self.in_flight.add((index, rung))
-        return self.job(self.candidates[index], rung)
+        job = self.job(self.candidates[index], rung)
+        self.in_flight[job.key] = (index, rung)
+        return job
 
-    def on_result(self, job: Job, row: dict[str, Any]) -> None:
-        index = int(job.scenario[1:])
-        rung = next(i for i in range(len(self.spec.ladder)) if job.key.endswith("/" + _rung_name(i, len(self.spec.ladder))))
-        self.in_flight.discard((index, rung))
+    def on_result(self, job: Job, result: RunRow) -> None:
+        index, rung = self.in_flight.pop(job.key)
         c = self.candidates[index]
-        reason = self.spec.failure.failed(row) if row.get("status") == "ok" else None
-        row = dict(row) | {"strategy": self.strategy.name, "candidate": index, "rung": rung,
-                           "rung_backend": job.backend, "failed": reason is not None, "failure_reason": reason or "",
-                           "elapsed_s": self.elapsed()}
-        row |= _candidate_columns(c)
+        reason = self.spec.failure.failed(result.columns()) if result.status == "ok" else None
+        result = result.with_columns(strategy=self.strategy.name, candidate=index, rung=rung,
+                                     rung_backend=job.backend, failed=reason is not None,
+                                     failure_reason=reason or "", elapsed_s=self.elapsed(), **_candidate_columns(c))
+        row = result.columns()
         follow = self.strategy.observe(c, rung, row, reason is not None)
         row["promote"] = bool(follow)
-        self.store.write_row(row)
+        self.store.write_row(result.with_columns(promote=bool(follow)))
         self.rows[(index, rung)] = row
         if rung == self.high and row.get("status") == "ok":
             self.strategy.confirmed(c, reason is not None)
@@ -276,8 +280,12 @@ class StrategyRun:
         self._save_budget()
 
 
+def _scenario_name(index: int) -> str:
+    return f"c{index:05d}"
+
+
 def _candidate_columns(c: Candidate) -> dict[str, float]:
-    return {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
+    return {f"unit_{i}": float(u) for i, u in enumerate(c.unit)} | {f"knob_{k}": float(v) for k, v in c.knobs.items()}
 
 
 def _claim(root: Path, spec: SearchSpec) -> None:
@@ -288,8 +296,6 @@ def _claim(root: Path, spec: SearchSpec) -> None:
             raise InputError("this directory holds a search of a different spec; mixing them would make the "
                              "counts meaningless", file=root, allowed="the same spec, or a new --out directory")
         return
-    from simgap.experiment.single_run import software_versions
-
     root.mkdir(parents=True, exist_ok=True)
     atomic_write_text(meta, json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
                                         "versions": software_versions()}, indent=2, default=str))
@@ -308,7 +314,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
-    spec, logical, _ = load_search_spec(spec_ref)
+    spec, logical, path = load_search_spec(spec_ref)
     for rung in spec.ladder:
         preflight(rung.backend, dict(rung.settings))
     names = strategies or list(spec.strategies)
@@ -317,7 +323,8 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
             raise InputError(f"unknown strategy '{n}'", field="strategy", allowed=", ".join(STRATEGIES))
     root = Path(root)
     _claim(root, spec)
-    space = SearchSpace(spec, logical)
+    space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles])
+    planner, cosim = validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     results = []
     for name in names:
@@ -325,9 +332,9 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         sroot.mkdir(parents=True, exist_ok=True)
         run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget)
         run.resume()
-        context = {"root": str(sroot), "planner": spec.planner, "cosim": spec.cosim}
+        context = JobContext(sroot, planner, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
 
-        def on_result(job: Job, row: dict[str, Any], run: StrategyRun = run, name: str = name) -> None:
+        def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)
             if on_progress:
                 fails = sum(1 for (i, k), r in run.rows.items() if k == run.high and r.get("failed"))

@@ -24,6 +24,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
+from simgap.experiment.records import RunRow
 from simgap.files import atomic_write
 
 
@@ -43,9 +44,17 @@ class ResultsStore:
         for stale in self.rows_dir.glob(".*.tmp"):       # a writer killed mid-write
             stale.unlink(missing_ok=True)
 
-    def write_row(self, row: dict[str, Any]) -> Path:
-        table = pa.Table.from_pylist([row])
-        return atomic_write(self.rows_dir / row_file_name(row["key"]), lambda tmp: pq.write_table(table, tmp))
+    def write_row(self, row: RunRow) -> Path:
+        """Write ``row`` (atomically) with the schema its type gives."""
+        return self._write(pa.Table.from_pylist([row.columns()], schema=row.schema()))
+
+    def write_columns(self, columns: dict[str, Any]) -> Path:
+        """Write a row given as its columns (one read back from the store, changed)."""
+        return self._write(pa.Table.from_pylist([columns]))
+
+    def _write(self, table: pa.Table) -> Path:
+        key = table.column("key")[0].as_py()
+        return atomic_write(self.rows_dir / row_file_name(key), lambda tmp: pq.write_table(table, tmp))
 
     def row_files(self) -> list[Path]:
         return sorted(p for p in self.rows_dir.glob("*.parquet") if not p.name.startswith("."))

@@ -70,10 +70,10 @@ class Candidate:
 class SearchSpace:
     """The continuous dimensions of a spec (scenario parameters, then knobs) and its vehicles."""
 
-    def __init__(self, spec: SearchSpec, logical: LogicalScenario):
+    def __init__(self, spec: SearchSpec, logical: LogicalScenario, vehicles: list[str] | None = None):
         self.spec, self.logical = spec, logical
         self.dims = spec.dimensions
-        self.vehicles = list(spec.vehicles)
+        self.vehicles = list(vehicles or spec.vehicles)      # as runs load them (data files resolved)
 
     def candidate(self, index: int, unit: Any, vehicle: str, trial: Any = None) -> Candidate:
         unit = tuple(float(min(max(u, 0.0), 1.0)) for u in unit)

@@ -78,10 +78,6 @@ def find_run_dirs(root: Path) -> list[Path]:
     return dirs
 
 
-def _vehicle_of(run: Run, aid: int) -> str:
-    return next(a.vehicle for a in run.agents if a.id == aid)
-
-
 def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> list[AgentTracking]:
     out = []
     for aid, driven in sorted(run.driven.items()):
@@ -95,7 +91,7 @@ def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> lis
                                  Aggregate.of(frenet.lateral) if frenet else Aggregate.of([]),
                                  Aggregate.of(frenet.longitudinal) if frenet else Aggregate.of([]),
                                  comfort(driven),
-                                 lane_excursion(driven, _vehicle_of(run, aid), scenario, problem)
+                                 lane_excursion(driven, run.vehicle_of(aid), scenario, problem)
                                  if problem is not None else float("nan")))
     return out
 

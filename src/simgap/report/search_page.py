@@ -127,9 +127,7 @@ def build_search_report(found: SearchResults) -> Path:
     if results:
         body.append(figure(_plot_curves(results, out / "failures_over_budget.png").name,
                            "distinct violated assumptions over the budget spent"))
-    if any(per_strategy.values()) and len(dims) >= 1:
-        if len(dims) == 1:
-            dims = dims * 2
+    if any(per_strategy.values()) and len(dims) >= 1:      # one dimension: drawn against itself
         body.append(figure(_plot_map(per_strategy, dims, out / "failure_map.png").name,
                            "high-fidelity runs on the two dimensions that separate violations from passes best",
                            zoom=True))
