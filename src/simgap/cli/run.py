@@ -17,6 +17,7 @@ from simgap.cosim import CosimSettings, Outcome, Run
 from simgap.errors import InputError
 from simgap.files import read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
+from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
 
@@ -32,7 +33,9 @@ def run(
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
                                                   "port, home, driver, ...)"),
-    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
+    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
+                                "names or vehicle data files)"),
+    planner_vehicle: str = typer.Option(PLANNER_VEHICLE, help="the vehicle the planner assumes it drives"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
     controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
@@ -53,7 +56,19 @@ def run(
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
-    backend_settings = {k: v for k, v in physical.items() if v is not None}
+    backend_settings = _backend_settings(backend, {k: v for k, v in physical.items() if v is not None},
+                                         backend_config)
+    knob_settings, knob_cosim = _knobs(knobs or [], backend)
+    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
+                         planner_vehicle=planner_vehicle,
+                         backend_settings=backend_settings | knob_settings,
+                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
+                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+    _execute(request, out, as_json)
+
+
+def _backend_settings(backend: str, backend_settings: dict, backend_config: Path | None) -> dict:
+    """The options' backend settings over the ``--backend-config`` file's, checked against the backend."""
     if backend_config is not None and backend == "ideal":
         raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
                          allowed="dynamic, mujoco, beamng")
@@ -66,12 +81,12 @@ def run(
                          "settings", field="backend", allowed="mujoco")
     if backend_config is not None:
         backend_settings = read_yaml_mapping(backend_config, "backend settings file",
-                                        "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
-    knob_settings, knob_cosim = _knobs(knobs or [], backend)
-    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
-                         backend_settings=backend_settings | knob_settings,
-                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
-                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+                                             "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
+    return backend_settings
+
+
+def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
+    """Run ``request`` into ``out`` and print its summary (as a table, or JSON)."""
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
@@ -81,7 +96,7 @@ def run(
     console = Console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), console=console, transient=True) as bar:
-        task = bar.add_task(f"{backend}: {scenario.name}", total=1.0)
+        task = bar.add_task(f"{request.backend}: {Path(request.scenario).name}", total=1.0)
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")

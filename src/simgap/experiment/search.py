@@ -78,6 +78,36 @@ def _rung_name(rung: int, ladder_len: int) -> str:
     return "ideal" if rung == 0 else "high" if rung == ladder_len - 1 else f"screen{rung}"
 
 
+class SharedIdealRuns:
+    """The ideal world takes no reality knob, so candidates that differ only in their knobs share
+    one ideal run. Keyed by what an ideal run depends on: the verdicts known (the candidate that
+    ran it), the runs in flight, and the candidates waiting for them."""
+
+    def __init__(self) -> None:
+        self.verdicts: dict[str, int] = {}
+        self.running: dict[str, int] = {}
+        self.waiting: dict[str, list[int]] = {}
+
+    def known(self, key: str, index: int) -> None:
+        """``index`` ran the ideal run ``key`` depends on, and it finished."""
+        self.verdicts.setdefault(key, index)
+
+    def join(self, key: str, index: int) -> bool:
+        """True if ``index`` waits for a run already in flight; else it runs one itself."""
+        if key in self.running:
+            self.waiting.setdefault(key, []).append(index)
+            return True
+        self.running[key] = index
+        return False
+
+    def finished(self, key: str, index: int, ok: bool) -> list[int]:
+        """``index``'s ideal run finished: the candidates that waited for it."""
+        self.running.pop(key, None)
+        if ok:
+            self.known(key, index)
+        return self.waiting.pop(key, [])
+
+
 class StrategyRun:
     """One strategy's search in ``root``: proposes jobs, records results, keeps the budget."""
 
@@ -91,12 +121,14 @@ class StrategyRun:
         self.in_flight: dict[str, tuple[int, int]] = {}    # job key -> (candidate, rung)
         self.next_index = 0
         self.missing: list[int] = []                  # candidates started earlier that never finished a run
-        self.ideal_verdicts: dict[str, int] = {}      # what an ideal run depends on -> candidate that ran it
-        self.ideal_running: dict[str, int] = {}
-        self.ideal_waiting: dict[str, list[int]] = {}
+        self.ideal = SharedIdealRuns()
         self.exhausted = False
-        self.spent_before, self.runs_before = 0.0, 0
+        self.spent_before = 0.0
         self.started = time.monotonic()
+
+    @property
+    def ideal_verdicts(self) -> dict[str, int]:
+        return self.ideal.verdicts
 
     # --- state -----------------------------------------------------------------------------
     def elapsed(self) -> float:
@@ -126,16 +158,27 @@ class StrategyRun:
             c = self._candidate_from_rows(index, [r for r in rows if int(r["candidate"]) == index])
             self.candidates[index] = c
         for r in rows:
-            index, rung = int(r["candidate"]), int(r["rung"])
-            self.rows[(index, rung)] = r
-            if rung == 0 and r.get("status") == "ok":
-                self.ideal_verdicts.setdefault(self._ideal_key(self.candidates[index]), index)
-            failed = bool(r.get("failed"))
-            self.strategy.restore(self.candidates[index], rung, r, failed)
-            if rung == self.high and r.get("status") == "ok":
-                self.strategy.confirmed(self.candidates[index], failed)
-        # follow-ups that were due but never finished: first runs, ideal checks and promotions
-        for index, c in self.candidates.items():
+            self._replay(r)
+        self._queue_unfinished()
+        # candidates that were started but never finished a run are proposed again
+        self.next_index = (max(indices) + 1) if indices else 0
+        if self.strategy.name in ("grid", "random", "lhs"):     # the same index gives the same candidate
+            self.missing = [i for i in range(self.next_index) if i not in self.candidates]
+
+    def _replay(self, r: dict[str, Any]) -> None:
+        """A row an earlier invocation stored, told to the strategy as it was then."""
+        index, rung = int(r["candidate"]), int(r["rung"])
+        self.rows[(index, rung)] = r
+        if rung == 0 and r.get("status") == "ok":
+            self.ideal.known(self._ideal_key(self.candidates[index]), index)
+        failed = bool(r.get("failed"))
+        self.strategy.restore(self.candidates[index], rung, r, failed)
+        if rung == self.high and r.get("status") == "ok":
+            self.strategy.confirmed(self.candidates[index], failed)
+
+    def _queue_unfinished(self) -> None:
+        """Follow-ups that were due but never finished: ideal checks and promotions."""
+        for index in self.candidates:
             high = self.rows.get((index, self.high))
             if high is not None and high.get("failed") and (index, 0) not in self.rows:
                 self.queue.append((index, 0))
@@ -143,10 +186,6 @@ class StrategyRun:
             top = max(done)
             if 0 < top < self.high and self.rows[(index, top)].get("promote"):
                 self.queue.append((index, top + 1))
-        # candidates that were started but never finished a run are proposed again
-        self.next_index = (max(indices) + 1) if indices else 0
-        if self.strategy.name in ("grid", "random", "lhs"):     # the same index gives the same candidate
-            self.missing = [i for i in range(self.next_index) if i not in self.candidates]
 
     def _candidate_from_rows(self, index: int, rows: list[dict[str, Any]]) -> Candidate:
         r = rows[0]
@@ -194,14 +233,10 @@ class StrategyRun:
         """Settle ``index``'s ideal check without running it, if its scenario's ideal verdict is
         known (copied now) or being run (copied when it comes); False if it has to run."""
         key = self._ideal_key(self.candidates[index])
-        if key in self.ideal_verdicts:
-            self._copy_ideal(index, self.ideal_verdicts[key])
+        if key in self.ideal.verdicts:
+            self._copy_ideal(index, self.ideal.verdicts[key])
             return True
-        if key in self.ideal_running:
-            self.ideal_waiting.setdefault(key, []).append(index)
-            return True
-        self.ideal_running[key] = index
-        return False
+        return self.ideal.join(key, index)
 
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.candidates[index]
@@ -268,11 +303,9 @@ class StrategyRun:
         for r in follow:
             self.queue.append((index, r))
         if rung == 0:
-            key = self._ideal_key(c)
-            self.ideal_running.pop(key, None)
-            waiting = self.ideal_waiting.pop(key, [])
-            if row.get("status") == "ok":
-                self.ideal_verdicts.setdefault(key, index)
+            ok = row.get("status") == "ok"
+            waiting = self.ideal.finished(self._ideal_key(c), index, ok)
+            if ok:
                 for other in waiting:
                     self._copy_ideal(other, index)
             else:                                           # that run failed: each runs its own

@@ -54,7 +54,7 @@ class ScenarioGroup:
     scenario: Scenario
     problems: PlanningProblemSet
     sections: dict[str, str] | None
-    runs: dict[str, RunEntry]                                           # by fidelity
+    runs: dict[str, RunEntry]                                           # by fidelity, the reference first
     comparisons: dict[str, list[AgentComparison]] = field(default_factory=dict)   # fidelity vs reference
 
     @property
@@ -123,6 +123,7 @@ def collect(root: Path) -> list[ScenarioGroup]:
         entry.tracking = _tracking(run, group.scenario, group.problems)
         group.runs[entry.fidelity] = entry
     for group in groups.values():
+        group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))   # ideal first
         ref = group.reference
         if ref is None:
             continue
