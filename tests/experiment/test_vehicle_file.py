@@ -1,5 +1,5 @@
-"""A vehicle given as a data file (not a catalogue name) works end to end: in `simgap run` and
-`simgap report`, in an experiment and its report, and in a search — each run records the model it
+"""A vehicle given as a data file (not a catalogue name) works end to end: in `simgap run` and its
+report, in an experiment and its report, and in a search — each run records the model it
 drove, so nothing looks the vehicle up by name afterwards."""
 
 from __future__ import annotations
@@ -13,13 +13,14 @@ from pathlib import Path
 import pytest
 import yaml
 
-from simgap.cosim import Run
+from simgap.cosim import CosimSettings, Run
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.search_results import search_results
+from simgap.experiment.single_run import RunRequest, execute
 from simgap.experiment.store import ResultsStore
 from simgap.report.search_page import build_search_report
-from simgap.report.site import build_experiment_report
+from simgap.report.site import build_experiment_report, build_report
 from simgap.scenario import build_scenario, write_scenario
 
 # the dynamic world's quick settings (as the search tests' screen), on a short, gentle curve
@@ -39,18 +40,16 @@ def car_file(tmp_path) -> Path:
 
 def test_run_and_report_with_a_vehicle_file(tmp_path, car_file):
     xml = write_scenario(build_scenario("curve", {"radius": 50, "angle": 30}), tmp_path / "scenarios", preview=False)
-    simgap = [sys.executable, "-m", "simgap"]
-    for backend, extra in (("ideal", []), ("dynamic", ["--controller-hz", "50"])):
-        run = subprocess.run(simgap + ["run", str(xml), "--backend", backend, *extra, "--vehicle", str(car_file),
-                                       "--replan-every", "3", "--out", str(tmp_path / "runs" / backend)],
-                             capture_output=True, text=True)
-        assert run.returncode == 0, run.stderr
+    execute(RunRequest(scenario=xml, vehicles=str(car_file), cosim=CosimSettings(replan_every=3)),
+            tmp_path / "runs" / "ideal")
+    run = subprocess.run([sys.executable, "-m", "simgap", "run", str(xml), "--backend", "dynamic", "--controller-hz",
+                          "50", "--vehicle", str(car_file), "--replan-every", "3", "--out", str(tmp_path / "runs" / "dynamic")],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
     recorded = Run.load(tmp_path / "runs" / "dynamic")
     assert recorded.agents[0].vehicle == "my_car" and recorded.vehicle_of(1).length == pytest.approx(4.508)
-    report = subprocess.run(simgap + ["report", str(tmp_path / "runs"), "--out", str(tmp_path / "report")],
-                            capture_output=True, text=True)
-    assert report.returncode == 0, report.stderr
-    assert "dynamic/my_car" in (tmp_path / "report" / "index.html").read_text()
+    index = build_report(tmp_path / "runs", tmp_path / "report")
+    assert "dynamic/my_car" in index.read_text()
 
 
 def test_an_experiment_with_a_vehicle_file_beside_its_spec(tmp_path, car_file):
