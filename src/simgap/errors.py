@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any, Mapping, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+M = TypeVar("M", bound=BaseModel)
 
 
 class InputError(Exception):
@@ -29,27 +34,48 @@ class InputError(Exception):
         return text
 
 
-def pydantic_to_input_error(err, file: str | Path | None) -> InputError:
-    """Turn the first problem of a pydantic ValidationError into an InputError."""
+def _model_at(model: type[BaseModel], loc: tuple) -> type[BaseModel]:
+    """The (nested) model that holds the last key of ``loc``, a pydantic error location."""
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        ann = getattr(model.model_fields.get(str(part)), "annotation", None)
+        candidates = [a for a in (ann, *getattr(ann, "__args__", ()))
+                      if isinstance(a, type) and issubclass(a, BaseModel)]
+        if not candidates:
+            break
+        model = candidates[0]
+    return model
+
+
+def validation_error(err: ValidationError, *, file: str | Path | None = None, prefix: str | None = None,
+                     model: type[BaseModel] | None = None, unknown: str | None = None,
+                     allowed: str | None = None) -> InputError:
+    """The project's one translation of a pydantic `ValidationError` into an `InputError`: its first
+    problem, the field path (under ``prefix``), and what is allowed — a literal's choices, or, for an
+    unknown key, the keys ``model`` has there (``unknown`` replaces pydantic's reason then);
+    ``allowed`` says it where neither does."""
     first = err.errors()[0]
-    field = ".".join(str(p) for p in first.get("loc", ()))
-    msg = first.get("msg", str(err))
-    allowed = None
-    ctx = first.get("ctx") or {}
-    if "expected" in ctx:
-        allowed = str(ctx["expected"])
-    return InputError(msg, file=file, field=field or None, allowed=allowed)
+    loc = tuple(first.get("loc", ()))
+    field = ".".join(str(p) for p in ((prefix,) if prefix else ()) + loc) or None
+    reason = first.get("msg", str(err)).removeprefix("Value error, ")
+    if first.get("type") == "extra_forbidden" and model is not None:
+        allowed = ", ".join(_model_at(model, loc).model_fields)
+        reason = unknown or reason
+    elif "expected" in (first.get("ctx") or {}):       # a literal's choices
+        allowed = str(first["ctx"]["expected"])
+    return InputError(reason, file=file, field=field, allowed=allowed)
 
 
-def validated_settings(model, values: dict, prefix: str = "backend_settings"):
-    """``model(**values)``, or an InputError naming ``prefix.FIELD`` and, for an unknown key, the
-    keys ``model`` has."""
-    from pydantic import ValidationError
-
+def validated(model: type[M], values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+              prefix: str | None = None) -> M:
+    """``values`` validated as ``model``, or the `InputError` of `validation_error`."""
     try:
-        return model(**values)
+        return model.model_validate(dict(values or {}))
     except ValidationError as err:
-        error = pydantic_to_input_error(err, None)
-        extra = err.errors()[0].get("type") == "extra_forbidden"
-        allowed = ", ".join(model.model_fields) if extra else error.allowed
-        raise InputError(error.reason, field=f"{prefix}.{error.field}", allowed=allowed) from None
+        raise validation_error(err, file=file, prefix=prefix, model=model) from None
+
+
+def validated_settings(model: type[M], values: Mapping[str, Any], prefix: str = "backend_settings") -> M:
+    """A backend's settings, validated; errors name ``backend_settings.FIELD``."""
+    return validated(model, values, prefix=prefix)

@@ -14,6 +14,7 @@ import yaml
 from simgap.errors import InputError
 from simgap.experiment.runner import experiment_status, run_experiment
 from simgap.experiment.store import ResultsStore
+from simgap.report.site import build_experiment_report
 
 SMALL = {"name": "small", "logical": "curve",
          "parameters": {"radius": {"values": [20, 50]}, "angle": {"values": [30, 90]}},
@@ -46,7 +47,7 @@ def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path)
     before, _ = rows_by_key(out)
     assert 1 <= len(before) < 4, "the kill came after the first and before the last run finished"
 
-    result = run_experiment(spec, out, workers=2, report=False)
+    result = run_experiment(spec, out, workers=2)
     assert result.skipped == len(before) and result.ran == 4 - len(before) and result.failed == 0
     after, keys = rows_by_key(out)
     assert len(keys) == len(set(keys)) == 4
@@ -54,7 +55,7 @@ def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path)
     assert not list(out.rglob(".*.tmp")) and not [p for p in (out / "runs").rglob(".*") if p.is_dir()]
 
     clean = tmp_path / "clean"
-    run_experiment(spec, clean, workers=2, report=False)
+    run_experiment(spec, clean, workers=2)
     uninterrupted, _ = rows_by_key(clean)
     assert {k: r["fingerprint"] for k, r in uninterrupted.items()} == {k: r["fingerprint"] for k, r in after.items()}
     status = experiment_status(out)
@@ -66,15 +67,16 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
                                            {"backend": "mujoco", "settings": {"physics_hz": 250}}],
                      parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
     result = run_experiment(spec, tmp_path / "out", workers=2)
+    report = build_experiment_report(tmp_path / "out")
     rows, _ = rows_by_key(tmp_path / "out")
     assert result.total == 2 and result.failed == 1
-    assert "whole multiple of the controller rate" in result.report.read_text()   # the report lists it
+    assert "whole multiple of the controller rate" in report.read_text()   # the report lists it
     assert rows["curve_radius-50_angle-30/ideal"]["status"] == "ok"
     failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
     assert failed["status"] == "failed" and "whole multiple of the controller rate" in failed["failure"]
     # a failed run is finished too: resuming does not run it again, unless asked to
-    assert run_experiment(spec, tmp_path / "out", workers=1, report=False).ran == 0
-    again = run_experiment(spec, tmp_path / "out", workers=1, report=False, retry_failed=True)
+    assert run_experiment(spec, tmp_path / "out", workers=1).ran == 0
+    again = run_experiment(spec, tmp_path / "out", workers=1, retry_failed=True)
     assert (again.ran, again.failed, again.skipped) == (1, 1, 1)
     assert len(ResultsStore(tmp_path / "out").rows()) == 2
 
@@ -82,7 +84,7 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
 def test_a_run_over_its_time_limit_is_stopped_and_recorded(tmp_path):
     spec = spec_file(tmp_path, run_timeout_s=0.5, parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
     start = time.monotonic()
-    result = run_experiment(spec, tmp_path / "out", workers=1, report=False)
+    result = run_experiment(spec, tmp_path / "out", workers=1)
     assert time.monotonic() - start < 30
     (row,) = ResultsStore(tmp_path / "out").rows()
     assert result.failed == 1 and row["status"] == "failed" and row["failure"].startswith("timeout")
@@ -91,18 +93,18 @@ def test_a_run_over_its_time_limit_is_stopped_and_recorded(tmp_path):
 def test_a_changed_spec_is_refused_on_the_same_directory(tmp_path):
     out = tmp_path / "out"
     run_experiment(spec_file(tmp_path, parameters={"radius": {"values": [50]}, "angle": {"values": [30]}}),
-                   out, workers=1, report=False)
+                   out, workers=1)
     changed = spec_file(tmp_path, "changed.yaml", parameters={"radius": {"values": [50]}, "angle": {"values": [30]}},
                         cosim={"replan_every": 1})
     with pytest.raises(InputError, match=r"different spec \(changed: cosim.replan_every\)"):
-        run_experiment(changed, out, workers=1, report=False)
+        run_experiment(changed, out, workers=1)
 
 
 def test_the_ray_executor_fills_the_same_store_as_the_local_one(tmp_path):
     pytest.importorskip("ray")
     spec = spec_file(tmp_path, parameters={"radius": {"values": [20, 50]}, "angle": {"values": [30]}})
-    run_experiment(spec, tmp_path / "local", workers=2, report=False)
-    run_experiment(spec, tmp_path / "ray", workers=2, executor="ray", report=False)
+    run_experiment(spec, tmp_path / "local", workers=2)
+    run_experiment(spec, tmp_path / "ray", workers=2, executor="ray")
     local, _ = rows_by_key(tmp_path / "local")
     remote, _ = rows_by_key(tmp_path / "ray")
     assert sorted(local) == sorted(remote) and len(local) == 2

@@ -3,12 +3,14 @@ dynamic world and in MuJoCo alike; and how knobs become backend and loop setting
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.run_metrics import run_metrics
-from simgap.experiment.knobs import KNOBS, apply_knobs
+from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table, knob_value
 from simgap.planning.frenet import FrenetPlanner
 from simgap.scenario import build_scenario
 from simgap.sim.registry import make_backend
@@ -23,7 +25,7 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
                 for a in agents}
     run = simulate(scenario, problems, make_backend(backend, **(settings or {})), agents, planners,
                    CosimSettings(**(cosim or {})), seed=seed)
-    return run, run_metrics(run, scenario, problems, (settings or {}).get("road_friction", 1.0))
+    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings or {}))
 
 
 @pytest.fixture(scope="module")
@@ -108,3 +110,8 @@ def test_knobs_go_where_they_apply():
     assert settings == {"road_friction": 0.4, "steer_delay": 0.1, "road_bank": 5.0}
     for knob in KNOBS.values():                 # every default is inside its allowed range
         assert knob.low <= knob.default <= knob.high and knob.unit and knob.meaning
+
+
+def test_the_readme_table_of_knobs_is_the_knob_table():
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
+    assert knob_table() in readme

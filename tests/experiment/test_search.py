@@ -14,11 +14,15 @@ import pytest
 import yaml
 
 from simgap.errors import InputError
-from simgap.experiment.job import job_columns
-from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search, search_results, summarise
+from simgap.cosim import Outcome
+from simgap.experiment.knobs import knob_value
+from simgap.experiment.records import RunRow
+from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
+from simgap.experiment.search_results import search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import SearchSpace, make_strategy
+from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
 LADDER = [{"backend": "ideal"},
@@ -88,16 +92,15 @@ def test_failure_rule():
 def planted_row(job):
     """Fails in high fidelity where friction < 0.35 and the start is faster than 15 m/s (7.5 % of
     the space); the screen sees a grip use that crosses 1 on that region's border."""
-    mu = job.backend_settings.get("road_friction", 1.0)
+    mu = knob_value("road_friction", job.backend_settings)
     speed = job.parameters["initial_speed"]
     grip = (speed / 15.0) * (0.35 / mu)
     inside = mu < 0.35 and speed > 15.0
     failed = inside and job.backend == "mujoco"
     cost = {"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend]
-    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
-            "max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
-            "peak_grip_use": grip if job.backend != "ideal" else 0.3, "job_time_s": cost, "vehicle": job.vehicle,
-            **job_columns(job)}
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s=cost, metrics={"max_lateral_offset_m": 0.1 + 0.2 * grip, "max_lane_excursion_m": 0.0,
+                                            "peak_grip_use": grip if job.backend != "ideal" else 0.3})
 
 
 def search_planted(tmp_path, name, seed, runs):
@@ -143,10 +146,9 @@ def test_multi_fidelity_skips_the_screen_where_neighbours_keep_failing(tmp_path)
 
 def knob_row(job):
     """Fails in high fidelity where friction < 0.5; the ideal world always passes."""
-    failed = job.backend == "mujoco" and job.backend_settings.get("road_friction", 1.0) < 0.5
-    return {"key": job.key, "status": "ok", "outcome": "off_road" if failed else "goal_reached",
-            "max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0, "job_time_s": 2.0, "vehicle": job.vehicle,
-            **job_columns(job)}
+    failed = job.backend == "mujoco" and knob_value("road_friction", job.backend_settings) < 0.5
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s=2.0, metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0})
 
 
 def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
@@ -224,7 +226,7 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
     before = {r["key"]: r for r in ResultsStore(out / "random").rows()}
     assert 2 <= len(before) < 8, "the kill came after the second and before the last run finished"
 
-    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"], report=False)
+    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"])
     rows = ResultsStore(out / "random").rows()
     keys = [r["key"] for r in rows]
     assert len(keys) == len(set(keys)) == 8 == result.runs                 # none lost, none twice
@@ -239,17 +241,18 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
 def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "search"
-    first = run_search(spec, out, Budget(runs=3), workers=2, report=False)
+    first = run_search(spec, out, Budget(runs=3), workers=2)
     assert [r.name for r in first] == ["random", "multi_fidelity"]
     before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
     assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2, report=True)
+    run_search(spec, out, Budget(runs=6), workers=2)
+    build_search_report(search_results(out))
     rows = ResultsStore(out / "multi_fidelity").rows()
     keys = [r["key"] for r in rows]
     assert len(keys) == len(set(keys)) == 6
     assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
     assert {r["rung"] for r in rows} >= {1}                                # the screen ran
-    _, results = search_results(out)
+    results = search_results(out).strategies
     assert [r.name for r in results] == ["random", "multi_fidelity"] and all(r.runs == 6 for r in results)
     page = (out / "report" / "index.html").read_text()
     assert "distinct violated assumptions" in page and "multi_fidelity" in page
@@ -257,4 +260,4 @@ def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     # another spec in the same directory is refused, naming what to do
     other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
     with pytest.raises(InputError, match="different spec"):
-        run_search(other, out, Budget(runs=1), workers=1, report=False)
+        run_search(other, out, Budget(runs=1), workers=1)

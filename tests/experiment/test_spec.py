@@ -42,8 +42,8 @@ def test_a_bad_spec_names_the_file_the_field_and_what_is_allowed(tmp_path, chang
 
 
 def test_the_builtin_paper_study_has_the_papers_counts():
-    spec, logical, _ = load_spec("paper-curves")
-    expanded = jobs(spec, logical)
+    spec, logical, path = load_spec("paper-curves")
+    expanded = jobs(spec, logical, path)
     assert len(expanded) == 78
     all_jobs = [j for _, runs in expanded for j in runs]
     assert len(all_jobs) == 312 and len({j.key for j in all_jobs}) == 312
@@ -70,8 +70,8 @@ def test_random_samplers_give_their_count_in_range_and_repeat_with_the_seed(tmp_
 def test_grid_over_given_values_and_repeats(tmp_path):
     path = write(tmp_path, parameters={"radius": {"values": [10, 20]}, "angle": {"values": [30, 60, 90]}},
                  repeats=2, fidelities=[{"backend": "ideal"}, {"backend": "mujoco", "vehicles": ["sedan", "suv"]}])
-    spec, logical, _ = load_spec(path)
-    expanded = jobs(spec, logical)
+    spec, logical, path = load_spec(path)
+    expanded = jobs(spec, logical, path)
     assert len(expanded) == 6
     keys = [j.key for _, runs in expanded for j in runs]
     assert len(keys) == 6 * 3 * 2 == len(set(keys))

@@ -12,9 +12,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import Run
+from simgap.cosim import Fidelity, Run
 from simgap.errors import InputError
 from simgap.evaluate.compare import compare_runs
+from simgap.evaluate.criticality import run_criticality
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.scenario import load_scenario, read_metadata
 
@@ -23,24 +24,7 @@ UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error"
 
 
 def _label(run: Run, run_dir: Path) -> str:
-    vehicles = ",".join(sorted({a.vehicle for a in run.agents}))
-    return f"{run.backend}/{vehicles} ({run_dir.name})"
-
-
-def _criticality(run_dir: Path, run: Run) -> list[dict]:
-    """Per agent pair, the most critical TTC, THW, BTN and STN of the driven scenario."""
-    if len(run.driven) < 2:
-        return []
-    from dataclasses import asdict
-
-    from commonroad.common.file_reader import CommonRoadFileReader
-
-    from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
-    from simgap.evaluate.criticality import pair_criticality
-
-    driven, _ = CommonRoadFileReader(str(run_dir / "driven.xml")).open()
-    ids = {aid: AGENT_ID_OFFSET + aid for aid in run.driven}
-    return [asdict(r) for r in pair_criticality(driven, ids)]
+    return f"{Fidelity.of_run(run).label} ({run_dir.name})"
 
 
 @app.command()
@@ -64,7 +48,7 @@ def compare(
     comparisons = compare_runs(a, b, scenario, problems, sections)
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
               "agents": [c.as_dict() for c in comparisons],
-              "criticality": {"a": _criticality(run_a, a), "b": _criticality(run_b, b)}}
+              "criticality": {"a": run_criticality(run_a, a.driven), "b": run_criticality(run_b, b.driven)}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for c in comparisons:

@@ -37,6 +37,7 @@ def run_cmd(
     are run again. Example: simgap experiment run paper-curves --out studies/paper --workers 2
     """
     from simgap.experiment.runner import run_experiment
+    from simgap.report.site import build_experiment_report
 
     console = Console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
@@ -47,16 +48,16 @@ def run_cmd(
             bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
                        counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
 
-        result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report,
-                                retry_failed=retry_failed)
+        result = run_experiment(spec, out, workers, executor, address, on_progress=show, retry_failed=retry_failed)
+    report = None if no_report else build_experiment_report(out)
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
     for key, reason in result.failures[:20]:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
                   f"(simgap experiment query {out} \"SELECT ...\")")
-    if result.report:
-        console.print(f"report: [bold]{result.report}[/bold]")
+    if report:
+        console.print(f"report: [bold]{report}[/bold]")
 
 
 @experiment_app.command("status")

@@ -13,10 +13,16 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import CosimSettings, Run
+from simgap.cosim import CosimSettings, Outcome, Run
 from simgap.errors import InputError
+from simgap.files import read_yaml_mapping
+from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
+from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
+
+KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
+    f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
 
 
 @app.command()
@@ -27,7 +33,9 @@ def run(
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
                                                   "port, home, driver, ...)"),
-    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv"),
+    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
+                                "names or vehicle data files)"),
+    planner_vehicle: str = typer.Option(PLANNER_VEHICLE, help="the vehicle the planner assumes it drives"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
     controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
@@ -35,9 +43,7 @@ def run(
                                                "controller rate)"),
     road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
     offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
-    knob: Optional[list[str]] = typer.Option(None, "--knob", help="reality knob NAME=VALUE (repeatable): "
-                                             "road_friction, steer_delay, pedal_delay, position_noise, yaw_noise, "
-                                             "speed_noise, road_bank, road_grade"),
+    knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
     max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
@@ -50,7 +56,19 @@ def run(
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
-    backend_settings = {k: v for k, v in physical.items() if v is not None}
+    backend_settings = _backend_settings(backend, {k: v for k, v in physical.items() if v is not None},
+                                         backend_config)
+    knob_settings, knob_cosim = _knobs(knobs or [], backend)
+    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
+                         planner_vehicle=planner_vehicle,
+                         backend_settings=backend_settings | knob_settings,
+                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
+                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+    _execute(request, out, as_json)
+
+
+def _backend_settings(backend: str, backend_settings: dict, backend_config: Path | None) -> dict:
+    """The options' backend settings over the ``--backend-config`` file's, checked against the backend."""
     if backend_config is not None and backend == "ideal":
         raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
                          allowed="dynamic, mujoco, beamng")
@@ -62,15 +80,13 @@ def run(
         raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
                          "settings", field="backend", allowed="mujoco")
     if backend_config is not None:
-        from simgap.experiment.spec import read_mapping
+        backend_settings = read_yaml_mapping(backend_config, "backend settings file",
+                                             "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
+    return backend_settings
 
-        backend_settings = read_mapping(backend_config, "backend settings file",
-                                        "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
-    knob_settings, knob_cosim = _knobs(knob or [], backend)
-    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
-                         backend_settings=backend_settings | knob_settings,
-                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
-                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+
+def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
+    """Run ``request`` into ``out`` and print its summary (as a table, or JSON)."""
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
@@ -80,7 +96,7 @@ def run(
     console = Console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), console=console, transient=True) as bar:
-        task = bar.add_task(f"{backend}: {scenario.name}", total=1.0)
+        task = bar.add_task(f"{request.backend}: {Path(request.scenario).name}", total=1.0)
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
@@ -90,26 +106,17 @@ def run(
 
 def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
     """``--knob NAME=VALUE`` options as (backend settings, loop settings), checked."""
-    from simgap.experiment.knobs import KNOBS, apply_knobs
-
     values = {}
     for item in items:
-        name, _, text = item.partition("=")
-        knob = KNOBS.get(name.strip())
-        if knob is None:
-            raise InputError(f"unknown reality knob '{name}'", field="knob", allowed=", ".join(KNOBS))
+        name, _, text = (part.strip() for part in item.partition("="))
+        k = knob(name)
         try:
             value = float(text)
         except ValueError:
             raise InputError(f"'{item}' is not NAME=NUMBER", field=f"knob {name}",
-                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}") from None
-        if not knob.low <= value <= knob.high:
-            raise InputError(f"{value:g} {knob.unit} is out of range", field=f"knob {name}",
-                             allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}")
-        if backend not in knob.backends:
-            raise InputError(f"the knob '{name}' does not apply to the {backend} backend", field=f"knob {name}",
-                             allowed=", ".join(knob.backends))
-        values[knob.name] = value
+                             allowed=f"{k.low:g} to {k.high:g} {k.unit}") from None
+        values[name] = value
+        check_knob(name, value, value, where=f"knob {name}", backend=backend)
     return apply_knobs(backend, values)
 
 
@@ -118,7 +125,7 @@ def print_summary(console: Console, result: Run) -> None:
     for col in ("agent", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed"):
         table.add_column(escape(col), justify="left" if col in ("vehicle", "outcome") else "right", no_wrap=True)
     for a in result.agents:
-        colour = "green" if a.outcome == "goal_reached" else "red"
+        colour = "green" if a.outcome == Outcome.GOAL_REACHED else "red"
         table.add_row(str(a.id), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
                       "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
                       f"{a.distance_m:.1f}",

@@ -33,6 +33,8 @@ def search_cmd(
     simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
     """
     from simgap.experiment.search import parse_budget, run_search
+    from simgap.experiment.search_results import search_results
+    from simgap.report.search_page import build_search_report
 
     limit = parse_budget(budget)
     console = Console()
@@ -48,11 +50,10 @@ def search_cmd(
             bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
                        counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
-        results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             report=not no_report)
+        results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show)
     _print(console, results)
     if not no_report:
-        console.print(f"report: [bold]{out / 'report' / 'index.html'}[/bold]")
+        console.print(f"report: [bold]{build_search_report(search_results(out))}[/bold]")
 
 
 def _print(console: Console, results) -> None:
@@ -72,7 +73,6 @@ def status_cmd(out: Path = typer.Argument(..., help="search directory")) -> None
 
     Example: simgap search-status studies/gaps
     """
-    from simgap.experiment.search import search_results
+    from simgap.experiment.search_results import search_results
 
-    _, results = search_results(out)
-    _print(Console(), results)
+    _print(Console(), search_results(out).strategies)

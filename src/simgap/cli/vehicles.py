@@ -13,6 +13,7 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.vehicles import load_vehicle, vehicle_names
+from simgap.vehicles.constants import GRAVITY
 
 LONG_TEXT = 40      # characters: a longer text field is printed under the table
 
@@ -44,7 +45,7 @@ def catalogue(ctx: typer.Context) -> None:
             continue
         table.add_row(name, *size, f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles,
                       f"{p.max_power / 1000:.0f}", f"{p.tyre_friction:.2f}",
-                      f"{math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * 9.81):.2f}",
+                      f"{math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * GRAVITY):.2f}",
                       f"{math.degrees(p.steering.max_angle):.0f}")
     console = Console()
     console.print(table)

@@ -34,9 +34,7 @@ from typing import Any, Mapping
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.errors import InputError
-
-GRAVITY = 9.81          # m/s^2
-AIR_DENSITY = 1.204     # kg/m^3, dry air at 20 degC, sea level
+from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 
 #: Physics keys this module reads, with the values used when a vehicle has no ``physics``.
 #: BMW 320i-like: mass of CommonRoad parameter set 2; 200 N m engine torque through a

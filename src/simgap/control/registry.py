@@ -22,7 +22,7 @@ from simgap.control.protocol import Controller
 from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
 from simgap.control.stanley import StanleyController, StanleyGains
 from simgap.control.tracking import MIN_RATE_HZ, TrackingController
-from simgap.errors import InputError
+from simgap.errors import InputError, validation_error
 
 CONTROLLERS: dict[str, tuple[type[TrackingController], type[BaseModel]]] = {
     "pure_pursuit": (PurePursuitController, PurePursuitGains),
@@ -51,24 +51,6 @@ def _merge(base: dict[str, Any], override: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _validation_error(err: ValidationError, model: type[BaseModel], prefix: str,
-                      source: str | None) -> InputError:
-    first = err.errors()[0]
-    loc = [str(p) for p in first.get("loc", ())]
-    field = ".".join([prefix, *loc]) if loc else prefix
-    allowed = None
-    if first.get("type") == "extra_forbidden":
-        sub: Any = model
-        for part in loc[:-1]:
-            ann = sub.model_fields[part].annotation if part in getattr(sub, "model_fields", {}) else None
-            if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
-                break
-            sub = ann
-        allowed = ", ".join(sub.model_fields)
-        return InputError("unknown gain", file=source, field=field, allowed=allowed)
-    return InputError(first.get("msg", str(err)), file=source, field=field)
-
-
 def controller_gains(name: str, vehicle=None, overrides: Mapping[str, Any] | None = None
                      ) -> BaseModel:
     """The gains of controller ``name``: defaults, then the vehicle's ``controllers[name]``,
@@ -90,7 +72,8 @@ def controller_gains(name: str, vehicle=None, overrides: Mapping[str, Any] | Non
         try:
             model.model_validate(_merge(values, layer))
         except ValidationError as err:
-            raise _validation_error(err, model, f"controllers.{name}", where) from None
+            raise validation_error(err, file=where, prefix=f"controllers.{name}", model=model,
+                                   unknown="unknown gain") from None
         values = _merge(values, layer)
     return model.model_validate(values)
 

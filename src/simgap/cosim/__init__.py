@@ -1,6 +1,7 @@
 """The synchronous multi-agent co-simulation loop and the `Run` record it produces."""
 
+from simgap.cosim.fidelity import REFERENCE, Fidelity
 from simgap.cosim.loop import CosimSettings, simulate
-from simgap.cosim.record import AgentOutcome, Event, Run
+from simgap.cosim.record import AgentOutcome, Event, Outcome, Run
 
-__all__ = ["AgentOutcome", "CosimSettings", "Event", "Run", "simulate"]
+__all__ = ["AgentOutcome", "CosimSettings", "Event", "Fidelity", "Outcome", "REFERENCE", "Run", "simulate"]

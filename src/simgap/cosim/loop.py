@@ -23,7 +23,7 @@ from commonroad.scenario.state import CustomState
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.cosim.record import AgentOutcome, Event, Run
+from simgap.cosim.record import AgentOutcome, Event, Outcome, Run
 from simgap.cosim.traffic import DrivableArea, footprint, non_agent_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
@@ -76,7 +76,7 @@ class _AgentProgress:
     plans: list[Trajectory] = field(default_factory=list)
     plan: Trajectory | None = None
     plan_age: int = 0
-    outcome: str | None = None
+    outcome: Outcome | None = None
     time_to_goal: float | None = None
     failures_in_row: int = 0
     failures: int = 0
@@ -139,10 +139,10 @@ def simulate(
     deadlines = {aid: _deadline(p.problem, dt, settings.max_time_s) for aid, p in progress_of.items()}
     horizon = max(deadlines.values())
 
-    def finish(p: _AgentProgress, outcome: str, state: State, detail: str = "",
+    def finish(p: _AgentProgress, outcome: Outcome, state: State, detail: str = "",
                other: int | None = None) -> None:
         p.outcome = outcome
-        if outcome == "goal_reached":
+        if outcome == Outcome.GOAL_REACHED:
             p.time_to_goal = state.t
         events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
 
@@ -185,7 +185,7 @@ def simulate(
                         p.plan = emergency_stop(state, dt, settings.emergency_decel)
                     p.plan_age = 0
                     if p.failures_in_row >= settings.planner_failure_limit or state.v < 0.1:
-                        finish(p, "planner_failure", state,
+                        finish(p, Outcome.PLANNER_FAILURE, state,
                                f"{p.failures_in_row} consecutive cycles without a plan")
                 else:
                     p.failures_in_row = 0
@@ -211,10 +211,10 @@ def simulate(
         for p in progress_of.values():
             if p.active:
                 last = p.driven[-1]
-                finish(p, "diverged", last, str(exc))
+                finish(p, Outcome.DIVERGED, last, str(exc))
     finally:
-        backend_timings = getattr(backend, "timings", None) or {}
-        backend_notes = list(getattr(backend, "notes", None) or [])
+        backend_timings = dict(backend.timings)
+        backend_notes = list(backend.notes)
         backend.close()
     timings.update(backend_timings)
 
@@ -222,7 +222,7 @@ def simulate(
     for aid, p in progress_of.items():
         driven = Trajectory.from_states(p.driven, dt)
         outcomes.append(AgentOutcome(
-            id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or "timeout",
+            id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
             time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
             distance_m=round(driven.path_length(), 3),
             min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
@@ -245,7 +245,7 @@ def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping
     """
     snapshot = {}
     for aid, p in progress_of.items():
-        if p.outcome == "goal_reached":
+        if p.outcome == Outcome.GOAL_REACHED:
             continue
         prediction = p.plan if p.plan is not None else Trajectory.from_states([states[aid]], dt)
         snapshot[aid] = TrafficParticipant(aid, p.agent.vehicle.length, p.agent.vehicle.width, prediction)
@@ -261,7 +261,7 @@ def _traffic_for(aid: int, snapshot: Mapping[int, TrafficParticipant],
 def _monitor(progress_of, states, obstacles, road, backend, dt, deadlines, finish) -> None:
     shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
               for aid, st in states.items()}
-    present = [aid for aid, p in progress_of.items() if p.outcome != "goal_reached"]
+    present = [aid for aid, p in progress_of.items() if p.outcome != Outcome.GOAL_REACHED]
     t = next(iter(states.values())).t
     obstacle_shapes = {o.id: footprint(o.prediction.at(t), o.length, o.width) for o in obstacles
                        if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9}
@@ -287,10 +287,10 @@ def _monitor(progress_of, states, obstacles, road, backend, dt, deadlines, finis
         if not p.active:
             continue
         if hit is not None:
-            finish(p, "collision", state, "footprints overlap", hit)
+            finish(p, Outcome.COLLISION, state, "footprints overlap", hit)
         elif excursion > 0.0:
-            finish(p, "off_road", state, f"footprint {excursion:.2f} m beyond the road")
+            finish(p, Outcome.OFF_ROAD, state, f"footprint {excursion:.2f} m beyond the road")
         elif _goal_reached(p.problem, state, dt):
-            finish(p, "goal_reached", state)
+            finish(p, Outcome.GOAL_REACHED, state)
         elif state.t >= deadlines[aid] - 1e-9:
-            finish(p, "timeout", state, f"goal not reached by t = {deadlines[aid]:.1f} s")
+            finish(p, Outcome.TIMEOUT, state, f"goal not reached by t = {deadlines[aid]:.1f} s")

@@ -18,6 +18,7 @@ import os
 import shutil
 import tempfile
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -27,8 +28,24 @@ import pyarrow.parquet as pq
 
 from simgap.errors import InputError
 from simgap.trajectory import STATE_FIELDS, Trajectory
+from simgap.vehicles import Vehicle, load_vehicle
 
-OUTCOMES = ("goal_reached", "collision", "off_road", "planner_failure", "timeout", "diverged")
+
+
+class Outcome(StrEnum):
+    """How an agent's run ended (a string enum: it compares and serialises as its value)."""
+
+    GOAL_REACHED = "goal_reached"
+    COLLISION = "collision"
+    OFF_ROAD = "off_road"
+    PLANNER_FAILURE = "planner_failure"      # no feasible plan for too long
+    TIMEOUT = "timeout"                      # the goal not reached by its deadline
+    DIVERGED = "diverged"                    # the physics blew up
+
+    @classmethod
+    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
+        """The first outcome that is not reaching the goal, else reaching it."""
+        return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
 
 
 @dataclass(frozen=True)
@@ -48,12 +65,15 @@ class Event:
 class AgentOutcome:
     id: int
     vehicle: str
-    outcome: str
+    outcome: Outcome
     time_to_goal_s: float | None
     distance_m: float
     min_distance_to_traffic_m: float | None
     max_road_excursion_m: float = 0.0
     planner_failures: int = 0
+
+    def __post_init__(self) -> None:
+        self.outcome = Outcome(self.outcome)          # as read back from run.json
 
 
 @dataclass
@@ -74,8 +94,17 @@ class Run:
     versions: dict[str, str] = field(default_factory=dict)
     seed: int = 0
     failure: str | None = None
+    vehicles: dict[int, Vehicle] = field(default_factory=dict)    # the model each agent drove
+    metrics: dict[str, float] = field(default_factory=dict)       # simgap.evaluate.run_metrics, worst over agents
 
     # ------------------------------------------------------------------ derived
+    def vehicle_of(self, agent_id: int) -> Vehicle:
+        """The vehicle model agent ``agent_id`` drove: as recorded (a run written before runs
+        recorded their vehicles: the catalogue's vehicle of that name)."""
+        if agent_id in self.vehicles:
+            return self.vehicles[agent_id]
+        return load_vehicle(next(a.vehicle for a in self.agents if a.id == agent_id))
+
     @property
     def fingerprint(self) -> str:
         """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
@@ -114,6 +143,8 @@ class Run:
                 "sections": self.sections,
                 "versions": self.versions,
                 "seed": self.seed,
+                "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
+                "metrics": self.metrics,
             }
             (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
@@ -187,6 +218,8 @@ class Run:
             settings=meta.get("settings", {}), scenario_path=meta.get("scenario_path"),
             parameters=meta.get("parameters", {}), sections=meta.get("sections", {}), versions=meta.get("versions", {}),
             seed=meta.get("seed", 0), failure=meta.get("failure"),
+            vehicles={int(aid): Vehicle.model_validate(v) for aid, v in (meta.get("vehicles") or {}).items()},
+            metrics=meta.get("metrics") or {},
         )
 
 

@@ -12,10 +12,15 @@ from __future__ import annotations
 import logging
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from itertools import permutations
+from pathlib import Path
+from typing import Iterable
 
+from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.scenario.scenario import Scenario
+
+from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
 
 # measure name -> (CriMe class name, True when smaller values are more critical)
 MEASURES = {"ttc": ("TTC", True), "thw": ("THW", True), "btn": ("BTN", False), "stn": ("STN", False)}
@@ -34,7 +39,7 @@ class PairCriticality:
 def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int = 5,
                      measures: tuple[str, ...] = tuple(MEASURES)) -> list[PairCriticality]:
     """``obstacle_ids``: agent id -> its obstacle id in ``driven``."""
-    import commonroad_crime.measure as crime_measures
+    import commonroad_crime.measure as crime_measures           # slow to import: only when measured
     from commonroad_crime.data_structure.configuration import CriMeConfiguration
 
     if len(obstacle_ids) < 2:
@@ -69,6 +74,15 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
                     worst, at = value, k * driven.dt
             out.append(PairCriticality(ego, other, name, worst, at, skipped))
     return out
+
+
+def run_criticality(run_dir: Path, agent_ids: Iterable[int]) -> list[dict]:
+    """`pair_criticality` of the driven scenario a run directory holds (``driven.xml``), as rows."""
+    agent_ids = list(agent_ids)
+    if len(agent_ids) < 2:
+        return []
+    driven, _ = CommonRoadFileReader(str(Path(run_dir) / "driven.xml")).open()
+    return [asdict(r) for r in pair_criticality(driven, {aid: AGENT_ID_OFFSET + aid for aid in agent_ids})]
 
 
 def _last_step(obstacle) -> int:

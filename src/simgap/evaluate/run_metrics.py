@@ -14,11 +14,11 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.control.longitudinal import GRAVITY
 from simgap.cosim.traffic import DrivableArea, footprint
 from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
-from simgap.vehicles import load_vehicle
+from simgap.vehicles import Vehicle
+from simgap.vehicles.constants import GRAVITY
 
 #: name -> (unit, meaning); every one is the worst over the run's agents
 RUN_METRICS = {
@@ -29,18 +29,18 @@ RUN_METRICS = {
 }
 
 
-def lane_excursion(driven, vehicle_name: str, scenario: Scenario, problem) -> float:
+def lane_excursion(driven, vehicle: Vehicle, scenario: Scenario, problem) -> float:
     """How far [m] an agent's footprint reached beyond the lanes of its route (lane departure)."""
     lanes = route_lanelets(scenario.lanelet_network, problem)
     if not lanes:
         return float("nan")
     area = DrivableArea(scenario.lanelet_network, 0.0, lanes)
-    vehicle = load_vehicle(vehicle_name)
     return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in driven), default=0.0)
 
 
-def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float = 1.0) -> dict[str, float]:
-    """`RUN_METRICS` of ``run`` (NaN where an agent has no route to its goal)."""
+def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float) -> dict[str, float]:
+    """`RUN_METRICS` of ``run`` on a road of friction ``road_friction`` (NaN where an agent has
+    no route to its goal)."""
     worst = {name: -math.inf for name in RUN_METRICS}
     grip = road_friction * GRAVITY
     for outcome in run.agents:
@@ -53,7 +53,7 @@ def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_fric
             values["max_lateral_offset_m"] = float(np.max(np.abs(d)))
             lateral = frenet_tracking_errors(driven, run.plans.get(outcome.id, []), frame).lateral
             values["max_tracking_lateral_m"] = float(np.max(np.abs(lateral))) if len(lateral) else 0.0
-            values["max_lane_excursion_m"] = lane_excursion(driven, outcome.vehicle, scenario, problem)
+            values["max_lane_excursion_m"] = lane_excursion(driven, run.vehicle_of(outcome.id), scenario, problem)
         if len(driven):
             combined = np.hypot(driven.a, driven.v * driven.yaw_rate)
             values["peak_grip_use"] = float(combined.max() / grip)

@@ -20,9 +20,9 @@ import traceback
 from multiprocessing.connection import wait
 from typing import Any, Callable
 
-from simgap.experiment.spec import Job
+from simgap.experiment.records import Job, RunRow
 
-OnResult = Callable[[Job, dict[str, Any]], None]
+OnResult = Callable[[Job, RunRow], None]
 JobSource = Callable[[], "Job | None"]
 
 
@@ -33,10 +33,8 @@ def _source(jobs: "list[Job] | JobSource") -> JobSource:
     return lambda: queue.pop(0) if queue else None
 
 
-def failed_row(job: Job, reason: str) -> dict[str, Any]:
-    from simgap.experiment.job import job_columns
-
-    return job_columns(job) | {"status": "failed", "failure": reason}
+def failed_row(job: Job, reason: str) -> RunRow:
+    return RunRow.failed(job, reason)
 
 
 def _worker(conn) -> None:

@@ -1,33 +1,19 @@
 """Reality knobs: what the 2D world assumes and the real world does not, as parameters a search
 can vary in the higher fidelities. Each knob's default is the ideal world's assumption, so a
-knob left out of a search spec changes nothing.
+knob left out of a search spec changes nothing; the ideal fidelity never takes a knob.
 
-=================  ======  =======  ===================  ==========================================
-knob               unit    default  fidelities           meaning
-=================  ======  =======  ===================  ==========================================
-road_friction      -       1.0      dynamic, mujoco      road friction, scales the tyres' (dry 1.0,
-                                                         wet about 0.6, snow about 0.3)
-steer_delay        s       0        dynamic, mujoco,     steering actuator dead time
-                                    beamng
-pedal_delay        s       0        dynamic, mujoco,     throttle and brake dead time
-                                    beamng
-position_noise     m       0        dynamic, mujoco,     std. dev. of the noise on the x and y the
-                                    beamng               planner observes
-yaw_noise          deg     0        dynamic, mujoco,     ... on the heading it observes
-                                    beamng
-speed_noise        m/s     0        dynamic, mujoco,     ... on the speed it observes
-                                    beamng
-road_bank          deg     0        mujoco               cross slope; positive falls to the right
-road_grade         deg     0        mujoco               grade; positive uphill
-=================  ======  =======  ===================  ==========================================
-
-The ideal fidelity never takes a knob: it is the world of the planner's assumptions.
+`KNOBS` is the one table of them (name, unit, default, range, the backends that take it, what it
+means): the search spec's validation, ``simgap run --knob`` (its help and its checks) and the
+README's table (`knob_table`, checked by a test) all come from it.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Mapping
+
+from simgap.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -57,6 +43,39 @@ KNOBS: dict[str, Knob] = {k.name: k for k in (
          "cross slope; positive: the road falls to the right of the way of travel"),
     Knob("road_grade", "deg", 0.0, -15.0, 15.0, ("mujoco",), "road_grade", "grade; positive: uphill"),
 )}
+
+
+def knob(name: str, *, file: str | Path | None = None, where: str = "knob") -> Knob:
+    """The knob ``name``, or an `InputError` naming the known ones."""
+    if name not in KNOBS:
+        raise InputError(f"unknown reality knob '{name}'", file=file, field=where, allowed=", ".join(KNOBS))
+    return KNOBS[name]
+
+
+def check_knob(name: str, low: float, high: float, *, file: str | Path | None = None, where: str = "knob",
+               backend: str | None = None) -> Knob:
+    """``name`` is a knob, [low, high] lies in its range and (if given) ``backend`` takes it."""
+    k = knob(name, file=file, where=where)
+    if low < k.low or high > k.high:
+        what = f"{low:g} {k.unit} is out of range" if low == high else f"[{low:g}, {high:g}] leaves the knob's range"
+        raise InputError(what, file=file, field=where, allowed=f"{k.low:g} to {k.high:g} {k.unit}")
+    if backend is not None and backend not in k.backends:
+        raise InputError(f"the knob '{name}' does not apply to the {backend} backend", file=file, field=where,
+                         allowed=", ".join(k.backends))
+    return k
+
+
+def knob_value(name: str, values: Mapping[str, Any]) -> float:
+    """The value of knob ``name`` in ``values`` (backend settings or knob values), else its default."""
+    return float(values.get(KNOBS[name].setting, KNOBS[name].default))
+
+
+def knob_table() -> str:
+    """The knobs as the README's Markdown table."""
+    rows = ["| knob | unit | default | range | fidelities | meaning |", "|---|---|---|---|---|---|"]
+    rows += [f"| `{k.name}` | {k.unit} | {k.default:g} | {k.low:g}–{k.high:g} | {', '.join(k.backends)} | {k.meaning} |"
+             for k in KNOBS.values()]
+    return "\n".join(rows)
 
 
 def apply_knobs(backend: str, values: Mapping[str, float]) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -1,5 +1,6 @@
 """An experiment end to end: scenarios from the spec, every run (resuming where a previous
-invocation stopped), the results store, the cross-fidelity pairs, and the report."""
+invocation stopped) and the results store. The report is drawn from them by `simgap.report`
+(the CLI builds it)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,19 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
-from simgap.errors import InputError
+from simgap.cosim import CosimSettings
+from simgap.errors import InputError, validated
 from simgap.experiment.executors import make_executor
-from simgap.experiment.spec import ExperimentSpec, Job, jobs, load_spec
+from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.single_run import software_versions
+from simgap.experiment.spec import ExperimentSpec, jobs, load_spec, vehicle_ref
 from simgap.experiment.store import ResultsStore
+from simgap.files import atomic_write_text
+from simgap.planning.settings import FrenetSettings
 from simgap.scenario import write_scenario
+from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
 
 META = "experiment.json"
@@ -41,7 +48,6 @@ class ExperimentResult:
     failed: int
     skipped: int
     wall_time_s: float
-    report: Path | None
     failures: list[tuple[str, str]]
 
 
@@ -57,10 +63,10 @@ def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
     return out
 
 
-def _claim(root: Path, spec: ExperimentSpec, logical_ref: str) -> None:
+def _claim(root: Path, spec: ExperimentSpec, logical_ref: str, spec_file: Path) -> None:
     """Record the spec in ``root``, or refuse if ``root`` holds results of a different one."""
     meta_path = root / META
-    relevant = spec.model_dump(exclude={"name", "description", "run_timeout_s"})
+    relevant = spec.results_relevant()
     if meta_path.exists():
         meta = json.loads(meta_path.read_text())
         if meta.get("results_hash") != spec.results_hash():
@@ -69,21 +75,18 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str) -> None:
                              "mixing them would make the results meaningless", file=root,
                              allowed="the same spec, or a new --out directory")
         return
-    from simgap.experiment.single_run import software_versions
-
     root.mkdir(parents=True, exist_ok=True)
-    meta = {"spec": spec.model_dump(), "logical_ref": logical_ref, "spec_results": relevant,
+    meta = {"spec": spec.model_dump(), "logical_ref": logical_ref, "spec_file": str(spec_file.resolve()),
+            "spec_results": relevant,
             "results_hash": spec.results_hash(), "versions": software_versions()}
-    tmp = meta_path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(meta, indent=2, default=str))
-    tmp.replace(meta_path)
+    atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
 
 
 def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], dict[str, str]]:
     """The spec, all its jobs, and the scenario file of each scenario (written if missing)."""
-    spec, logical, _ = load_spec(spec_ref)
+    spec, logical, path = load_spec(spec_ref)
     all_jobs, scenarios = [], {}
-    for params, runs in jobs(spec, logical):
+    for params, runs in jobs(spec, logical, path):
         name = runs[0].scenario
         xml = root / "scenarios" / f"{name}.xml"
         if not xml.exists():
@@ -104,7 +107,7 @@ def clean_partial_runs(root: Path) -> None:
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   report: bool = True, retry_failed: bool = False) -> ExperimentResult:
+                   retry_failed: bool = False) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
     never run again, unless ``retry_failed`` asks to run the failed ones once more."""
     root = Path(root)
@@ -115,7 +118,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
         logical_ref = str((path.parent / logical_ref).resolve())
-    _claim(root, spec, logical_ref)
+    _claim(root, spec, logical_ref, path)
     spec, all_jobs, scenarios = plan(spec_ref, root)
     store = ResultsStore(root)
     store.prepare()
@@ -127,28 +130,24 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str
     if on_progress:
         on_progress(progress)
 
-    def on_result(job: Job, row: dict[str, Any]) -> None:
+    def on_result(job: Job, row: RunRow) -> None:
         store.write_row(row)
-        if row.get("status") == "ok":
+        if row.status == "ok":
             progress.done += 1
         else:
             progress.failed += 1
-            failures.append((job.key, row.get("failure", "")))
+            failures.append((job.key, row.failure))
         if on_progress:
             on_progress(progress)
 
     start = time.perf_counter()
-    context = {"root": str(root), "scenarios": scenarios, "planner": spec.planner, "cosim": spec.cosim}
+    context = JobContext(root, validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim),
+                         scenarios, vehicle_ref(spec.planner_vehicle, path))
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()
-    index = None
-    if report and any((root / "runs").rglob("run.json")):      # every run failed: nothing to draw
-        from simgap.report.site import build_report
-
-        index = build_report(root / "runs", root / "report", store_rows=store.rows())
     return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                            progress.skipped, time.perf_counter() - start, index, failures)
+                            progress.skipped, time.perf_counter() - start, failures)
 
 
 @dataclass
@@ -164,14 +163,12 @@ def experiment_status(root: Path) -> Status:
     meta_path = root / META
     if not meta_path.exists():
         raise InputError("not an experiment directory (no experiment.json)", file=root)
-    from simgap.experiment.spec import ExperimentSpec
-    from simgap.scenario.logical import load_logical
-
     meta = json.loads(meta_path.read_text())
     spec = ExperimentSpec.model_validate(meta["spec"])
     logical = load_logical(meta.get("logical_ref", spec.logical))
     rows = {r["key"]: r for r in ResultsStore(root).rows()}
-    keys = [j.key for _, runs in jobs(spec, logical) for j in runs]
+    spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
+    keys = [j.key for _, runs in jobs(spec, logical, spec_file) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
     failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]
     left = [k for k in keys if k not in rows]

@@ -8,6 +8,7 @@ parameters are rounded. The same spec and seed give the same samples, in the sam
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -43,8 +44,6 @@ def sample(spec, logical: LogicalScenario) -> list[dict[str, Any]]:
     """The concrete parameter sets of ``spec`` (duplicates removed, order kept)."""
     names = list(logical.parameters)
     if spec.sampler.kind == "grid":
-        import itertools
-
         spans = [_grid_span(spec, logical, n) for n in names]
         combos = [dict(zip(names, c)) for c in itertools.product(*spans)]
     else:

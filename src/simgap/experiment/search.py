@@ -24,25 +24,29 @@ normalised space, same vehicle) to an earlier one is the same failure.
 from __future__ import annotations
 
 import json
-import math
-import os
 import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from simgap.errors import InputError
+from simgap.cosim import CosimSettings, Fidelity
+from simgap.errors import InputError, validated
 from simgap.experiment.executors import make_executor
 from simgap.experiment.knobs import apply_knobs
+from simgap.experiment.search_results import META, StrategyResult, summarise
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_spec
-from simgap.experiment.spec import Job
+from simgap.experiment.records import Job, JobContext, JobId, RunRow
+from simgap.experiment.runner import clean_partial_runs
+from simgap.experiment.single_run import software_versions
+from simgap.experiment.spec import vehicle_ref
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
+from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
+from simgap.planning.settings import FrenetSettings
 from simgap.sim.registry import preflight
-
-META = "search.json"
+from simgap.vehicles import load_vehicle
 
 
 @dataclass(frozen=True)
@@ -70,27 +74,38 @@ def parse_budget(text: str) -> Budget:
     return Budget(seconds=value * {"s": 1, "m": 60, "h": 3600}[unit])
 
 
-@dataclass
-class StrategyResult:
-    name: str
-    runs: int = 0
-    high_runs: int = 0
-    high_failures: int = 0
-    violations: int = 0
-    distinct: int = 0
-    scenarios: int = 0                # distinct scenarios (road, start, vehicle) among the violations
-    errors: int = 0
-    wall_s: float = 0.0
-    cpu_s: float = 0.0
-    curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
-
-    @property
-    def per_cpu_hour(self) -> float:
-        return self.distinct / (self.cpu_s / 3600.0) if self.cpu_s > 0 else 0.0
-
-
 def _rung_name(rung: int, ladder_len: int) -> str:
     return "ideal" if rung == 0 else "high" if rung == ladder_len - 1 else f"screen{rung}"
+
+
+class SharedIdealRuns:
+    """The ideal world takes no reality knob, so candidates that differ only in their knobs share
+    one ideal run. Keyed by what an ideal run depends on: the verdicts known (the candidate that
+    ran it), the runs in flight, and the candidates waiting for them."""
+
+    def __init__(self) -> None:
+        self.verdicts: dict[str, int] = {}
+        self.running: dict[str, int] = {}
+        self.waiting: dict[str, list[int]] = {}
+
+    def known(self, key: str, index: int) -> None:
+        """``index`` ran the ideal run ``key`` depends on, and it finished."""
+        self.verdicts.setdefault(key, index)
+
+    def join(self, key: str, index: int) -> bool:
+        """True if ``index`` waits for a run already in flight; else it runs one itself."""
+        if key in self.running:
+            self.waiting.setdefault(key, []).append(index)
+            return True
+        self.running[key] = index
+        return False
+
+    def finished(self, key: str, index: int, ok: bool) -> list[int]:
+        """``index``'s ideal run finished: the candidates that waited for it."""
+        self.running.pop(key, None)
+        if ok:
+            self.known(key, index)
+        return self.waiting.pop(key, [])
 
 
 class StrategyRun:
@@ -103,15 +118,17 @@ class StrategyRun:
         self.candidates: dict[int, Candidate] = {}
         self.rows: dict[tuple[int, int], dict[str, Any]] = {}
         self.queue: list[tuple[int, int]] = []        # (candidate, rung) follow-ups
-        self.in_flight: set[tuple[int, int]] = set()
+        self.in_flight: dict[str, tuple[int, int]] = {}    # job key -> (candidate, rung)
         self.next_index = 0
         self.missing: list[int] = []                  # candidates started earlier that never finished a run
-        self.ideal_verdicts: dict[str, int] = {}      # what an ideal run depends on -> candidate that ran it
-        self.ideal_running: dict[str, int] = {}
-        self.ideal_waiting: dict[str, list[int]] = {}
+        self.ideal = SharedIdealRuns()
         self.exhausted = False
-        self.spent_before, self.runs_before = 0.0, 0
+        self.spent_before = 0.0
         self.started = time.monotonic()
+
+    @property
+    def ideal_verdicts(self) -> dict[str, int]:
+        return self.ideal.verdicts
 
     # --- state -----------------------------------------------------------------------------
     def elapsed(self) -> float:
@@ -124,15 +141,11 @@ class StrategyRun:
         return self.budget.spent(self.elapsed(), self.runs() + len(self.in_flight))
 
     def _save_budget(self) -> None:
-        path = self.root / "budget.json"
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps({"spent_s": self.elapsed(), "runs": self.runs(), "budget": str(self.budget)}))
-        os.replace(tmp, path)
+        atomic_write_text(self.root / "budget.json",
+                          json.dumps({"spent_s": self.elapsed(), "runs": self.runs(), "budget": str(self.budget)}))
 
     def resume(self) -> None:
         """Load what an earlier invocation finished and replay it into the strategy."""
-        from simgap.experiment.runner import clean_partial_runs
-
         self.store.prepare()
         clean_partial_runs(self.root)
         path = self.root / "budget.json"
@@ -145,16 +158,27 @@ class StrategyRun:
             c = self._candidate_from_rows(index, [r for r in rows if int(r["candidate"]) == index])
             self.candidates[index] = c
         for r in rows:
-            index, rung = int(r["candidate"]), int(r["rung"])
-            self.rows[(index, rung)] = r
-            if rung == 0 and r.get("status") == "ok":
-                self.ideal_verdicts.setdefault(self._ideal_key(self.candidates[index]), index)
-            failed = bool(r.get("failed"))
-            self.strategy.restore(self.candidates[index], rung, r, failed)
-            if rung == self.high and r.get("status") == "ok":
-                self.strategy.confirmed(self.candidates[index], failed)
-        # follow-ups that were due but never finished: first runs, ideal checks and promotions
-        for index, c in self.candidates.items():
+            self._replay(r)
+        self._queue_unfinished()
+        # candidates that were started but never finished a run are proposed again
+        self.next_index = (max(indices) + 1) if indices else 0
+        if self.strategy.name in ("grid", "random", "lhs"):     # the same index gives the same candidate
+            self.missing = [i for i in range(self.next_index) if i not in self.candidates]
+
+    def _replay(self, r: dict[str, Any]) -> None:
+        """A row an earlier invocation stored, told to the strategy as it was then."""
+        index, rung = int(r["candidate"]), int(r["rung"])
+        self.rows[(index, rung)] = r
+        if rung == 0 and r.get("status") == "ok":
+            self.ideal.known(self._ideal_key(self.candidates[index]), index)
+        failed = bool(r.get("failed"))
+        self.strategy.restore(self.candidates[index], rung, r, failed)
+        if rung == self.high and r.get("status") == "ok":
+            self.strategy.confirmed(self.candidates[index], failed)
+
+    def _queue_unfinished(self) -> None:
+        """Follow-ups that were due but never finished: ideal checks and promotions."""
+        for index in self.candidates:
             high = self.rows.get((index, self.high))
             if high is not None and high.get("failed") and (index, 0) not in self.rows:
                 self.queue.append((index, 0))
@@ -162,10 +186,6 @@ class StrategyRun:
             top = max(done)
             if 0 < top < self.high and self.rows[(index, top)].get("promote"):
                 self.queue.append((index, top + 1))
-        # candidates that were started but never finished a run are proposed again
-        self.next_index = (max(indices) + 1) if indices else 0
-        if self.strategy.name in ("grid", "random", "lhs"):     # the same index gives the same candidate
-            self.missing = [i for i in range(self.next_index) if i not in self.candidates]
 
     def _candidate_from_rows(self, index: int, rows: list[dict[str, Any]]) -> Candidate:
         r = rows[0]
@@ -174,7 +194,7 @@ class StrategyRun:
 
     # --- jobs --------------------------------------------------------------------------------
     def _scenario(self, c: Candidate) -> str:
-        folder = self.root / "scenarios" / f"c{c.index:05d}"
+        folder = self.root / "scenarios" / _scenario_name(c.index)
         existing = sorted(folder.glob("*.xml"))
         if existing:
             return str(existing[0])
@@ -196,11 +216,10 @@ class StrategyRun:
 
     def job(self, c: Candidate, rung_index: int) -> Job:
         controller, settings, cosim = self._run_settings(c, rung_index)
-        name = f"c{c.index:05d}"
-        key = f"{name}/{_rung_name(rung_index, len(self.spec.ladder))}"
-        return Job(key=key, scenario=name, parameters=c.params, backend=self.spec.ladder[rung_index].backend,
-                   vehicle=c.vehicle, controller=controller, backend_settings=settings, repeat=0,
-                   seed=self.spec.seed + c.index, cosim=cosim, scenario_path=self._scenario(c))
+        fidelity = Fidelity(self.spec.ladder[rung_index].backend, load_vehicle(c.vehicle).name, controller)
+        job_id = JobId(_scenario_name(c.index), fidelity, seed=self.spec.seed + c.index,
+                       stage=_rung_name(rung_index, len(self.spec.ladder)))
+        return Job(job_id, c.params, c.vehicle, settings, cosim, self._scenario(c))
 
     def _ideal_key(self, c: Candidate) -> str:
         """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
@@ -214,24 +233,22 @@ class StrategyRun:
         """Settle ``index``'s ideal check without running it, if its scenario's ideal verdict is
         known (copied now) or being run (copied when it comes); False if it has to run."""
         key = self._ideal_key(self.candidates[index])
-        if key in self.ideal_verdicts:
-            self._copy_ideal(index, self.ideal_verdicts[key])
+        if key in self.ideal.verdicts:
+            self._copy_ideal(index, self.ideal.verdicts[key])
             return True
-        if key in self.ideal_running:
-            self.ideal_waiting.setdefault(key, []).append(index)
-            return True
-        self.ideal_running[key] = index
-        return False
+        return self.ideal.join(key, index)
 
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.candidates[index]
-        row = dict(self.rows[(source, 0)]) | {"key": f"c{index:05d}/ideal", "scenario": f"c{index:05d}",
-                                               "candidate": index, "ideal_of": source, "elapsed_s": self.elapsed()}
+        name = _scenario_name(index)
+        row = dict(self.rows[(source, 0)]) | {"key": f"{name}/{_rung_name(0, len(self.spec.ladder))}",
+                                               "scenario": name, "candidate": index, "ideal_of": source,
+                                               "elapsed_s": self.elapsed()}
         row |= {k: 0.0 for k in row if k.startswith("time_") or k in ("job_time_s", "wall_time_s")}
         row |= _candidate_columns(c)
         self.strategy.observe(c, 0, row, bool(row.get("failed")))
         row["promote"] = False
-        self.store.write_row(row)
+        self.store.write_columns(row)
         self.rows[(index, 0)] = row
 
     def next_job(self) -> Job | None:
@@ -239,7 +256,7 @@ class StrategyRun:
             return None
         while self.queue:
             index, rung = self.queue.pop(0)
-            if (index, rung) in self.rows or (index, rung) in self.in_flight:
+            if (index, rung) in self.rows or (index, rung) in self.in_flight.values():
                 continue
             if rung == 0 and self._settle_ideal(index):
                 continue
@@ -263,22 +280,21 @@ class StrategyRun:
         return (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
 
     def _start(self, index: int, rung: int) -> Job:
-        self.in_flight.add((index, rung))
-        return self.job(self.candidates[index], rung)
+        job = self.job(self.candidates[index], rung)
+        self.in_flight[job.key] = (index, rung)
+        return job
 
-    def on_result(self, job: Job, row: dict[str, Any]) -> None:
-        index = int(job.scenario[1:])
-        rung = next(i for i in range(len(self.spec.ladder)) if job.key.endswith("/" + _rung_name(i, len(self.spec.ladder))))
-        self.in_flight.discard((index, rung))
+    def on_result(self, job: Job, result: RunRow) -> None:
+        index, rung = self.in_flight.pop(job.key)
         c = self.candidates[index]
-        reason = self.spec.failure.failed(row) if row.get("status") == "ok" else None
-        row = dict(row) | {"strategy": self.strategy.name, "candidate": index, "rung": rung,
-                           "rung_backend": job.backend, "failed": reason is not None, "failure_reason": reason or "",
-                           "elapsed_s": self.elapsed()}
-        row |= _candidate_columns(c)
+        reason = self.spec.failure.failed(result.columns()) if result.status == "ok" else None
+        result = result.with_columns(strategy=self.strategy.name, candidate=index, rung=rung,
+                                     rung_backend=job.backend, failed=reason is not None,
+                                     failure_reason=reason or "", elapsed_s=self.elapsed(), **_candidate_columns(c))
+        row = result.columns()
         follow = self.strategy.observe(c, rung, row, reason is not None)
         row["promote"] = bool(follow)
-        self.store.write_row(row)
+        self.store.write_row(result.with_columns(promote=bool(follow)))
         self.rows[(index, rung)] = row
         if rung == self.high and row.get("status") == "ok":
             self.strategy.confirmed(c, reason is not None)
@@ -287,11 +303,9 @@ class StrategyRun:
         for r in follow:
             self.queue.append((index, r))
         if rung == 0:
-            key = self._ideal_key(c)
-            self.ideal_running.pop(key, None)
-            waiting = self.ideal_waiting.pop(key, [])
-            if row.get("status") == "ok":
-                self.ideal_verdicts.setdefault(key, index)
+            ok = row.get("status") == "ok"
+            waiting = self.ideal.finished(self._ideal_key(c), index, ok)
+            if ok:
                 for other in waiting:
                     self._copy_ideal(other, index)
             else:                                           # that run failed: each runs its own
@@ -299,49 +313,12 @@ class StrategyRun:
         self._save_budget()
 
 
+def _scenario_name(index: int) -> str:
+    return f"c{index:05d}"
+
+
 def _candidate_columns(c: Candidate) -> dict[str, float]:
-    return {f"unit_{i}": u for i, u in enumerate(c.unit)} | {f"knob_{k}": v for k, v in c.knobs.items()}
-
-
-def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
-    """What a strategy found, from its store alone."""
-    store = ResultsStore(root)
-    rows = sorted(store.rows(), key=lambda r: r.get("elapsed_s", 0.0)) if store.rows_dir.exists() else []
-    high, res = ladder_len - 1, StrategyResult(name)
-    budget = root / "budget.json"
-    res.wall_s = json.loads(budget.read_text()).get("spent_s", 0.0) if budget.exists() else 0.0
-    by_candidate: dict[int, dict[int, dict]] = {}
-    for r in rows:
-        by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-        res.runs += "ideal_of" not in r
-        res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
-        res.errors += r.get("status") != "ok"
-    found: list[tuple[float, tuple[float, ...], str]] = []
-    scenarios: set[tuple] = set()
-    for index, runs in by_candidate.items():
-        h = runs.get(high)
-        if h is None or h.get("status") != "ok":
-            continue
-        res.high_runs += 1
-        if not h.get("failed"):
-            continue
-        res.high_failures += 1
-        ideal = runs.get(0)
-        if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
-            continue
-        res.violations += 1
-        scenarios.add((h["vehicle"],) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
-        when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
-        unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, h["vehicle"]))
-    distinct: list[tuple[tuple[float, ...], str]] = []
-    for when, unit, vehicle in sorted(found):
-        if all(v != vehicle or math.dist(unit, u) >= radius for u, v in distinct):
-            distinct.append((unit, vehicle))
-            res.curve.append((when, len(distinct)))
-    res.distinct = len(distinct)
-    res.scenarios = len(scenarios)
-    return res
+    return {f"unit_{i}": float(u) for i, u in enumerate(c.unit)} | {f"knob_{k}": float(v) for k, v in c.knobs.items()}
 
 
 def _claim(root: Path, spec: SearchSpec) -> None:
@@ -352,13 +329,9 @@ def _claim(root: Path, spec: SearchSpec) -> None:
             raise InputError("this directory holds a search of a different spec; mixing them would make the "
                              "counts meaningless", file=root, allowed="the same spec, or a new --out directory")
         return
-    from simgap.experiment.single_run import software_versions
-
     root.mkdir(parents=True, exist_ok=True)
-    tmp = meta.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
-                               "versions": software_versions()}, indent=2, default=str))
-    os.replace(tmp, meta)
+    atomic_write_text(meta, json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
+                                        "versions": software_versions()}, indent=2, default=str))
 
 
 @dataclass
@@ -372,10 +345,9 @@ class SearchProgress:
 
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
-               on_progress: Callable[[SearchProgress], None] | None = None,
-               report: bool = True) -> list[StrategyResult]:
+               on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
-    spec, logical, _ = load_search_spec(spec_ref)
+    spec, logical, path = load_search_spec(spec_ref)
     for rung in spec.ladder:
         preflight(rung.backend, dict(rung.settings))
     names = strategies or list(spec.strategies)
@@ -384,7 +356,8 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
             raise InputError(f"unknown strategy '{n}'", field="strategy", allowed=", ".join(STRATEGIES))
     root = Path(root)
     _claim(root, spec)
-    space = SearchSpace(spec, logical)
+    space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles])
+    planner, cosim = validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     results = []
     for name in names:
@@ -392,9 +365,9 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         sroot.mkdir(parents=True, exist_ok=True)
         run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget)
         run.resume()
-        context = {"root": str(sroot), "planner": spec.planner, "cosim": spec.cosim}
+        context = JobContext(sroot, planner, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
 
-        def on_result(job: Job, row: dict[str, Any], run: StrategyRun = run, name: str = name) -> None:
+        def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)
             if on_progress:
                 fails = sum(1 for (i, k), r in run.rows.items() if k == run.high and r.get("failed"))
@@ -403,20 +376,4 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         runner.run(run.next_job, context, on_result)
         run._save_budget()
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
-    if report:
-        from simgap.report.search_page import build_search_report
-
-        build_search_report(root)
     return results
-
-
-def search_results(root: Path) -> tuple[SearchSpec, list[StrategyResult]]:
-    """The spec and each strategy's summary of a search directory."""
-    root = Path(root)
-    meta = root / META
-    if not meta.exists():
-        raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
-    spec = SearchSpec.model_validate(json.loads(meta.read_text())["spec"])
-    out = [summarise(root / n, n, len(spec.ladder), spec.distinct_radius)
-           for n in STRATEGIES if (root / n / "store" / "rows").exists()]
-    return spec, out

@@ -28,8 +28,6 @@ one. A wrong key, type or range is an `InputError` naming the file, the field an
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from importlib import resources
 from pathlib import Path
@@ -37,9 +35,13 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from simgap.cosim import Outcome
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
-from simgap.experiment.knobs import KNOBS
+from simgap.experiment.knobs import check_knob
+from simgap.experiment.spec import (PLANNER_VEHICLE, builtin_or_file, check_backend, check_controller,
+                                    check_parameter, check_vehicles, logical_of, read_spec, results_hash,
+                                    results_relevant)
 from simgap.scenario.logical import LogicalScenario
 
 STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
@@ -84,9 +86,9 @@ class FailureRule(BaseModel):
     def failed(self, row: dict[str, Any]) -> str | None:
         """Why ``row`` (a finished run) is a failure, or None."""
         outcome = row.get("outcome")
-        if self.collision and outcome == "collision":
+        if self.collision and outcome == Outcome.COLLISION:
             return "collision"
-        if self.goal_missed and outcome not in (None, "goal_reached"):
+        if self.goal_missed and outcome not in (None, Outcome.GOAL_REACHED):
             return f"goal missed ({outcome})"
         for name, bound in self.above.items():
             v = row.get(name)
@@ -123,12 +125,13 @@ class SearchSpec(BaseModel):
     lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
     seed: int = 0
     planner: dict[str, Any] = Field(default_factory=dict)
+    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
+                                 "world drives it too")
     cosim: dict[str, Any] = Field(default_factory=dict)
     run_timeout_s: float = Field(300.0, gt=0)
 
     def results_hash(self) -> str:
-        relevant = self.model_dump(exclude={"name", "description", "run_timeout_s", "strategies"})
-        return hashlib.sha256(json.dumps(relevant, sort_keys=True, default=str).encode()).hexdigest()[:16]
+        return results_hash(results_relevant(self, {"name", "description", "run_timeout_s", "strategies"}))
 
     @property
     def dimensions(self) -> list[tuple[str, str, float, float]]:
@@ -143,8 +146,6 @@ def _builtin_dir() -> Path:
 
 def load_search_spec(name_or_path: str | Path) -> tuple[SearchSpec, LogicalScenario, Path]:
     """The spec, its logical scenario and its file; every problem is an `InputError`."""
-    from simgap.experiment.spec import builtin_or_file, logical_of, read_spec
-
     path = builtin_or_file(name_or_path, _builtin_dir(), "search")
     spec = read_spec(path, SearchSpec, "search spec", "name, logical, ladder, ...")
     logical = logical_of(spec, path)
@@ -153,39 +154,18 @@ def load_search_spec(name_or_path: str | Path) -> tuple[SearchSpec, LogicalScena
 
 
 def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
-    from simgap.control import controller_names
-    from simgap.sim.registry import BACKENDS
-    from simgap.vehicles import vehicle_names
-
     for name, rng in spec.parameters.items():
-        if name not in logical.parameters:
-            raise InputError(f"'{name}' is not a parameter of logical scenario '{logical.name}'", file=path,
-                             field=f"parameters.{name}", allowed=", ".join(logical.parameters))
-        par = logical.parameters[name]
-        if rng.min < par.min or rng.max > par.max:
-            raise InputError(f"[{rng.min:g}, {rng.max:g}] leaves the parameter's range", file=path,
-                             field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
+        check_parameter(logical, name, rng.min, rng.max, path)
     for name, rng in spec.knobs.items():
-        if name not in KNOBS:
-            raise InputError(f"unknown reality knob '{name}'", file=path, field=f"knobs.{name}",
-                             allowed=", ".join(KNOBS))
-        knob = KNOBS[name]
-        if rng.min < knob.low or rng.max > knob.high:
-            raise InputError(f"[{rng.min:g}, {rng.max:g}] leaves the knob's range", file=path,
-                             field=f"knobs.{name}", allowed=f"{knob.low:g} to {knob.high:g} {knob.unit}")
+        check_knob(name, rng.min, rng.max, file=path, where=f"knobs.{name}")
     if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2:
         raise InputError("nothing to search: no parameter, knob or vehicle varies", file=path,
                          field="parameters", allowed=", ".join(logical.parameters))
-    for v in spec.vehicles:
-        if v not in vehicle_names():
-            raise InputError(f"unknown vehicle '{v}'", file=path, field="vehicles", allowed=", ".join(vehicle_names()))
-    if spec.controller not in controller_names():
-        raise InputError(f"unknown controller '{spec.controller}'", file=path, field="controller",
-                         allowed=", ".join(controller_names()))
+    check_vehicles(spec.vehicles, path, "vehicles")
+    check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
+    check_controller(spec.controller, path, "controller")
     for i, rung in enumerate(spec.ladder):
-        if rung.backend not in BACKENDS:
-            raise InputError(f"unknown backend '{rung.backend}'", file=path, field=f"ladder.{i}.backend",
-                             allowed=", ".join(BACKENDS))
+        check_backend(rung.backend, path, f"ladder.{i}.backend")
     if spec.ladder[0].backend != "ideal":
         raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
                          file=path, field="ladder.0.backend", allowed="ideal")

@@ -16,6 +16,9 @@ from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
+from simgap.evaluate.run_metrics import run_metrics
+from simgap.experiment.knobs import knob_value
+from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.planning.frenet import FrenetPlanner, FrenetSettings
 from simgap.scenario import load_scenario, read_metadata
 from simgap.sim.registry import make_backend
@@ -31,7 +34,7 @@ class RunRequest:
     scenario: Path
     backend: str = "ideal"
     vehicles: str | Mapping[int, str] = "sedan"
-    planner_vehicle: str = "sedan"
+    planner_vehicle: str = PLANNER_VEHICLE      # the vehicle the planner assumes it drives
     backend_settings: dict[str, Any] = field(default_factory=dict)
     planner: FrenetSettings = field(default_factory=FrenetSettings)
     cosim: CosimSettings = field(default_factory=CosimSettings)
@@ -88,6 +91,8 @@ def execute(request: RunRequest, out: Path | None = None,
     run.sections = meta.get("sections", {})
     run.versions = software_versions()
     run.seed = request.seed
+    run.vehicles = {a.id: a.vehicle for a in agents}
+    run.metrics = run_metrics(run, scenario, problems, knob_value("road_friction", request.backend_settings))
     run.settings |= {"parameter_units": meta.get("units", {}),
                      "planner": request.planner.model_dump(), "backend": request.backend_settings,
                      "planner_vehicle": request.planner_vehicle}

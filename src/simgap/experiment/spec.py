@@ -23,18 +23,25 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.cosim import CosimSettings
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.control import controller_names
+from simgap.cosim import REFERENCE, CosimSettings, Fidelity
+from simgap.errors import InputError, validated
+from simgap.experiment.records import PLANNER_VEHICLE, Job, JobId
+from simgap.experiment.samplers import sample
+from simgap.files import read_model
 from simgap.planning.frenet import FrenetSettings
 from simgap.scenario.logical import LogicalScenario, load_logical
+from simgap.sim.registry import BACKENDS
+from simgap.vehicles import load_vehicle, vehicle_names
+
+
+ADDED_FIELDS = {"planner_vehicle": PLANNER_VEHICLE}     # spec fields newer than stored results, and their defaults
 
 
 class ParameterRange(BaseModel):
@@ -94,37 +101,31 @@ class ExperimentSpec(BaseModel):
     repeats: int = Field(1, ge=1, le=1000)
     seed: int = 0
     planner: dict[str, Any] = Field(default_factory=dict)
+    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
+                                 "world drives it too (a catalogue name or a data file beside the spec)")
     cosim: dict[str, Any] = Field(default_factory=dict)
     run_timeout_s: float = Field(600.0, gt=0, description="a run taking longer is stopped and recorded as failed")
 
+    def results_relevant(self) -> dict[str, Any]:
+        return results_relevant(self, {"name", "description", "run_timeout_s"})
+
     def results_hash(self) -> str:
         """Over everything that changes results (not the name, description or timeout)."""
-        relevant = self.model_dump(exclude={"name", "description", "run_timeout_s"})
-        return hashlib.sha256(json.dumps(relevant, sort_keys=True, default=str).encode()).hexdigest()[:16]
+        return results_hash(self.results_relevant())
 
 
-@dataclass(frozen=True)
-class Job:
-    """One run of an experiment."""
+def results_relevant(spec: BaseModel, exclude: set[str]) -> dict[str, Any]:
+    """The fields of ``spec`` that change results. A field added since results were first stored
+    counts only when it differs from its default, so that existing directories still resume."""
+    relevant = spec.model_dump(exclude=exclude)
+    for name, default in ADDED_FIELDS.items():
+        if relevant.get(name) == default:
+            relevant.pop(name, None)
+    return relevant
 
-    key: str                      # unique and stable: scenario/fidelity[/repeat]
-    scenario: str                 # scenario name
-    parameters: dict[str, Any]
-    backend: str
-    vehicle: str
-    controller: str | None
-    backend_settings: dict[str, Any]
-    repeat: int
-    seed: int
-    cosim: dict[str, Any] = field(default_factory=dict)      # over the experiment's cosim settings
-    scenario_path: str | None = None                          # else the context's scenarios[scenario]
 
-    @property
-    def fidelity(self) -> str:
-        if self.backend == "ideal":
-            return "ideal"
-        label = f"{self.backend}/{self.vehicle}"
-        return label if self.controller in (None, "pure_pursuit") else f"{label}/{self.controller}"
+def results_hash(relevant: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(relevant, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 def _builtin_dir() -> Path:
@@ -147,39 +148,9 @@ def spec_path(name_or_path: str | Path) -> Path:
     return builtin_or_file(name_or_path, _builtin_dir(), "experiment")
 
 
-def _error_path(loc) -> str:
-    return ".".join(str(p) for p in loc)
-
-
-def read_mapping(path: Path, what: str, keys: str) -> dict:
-    """The YAML mapping in ``path``, or an `InputError` naming the file (``keys``: what a
-    mapping of this kind holds)."""
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
-    except yaml.YAMLError as exc:
-        raise InputError(f"not valid YAML: {exc}", file=path) from None
-    if not isinstance(raw, dict):
-        raise InputError(f"a {what} is a mapping", file=path, allowed=keys)
-    return raw
-
-
 def read_spec(path: Path, model: type[BaseModel], what: str, keys: str) -> Any:
-    """``path`` read as YAML and validated as ``model``; every problem is an `InputError` naming
-    the file, the field path and, where it can, what is allowed."""
-    raw = read_mapping(path, what, keys)
-    try:
-        return model.model_validate(raw)
-    except ValidationError as err:
-        first = err.errors()[0]
-        allowed = None
-        if first.get("type") == "extra_forbidden":
-            allowed = _allowed_keys(first.get("loc", ()), model)
-        elif "expected" in (first.get("ctx") or {}):  # a literal's choices
-            allowed = str(first["ctx"]["expected"])
-        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=path,
-                         field=_error_path(first.get("loc", ())), allowed=allowed) from None
+    """``path`` read as YAML and validated as ``model``; every problem is an `InputError`."""
+    return read_model(path, model, what, keys)
 
 
 def logical_of(spec: Any, path: Path) -> LogicalScenario:
@@ -199,89 +170,74 @@ def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario
     return spec, logical, path
 
 
-def _allowed_keys(loc, model: Any = ExperimentSpec) -> str:
-    """The keys allowed where ``loc`` (a pydantic error location) put an unknown one."""
-    for part in loc[:-1]:
-        if isinstance(part, int):
-            continue
-        field = model.model_fields.get(part)
-        ann = getattr(field, "annotation", None)
-        args = getattr(ann, "__args__", ())
-        candidates = [a for a in (ann, *args) if isinstance(a, type) and issubclass(a, BaseModel)]
-        if not candidates:
-            break
-        model = candidates[0]
-    return ", ".join(model.model_fields)
-
-
 def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -> None:
-    from simgap.control import controller_names
-    from simgap.sim.registry import BACKENDS
-    from simgap.vehicles import vehicle_names
-
     for name, rng in spec.parameters.items():
-        if name not in logical.parameters:
-            raise InputError(f"'{name}' is not a parameter of logical scenario '{logical.name}'", file=path,
-                             field=f"parameters.{name}", allowed=", ".join(logical.parameters))
-        par = logical.parameters[name]
-        for v in (rng.values or []) + [x for x in (rng.min, rng.max) if x is not None]:
-            if not par.min <= v <= par.max:
-                raise InputError(f"{v:g} {par.unit} is out of range", file=path, field=f"parameters.{name}",
-                                 allowed=f"{par.min:g} to {par.max:g} {par.unit}")
+        values = (rng.values or []) + [x for x in (rng.min, rng.max) if x is not None]
+        check_parameter(logical, name, min(values), max(values), path)
+    check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     for i, fid in enumerate(spec.fidelities):
-        if fid.backend not in BACKENDS:
-            raise InputError(f"unknown backend '{fid.backend}'", file=path, field=f"fidelities.{i}.backend",
-                             allowed=", ".join(BACKENDS))
-        for v in fid.vehicles:
-            if v not in vehicle_names() and not v.endswith((".yaml", ".yml")):
-                raise InputError(f"unknown vehicle '{v}'", file=path, field=f"fidelities.{i}.vehicles",
-                                 allowed=", ".join(vehicle_names()))
+        check_backend(fid.backend, path, f"fidelities.{i}.backend")
+        check_vehicles(fid.vehicles, path, f"fidelities.{i}.vehicles")
         for c in fid.controllers:
-            if c not in controller_names():
-                raise InputError(f"unknown controller '{c}'", file=path, field=f"fidelities.{i}.controllers",
-                                 allowed=", ".join(controller_names()))
+            check_controller(c, path, f"fidelities.{i}.controllers")
     for section, model in (("planner", FrenetSettings), ("cosim", CosimSettings)):
-        try:
-            _settings(model, getattr(spec, section))
-        except ValidationError as err:
-            inner = pydantic_to_input_error(err, None)
-            first = err.errors()[0]
-            extra = first.get("type") == "extra_forbidden"
-            raise InputError(inner.reason, file=path, field=f"{section}.{inner.field}",
-                             allowed=_allowed_keys(first.get("loc", ()), model) if extra else inner.allowed) from None
+        validated(model, getattr(spec, section), file=path, prefix=section)
 
 
-
-def _settings(model, values: dict):
-    return model.model_validate(dict(values or {}))
-
-
-def planner_settings(spec: ExperimentSpec) -> FrenetSettings:
-    return _settings(FrenetSettings, spec.planner)
-
-
-def cosim_settings(spec: ExperimentSpec) -> CosimSettings:
-    return _settings(CosimSettings, spec.cosim)
+def check_parameter(logical: LogicalScenario, name: str, low: float, high: float, path: Path) -> None:
+    """``name`` is a parameter of ``logical`` and [low, high] lies in its range."""
+    if name not in logical.parameters:
+        raise InputError(f"'{name}' is not a parameter of logical scenario '{logical.name}'", file=path,
+                         field=f"parameters.{name}", allowed=", ".join(logical.parameters))
+    par = logical.parameters[name]
+    if low < par.min or high > par.max:
+        what = f"{low:g} {par.unit} is out of range" if low == high else f"[{low:g}, {high:g}] leaves the parameter's range"
+        raise InputError(what, file=path, field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
 
 
-def jobs(spec: ExperimentSpec, logical: LogicalScenario) -> list[tuple[dict[str, Any], list[Job]]]:
+def check_backend(name: str, path: Path, where: str) -> None:
+    if name not in BACKENDS:
+        raise InputError(f"unknown backend '{name}'", file=path, field=where, allowed=", ".join(BACKENDS))
+
+
+def check_controller(name: str, path: Path, where: str) -> None:
+    if name not in controller_names():
+        raise InputError(f"unknown controller '{name}'", file=path, field=where, allowed=", ".join(controller_names()))
+
+
+def vehicle_ref(name_or_file: str, spec_file: Path) -> str:
+    """How a run loads a vehicle a spec names: a catalogue name, or a data file's absolute path
+    (relative paths are relative to the spec)."""
+    if not name_or_file.endswith((".yaml", ".yml")):
+        return name_or_file
+    return str((spec_file.parent / name_or_file).resolve())
+
+
+def check_vehicles(names: list[str], path: Path, where: str) -> None:
+    """Every vehicle a spec names loads: a catalogue name, or a valid data file."""
+    for v in names:
+        if v.endswith((".yaml", ".yml")):
+            load_vehicle(vehicle_ref(v, path))
+        elif v not in vehicle_names():
+            raise InputError(f"unknown vehicle '{v}'", file=path, field=where, allowed=", ".join(vehicle_names()))
+
+
+def jobs(spec: ExperimentSpec, logical: LogicalScenario, spec_file: Path
+         ) -> list[tuple[dict[str, Any], list[Job]]]:
     """Every concrete parameter set of the spec with the runs it takes, in a stable order."""
-    from simgap.experiment.samplers import sample
-
     out = []
+    planner_vehicle = vehicle_ref(spec.planner_vehicle, spec_file)
     for params in sample(spec, logical):
         name = logical.scenario_name(params)
         runs = []
         for fid in spec.fidelities:
-            combos = [("sedan", None)] if fid.backend == "ideal" else \
-                [(v, c) for v in fid.vehicles for c in fid.controllers]
+            combos = [(planner_vehicle, None)] if fid.backend == REFERENCE else \
+                [(vehicle_ref(v, spec_file), c) for v in fid.vehicles for c in fid.controllers]
             for vehicle, controller in combos:
+                settings = dict(fid.settings) | ({"controller": controller} if controller is not None else {})
+                fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller)
                 for r in range(spec.repeats):
-                    settings = dict(fid.settings)
-                    if controller is not None:
-                        settings["controller"] = controller
-                    job = Job("", name, params, fid.backend, vehicle, controller, settings, r, spec.seed + r)
-                    key = f"{name}/{job.fidelity}" + (f"/r{r}" if spec.repeats > 1 else "")
-                    runs.append(replace(job, key=key))
+                    job_id = JobId(name, fidelity, r if spec.repeats > 1 else None, spec.seed + r)
+                    runs.append(Job(job_id, params, vehicle, settings))
         out.append((params, runs))
     return out

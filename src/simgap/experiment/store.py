@@ -17,8 +17,6 @@ resume. Nothing else in the directory is read as a result.
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +24,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
+from simgap.experiment.records import RunRow
+from simgap.files import atomic_write
 
 
 def row_file_name(key: str) -> str:
@@ -44,18 +44,17 @@ class ResultsStore:
         for stale in self.rows_dir.glob(".*.tmp"):       # a writer killed mid-write
             stale.unlink(missing_ok=True)
 
-    def write_row(self, row: dict[str, Any]) -> Path:
-        table = pa.Table.from_pylist([row])
-        target = self.rows_dir / row_file_name(row["key"])
-        fd, tmp = tempfile.mkstemp(prefix=".", suffix=".tmp", dir=self.rows_dir)
-        os.close(fd)
-        try:
-            pq.write_table(table, tmp)
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return target
+    def write_row(self, row: RunRow) -> Path:
+        """Write ``row`` (atomically) with the schema its type gives."""
+        return self._write(pa.Table.from_pylist([row.columns()], schema=row.schema()))
+
+    def write_columns(self, columns: dict[str, Any]) -> Path:
+        """Write a row given as its columns (one read back from the store, changed)."""
+        return self._write(pa.Table.from_pylist([columns]))
+
+    def _write(self, table: pa.Table) -> Path:
+        key = table.column("key")[0].as_py()
+        return atomic_write(self.rows_dir / row_file_name(key), lambda tmp: pq.write_table(table, tmp))
 
     def row_files(self) -> list[Path]:
         return sorted(p for p in self.rows_dir.glob("*.parquet") if not p.name.startswith("."))
@@ -77,12 +76,7 @@ class ResultsStore:
             return None
         columns = list(dict.fromkeys(k for r in rows for k in r))
         table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows])
-        target = self.root / "store" / "results.parquet"
-        fd, tmp = tempfile.mkstemp(prefix=".", suffix=".tmp", dir=target.parent)
-        os.close(fd)
-        pq.write_table(table, tmp)
-        os.replace(tmp, target)
-        return target
+        return atomic_write(self.root / "store" / "results.parquet", lambda tmp: pq.write_table(table, tmp))
 
     def connect(self):
         """A DuckDB connection with the view ``runs`` (one row per run)."""

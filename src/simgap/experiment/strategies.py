@@ -70,10 +70,10 @@ class Candidate:
 class SearchSpace:
     """The continuous dimensions of a spec (scenario parameters, then knobs) and its vehicles."""
 
-    def __init__(self, spec: SearchSpec, logical: LogicalScenario):
+    def __init__(self, spec: SearchSpec, logical: LogicalScenario, vehicles: list[str] | None = None):
         self.spec, self.logical = spec, logical
         self.dims = spec.dimensions
-        self.vehicles = list(spec.vehicles)
+        self.vehicles = list(vehicles or spec.vehicles)      # as runs load them (data files resolved)
 
     def candidate(self, index: int, unit: Any, vehicle: str, trial: Any = None) -> Candidate:
         unit = tuple(float(min(max(u, 0.0), 1.0)) for u in unit)
@@ -218,16 +218,49 @@ class BayesianStrategy(Strategy):
         return []
 
 
-SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen
+# --- multi_fidelity's numbers ---------------------------------------------------------------
+SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen (above any other)
 MOVES = ("global", "knobs", "scenario")
 COST_PRIOR_S = 20.0           # a move's yield starts as one failure per this many CPU seconds
-PROPOSAL_TRIES = 30
+PROPOSAL_TRIES = 30           # neighbours drawn before a move gives up and proposes a global candidate
+NEIGHBOUR_DISTANCE = (1.0, 1.5)   # a neighbour's distance from its parent, in distinct radii: new, yet close
 SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
+# The promotion threshold (a risk) starts where the screen's grip use reaches the road's limit or the
+# objective reaches risk_scale, and follows the precision of the recent promotions:
+START_THRESHOLD = 1.0
+PRECISION_WINDOW = 10         # the promotions the precision is measured over ...
+PRECISION_MIN = 4             # ... once there are this many
+TRUSTED_PRECISION = 0.6       # above: most promoted candidates fail in high fidelity, cast a wider net ...
+WIDEN = 0.9                   # ... by lowering the threshold by this factor
+POOR_PRECISION = 0.3          # below: few do, promote fewer ...
+NARROW = 1.1                  # ... by raising it by this factor
+LOWEST_THRESHOLD = 0.2        # never below: a candidate this safe in the screen is not worth the high fidelity
 
 
 @dataclass
-class _Evidence:
+class PromotionThreshold:
+    """The risk a screened candidate needs to go up the ladder, learned from what promotions found."""
+
+    value: float = START_THRESHOLD
     promoted: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
+
+    def missed(self, risk: float) -> None:
+        """A candidate promoted regardless of its ``risk`` failed in high fidelity: the screen missed it."""
+        self.value = min(self.value, risk)
+
+    def judged(self, risk: float, failed: bool) -> None:
+        """The high-fidelity verdict on a candidate the threshold promoted."""
+        self.promoted.append((risk, failed))
+        recent = self.promoted[-PRECISION_WINDOW:]
+        if len(recent) < PRECISION_MIN:
+            return
+        precision = sum(f for _, f in recent) / len(recent)
+        if precision > TRUSTED_PRECISION:
+            self.value *= WIDEN
+        elif precision < POOR_PRECISION:
+            self.value *= NARROW
+        # never above a screen failure's risk: what fails in the screen always goes up
+        self.value = min(max(self.value, LOWEST_THRESHOLD), SCREEN_FAILURE_RISK)
 
 
 @dataclass
@@ -248,8 +281,7 @@ class MultiFidelityStrategy(Strategy):
         self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
         self.spread = scenario_spread
         self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]
-        self.threshold = 1.0
-        self.evidence = _Evidence()
+        self.threshold = PromotionThreshold()
         self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
         self.scenario_of: dict[int, tuple] = {}      # ... their scenarios
         self._failure_points: dict[str, np.ndarray] = {}     # ... their points, per vehicle
@@ -303,6 +335,7 @@ class MultiFidelityStrategy(Strategy):
         return move, parents[int(np.argmax(draws))]
 
     def _fail_share(self, parent: int) -> float:
+        """The share of ``parent``'s neighbours that failed (Laplace's rule: 1/2 before any)."""
         y = self.parents[parent]
         return (y.found + 1.0) / (y.tried + 2.0)
 
@@ -317,7 +350,7 @@ class MultiFidelityStrategy(Strategy):
             direction = rng.normal(size=len(dims))
             direction /= np.linalg.norm(direction)
             unit = np.array(parent.unit)
-            unit[dims] = np.clip(unit[dims] + rng.uniform(1.0, 1.5) * self.radius * direction, 0.0, 1.0)
+            unit[dims] = np.clip(unit[dims] + rng.uniform(*NEIGHBOUR_DISTANCE) * self.radius * direction, 0.0, 1.0)
             c = self.space.candidate(index, unit, parent.vehicle)
             if move == "scenario" and _scenario_key(c) == _scenario_key(parent):
                 continue
@@ -372,8 +405,8 @@ class MultiFidelityStrategy(Strategy):
             return []
         self.risk[candidate.index] = risk
         explore = candidate.index % EXPLORE_EVERY == EXPLORE_EVERY - 1
-        if self._novelty(candidate) >= 1.0 and (risk >= self.threshold or explore):
-            if risk < self.threshold:
+        if self._novelty(candidate) >= 1.0 and (risk >= self.threshold.value or explore):
+            if risk < self.threshold.value:
                 self.explored.add(candidate.index)
             return [rung + 1]
         self._close(candidate, False)      # not promoted: a failure already this close, or too safe
@@ -394,20 +427,11 @@ class MultiFidelityStrategy(Strategy):
         risk = self.risk.get(candidate.index)
         if risk is None:
             return
-        if candidate.index in self.explored:
+        if candidate.index in self.explored:        # not the screen's judgement: no evidence on it ...
             if failed:
-                self.threshold = min(self.threshold, risk)      # the screen missed this one
-            return                                              # not the screen's judgement: no evidence on it
-        self.evidence.promoted.append((risk, failed))
-        recent = self.evidence.promoted[-10:]
-        if len(recent) >= 4:
-            precision = sum(f for _, f in recent) / len(recent)
-            if precision > 0.6:
-                self.threshold *= 0.9
-            elif precision < 0.3:
-                self.threshold *= 1.1
-            # never above a screen failure's risk: what fails in the screen always goes up
-            self.threshold = min(max(self.threshold, 0.2), SCREEN_FAILURE_RISK)
+                self.threshold.missed(risk)         # ... unless the screen missed a failure
+            return
+        self.threshold.judged(risk, failed)
 
 
 def _scenario_key(c: Candidate) -> tuple:

@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.errors import validated
+from simgap.files import read_model
 
 
 class _Section(BaseModel):
@@ -124,18 +124,8 @@ class FrenetSettings(_Section):
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any] | None, file: str | Path | None = None) -> "FrenetSettings":
         """Validate ``data``; a bad field becomes an `InputError` naming its path."""
-        try:
-            return cls.model_validate(dict(data or {}))
-        except ValidationError as err:
-            raise pydantic_to_input_error(err, file) from None
+        return validated(cls, data, file=file)
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> "FrenetSettings":
-        path = Path(path)
-        try:
-            raw = yaml.safe_load(path.read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputError(f"cannot read planner settings: {exc}", file=path) from None
-        if raw is not None and not isinstance(raw, dict):
-            raise InputError("planner settings must be a mapping", file=path)
-        return cls.from_mapping(raw, path)
+        return read_model(path, cls, "planner settings file", empty_ok=True)

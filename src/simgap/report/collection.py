@@ -1,9 +1,7 @@
 """The runs a report is made of: found under a directory, labelled by fidelity, grouped by
 scenario, each physics run compared with the reference (ideal) run of its scenario.
 
-A fidelity is what produced a run: the backend, the vehicle(s) and, for physics backends, the
-controller — ``ideal``, ``dynamic/sedan``, ``mujoco/suv``, ``mujoco/sedan/stanley`` (the default
-controller, pure pursuit, is left out of the label).
+A run's fidelity (`simgap.cosim.Fidelity`) labels it: ``ideal``, ``mujoco/suv``, ...
 """
 
 from __future__ import annotations
@@ -15,26 +13,13 @@ from pathlib import Path
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim import Run
+from simgap.cosim import REFERENCE, Fidelity, Outcome, Run
 from simgap.errors import InputError
 from simgap.evaluate.compare import AgentComparison, compare_runs
 from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.run_metrics import lane_excursion
 from simgap.scenario import load_scenario
-
-REFERENCE = "ideal"
-DEFAULT_CONTROLLER = "pure_pursuit"
-
-
-def fidelity_label(run: Run) -> str:
-    if run.backend == REFERENCE:
-        return REFERENCE
-    vehicles = "+".join(sorted({a.vehicle for a in run.agents}))
-    controller = (run.settings.get("backend") or {}).get("controller", DEFAULT_CONTROLLER)
-    label = f"{run.backend}/{vehicles}"
-    return label if controller == DEFAULT_CONTROLLER else f"{label}/{controller}"
-
 
 @dataclass
 class AgentTracking:
@@ -59,7 +44,7 @@ class RunEntry:
 
     @property
     def failed(self) -> bool:
-        return self.run.failure is not None or any(a.outcome != "goal_reached" for a in self.run.agents)
+        return self.run.failure is not None or any(a.outcome != Outcome.GOAL_REACHED for a in self.run.agents)
 
 
 @dataclass
@@ -69,7 +54,7 @@ class ScenarioGroup:
     scenario: Scenario
     problems: PlanningProblemSet
     sections: dict[str, str] | None
-    runs: dict[str, RunEntry]                                           # by fidelity
+    runs: dict[str, RunEntry]                                           # by fidelity, the reference first
     comparisons: dict[str, list[AgentComparison]] = field(default_factory=dict)   # fidelity vs reference
 
     @property
@@ -93,10 +78,6 @@ def find_run_dirs(root: Path) -> list[Path]:
     return dirs
 
 
-def _vehicle_of(run: Run, aid: int) -> str:
-    return next(a.vehicle for a in run.agents if a.id == aid)
-
-
 def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> list[AgentTracking]:
     out = []
     for aid, driven in sorted(run.driven.items()):
@@ -110,7 +91,7 @@ def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> lis
                                  Aggregate.of(frenet.lateral) if frenet else Aggregate.of([]),
                                  Aggregate.of(frenet.longitudinal) if frenet else Aggregate.of([]),
                                  comfort(driven),
-                                 lane_excursion(driven, _vehicle_of(run, aid), scenario, problem)
+                                 lane_excursion(driven, run.vehicle_of(aid), scenario, problem)
                                  if problem is not None else float("nan")))
     return out
 
@@ -129,7 +110,7 @@ def collect(root: Path) -> list[ScenarioGroup]:
     groups: dict[str, ScenarioGroup] = {}
     for run_dir in find_run_dirs(root):
         run = Run.load(run_dir)
-        entry = RunEntry(run_dir, run, fidelity_label(run))
+        entry = RunEntry(run_dir, run, Fidelity.of_run(run).label)
         group = groups.get(run.scenario_id)
         if group is None:
             scenario, problems, sections = _scenario_of(entry)
@@ -142,6 +123,7 @@ def collect(root: Path) -> list[ScenarioGroup]:
         entry.tracking = _tracking(run, group.scenario, group.problems)
         group.runs[entry.fidelity] = entry
     for group in groups.values():
+        group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))   # ideal first
         ref = group.reference
         if ref is None:
             continue

@@ -28,7 +28,6 @@ from simgap.report.scene2d import _draw, _load  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 from simgap.sim.mujoco.world import World, build_world  # noqa: E402
 from simgap.sim.protocol import Agent  # noqa: E402
-from simgap.vehicles import load_vehicle  # noqa: E402
 
 STILL = (1280, 720)
 ANIMATION = (640, 360)
@@ -39,7 +38,7 @@ def _replay_world(scenario, run: Run) -> World:
     for obstacle in list(scene.dynamic_obstacles):
         if obstacle.obstacle_id >= AGENT_ID_OFFSET:
             scene.remove_obstacle(obstacle)
-    agents = [Agent(a.id, load_vehicle(a.vehicle), run.driven[a.id][0]) for a in run.agents]
+    agents = [Agent(a.id, run.vehicle_of(a.id), run.driven[a.id][0]) for a in run.agents]
     world = build_world(scene, agents)
     world.model.vis.global_.offwidth = max(STILL[0], world.model.vis.global_.offwidth)
     world.model.vis.global_.offheight = max(STILL[1], world.model.vis.global_.offheight)

@@ -15,27 +15,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from simgap.experiment.search import search_results  # noqa: E402
-from simgap.experiment.store import ResultsStore  # noqa: E402
+from simgap.experiment.search_results import SearchResults  # noqa: E402
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402
-
-
-def _high_rows(root: Path, strategy: str, high: int) -> list[dict]:
-    store = ResultsStore(root / strategy)
-    if not store.rows_dir.exists():
-        return []
-    rows = store.rows()
-    ideal = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 0}
-    out = []
-    for r in rows:
-        if int(r["rung"]) == high and r.get("status") == "ok":
-            i = ideal.get(int(r["candidate"]))
-            ideal_ok = i is not None and i.get("status") == "ok"
-            r = dict(r) | {"violation": bool(r.get("failed")) and ideal_ok and not i.get("failed"),
-                           "ideal_failed": ideal_ok and bool(i.get("failed"))}
-            out.append(r)
-    return out
 
 
 def _violations(per_strategy: dict[str, list[dict]], dims, limit: int = 15) -> list[dict]:
@@ -112,16 +94,14 @@ def _plot_map(per_strategy: dict[str, list[dict]], dims, path: Path) -> Path:
     return path
 
 
-def build_search_report(root: Path) -> Path:
-    """Write ``root/report/index.html`` for the search in ``root``."""
-    root = Path(root)
-    spec, results = search_results(root)
-    out = root / "report"
+def build_search_report(found: SearchResults) -> Path:
+    """Write ``report/index.html`` in the search directory of ``found``."""
+    spec, results = found.spec, found.strategies
+    out = found.root / "report"
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.css").write_text(STYLE)
     (out / "report.js").write_text(SCRIPT)
-    high = len(spec.ladder) - 1
-    per_strategy = {r.name: _high_rows(root, r.name, high) for r in results}
+    per_strategy = found.high_rows
     summary = []
     for res in results:
         rows = per_strategy[res.name]
@@ -147,9 +127,7 @@ def build_search_report(root: Path) -> Path:
     if results:
         body.append(figure(_plot_curves(results, out / "failures_over_budget.png").name,
                            "distinct violated assumptions over the budget spent"))
-    if any(per_strategy.values()) and len(dims) >= 1:
-        if len(dims) == 1:
-            dims = dims * 2
+    if any(per_strategy.values()) and len(dims) >= 1:      # one dimension: drawn against itself
         body.append(figure(_plot_map(per_strategy, dims, out / "failure_map.png").name,
                            "high-fidelity runs on the two dimensions that separate violations from passes best",
                            zoom=True))

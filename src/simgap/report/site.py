@@ -15,15 +15,18 @@ import json
 import math
 import shutil
 from collections import Counter
-from dataclasses import asdict
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
+from simgap.evaluate.criticality import run_criticality
 from simgap.evaluate.errors import lateral_profile
+from simgap.files import atomic_write_text
 from simgap.evaluate.route_centre import route_centre
-from simgap.report.collection import REFERENCE, ScenarioGroup, collect
+from simgap.experiment.store import ResultsStore
+from simgap.cosim import REFERENCE, Outcome
+from simgap.report.collection import ScenarioGroup, collect
 from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
                                    plot_paths_from_above, runtime_table)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -69,7 +72,7 @@ window.addEventListener('load', function () {
 });
 """
 
-BAD_OUTCOMES = ("collision", "off_road", "planner_failure", "timeout", "diverged", "failed")
+BAD_OUTCOMES = tuple(o.value for o in Outcome if o != Outcome.GOAL_REACHED) + ("failed",)   # "failed": a run that failed
 
 
 def _fmt(value) -> str:
@@ -81,7 +84,7 @@ def _fmt(value) -> str:
 def _cell(value) -> str:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return f"<td>{_fmt(value)}</td>"
-    cls = "text good" if value == "goal_reached" else "text bad" if value in BAD_OUTCOMES else "text"
+    cls = "text good" if value == Outcome.GOAL_REACHED else "text bad" if value in BAD_OUTCOMES else "text"
     return f'<td class="{cls}">{value if isinstance(value, Raw) else _fmt(value)}</td>'
 
 
@@ -114,10 +117,7 @@ def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
             f"<nav><a href='{root}index.html'>overview</a></nav><h1>{html.escape(title)}</h1>"
             + "\n".join(body) + f"<script src='{root}report.js'></script></body></html>")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
-    return path
+    return atomic_write_text(path, text)
 
 
 def _slug(text: str) -> str:
@@ -170,14 +170,8 @@ def _criticality(entry) -> list[dict]:
     cache = entry.run_dir / "criticality.json"
     if cache.exists():
         return json.loads(cache.read_text())
-    from commonroad.common.file_reader import CommonRoadFileReader
-
-    from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
-    from simgap.evaluate.criticality import pair_criticality
-
-    driven, _ = CommonRoadFileReader(str(entry.run_dir / "driven.xml")).open()
-    rows = [asdict(r) for r in pair_criticality(driven, {aid: AGENT_ID_OFFSET + aid for aid in entry.run.driven})]
-    cache.write_text(json.dumps(rows))
+    rows = run_criticality(entry.run_dir, entry.run.driven)
+    atomic_write_text(cache, json.dumps(rows))
     return rows
 
 
@@ -186,9 +180,31 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
     adir = assets / name
     adir.mkdir(parents=True, exist_ok=True)
     rel = f"../assets/{name}/"
-    body = ["<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()])]
+    body = ["<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()]),
+            "<h2>Outcome and tracking per fidelity</h2>",
+            "<p>Tracking: where each vehicle was against where the plan in force said it would be, in the "
+            "route's Frenet frame (lateral, longitudinal). The ideal backend tracks perfectly by construction.</p>",
+            table(_outcome_rows(group)),
+            "<h2>Against the ideal run</h2>",
+            "<p>d: lateral offset from the route's lane centre, compared at equal arc length s; Δv, position and "
+            "orientation errors at equal time.</p>", table(_gap_rows(group)),
+            "<h2>Plots</h2>"]
+    for aid in sorted({aid for e in group.runs.values() for aid in e.run.driven}):
+        body += _agent_figures(group, aid, adir, rel)
+    body += _scenario_figures(group, adir, rel)
+    crit = [{"fidelity": fidelity} | r for fidelity, entry in group.runs.items() for r in _criticality(entry)]
+    if crit:
+        body += ["<h2>Criticality of agent pairs (commonroad-crime)</h2>",
+                 "<p>Most critical value over the run per ordered pair: smallest TTC and THW, largest BTN and STN.</p>",
+                 table(crit)]
+    pictures = _pictures(group, adir, rel)
+    if pictures:
+        body += ["<h2>Pictures</h2>"] + pictures
+    return page(out / "scenarios" / f"{name}.html", f"Scenario {group.scenario_id}", body, "../")
 
-    group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))
+
+def _outcome_rows(group: ScenarioGroup) -> list[dict]:
+    """Per fidelity and agent: how the run ended and how closely the vehicle tracked its plans."""
     rows = []
     for fidelity, entry in group.runs.items():
         outcomes = {a.id: a for a in entry.run.agents}
@@ -203,12 +219,12 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
                          "tracking lateral rms/max [m]": f"{t.lateral.rms:.3f} / {t.lateral.max:.3f}",
                          "tracking longitudinal rms/max [m]": f"{t.longitudinal.rms:.3f} / {t.longitudinal.max:.3f}",
                          "wall time [s]": entry.run.wall_time_s})
-    body += ["<h2>Outcome and tracking per fidelity</h2>",
-             "<p>Tracking: where each vehicle was against where the plan in force said it would be, in the "
-             "route's Frenet frame (lateral, longitudinal). The ideal backend tracks perfectly by construction.</p>",
-             table(rows)]
+    return rows
 
-    gap_rows = []
+
+def _gap_rows(group: ScenarioGroup) -> list[dict]:
+    """Per fidelity and agent: how far its run parted from the ideal run."""
+    rows = []
     for fidelity, comps in group.comparisons.items():
         for c in comps:
             row = {"fidelity": fidelity, "agent": c.agent_id, "max |d| [m]": c.lateral_displacement.max,
@@ -217,56 +233,48 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
                 row[f"max |d| {kind} [m]"] = agg.max
             row |= {"max |Δv| [m/s]": c.velocity_error.max, "rms |Δv| [m/s]": c.velocity_error.rms,
                     "max position error [m]": c.position_error.max, "max |Δψ| [rad]": c.orientation_error.max}
-            gap_rows.append(row)
-    body += ["<h2>Against the ideal run</h2>",
-             "<p>d: lateral offset from the route's lane centre, compared at equal arc length s; Δv, position and "
-             "orientation errors at equal time.</p>", table(gap_rows)]
+            rows.append(row)
+    return rows
 
+
+def _agent_figures(group: ScenarioGroup, aid: int, adir: Path, rel: str) -> list[str]:
+    """Agent ``aid``'s d over s (with the road's sections shaded) and v over t, every fidelity."""
     figures = []
-    agents = sorted({aid for e in group.runs.values() for aid in e.run.driven})
-    for aid in agents:
-        frame = route_centre(group.scenario.lanelet_network, group.problems.planning_problem_dict[aid]) \
-            if aid in group.problems.planning_problem_dict else None
-        curves, shading = {}, None
-        if frame is not None:
-            for fidelity, entry in group.runs.items():
-                if aid in entry.run.driven:
-                    curves[fidelity] = lateral_profile(entry.run.driven[aid], frame)
-            for comps in group.comparisons.values():
-                for c in comps:
-                    if c.agent_id == aid and c.section_along_s is not None:
-                        shading = (c.s, c.section_along_s)
-        if curves:
-            sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
-            plot_d_over_s(sorted_curves, adir / f"d_over_s_{aid}.png",
-                          f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading)
-            figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity", zoom=True,
-                                  half=True))
-        trajs = {f: e.run.driven[aid] for f, e in group.runs.items() if aid in e.run.driven}
-        plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
-        figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
+    problem = group.problems.planning_problem_dict.get(aid)
+    frame = route_centre(group.scenario.lanelet_network, problem) if problem is not None else None
+    curves = {f: lateral_profile(e.run.driven[aid], frame) for f, e in group.runs.items()
+              if frame is not None and aid in e.run.driven}
+    if curves:
+        shading = next(((c.s, c.section_along_s) for comps in reversed(list(group.comparisons.values()))
+                        for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
+        sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
+        plot_d_over_s(sorted_curves, adir / f"d_over_s_{aid}.png",
+                      f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading)
+        figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity", zoom=True,
+                              half=True))
+    trajs = {f: e.run.driven[aid] for f, e in group.runs.items() if aid in e.run.driven}
+    plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
+    figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
+    return figures
+
+
+def _scenario_figures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
+    """Every fidelity's planned and driven paths from above, and the spread of |d| per fidelity."""
     plot_paths_from_above(group.scenario, {f: e.run for f, e in group.runs.items()}, adir / "paths.png",
                           f"{group.scenario_id}: planned and driven paths of every fidelity")
-    figures.append(figure(rel + "paths.png", "planned (thin, every 10th plan) and driven (thick) paths", zoom=True,
-                          half=True))
+    figures = [figure(rel + "paths.png", "planned (thin, every 10th plan) and driven (thick) paths", zoom=True,
+                      half=True)]
     if group.comparisons:
-        d_samples = {}
-        for fidelity, comps in group.comparisons.items():
-            d_samples[fidelity] = np.concatenate([c.d_b - c.d_a for c in comps]) if comps else np.array([])
+        d_samples = {f: np.concatenate([c.d_b - c.d_a for c in comps]) if comps else np.array([])
+                     for f, comps in group.comparisons.items()}
         plot_error_boxes(d_samples, adir / "d_boxes.png", f"{group.scenario_id}: |d| against the ideal run",
                          "|d_fidelity - d_ideal| [m]")
         figures.append(figure(rel + "d_boxes.png", "distribution of the lateral displacement per fidelity", half=True))
-    body += ["<h2>Plots</h2>"] + figures
+    return figures
 
-    crit = []
-    for fidelity, entry in group.runs.items():
-        for r in _criticality(entry):
-            crit.append({"fidelity": fidelity} | r)
-    if crit:
-        body += ["<h2>Criticality of agent pairs (commonroad-crime)</h2>",
-                 "<p>Most critical value over the run per ordered pair: smallest TTC and THW, largest BTN and STN.</p>",
-                 table(crit)]
 
+def _pictures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
+    """The pictures each run directory holds (scene, animation, 3D), copied beside the page."""
     pictures = []
     for fidelity, entry in group.runs.items():
         for pic in PICTURES:
@@ -276,9 +284,7 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
                 shutil.copyfile(src, target)
                 pictures.append(figure(rel + target.name, f"{fidelity}: {pic.rsplit('.', 1)[0].replace('_', ' ')}",
                                        half=True))
-    if pictures:
-        body += ["<h2>Pictures</h2>"] + pictures
-    return page(out / "scenarios" / f"{name}.html", f"Scenario {group.scenario_id}", body, "../")
+    return pictures
 
 
 def _store_section(rows: list[dict]) -> list[str]:
@@ -314,80 +320,97 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
     fidelities = sorted({f for g in groups for f in g.runs}, key=lambda f: (f != REFERENCE, f))
     n_runs = sum(len(g.runs) for g in groups)
     n_failed = sum(e.failed for g in groups for e in g.runs.values())
-    body = [f"<p>{len(groups)} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}): "
-            f"{n_runs} runs from <code>{html.escape(str(root))}</code>; {n_failed} did not reach every goal.</p>"]
-
-    headline = []
-    for fidelity in fidelities:
-        entries = [g.runs[fidelity] for g in groups if fidelity in g.runs]
-        goals = sum(a.outcome == "goal_reached" for e in entries for a in e.run.agents)
-        agents = sum(len(e.run.agents) for e in entries)
-        gaps = [c.lateral_displacement.max for g in groups for c in g.comparisons.get(fidelity, [])
-                if math.isfinite(c.lateral_displacement.max)]
-        headline.append({"fidelity": fidelity, "runs": len(entries), "goals reached": f"{goals}/{agents}",
-                         "median max |d| [m]": float(np.median(gaps)) if gaps else "—",
-                         "largest max |d| [m]": max(gaps) if gaps else "—",
-                         "mean wall time [s]": float(np.mean([e.run.wall_time_s for e in entries]))})
-    body += ["<h2>Headline numbers</h2>",
-             "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario, "
-             "at equal arc length along the route's lane centre.</p>", table(headline)]
-
     params = _varying_parameters(groups)
-    units = {k: u for g in groups for e in g.runs.values()
-             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
+    body = [f"<p>{len(groups)} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}): "
+            f"{n_runs} runs from <code>{html.escape(str(root))}</code>; {n_failed} did not reach every goal.</p>",
+            "<h2>Headline numbers</h2>",
+            "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario, "
+            "at equal arc length along the route's lane centre.</p>", table(_headline_rows(groups, fidelities))]
     if len(params) >= 2:
-        xp, yp = params[0], params[1]
-        xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
-        body.append("<h2>Where the gap is largest</h2>")
-        maps = {}
-        for fidelity in fidelities:
-            if fidelity == REFERENCE:
-                continue
-            points, links = [], {}
-            for g in groups:
-                if fidelity in g.comparisons and xp in g.parameters and yp in g.parameters:
-                    gap = max((c.lateral_displacement.max for c in g.comparisons[fidelity]), default=float("nan"))
-                    key = (float(g.parameters[xp]), float(g.parameters[yp]))
-                    points.append((*key, gap))
-                    links[key] = f"scenarios/{_slug(g.scenario_id)}.html"
-            if points:
-                maps[fidelity] = (points, links)
-        # one colour scale for every fidelity, so colours compare across vehicles and backends
-        values = [v for points, _ in maps.values() for *_, v in points if math.isfinite(v)]
-        scale = (min(values), max(values)) if values else (0.0, 0.0)
-        if len(maps) > 1:
-            body.append(f"<p>All heatmaps share one colour scale, {scale[0]:.2f} to {scale[1]:.2f} m.</p>")
-        for fidelity, (points, links) in maps.items():
-            title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
-            body.append(heatmap_table(points, xlabel, ylabel, title, links, scale))
-            png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xlabel, ylabel,
-                               "max |d| [m]", scale)
-            body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
-
+        body += _heatmaps(groups, fidelities, params[0], params[1], assets)
     wall = {f: [g.runs[f].run.wall_time_s for g in groups if f in g.runs] for f in fidelities}
     phases = {f: [g.runs[f].run.timings for g in groups if f in g.runs] for f in fidelities}
     body += ["<h2>Run times per fidelity</h2>",
              "<p>Wall time of a run (min, max, mean, median, standard deviation; the paper's Table I) and the mean "
              "time of each phase.</p>", table(runtime_table(wall, phases))]
-
     outcome_rows = []
     for fidelity in fidelities:
         counts = Counter(a.outcome for g in groups if fidelity in g.runs for a in g.runs[fidelity].run.agents)
         outcome_rows.append({"fidelity": fidelity} | dict(sorted(counts.items())))
-    body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows)]
-
-    ranked = sorted(groups, key=lambda g: -(g.largest_gap()[0] if math.isfinite(g.largest_gap()[0]) else -1))
-    rank_rows = []
-    for g in ranked:
-        gap, fidelity = g.largest_gap()
-        outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.agents}))
-        rank_rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.scenario_id)}.html'>"
-                                          f"{html.escape(g.scenario_id)}</a>"),
-                          "largest max |d| [m]": gap, "in fidelity": fidelity or "—",
-                          "parameters": ", ".join(f"{k}={g.parameters[k]:g}" for k in params if k in g.parameters),
-                          "outcomes": outcomes})
-    body += ["<h2>Scenarios, largest gap first</h2>", table(rank_rows)]
+    body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows),
+             "<h2>Scenarios, largest gap first</h2>", table(_ranking_rows(groups, params))]
     if store_rows is not None:
         body += _store_section(store_rows)
     return page(out / "index.html", "simgap report", body, "")
 
+
+def _headline_rows(groups: list[ScenarioGroup], fidelities: list[str]) -> list[dict]:
+    rows = []
+    for fidelity in fidelities:
+        entries = [g.runs[fidelity] for g in groups if fidelity in g.runs]
+        goals = sum(a.outcome == Outcome.GOAL_REACHED for e in entries for a in e.run.agents)
+        agents = sum(len(e.run.agents) for e in entries)
+        gaps = [c.lateral_displacement.max for g in groups for c in g.comparisons.get(fidelity, [])
+                if math.isfinite(c.lateral_displacement.max)]
+        rows.append({"fidelity": fidelity, "runs": len(entries), "goals reached": f"{goals}/{agents}",
+                     "median max |d| [m]": float(np.median(gaps)) if gaps else "—",
+                     "largest max |d| [m]": max(gaps) if gaps else "—",
+                     "mean wall time [s]": float(np.mean([e.run.wall_time_s for e in entries]))})
+    return rows
+
+
+def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], xp: str, yp: str, assets: Path) -> list[str]:
+    """Per fidelity, the largest gap against the ideal run over two varying parameters (one colour
+    scale for every fidelity, so colours compare across vehicles and backends)."""
+    units = {k: u for g in groups for e in g.runs.values()
+             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
+    xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
+    body = ["<h2>Where the gap is largest</h2>"]
+    maps = {}
+    for fidelity in fidelities:
+        if fidelity == REFERENCE:
+            continue
+        points, links = [], {}
+        for g in groups:
+            if fidelity in g.comparisons and xp in g.parameters and yp in g.parameters:
+                gap = max((c.lateral_displacement.max for c in g.comparisons[fidelity]), default=float("nan"))
+                key = (float(g.parameters[xp]), float(g.parameters[yp]))
+                points.append((*key, gap))
+                links[key] = f"scenarios/{_slug(g.scenario_id)}.html"
+        if points:
+            maps[fidelity] = (points, links)
+    values = [v for points, _ in maps.values() for *_, v in points if math.isfinite(v)]
+    scale = (min(values), max(values)) if values else (0.0, 0.0)
+    if len(maps) > 1:
+        body.append(f"<p>All heatmaps share one colour scale, {scale[0]:.2f} to {scale[1]:.2f} m.</p>")
+    for fidelity, (points, links) in maps.items():
+        title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
+        body.append(heatmap_table(points, xlabel, ylabel, title, links, scale))
+        png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xlabel, ylabel,
+                           "max |d| [m]", scale)
+        body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
+    return body
+
+
+def _ranking_rows(groups: list[ScenarioGroup], params: list[str]) -> list[dict]:
+    """Every scenario, the largest gap first, with the fidelity it is in."""
+    ranked = sorted(groups, key=lambda g: -(g.largest_gap()[0] if math.isfinite(g.largest_gap()[0]) else -1))
+    rows = []
+    for g in ranked:
+        gap, fidelity = g.largest_gap()
+        outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.agents}))
+        rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.scenario_id)}.html'>"
+                                     f"{html.escape(g.scenario_id)}</a>"),
+                     "largest max |d| [m]": gap, "in fidelity": fidelity or "—",
+                     "parameters": ", ".join(f"{k}={g.parameters[k]:g}" for k in params if k in g.parameters),
+                     "outcomes": outcomes})
+    return rows
+
+
+def build_experiment_report(root: Path, say: Callable[[str], None] = lambda _: None) -> Path | None:
+    """Write ``root/report`` for the experiment in ``root`` (its runs and its results store);
+    None when no run left a run directory (every run failed: nothing to draw)."""
+    root = Path(root)
+    if not any((root / "runs").rglob("run.json")):
+        return None
+    return build_report(root / "runs", root / "report", say, store_rows=ResultsStore(root).rows())

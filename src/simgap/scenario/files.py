@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
-import uuid
 import warnings
 from pathlib import Path
 from typing import Any
@@ -15,28 +13,19 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Location, Scenario
 
 from simgap.errors import InputError
+from simgap.files import atomic_write, atomic_write_text
 from simgap.scenario.templates import ConcreteScenario
 
 
 XML_PRECISION = 8  # decimals written for coordinates: a written file reloads equal to 1e-8 m
 
 
-def _atomic_write(path: Path, write) -> None:
-    """Write through a temporary file next to ``path``, then rename it into place."""
-    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp{path.suffix}"
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-
-
 def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, source: str = "simgap") -> None:
     """CommonRoad XML of ``scenario`` and ``problems`` at ``path`` (written atomically)."""
     writer = CommonRoadFileWriter(scenario, problems, author="simgap", affiliation="", source=source,
                                   tags=set(), location=Location(), decimal_precision=XML_PRECISION)
-    _atomic_write(Path(path), lambda p: writer.write_to_file(str(p), OverwriteExistingFile.ALWAYS))
+    atomic_write(Path(path), lambda p: writer.write_to_file(str(p), OverwriteExistingFile.ALWAYS),
+                 keep_suffix=True)
 
 
 def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: bool = True) -> Path:
@@ -45,13 +34,12 @@ def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: boo
     out_dir.mkdir(parents=True, exist_ok=True)
     xml = out_dir / f"{concrete.name}.xml"
     write_xml(concrete.scenario, concrete.problems, xml, f"simgap logical scenario '{concrete.logical}'")
-    _atomic_write(xml.with_suffix(".json"),
-                  lambda p: p.write_text(json.dumps(concrete.metadata(), indent=2)))
+    atomic_write_text(xml.with_suffix(".json"), json.dumps(concrete.metadata(), indent=2))
     if preview:
         from simgap.scenario.preview import draw_preview
 
-        _atomic_write(xml.with_suffix(".png"),
-                      lambda p: draw_preview(concrete.scenario, concrete.problems, p, concrete.name))
+        atomic_write(xml.with_suffix(".png"),
+                      lambda p: draw_preview(concrete.scenario, concrete.problems, p, concrete.name), keep_suffix=True)
     return xml
 
 

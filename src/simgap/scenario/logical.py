@@ -26,10 +26,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Iterator
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.errors import InputError
+from simgap.files import read_model
 from simgap.scenario.templates import TEMPLATES, ConcreteScenario
 
 
@@ -160,19 +160,7 @@ def load_logical(name_or_path: str | Path) -> LogicalScenario:
             raise InputError(f"no built-in logical scenario '{text}' and no such YAML file",
                              field="LOGICAL", allowed=", ".join(builtin_names()) + ", or a .yaml path")
         path = _builtin_dir() / f"{text}.yaml"
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError(f"cannot read: {exc.strerror}", file=path) from None
-    except yaml.YAMLError as exc:
-        raise InputError(f"malformed YAML: {exc}", file=path) from None
-    if not isinstance(raw, dict):
-        raise InputError("a logical scenario must be a YAML mapping", file=path,
-                         allowed="keys name, description, template, fixed, parameters")
-    try:
-        return LogicalScenario.model_validate(raw)
-    except ValidationError as err:
-        raise pydantic_to_input_error(err, path) from None
+    return read_model(path, LogicalScenario, "logical scenario", "name, description, template, fixed, parameters")
 
 
 def build_scenario(logical: str | Path | LogicalScenario, params: dict[str, float] | None = None) -> ConcreteScenario:

@@ -17,7 +17,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.scenario import Scenario, ScenarioID
 from pydantic import TypeAdapter, ValidationError
 
-from simgap.errors import InputError
+from simgap.errors import InputError, validation_error
 from simgap.scenario.geometry import Arc, Segment, Straight, centre_line, self_intersects
 from simgap.scenario.junction import build_junction
 from simgap.scenario.problem import planning_problem
@@ -123,9 +123,8 @@ def road(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
     try:
         segments = _SEGMENTS.validate_python(p.get("segments") or [])
     except ValidationError as err:
-        first = err.errors()[0]
-        raise InputError(first["msg"], field="segments." + ".".join(map(str, first["loc"])),
-                         allowed="{kind: straight, length} or {kind: arc, radius, angle[, transition]}") from None
+        raise validation_error(err, prefix="segments",
+                               allowed="{kind: straight, length} or {kind: arc, radius, angle[, transition]}") from None
     if not segments:
         raise InputError("no segments", field="segments", allowed="a non-empty list")
     return road_scenario(name, logical, p, segments)

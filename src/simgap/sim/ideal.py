@@ -23,6 +23,7 @@ class IdealBackend:
         self._dt = 0.1
         self._step = 0
         self.timings: dict[str, float] = {}
+        self.notes: list[str] = []
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)

@@ -42,9 +42,15 @@ class Backend(Protocol):
     vehicle each agent drives. ``reset`` puts every agent at its initial state and
     returns the observed states. ``step`` executes the plans (each starting at the current
     time) for one dt and returns each agent's observed state afterwards.
+
+    The loop reads ``timings`` (wall seconds spent per phase inside the backend, e.g. control
+    and physics; added to the run's timings) and ``notes`` (what the backend did that the run
+    record should say, e.g. how it approximated a moving start) once the run ends.
     """
 
     name: str
+    timings: dict[str, float]
+    notes: list[str]
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
 

@@ -79,6 +79,7 @@ class TrackedBackend:
         self.pedal_delay = checked_delay(pedal_delay, "pedal_delay")
         self.timings = plant.timings
         self.timings.setdefault("control", 0.0)
+        self.notes: list[str] = []
         self._agents: list[Agent] = []
         self._dt = 0.1
         self._t0 = 0.0

@@ -12,10 +12,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.errors import InputError, pydantic_to_input_error
+from simgap.errors import InputError
+from simgap.files import read_model
 from simgap.vehicles.physics import VehiclePhysics
 
 
@@ -63,17 +63,7 @@ def vehicle_names() -> list[str]:
 
 def load_vehicle_file(path: str | Path) -> Vehicle:
     path = Path(path)
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputError(f"cannot read vehicle file: {exc}", file=path) from None
-    if not isinstance(raw, dict):
-        raise InputError("a vehicle file must be a mapping", file=path)
-    raw.setdefault("name", path.stem)
-    try:
-        return Vehicle.model_validate(raw)
-    except ValidationError as err:
-        raise pydantic_to_input_error(err, path) from None
+    return read_model(path, Vehicle, "vehicle file", defaults={"name": path.stem})
 
 
 @lru_cache(maxsize=None)

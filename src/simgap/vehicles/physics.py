@@ -25,6 +25,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from simgap.vehicles.constants import GRAVITY
 from simgap.vehicles.tyres import Tyres
 
 
@@ -84,7 +85,7 @@ class VehiclePhysics(BaseModel):
         return self.tyres.peak_friction
 
     def axle_cornering_stiffness(self, wheelbase: float, rear_axle_to_center: float,
-                                 gravity: float = 9.81) -> tuple[float, float]:
+                                 gravity: float = GRAVITY) -> tuple[float, float]:
         """Cornering stiffness of the front and of the rear axle (both tyres) at static load [N/rad]."""
         b = rear_axle_to_center
         a = wheelbase - b
@@ -109,7 +110,7 @@ class VehiclePhysics(BaseModel):
         a = wheelbase - rear_axle_to_center
         return rear_axle_to_center * yaw_rate / speed - self.mass * a * speed * yaw_rate / (wheelbase * c_rear)
 
-    def steady_roll(self, lateral_acceleration: float, gravity: float = 9.81) -> float:
+    def steady_roll(self, lateral_acceleration: float, gravity: float = GRAVITY) -> float:
         """Body roll [rad, about the forward axis, > 0 left side up] in steady cornering at
         ``lateral_acceleration`` (> 0 turning left): the sprung mass's moment about the ground,
         held by the springs' roll stiffness ``k t^2 / 2`` per axle."""

@@ -31,8 +31,8 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control import make_controller
 from simgap.control.delay import with_actuator_delay
-from simgap.cosim.traffic import non_agent_traffic
 from simgap.errors import InputError
+from simgap.scenario.obstacles import recorded_obstacles
 from simgap.sim.beamng.catalogue import model_for
 from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_yaw, reference_offset,
                                        reference_position, steering_input, to_state)
@@ -75,12 +75,12 @@ class BeamngBackend:
                              f"{cfg.controller_hz:g} Hz", field="backend_settings.controller_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz that divides {cfg.physics_hz} Hz")
         self._models = {a.id: model_for(a.vehicle.name, cfg.vehicle_models, cfg.steer_locks) for a in agents}
-        self._traffic = non_agent_traffic(scenario)
+        self._traffic = recorded_obstacles(scenario)
         traffic_model = model_for("traffic", {"traffic": "etk800"} | cfg.vehicle_models, cfg.steer_locks)
         spawns = [Spawn(_vid(a.id), self._models[a.id].name, (a.initial_state.x, a.initial_state.y, 0.0),
                         quat_from_yaw(a.initial_state.yaw)) for a in agents]
         for o in self._traffic:
-            s = o.prediction.at(o.prediction.t[0])
+            s = o.motion.at(o.motion.t[0])
             spawns.append(Spawn(_obstacle_vid(o.id), traffic_model.name, (s.x, s.y, 0.0), quat_from_yaw(s.yaw)))
         self._controllers = {a.id: with_actuator_delay(make_controller(cfg.controller, a.vehicle, cfg.controller_hz),
                                                        cfg.steer_delay, cfg.pedal_delay) for a in agents}
@@ -214,8 +214,8 @@ class BeamngBackend:
 
     def _traffic_at(self, t: float) -> list[tuple[int, State]]:
         """The recorded obstacles present at ``t``, with their recorded states."""
-        return [(o.id, o.prediction.at(t)) for o in self._traffic
-                if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9]
+        return [(o.id, o.motion.at(t)) for o in self._traffic
+                if o.motion.t[0] - 1e-9 <= t <= o.motion.t_end + 1e-9]
 
     def _move_traffic(self, t: float) -> None:
         for oid, state in self._traffic_at(t):

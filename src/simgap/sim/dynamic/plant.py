@@ -40,7 +40,8 @@ from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
 from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_parameters
 
-from simgap.control.longitudinal import GRAVITY, LongitudinalMap
+from simgap.control.longitudinal import LongitudinalMap
+from simgap.vehicles.constants import GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError
 from simgap.trajectory import State, wrap_angle

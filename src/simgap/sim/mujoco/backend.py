@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
-from simgap.control.longitudinal import AIR_DENSITY, GRAVITY
+from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import validated_settings
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of

@@ -24,9 +24,9 @@ import mujoco
 import numpy as np
 
 from simgap.vehicles import Vehicle
+from simgap.vehicles.constants import GRAVITY
 from simgap.vehicles.physics import VehiclePhysics
 
-GRAVITY = 9.81
 CORNERS = ("front_left", "front_right", "rear_left", "rear_right")
 UPRIGHT_MASS = 2.0          # kg of each corner's unsprung mass that does not spin
 STEER_ARMATURE = 2.0        # kg m^2 reflected inertia of the steering rack at each wheel

@@ -40,9 +40,9 @@ import mujoco
 import numpy as np
 from numba import njit
 
+from simgap.vehicles.constants import GRAVITY
 from simgap.vehicles.physics import VehiclePhysics
 
-GRAVITY = 9.81
 # columns of the per-wheel parameter table
 (R_ROLL, R_FREE, K_Z, C_Z, SIGMA_X, SIGMA_Y, P_CX1, P_DX1, P_DX3, P_EX1, P_KX1, P_CY1, P_DY1, P_DY3,
  P_EY1, P_KY1, P_KY2, F_Z0, R_BX1, R_BX2, R_CX1, R_EX1, R_BY1, R_BY2, R_CY1, R_EY1, V_LOW, C_LOW_X,

@@ -22,6 +22,7 @@ from simgap.sim.mujoco.road import SurfaceMap, add_road
 from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State
+from simgap.vehicles.constants import GRAVITY
 
 #: car body colours per agent (Okabe-Ito, as the 2D pictures)
 CAR_COLOURS = [(0.0, 0.45, 0.70, 1), (0.84, 0.37, 0.0, 1), (0.0, 0.62, 0.45, 1), (0.8, 0.47, 0.65, 1),
@@ -134,7 +135,7 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     # brakes are dry friction on the wheels' spin joints: the noslip pass makes that friction
     # rigid (a soft one lets a braked wheel creep under a steady torque, a car down a slope)
     spec.option.noslip_iterations = NOSLIP_ITERATIONS
-    spec.option.gravity = [0, 0, -9.81]
+    spec.option.gravity = [0, 0, -GRAVITY]
 
     lanelets = scenario.lanelet_network.lanelets
     pts = np.vstack([np.asarray(l.polygon.vertices) for l in lanelets]) if lanelets else np.zeros((1, 2))

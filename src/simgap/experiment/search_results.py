@@ -1,0 +1,114 @@
+"""What a search found, read from its directory alone: per strategy, what it spent, its violated
+assumptions (a high-fidelity failure whose ideal run passes) before and after de-duplication, and
+its high-fidelity runs — computed here, drawn by `simgap.report.search_page`."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from simgap.errors import InputError
+from simgap.experiment.search_spec import STRATEGIES, SearchSpec
+from simgap.experiment.store import ResultsStore
+
+META = "search.json"          # the search's spec and results hash, in its directory
+
+
+@dataclass
+class StrategyResult:
+    name: str
+    runs: int = 0
+    high_runs: int = 0
+    high_failures: int = 0
+    violations: int = 0
+    distinct: int = 0
+    scenarios: int = 0                # distinct scenarios (road, start, vehicle) among the violations
+    errors: int = 0
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+    curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
+
+    @property
+    def per_cpu_hour(self) -> float:
+        return self.distinct / (self.cpu_s / 3600.0) if self.cpu_s > 0 else 0.0
+
+
+def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
+    """What a strategy found, from its store alone."""
+    store = ResultsStore(root)
+    rows = sorted(store.rows(), key=lambda r: r.get("elapsed_s", 0.0)) if store.rows_dir.exists() else []
+    high, res = ladder_len - 1, StrategyResult(name)
+    budget = root / "budget.json"
+    res.wall_s = json.loads(budget.read_text()).get("spent_s", 0.0) if budget.exists() else 0.0
+    by_candidate: dict[int, dict[int, dict]] = {}
+    for r in rows:
+        by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
+        res.runs += "ideal_of" not in r
+        res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
+        res.errors += r.get("status") != "ok"
+    found: list[tuple[float, tuple[float, ...], str]] = []
+    scenarios: set[tuple] = set()
+    for index, runs in by_candidate.items():
+        h = runs.get(high)
+        if h is None or h.get("status") != "ok":
+            continue
+        res.high_runs += 1
+        if not h.get("failed"):
+            continue
+        res.high_failures += 1
+        ideal = runs.get(0)
+        if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
+            continue
+        res.violations += 1
+        scenarios.add((h["vehicle"],) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
+        when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
+        unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
+        found.append((when, unit, h["vehicle"]))
+    distinct: list[tuple[tuple[float, ...], str]] = []
+    for when, unit, vehicle in sorted(found):
+        if all(v != vehicle or math.dist(unit, u) >= radius for u, v in distinct):
+            distinct.append((unit, vehicle))
+            res.curve.append((when, len(distinct)))
+    res.distinct = len(distinct)
+    res.scenarios = len(scenarios)
+    return res
+
+
+@dataclass
+class SearchResults:
+    """What a search directory holds: its spec, each strategy's summary and, per strategy, its
+    high-fidelity runs (each row with ``violation``: it passed in the ideal world; and
+    ``ideal_failed``: it failed there too)."""
+
+    root: Path
+    spec: SearchSpec
+    strategies: list[StrategyResult]
+    high_rows: dict[str, list[dict[str, Any]]]
+
+def search_results(root: Path) -> SearchResults:
+    """The spec, each strategy's summary and its high-fidelity runs, of a search directory."""
+    root = Path(root)
+    meta = root / META
+    if not meta.exists():
+        raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
+    spec = SearchSpec.model_validate(json.loads(meta.read_text())["spec"])
+    names = [n for n in STRATEGIES if (root / n / "store" / "rows").exists()]
+    high = len(spec.ladder) - 1
+    return SearchResults(root, spec, [summarise(root / n, n, len(spec.ladder), spec.distinct_radius) for n in names],
+                         {n: _high_rows(ResultsStore(root / n).rows(), high) for n in names})
+
+
+def _high_rows(rows: list[dict[str, Any]], high: int) -> list[dict[str, Any]]:
+    """The finished high-fidelity runs of a strategy, each marked with its ideal verdict."""
+    ideal = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 0}
+    out = []
+    for r in rows:
+        if int(r["rung"]) == high and r.get("status") == "ok":
+            i = ideal.get(int(r["candidate"]))
+            ideal_ok = i is not None and i.get("status") == "ok"
+            out.append(dict(r) | {"violation": bool(r.get("failed")) and ideal_ok and not i.get("failed"),
+                                  "ideal_failed": ideal_ok and bool(i.get("failed"))})
+    return out

@@ -1,0 +1,62 @@
+"""The project's file handling in one place: every file is written atomically (a temporary file
+beside it, then a rename, so a reader never sees half of one), and every YAML input is read as a
+mapping and validated by a pydantic model, with errors that name the file and the field."""
+
+from __future__ import annotations
+
+import os
+import uuid
+from pathlib import Path
+from typing import Any, Callable, TypeVar
+
+import yaml
+from pydantic import BaseModel
+
+from simgap.errors import InputError, validated
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], Any], keep_suffix: bool = False) -> Path:
+    """Call ``write`` on a temporary file next to ``path``, then rename it into place. The
+    temporary file is hidden and ends in ``.tmp`` (or, with ``keep_suffix``, in ``.tmp`` and the
+    suffix of ``path``, for writers that choose the format by it)."""
+    path = Path(path)
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}.tmp{path.suffix if keep_suffix else ''}"
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    return atomic_write(path, lambda tmp: tmp.write_text(text))
+
+
+def read_yaml_mapping(path: str | Path, what: str, keys: str | None = None, empty_ok: bool = False
+                      ) -> dict[str, Any]:
+    """The YAML mapping in ``path`` (an empty file too, if ``empty_ok``), or an `InputError` naming
+    the file (``what``: the kind of file; ``keys``: what such a mapping holds)."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"malformed YAML: {exc}", file=path) from None
+    if raw is None and empty_ok:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise InputError(f"a {what} is a mapping", file=path, allowed=keys)
+    return raw
+
+
+def read_model(path: str | Path, model: type[M], what: str, keys: str | None = None,
+               defaults: dict[str, Any] | None = None, empty_ok: bool = False) -> M:
+    """``path`` read as YAML and validated as ``model`` (``defaults`` fill keys the file leaves
+    out); every problem is an `InputError` naming the file, the field and what is allowed."""
+    raw = dict(defaults or {}) | read_yaml_mapping(path, what, keys, empty_ok)
+    return validated(model, raw, file=path)
