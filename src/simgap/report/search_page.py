@@ -68,7 +68,7 @@ def _plot_map(per_strategy: dict[str, list[dict]], dims, path: Path) -> Path:
     a, b = _map_axes(every, dims)
     n = len(per_strategy)
     fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.4), dpi=110, squeeze=False, sharey=True)
-    (ka, na, loa, hia), (kb, nb, lob, hib) = dims[a], dims[b]
+    (_, na, loa, hia), (_, nb, lob, hib) = dims[a], dims[b]
     for ax, (name, rows) in zip(axes[0], per_strategy.items()):
         for group, style in ((lambda r: not r["failed"], dict(c="#bbbbbb", marker="o", s=10, label="passes")),
                              (lambda r: r["failed"] and not r["violation"], dict(c=COLOURS[1], marker="x", s=18, label="fails (ideal unchecked or fails too)")),
