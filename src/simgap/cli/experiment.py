@@ -15,6 +15,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from simgap.cli.main import app
+from simgap.experiment.ray_cluster import ADDRESS_HELP
 
 experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
                              no_args_is_help=True)
@@ -27,7 +28,7 @@ def run_cmd(
     out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
     workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
-    address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
+    address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
 ) -> None:
@@ -39,16 +40,20 @@ def run_cmd(
     from simgap.experiment.runner import run_experiment
 
     console = Console()
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
-                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console) as bar:
-        task = bar.add_task("runs", total=None, counts="")
+    bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
+                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
+    task = bar.add_task("runs", total=None, counts="")
 
-        def show(p) -> None:
-            bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
-                       counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
+    def show(p) -> None:
+        bar.start()                     # on the first progress: an error before it shows no bar
+        bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
+                   counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
 
+    try:
         result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report,
                                 retry_failed=retry_failed)
+    finally:
+        bar.stop()
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
     for key, reason in result.failures[:20]:

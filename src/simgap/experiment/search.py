@@ -383,9 +383,9 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         if n not in STRATEGIES:
             raise InputError(f"unknown strategy '{n}'", field="strategy", allowed=", ".join(STRATEGIES))
     root = Path(root)
+    runner = make_executor(executor, workers, spec.run_timeout_s, address)
     _claim(root, spec)
     space = SearchSpace(spec, logical)
-    runner = make_executor(executor, workers, spec.run_timeout_s, address)
     results = []
     for name in names:
         sroot = root / name
