@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,7 @@ import yaml
 import simgap
 from simgap.errors import InputError
 from simgap.experiment.ray_cluster import NodeSoftware, check_nodes, connection_error, disconnect
-from simgap.experiment.runner import run_experiment
+from simgap.experiment.runner import experiment_status, run_experiment
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.store import ResultsStore
 
@@ -154,7 +155,7 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     before = store_rows(out)
     assert 1 <= len(before) < 3, "the kill came after the first and before the last run finished"
     # ... resumes through Ray Client: the runs it had are kept, the others run, none twice
-    result = run_experiment(spec, out, workers=2, executor="ray", address=cluster.client, report=False)
+    result = run_experiment(spec, out, workers=None, executor="ray", address=cluster.client, report=False)
     assert (result.skipped, result.ran, result.failed) == (len(before), 3 - len(before), 0)
     rows = store_rows(out)
     assert sorted(rows) == sorted(local)
@@ -180,7 +181,7 @@ def test_a_search_on_the_cluster_matches_a_local_one_through_both_address_forms(
         assert {k: r["fingerprint"] for k, r in rows.items()} == {k: r["fingerprint"] for k, r in local.items()}
 
 
-def test_a_worker_lost_mid_study_is_a_failed_run_with_its_reason(cluster, tmp_path):
+def test_a_worker_lost_mid_study_is_a_failed_run_with_its_reason_and_runs_again_on_resume(cluster, tmp_path):
     spec = spec_file(tmp_path, SMALL | {"parameters": {"radius": {"values": [20]}, "angle": {"values": [30]}},
                                         "fidelities": [{"backend": "mujoco"}]})
     out = tmp_path / "out"
@@ -196,19 +197,17 @@ def test_a_worker_lost_mid_study_is_a_failed_run_with_its_reason(cluster, tmp_pa
                 return
             time.sleep(0.05)
 
-    import threading
-
     killer = threading.Thread(target=kill_the_worker)
     killer.start()
     result = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address, report=False)
     killer.join()
     (row,) = store_rows(out).values()
     assert result.failed == 1 and row["status"] == "failed" and row["failure"].startswith("worker died"), row
-    # the failed run is run again when asked, now to the end
-    again = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address, report=False,
-                           retry_failed=True)
+    assert len(experiment_status(out).left) == 1
+    # resuming runs it again, now to the end
+    again = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address, report=False)
     (row,) = store_rows(out).values()
-    assert (again.ran, again.failed) == (1, 0) and row["status"] == "ok"
+    assert (again.ran, again.failed, again.skipped) == (1, 0, 0) and row["status"] == "ok"
 
 
 @pytest.mark.parametrize("form, command", [("127.0.0.1:{port}", ["experiment", "run", "EXPERIMENT"]),
@@ -223,6 +222,7 @@ def test_an_unreachable_cluster_is_a_one_line_error_before_anything_is_written(t
     assert "Traceback" not in proc.stdout + proc.stderr
     (line,) = proc.stderr.strip().splitlines()
     assert address in line and "nothing answers" in line and "ray start --head" in line
+    assert proc.stdout.strip() == ""                                                # nor a progress bar
     assert not (tmp_path / "out").exists()
 
 

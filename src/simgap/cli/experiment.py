@@ -4,7 +4,6 @@ query its results store."""
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 from typing import Optional
 
@@ -26,7 +25,8 @@ app.add_typer(experiment_app, name="experiment")
 def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
     out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
-    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    workers: Optional[int] = typer.Option(None, min=1,
+                                          help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
@@ -53,7 +53,8 @@ def run_cmd(
         result = run_experiment(spec, out, workers, executor, address, on_progress=show, report=not no_report,
                                 retry_failed=retry_failed)
     finally:
-        bar.stop()
+        if bar.live.is_started:
+            bar.stop()
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
     for key, reason in result.failures[:20]:

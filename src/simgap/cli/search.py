@@ -3,7 +3,6 @@ with each strategy of the spec on the same budget; resumable."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Optional
 
@@ -21,7 +20,8 @@ def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
     budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
     out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)"),
-    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    workers: Optional[int] = typer.Option(None, min=1,
+                                          help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
@@ -54,7 +54,8 @@ def search_cmd(
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
                              report=not no_report)
     finally:
-        bar.stop()
+        if bar.live.is_started:
+            bar.stop()
     _print(console, results)
     if not no_report:
         console.print(f"report: [bold]{out / 'report' / 'index.html'}[/bold]")

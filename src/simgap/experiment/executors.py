@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from simgap.experiment.spec import Job
+from simgap.experiment.store import WORKER_DIED
 
 OnResult = Callable[[Job, dict[str, Any]], None]
 JobSource = Callable[[], "Job | None"]
@@ -136,9 +137,10 @@ class LocalExecutor:
                             on_result(job, row)
                             continue
                     if not w.process.is_alive() or w.process.sentinel in ready:
+                        w.process.join(timeout=5)           # its exit code is known once it is reaped
                         code = w.process.exitcode
-                        reason = f"worker died (exit code {code})" if code is None or code >= 0 else \
-                            f"worker died (signal {-code})"
+                        reason = f"{WORKER_DIED} (exit code {code})" if code is None or code >= 0 else \
+                            f"{WORKER_DIED} (signal {-code})"
                         on_result(job, failed_row(job, reason))
                         pool[i] = _Worker(ctx)
                     elif now - w.started > self.timeout_s:
@@ -213,14 +215,14 @@ def _lost(exc: Exception) -> str:
     first = (str(exc).strip().splitlines() or [""])[0][:300]
     if isinstance(exc, ray.exceptions.RayTaskError):
         return f"ray: {type(exc).__name__}: {first}"
-    return f"worker died ({type(exc).__name__}: {first})"        # a crash, a kill, a node gone
+    return f"{WORKER_DIED} ({type(exc).__name__}: {first})"        # a crash, a kill, a node gone
 
 
 class RayExecutor:
     name = "ray"
 
-    def __init__(self, workers: int, timeout_s: float, address: str | None = None):
-        self.workers = max(1, workers)
+    def __init__(self, workers: int | None, timeout_s: float, address: str | None = None):
+        self.workers = workers              # runs in flight; None: as many as the cluster has CPUs
         self.timeout_s = timeout_s
         self.address = address
 
@@ -236,13 +238,14 @@ class RayExecutor:
         from simgap.experiment.ray_cluster import disconnect
 
         ours = self.connect()
+        slots = self.workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
         root = Path(context["root"])
         remote = ray.remote(max_retries=0, num_cpus=1)(_ray_job)
         next_job = _source(jobs)
         pending: dict[Any, tuple[Job, float]] = {}
         try:
             while True:
-                while len(pending) < self.workers:
+                while len(pending) < slots:
                     job = next_job()
                     if job is None:
                         break
@@ -269,13 +272,14 @@ class RayExecutor:
                 disconnect()
 
 
-def make_executor(name: str, workers: int, timeout_s: float, address: str | None = None):
+def make_executor(name: str, workers: int | None, timeout_s: float, address: str | None = None):
+    """The executor ``name`` with ``workers`` runs in flight (None: all cores, or all the cluster's CPUs)."""
     from simgap.errors import InputError
 
     if name == "local":
         if address:
             raise InputError("--address is for the ray executor", field="address", allowed="--executor ray")
-        return LocalExecutor(workers, timeout_s)
+        return LocalExecutor(workers or os.cpu_count() or 1, timeout_s)
     if name == "ray":
         executor = RayExecutor(workers, timeout_s, address)
         executor.connect()              # an unreachable or unfit cluster stops us before any run

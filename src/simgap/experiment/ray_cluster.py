@@ -13,6 +13,7 @@ value, so it runs (and reports) on a node that cannot import simgap.
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
 import socket
 from dataclasses import dataclass, field
@@ -165,7 +166,7 @@ def probe_nodes(address: str) -> list[NodeSoftware]:
     return [NodeSoftware(**r) for r in reports]
 
 
-def connect(address: str | None, workers: int) -> bool:
+def connect(address: str | None, workers: int | None) -> bool:
     """Connect this process to the cluster at ``address`` (a new local one for None) and check its
     nodes. Returns False if the caller had initialised Ray itself (its connection is used as is)."""
     global _session
@@ -179,7 +180,7 @@ def connect(address: str | None, workers: int) -> bool:
             return True
         disconnect()
     if address is None:
-        ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False, configure_logging=False)
+        ray.init(num_cpus=workers or os.cpu_count() or 1, include_dashboard=False, log_to_driver=False, configure_logging=False)
         _session = target
         return True
     if address.startswith("ray://") and importlib.util.find_spec("grpc") is None:

@@ -370,7 +370,7 @@ class SearchProgress:
     high_failures: int
 
 
-def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, executor: str = "local",
+def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None,
                report: bool = True) -> list[StrategyResult]:
