@@ -274,3 +274,12 @@ def test_a_cluster_of_another_ray_or_python_is_refused_naming_both():
     text = connection_error("10.0.0.1:6379", ray_says).describe()
     assert "10.0.0.1:6379" in text and "runs Ray 2.47.1 on Python 3.10.12, this driver Ray 2.48.0" in text
     assert "install" in text and "\n" not in text
+
+
+@pytest.mark.parametrize("address", ["head", "ray://head", "head:port", ":6379"])
+def test_a_malformed_address_is_refused_naming_the_forms(tmp_path, address):
+    with pytest.raises(InputError) as err:
+        run_experiment(spec_file(tmp_path, SMALL), tmp_path / "out", workers=1, executor="ray", address=address,
+                       report=False)
+    assert err.value.field == "address" and address in err.value.reason and "ray://HOST:PORT" in err.value.allowed
+    assert not (tmp_path / "out").exists()
