@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -79,6 +81,31 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
     again = run_experiment(spec, tmp_path / "out", workers=1, retry_failed=True)
     assert (again.ran, again.failed, again.skipped) == (1, 1, 1)
     assert len(ResultsStore(tmp_path / "out").rows()) == 2
+
+
+def test_a_run_whose_worker_dies_is_recorded_with_the_reason_and_runs_again_on_resume(tmp_path):
+    spec = spec_file(tmp_path, fidelities=[{"backend": "mujoco"}],
+                     parameters={"radius": {"values": [20]}, "angle": {"values": [30]}})
+    out = tmp_path / "out"
+
+    def kill_the_worker() -> None:           # the pool's one worker, once the run is under way
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (out / "scenarios").exists():
+            time.sleep(0.05)
+        time.sleep(2.0)
+        for child in mp.active_children():
+            os.kill(child.pid, signal.SIGKILL)
+
+    killer = threading.Thread(target=kill_the_worker)
+    killer.start()
+    result = run_experiment(spec, out, workers=1, report=False)
+    killer.join()
+    (row,) = ResultsStore(out).rows()
+    assert result.failed == 1 and row["failure"] == "worker died (signal 9)"
+    assert len(experiment_status(out).left) == 1
+    again = run_experiment(spec, out, workers=1, report=False)
+    (row,) = ResultsStore(out).rows()
+    assert (again.ran, again.failed, again.skipped) == (1, 0, 0) and row["status"] == "ok"
 
 
 def test_a_run_over_its_time_limit_is_stopped_and_recorded(tmp_path):

@@ -4,7 +4,6 @@ query its results store."""
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 from typing import Optional
 
@@ -15,6 +14,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from simgap.cli.main import app
+from simgap.experiment.ray_cluster import ADDRESS_HELP
 
 experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
                              no_args_is_help=True)
@@ -25,9 +25,10 @@ app.add_typer(experiment_app, name="experiment")
 def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
     out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
-    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    workers: Optional[int] = typer.Option(None, min=1,
+                                          help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
-    address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
+    address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
 ) -> None:
@@ -40,15 +41,20 @@ def run_cmd(
     from simgap.report.site import build_experiment_report
 
     console = Console()
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
-                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console) as bar:
-        task = bar.add_task("runs", total=None, counts="")
+    bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
+                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
+    task = bar.add_task("runs", total=None, counts="")
 
-        def show(p) -> None:
-            bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
-                       counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
+    def show(p) -> None:
+        bar.start()                     # on the first progress: an error before it shows no bar
+        bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
+                   counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
 
+    try:
         result = run_experiment(spec, out, workers, executor, address, on_progress=show, retry_failed=retry_failed)
+    finally:
+        if bar.live.is_started:
+            bar.stop()
     report = None if no_report else build_experiment_report(out)
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")

@@ -3,7 +3,6 @@ with each strategy of the spec on the same budget; resumable."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Optional
 
@@ -13,6 +12,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.main import app
+from simgap.experiment.ray_cluster import ADDRESS_HELP
 
 
 @app.command("search")
@@ -20,10 +20,11 @@ def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
     budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
     out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)"),
-    workers: int = typer.Option(os.cpu_count() or 1, min=1, help="parallel runs (default: all cores)"),
+    workers: Optional[int] = typer.Option(None, min=1,
+                                          help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
-    address: Optional[str] = typer.Option(None, help="Ray cluster address (with --executor ray)"),
+    address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
@@ -38,19 +39,24 @@ def search_cmd(
 
     limit = parse_budget(budget)
     console = Console()
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
-                  TimeElapsedColumn(), console=console) as bar:
-        tasks: dict[str, int] = {}
+    bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
+                   TimeElapsedColumn(), console=console)
+    tasks: dict[str, int] = {}
 
-        def show(p) -> None:
-            if p.strategy not in tasks:
-                total = limit.seconds if limit.seconds is not None else limit.runs
-                tasks[p.strategy] = bar.add_task(p.strategy, total=total, counts="")
-            done = p.elapsed_s if limit.seconds is not None else p.runs
-            bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
-                       counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
+    def show(p) -> None:
+        bar.start()                     # on the first progress: an error before it shows no bar
+        if p.strategy not in tasks:
+            total = limit.seconds if limit.seconds is not None else limit.runs
+            tasks[p.strategy] = bar.add_task(p.strategy, total=total, counts="")
+        done = p.elapsed_s if limit.seconds is not None else p.runs
+        bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
+                   counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
+    try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show)
+    finally:
+        if bar.live.is_started:
+            bar.stop()
     _print(console, results)
     if not no_report:
         console.print(f"report: [bold]{build_search_report(search_results(out))}[/bold]")

@@ -3,8 +3,11 @@
 `LocalExecutor` keeps N worker processes (spawned, so nothing of the parent's threads or state
 leaks into them), hands each one run at a time, and watches them: a worker that dies (a crash,
 a kill) or overruns the per-run timeout is replaced, and only its run is recorded as failed, with
-the reason. `RayExecutor` submits the same job function to a Ray cluster (a local one when no
-address is given); results come back to the driver, which alone writes the store.
+the reason. `RayExecutor` submits the runs to a Ray cluster (a local one when no address is
+given; `ray_cluster` connects and checks the nodes first). A node needs no shared filesystem: each
+run gets its scenario files with it, runs in a scratch directory of the node it lands on, and
+returns its store row and the files of its run directory, which the driver writes (it alone
+writes the experiment directory).
 
 Both take the jobs as a list, or as a `JobSource`: a function asked for the next job whenever a
 worker is free, which returns ``None`` when it has nothing to give right now (a search that
@@ -14,13 +17,20 @@ no job is in flight.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import multiprocessing as mp
+import os
+import shutil
+import tempfile
 import time
 import traceback
 from multiprocessing.connection import wait
+from pathlib import Path
 from typing import Any, Callable
 
-from simgap.experiment.records import Job, RunRow
+from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.store import WORKER_DIED
 
 OnResult = Callable[[Job, RunRow], None]
 JobSource = Callable[[], "Job | None"]
@@ -37,6 +47,11 @@ def failed_row(job: Job, reason: str) -> RunRow:
     return RunRow.failed(job, reason)
 
 
+def _crashed_row(job: Job, exc: BaseException) -> RunRow:
+    """The row of a run whose code raised ``exc``: its last line is the reason."""
+    return failed_row(job, traceback.format_exception_only(type(exc), exc)[-1].strip())
+
+
 def _worker(conn) -> None:
     from simgap.experiment.job import execute_job
 
@@ -51,8 +66,7 @@ def _worker(conn) -> None:
         try:
             row = execute_job(job, context)
         except BaseException as exc:     # the run failed; the worker lives on
-            last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-            row = failed_row(job, f"{last}")
+            row = _crashed_row(job, exc)
         conn.send(row)
 
 
@@ -65,7 +79,7 @@ class _Worker:
         self.job: Job | None = None
         self.started = 0.0
 
-    def give(self, job: Job, context: dict) -> None:
+    def give(self, job: Job, context: JobContext) -> None:
         self.job, self.started = job, time.monotonic()
         self.conn.send((job, context))
 
@@ -90,7 +104,7 @@ class LocalExecutor:
         self.workers = max(1, workers)
         self.timeout_s = timeout_s
 
-    def run(self, jobs: "list[Job] | JobSource", context: dict, on_result: OnResult) -> None:
+    def run(self, jobs: "list[Job] | JobSource", context: JobContext, on_result: OnResult) -> None:
         ctx = mp.get_context("spawn")
         size = self.workers if callable(jobs) else min(self.workers, len(jobs))
         next_job = _source(jobs)
@@ -121,9 +135,10 @@ class LocalExecutor:
                             on_result(job, row)
                             continue
                     if not w.process.is_alive() or w.process.sentinel in ready:
+                        w.process.join(timeout=5)           # its exit code is known once it is reaped
                         code = w.process.exitcode
-                        reason = f"worker died (exit code {code})" if code is None or code >= 0 else \
-                            f"worker died (signal {-code})"
+                        reason = f"{WORKER_DIED} (exit code {code})" if code is None or code >= 0 else \
+                            f"{WORKER_DIED} (signal {-code})"
                         on_result(job, failed_row(job, reason))
                         pool[i] = _Worker(ctx)
                     elif now - w.started > self.timeout_s:
@@ -135,54 +150,114 @@ class LocalExecutor:
                 w.stop(force=w.job is not None)
 
 
-def _ray_job(job: Job, context: dict) -> dict:
-    from simgap.experiment.job import execute_job
+def _scenario_path(job: Job, context: JobContext) -> Path:
+    return Path(job.scenario_path or (context.scenarios or {})[job.scenario])
 
+
+def _scenario_files(job: Job, context: JobContext) -> dict[str, bytes]:
+    """The scenario of ``job``: its CommonRoad XML and the sidecar beside it, by file name."""
+    xml = _scenario_path(job, context)
+    return {p.name: p.read_bytes() for p in (xml, xml.with_suffix(".json")) if p.exists()}
+
+
+def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple[RunRow, dict[str, bytes]]:
+    """On a node: run ``job`` in a scratch directory; its store row and its run directory's files."""
+    from simgap.experiment.job import execute_job, run_dir_of
+
+    with tempfile.TemporaryDirectory(prefix="simgap-run-") as scratch:
+        root = Path(scratch)
+        (root / "scenario").mkdir()
+        for name, data in scenario.items():
+            (root / "scenario" / name).write_bytes(data)
+        xml = next(root / "scenario" / name for name in scenario if name.endswith(".xml"))
+        try:
+            row = execute_job(dataclasses.replace(job, scenario_path=str(xml)), dataclasses.replace(context, root=root))
+        except BaseException as exc:
+            return _crashed_row(job, exc), {}
+        run_dir = run_dir_of(root, job)
+        files = {p.relative_to(run_dir).as_posix(): p.read_bytes() for p in run_dir.rglob("*") if p.is_file()}
+    return row, files
+
+
+def _receive_run(root: Path, job: Job, files: dict[str, bytes], scenario_path: str) -> None:
+    """Write the run directory a node sent back into ``root``, atomically (aside, then renamed);
+    its ``run.json`` names the scenario file on this machine, as a local run's does."""
+    from simgap.experiment.job import run_dir_of
+
+    if not files:
+        return
+    target = run_dir_of(root, job)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
     try:
-        return execute_job(job, context)
-    except BaseException as exc:
-        last = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return failed_row(job, last)
+        for name, data in files.items():
+            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / name).write_bytes(data)
+        meta = tmp / "run.json"
+        if meta.exists():
+            meta.write_text(json.dumps(json.loads(meta.read_text()) | {"scenario_path": scenario_path}, indent=2))
+        old = target.with_name(f".{target.name}.old")
+        if target.exists():
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(target, old)
+        os.replace(tmp, target)
+        shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _lost(exc: Exception) -> str:
+    import ray
+
+    first = (str(exc).strip().splitlines() or [""])[0][:300]
+    if isinstance(exc, ray.exceptions.RayTaskError):
+        return f"ray: {type(exc).__name__}: {first}"
+    return f"{WORKER_DIED} ({type(exc).__name__}: {first})"        # a crash, a kill, a node gone
 
 
 class RayExecutor:
     name = "ray"
 
-    def __init__(self, workers: int, timeout_s: float, address: str | None = None):
-        self.workers = max(1, workers)
+    def __init__(self, workers: int | None, timeout_s: float, address: str | None = None):
+        self.workers = workers              # runs in flight; None: as many as the cluster has CPUs
         self.timeout_s = timeout_s
         self.address = address
 
-    def run(self, jobs: "list[Job] | JobSource", context: dict, on_result: OnResult) -> None:
+    def connect(self) -> bool:
+        """Connect to the cluster and check its nodes (an InputError if they cannot run ours)."""
+        from simgap.experiment.ray_cluster import connect
+
+        return connect(self.address, self.workers)
+
+    def run(self, jobs: "list[Job] | JobSource", context: JobContext, on_result: OnResult) -> None:
         import ray
 
-        started_here = not ray.is_initialized()
-        if started_here:
-            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False,
-                                      "configure_logging": False}
-            if self.address:
-                ray.init(address=self.address, **kwargs)
-            else:
-                ray.init(num_cpus=self.workers, **kwargs)
+        from simgap.experiment.ray_cluster import disconnect
+
+        ours = self.connect()
+        slots = self.workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
+        root = Path(context.root)
         remote = ray.remote(max_retries=0, num_cpus=1)(_ray_job)
         next_job = _source(jobs)
         pending: dict[Any, tuple[Job, float]] = {}
         try:
             while True:
-                while len(pending) < self.workers:
+                while len(pending) < slots:
                     job = next_job()
                     if job is None:
                         break
-                    pending[remote.remote(job, context)] = (job, time.monotonic())
+                    pending[remote.remote(job, context, _scenario_files(job, context))] = (job, time.monotonic())
                 if not pending:
                     break
                 done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
                 for ref in done:
                     job, _ = pending.pop(ref)
                     try:
-                        row = ray.get(ref)
-                    except Exception as exc:     # a worker that died or a task Ray gave up on
-                        row = failed_row(job, f"ray: {type(exc).__name__}: {str(exc).splitlines()[0]}")
+                        row, files = ray.get(ref)
+                    except Exception as exc:     # a worker that died, or a node that left
+                        row, files = failed_row(job, _lost(exc)), {}
+                    _receive_run(root, job, files, str(_scenario_path(job, context)))
                     on_result(job, row)
                 now = time.monotonic()
                 for ref, (job, started) in list(pending.items()):
@@ -191,17 +266,20 @@ class RayExecutor:
                         pending.pop(ref)
                         on_result(job, failed_row(job, f"timeout: still running after {self.timeout_s:g} s"))
         finally:
-            if started_here:
-                ray.shutdown()
+            if ours:
+                disconnect()
 
 
-def make_executor(name: str, workers: int, timeout_s: float, address: str | None = None):
+def make_executor(name: str, workers: int | None, timeout_s: float, address: str | None = None):
+    """The executor ``name`` with ``workers`` runs in flight (None: all cores, or all the cluster's CPUs)."""
     from simgap.errors import InputError
 
     if name == "local":
         if address:
             raise InputError("--address is for the ray executor", field="address", allowed="--executor ray")
-        return LocalExecutor(workers, timeout_s)
+        return LocalExecutor(workers or os.cpu_count() or 1, timeout_s)
     if name == "ray":
-        return RayExecutor(workers, timeout_s, address)
+        executor = RayExecutor(workers, timeout_s, address)
+        executor.connect()              # an unreachable or unfit cluster stops us before any run
+        return executor
     raise InputError(f"unknown executor '{name}'", field="executor", allowed="local, ray")

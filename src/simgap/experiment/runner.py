@@ -105,7 +105,7 @@ def clean_partial_runs(root: Path) -> None:
                 shutil.rmtree(tmp, ignore_errors=True)
 
 
-def run_experiment(spec_ref: str | Path, root: Path, workers: int, executor: str = "local",
+def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
                    retry_failed: bool = False) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
@@ -166,7 +166,7 @@ def experiment_status(root: Path) -> Status:
     meta = json.loads(meta_path.read_text())
     spec = ExperimentSpec.model_validate(meta["spec"])
     logical = load_logical(meta.get("logical_ref", spec.logical))
-    rows = {r["key"]: r for r in ResultsStore(root).rows()}
+    rows = {r["key"]: r for r in ResultsStore(root).finished_rows()}
     spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
     keys = [j.key for _, runs in jobs(spec, logical, spec_file) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]

@@ -343,7 +343,7 @@ class SearchProgress:
     high_failures: int
 
 
-def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, executor: str = "local",
+def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
@@ -355,10 +355,10 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int, e
         if n not in STRATEGIES:
             raise InputError(f"unknown strategy '{n}'", field="strategy", allowed=", ".join(STRATEGIES))
     root = Path(root)
+    runner = make_executor(executor, workers, spec.run_timeout_s, address)
     _claim(root, spec)
     space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles])
     planner, cosim = validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim)
-    runner = make_executor(executor, workers, spec.run_timeout_s, address)
     results = []
     for name in names:
         sroot = root / name

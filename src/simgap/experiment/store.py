@@ -11,7 +11,8 @@ Layout of an experiment directory::
 
 A row is written (to a temporary file, then renamed) only after its run directory is complete,
 so a row always describes a whole run; a run killed half-way leaves no row and is run again on
-resume. Nothing else in the directory is read as a result.
+resume, and so is a run whose worker died under it (its row says so until then). Nothing else in
+the directory is read as a result.
 """
 
 from __future__ import annotations
@@ -26,6 +27,9 @@ import pyarrow.parquet as pq
 from simgap.errors import InputError
 from simgap.experiment.records import RunRow
 from simgap.files import atomic_write
+
+
+WORKER_DIED = "worker died"     # the failure of a run whose worker died under it (a crash, a kill, a lost node)
 
 
 def row_file_name(key: str) -> str:
@@ -65,9 +69,14 @@ class ResultsStore:
             out.extend(pq.read_table(path).to_pylist())
         return out
 
+    def finished_rows(self) -> list[dict[str, Any]]:
+        """The rows of the finished runs. A run whose worker died under it is not finished: it has
+        no result of its own, and runs again on resume."""
+        return [r for r in self.rows() if not str(r.get("failure") or "").startswith(WORKER_DIED)]
+
     def finished_keys(self) -> dict[str, str]:
         """Job key -> status ('ok' or 'failed') of every finished run."""
-        return {r["key"]: r["status"] for r in self.rows()}
+        return {r["key"]: r["status"] for r in self.finished_rows()}
 
     def consolidate(self) -> Path | None:
         """Write ``store/results.parquet`` with every row (columns: the union over rows)."""
