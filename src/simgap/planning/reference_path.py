@@ -7,6 +7,7 @@ Evaluation uses the same path (``xy`` and ``s``) to express lateral displacement
 
 from __future__ import annotations
 
+import copy
 import logging
 from dataclasses import dataclass
 
@@ -54,23 +55,65 @@ class ReferencePath:
 def route_centre_line(lanelet_network: LaneletNetwork,
                       planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
     """The centre line of the shortest route (fewest lane changes) from the initial state to the
-    goal, as commonroad-route-planner computes it, and the route's lanelet ids."""
+    goal, as commonroad-route-planner computes it, and the route's lanelet ids.
+
+    The route planner changes lanes where the goal lanelet needs it and, for a goal without
+    lanelets (no position, or one off the lanelets), follows the road from the start. An initial
+    state off every lanelet (between lanelets, on the shoulder) starts the route from the nearest
+    lanelet with a matching direction; only where no route exists on the map is the planning
+    problem refused, with the reason."""
+    pid = planning_problem.planning_problem_id
+    try:
+        return _planned_route(lanelet_network, planning_problem)
+    except (ValueError, IndexError, KeyError, AttributeError) as exc:
+        first = str(exc) or type(exc).__name__
+    snapped = _snapped_to_lanelet(lanelet_network, planning_problem)
+    if snapped is not None:
+        try:
+            return _planned_route(lanelet_network, snapped)
+        except (ValueError, IndexError, KeyError, AttributeError):
+            pass
+    raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
+                     field=f"planning problem {pid}",
+                     allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
+
+
+def _planned_route(lanelet_network: LaneletNetwork,
+                   planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
     # imported here: the route planner pulls in networkx and its own logging at import time
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
     from commonroad_route_planner.route_planner import RoutePlanner
 
-    pid = planning_problem.planning_problem_id
-    try:
-        routes = RoutePlanner(lanelet_network, planning_problem, logging_level=logging.ERROR).plan_routes()
-        route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
-                                     logging_level=logging.ERROR).plan_shortest_reference_path()
-    except (ValueError, IndexError, KeyError) as exc:
-        raise InputError(f"no route from the initial state to the goal: {exc}",
-                         field=f"planning problem {pid}", allowed="a goal reachable along lanelets") from None
+    routes = RoutePlanner(lanelet_network, planning_problem, logging_level=logging.ERROR).plan_routes()
+    route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
+                                 logging_level=logging.ERROR).plan_shortest_reference_path()
     centre = np.asarray(route.reference_path, dtype=float)
     if len(centre) < 2:
-        raise InputError("the route's centre line has fewer than two points", field=f"planning problem {pid}")
+        raise ValueError("the route's centre line has fewer than two points")
     return centre, tuple(int(i) for i in route.lanelet_ids)
+
+
+def _snapped_to_lanelet(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> PlanningProblem | None:
+    """A copy of the planning problem whose initial position is moved onto the nearest centre-line
+    point of a lanelet heading within 90 degrees of the initial orientation (None: no lanelet)."""
+    init = planning_problem.initial_state
+    pos = np.asarray(init.position, dtype=float)
+    yaw = float(getattr(init, "orientation", 0.0) or 0.0)
+    best, best_distance = None, np.inf
+    for lanelet in lanelet_network.lanelets:
+        centre = np.asarray(lanelet.center_vertices, dtype=float)
+        if len(centre) < 2:
+            continue
+        distance = np.hypot(*(centre - pos).T)
+        k = int(min(distance.argmin(), len(centre) - 2))
+        heading = np.arctan2(*(centre[k + 1] - centre[k])[::-1])
+        if np.cos(heading - yaw) > 0 and distance[k] < best_distance:
+            best, best_distance = centre[k] + 0.05 * (centre[k + 1] - centre[k]), distance[k]
+    if best is None:
+        return None
+    snapped = copy.deepcopy(planning_problem)
+    snapped.initial_state.position = best
+    return snapped
 
 
 def _arc_length(xy: np.ndarray) -> np.ndarray:
