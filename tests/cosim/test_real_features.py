@@ -1,0 +1,88 @@
+"""Features of real CommonRoad scenarios, closed loop in the ideal world with the Frenet planner:
+goal time / velocity / orientation windows, lane-change routes, starts between lanelets, circle
+and set-based obstacles, dense highway traffic, and recorded traffic driven by an IDM."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from commonroad.geometry.shape import Circle, Rectangle
+from commonroad.prediction.prediction import Occupancy, SetBasedPrediction
+from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
+from commonroad.scenario.state import InitialState
+
+from real_like import DT, box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
+from simgap.cosim import CosimSettings
+
+
+def _only_outcome(run):
+    (agent,) = run.agents
+    return agent
+
+
+def test_an_ngsim_goal_is_met_inside_its_time_velocity_and_orientation_windows():
+    # arrive between 9 and 10 s, below 3.1 m/s, heading 0 +- 0.2 rad, in a 2.3 x 1.8 m box 50 m ahead
+    run = run_ego(highway(lanes=1, length=150, segments=1), start(10, 0, 8.0),
+                  box_goal(60, 0, (90, 100), (0.0, 3.1), (2.3, 1.8), (-0.2, 0.2)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached"
+    assert 9.0 <= agent.time_to_goal_s <= 10.0
+    assert run.driven[1].v[-1] <= 3.1
+
+
+def test_arriving_too_early_slows_down_and_waits():
+    # 30 m ahead at 8 m/s would take 4 s; the goal's window opens at 15 s
+    run = run_ego(highway(lanes=1, length=150, segments=1), start(10, 0, 8.0),
+                  box_goal(40, 0, (150, 160), (0.0, 2.0), (4.0, 2.0)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached" and 15.0 <= agent.time_to_goal_s <= 16.0
+
+
+def test_a_goal_lanelet_two_lanes_over_is_reached_by_changing_lanes():
+    scenario = highway(lanes=3, length=300, segments=2)
+    run = run_ego(scenario, start(10, 0, 10.0), lanelet_goal(scenario, 31, (0, 400)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached"
+    assert run.driven[1].y[-1] > 2 * 3.5
+
+
+def test_a_start_between_two_lanelets_with_a_heading_error_reaches_the_goal():
+    run = run_ego(highway(lanes=2, length=200, segments=1), start(10, 0, 5.0, y_offset=1.75, yaw=0.1),
+                  box_goal(120, 1, (0, 300)))
+    assert _only_outcome(run).outcome == "goal_reached"
+
+
+def test_circle_and_set_based_obstacles_are_avoided():
+    scenario = highway(lanes=2, length=300, segments=1)
+    scenario.add_objects(StaticObstacle(901, ObstacleType.UNKNOWN, Circle(1.0), InitialState(
+        position=np.array([80.0, lane_y(0)]), orientation=0.0, velocity=0.0, time_step=0)))
+    occupancies = [Occupancy(k, Rectangle(5.0 + 0.02 * k, 2.2, np.array([140 + 3.0 * k * DT, lane_y(0)])))
+                   for k in range(1, 150)]
+    scenario.add_objects(DynamicObstacle(902, ObstacleType.CAR, Rectangle(4.5, 1.8), InitialState(
+        position=np.array([140.0, lane_y(0)]), orientation=0.0, velocity=3.0, time_step=0),
+        SetBasedPrediction(1, occupancies)))
+    run = run_ego(scenario, start(10, 0, 10.0), box_goal(260, 0, (0, 400)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached"
+    assert agent.min_distance_to_traffic_m > 0.0
+
+
+def test_highway_speed_among_dense_recorded_traffic():
+    scenario = highway(lanes=3, length=500, segments=2)
+    for i, (x, lane, v) in enumerate([(60, 0, 20), (100, 0, 20), (150, 1, 24), (40, 1, 24), (220, 2, 28),
+                                      (120, 2, 27), (300, 0, 20)]):
+        scenario.add_objects(recorded_car(100 + i, x, lane, v, 250))
+    run = run_ego(scenario, start(10, 0, 30.0), box_goal(470, 0, (0, 250), size=(20, 3.5)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached" and agent.planner_failures == 0
+
+
+@pytest.mark.parametrize("mode, outcomes", [("replay", {"collision", "planner_failure"}), ("idm", {"goal_reached"})])
+def test_recorded_traffic_behind_a_slow_start_reacts_only_with_idm(mode, outcomes):
+    # one lane; a car recorded at 15 m/s comes from behind an ego that starts from standstill:
+    # replayed, it drives into the ego (which cannot escape); driven by the IDM, it follows
+    scenario = highway(lanes=1, length=300, segments=1)
+    scenario.add_objects(recorded_car(700, -30, 0, 15.0, 300))
+    run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)), settings=CosimSettings(traffic=mode))
+    assert _only_outcome(run).outcome in outcomes
+    assert run.settings["cosim"]["traffic"] == mode
