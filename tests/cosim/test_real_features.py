@@ -6,13 +6,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from commonroad.common.util import Interval
 from commonroad.geometry.shape import Circle, Rectangle
+from commonroad.planning.goal import GoalRegion
 from commonroad.prediction.prediction import Occupancy, SetBasedPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
-from commonroad.scenario.state import InitialState
+from commonroad.scenario.state import CustomState, InitialState
 
 from real_like import DT, box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
 from simgap.cosim import CosimSettings
+from simgap.errors import InputError
 
 
 def _only_outcome(run):
@@ -86,3 +89,19 @@ def test_recorded_traffic_behind_a_slow_start_reacts_only_with_idm(mode, outcome
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)), settings=CosimSettings(traffic=mode))
     assert _only_outcome(run).outcome in outcomes
     assert run.settings["cosim"]["traffic"] == mode
+
+
+def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():
+    scenario = highway(lanes=1, length=300, segments=2)
+    goal = GoalRegion([CustomState(time_step=Interval(30, 40))])
+    run = run_ego(scenario, start(10, 0, 10.0), goal)
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(3.0)
+
+
+def test_a_goal_no_lanelet_leads_to_is_refused_naming_the_planning_problem():
+    scenario = highway(lanes=1, length=200, segments=2)
+    goal = GoalRegion([CustomState(time_step=Interval(0, 100), position=Rectangle(10.0, 3.0, np.array([20.0, 1.75])))])
+    init = start(150, 0, 5.0)     # the goal lies on the lanelet before the start's, on a one-way lane
+    with pytest.raises(InputError, match="planning problem 1.*no route"):
+        run_ego(scenario, init, goal)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from pydantic import ValidationError
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -14,7 +15,7 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.cosim import CosimSettings, Run
-from simgap.errors import InputError
+from simgap.errors import InputError, pydantic_to_input_error
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
 
@@ -40,7 +41,11 @@ def run(
                                              "speed_noise, road_bank, road_grade"),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
-    max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
+    max_time: Optional[float] = typer.Option(
+        None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
+                   "(60 s when the goal has none)"),
+    traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
+                                               "its recorded path by an IDM towards the vehicle ahead)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
 ) -> None:
     """Run a scenario and print a per-agent summary.
@@ -70,7 +75,8 @@ def run(
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
                          backend_settings=backend_settings | knob_settings,
                          planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
-                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+                         cosim=_cosim_settings(replan_every=replan_every, max_time_s=max_time,
+                                               traffic=traffic, **knob_cosim))
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
@@ -131,3 +137,11 @@ def print_summary(console: Console, result: Run) -> None:
     console.print(f"wall time {result.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
     if result.failure:
         console.print(f"[red]run failed: {result.failure}[/red]")
+
+
+def _cosim_settings(**values) -> CosimSettings:
+    """The loop's settings from the command line; a bad value is an `InputError` naming it."""
+    try:
+        return CosimSettings(**values)
+    except ValidationError as err:
+        raise pydantic_to_input_error(err, None) from None

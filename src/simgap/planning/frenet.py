@@ -74,6 +74,8 @@ FIRST_CHUNK, MAX_CHUNK = 4, 64
 # BLOCKED_SPEED_GAIN x the desired speed is looked for among this many more samples
 BLOCKED_SPEED_GAIN = 0.2
 BLOCKED_SEARCH_SAMPLES = 256
+# ... except within this distance of the goal (or the speed lookahead, when longer) [m]
+NO_OVERTAKING_BEFORE_GOAL_M = 15.0
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,7 @@ class _Start:
     v: float
     desired: float
     low_velocity: bool
+    may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
 
 
 @dataclass
@@ -267,10 +270,12 @@ class FrenetPlanner:
             return None
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
-        desired = min(self.speed_profile.desired_speed(s_ref, lookahead),
-                      self._approach_for(dt).speed_cap(s_ref, t, v))
+        approach = self._approach_for(dt)
+        desired = min(self.speed_profile.desired_speed(s_ref, lookahead), approach.speed_cap(s_ref, t, v))
         cycle.desired_speed = desired
-        return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity)
+        may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
+        return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
+                      may_overtake)
 
     def _relaxed(self, start: _Start) -> _Start | None:
         """``start`` with zero acceleration and the reference path's curvature."""
@@ -378,7 +383,8 @@ class FrenetPlanner:
 
     def _blocked(self, plan: CartesianBatch, start: _Start, cycle: PlanningCycle) -> bool:
         """Traffic holds ``plan`` well below the desired speed."""
-        return cycle.rejected_traffic > 0 and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired
+        return (start.may_overtake and cycle.rejected_traffic > 0
+                and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired)
 
     def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, recovery: int, dt: float,
                   cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:

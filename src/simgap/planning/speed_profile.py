@@ -63,11 +63,17 @@ class GoalApproach:
                              time.lo + min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
         self.deceleration = deceleration
 
-    def speed_cap(self, s: float, t: float, v: float) -> float:
-        """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
+    def distance_to_goal(self, s: float) -> float:
+        """Arc length from ``s`` to the goal's centre (inf: no goal on the path, or passed)."""
         if self.s_goal is None or s > self.s_goal:
             return math.inf
-        remaining = self.s_goal - s
+        return self.s_goal - s
+
+    def speed_cap(self, s: float, t: float, v: float) -> float:
+        """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
+        remaining = self.distance_to_goal(s)
+        if math.isinf(remaining):
+            return math.inf
         cap = math.inf
         if self.arrival_speed is not None:
             braking = max(remaining - v * _RESPONSE_S, 0.0)
