@@ -310,7 +310,7 @@ class _CoSimulation:
         if hit is not None:
             self._finish(p, "collision", state, "footprints overlap", hit)
         elif excursion > 0.0:
-            self._finish(p, "off_road", state, f"footprint {excursion:.2f} m beyond the road")
+            self._finish(p, "off_road", state, f"footprint {excursion:.3f} m beyond the road")
         elif p.goal.is_reached(state):
             self._finish(p, "goal_reached", state)
         elif state.t >= p.deadline - 1e-9:

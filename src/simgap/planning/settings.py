@@ -63,7 +63,7 @@ class CostWeights(_Section):
 class SpeedSettings(_Section):
     """The desired speed: the goal's velocity interval or a cruise speed, slowed for curvature."""
 
-    cruise_m_s: float = Field(10.0, gt=0, description="desired speed when the goal states none [m/s]")
+    cruise_m_s: float = Field(10.0, gt=0, description="desired speed [m/s]; a faster start keeps its speed, and a goal velocity window above it raises it")
     max_lateral_acceleration: float = Field(
         4.0, gt=0, description="bound on v^2 * curvature along plans and the reference path [m/s^2]")
     comfortable_deceleration: float = Field(

@@ -89,14 +89,27 @@ def _min_box(points: np.ndarray) -> Box:
     return Box(float(centre[0]), float(centre[1]), math.atan2(e1[1], e1[0]), max(length, 0.1), max(width, 0.1))
 
 
+def exact(value, default: float = 0.0):
+    """A state attribute's value: an uncertain one (a shape, an interval; recorded files have
+    them) as its centre."""
+    if value is None:
+        return default
+    if hasattr(value, "center"):
+        return np.asarray(value.center, dtype=float)
+    if hasattr(value, "start") and hasattr(value, "end"):
+        return 0.5 * (float(value.start) + float(value.end))
+    return value
+
+
 def _centre_state(st, box: Box, dt: float) -> State:
-    yaw = float(getattr(st, "orientation", 0.0) or 0.0)
+    yaw = float(exact(getattr(st, "orientation", None)))
+    position = np.asarray(exact(st.position), dtype=float)
     c, s = math.cos(yaw), math.sin(yaw)
     return State(
-        t=st.time_step * dt, x=float(st.position[0]) + c * box.dx - s * box.dy,
-        y=float(st.position[1]) + s * box.dx + c * box.dy, yaw=yaw + box.yaw,
-        v=float(getattr(st, "velocity", 0.0) or 0.0), a=float(getattr(st, "acceleration", 0.0) or 0.0),
-        yaw_rate=float(getattr(st, "yaw_rate", 0.0) or 0.0))
+        t=int(exact(st.time_step)) * dt, x=float(position[0]) + c * box.dx - s * box.dy,
+        y=float(position[1]) + s * box.dx + c * box.dy, yaw=yaw + box.yaw,
+        v=float(exact(getattr(st, "velocity", None))), a=float(exact(getattr(st, "acceleration", None))),
+        yaw_rate=float(exact(getattr(st, "yaw_rate", None))))
 
 
 def obstacle_trajectory(obstacle: DynamicObstacle, dt: float) -> Trajectory:
