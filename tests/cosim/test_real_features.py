@@ -105,3 +105,52 @@ def test_a_goal_no_lanelet_leads_to_is_refused_naming_the_planning_problem():
     init = start(150, 0, 5.0)     # the goal lies on the lanelet before the start's, on a one-way lane
     with pytest.raises(InputError, match="planning problem 1.*no route"):
         run_ego(scenario, init, goal)
+
+
+def _scenario_2018b(states: int = 120) -> str:
+    """A CommonRoad 2018b file as recorded datasets wrote them: two lanes, a car recorded with an
+    uncertain initial position (a small rectangle), a circular parked vehicle, one planning problem."""
+    point = "<point><x>{}</x><y>{}</y></point>"
+    track = "".join(
+        f"<state><position>{point.format(60 + 0.5 * k, 1.75)}</position><orientation><exact>0</exact></orientation>"
+        f"<time><exact>{k}</exact></time><velocity><exact>5</exact></velocity></state>" for k in range(1, states))
+    lanelet = ("<lanelet id='{i}'><leftBound>{l0}{l1}</leftBound><rightBound>{r0}{r1}</rightBound>"
+               "<adjacent{side} ref='{other}' drivingDir='same'/></lanelet>")
+    lanes = "".join(lanelet.format(i=i, other=3 - i, side="Left" if i == 1 else "Right",
+                                   l0=point.format(0, 3.5 * i), l1=point.format(300, 3.5 * i),
+                                   r0=point.format(0, 3.5 * (i - 1)), r1=point.format(300, 3.5 * (i - 1)))
+                    for i in (1, 2))
+    return f"""<?xml version='1.0' encoding='UTF-8'?>
+<commonRoad commonRoadVersion="2018b" benchmarkID="DEU_Test-1_1_T-1" date="2019-01-01" author="simgap"
+            affiliation="" source="" tags="" timeStepSize="0.1">
+  {lanes}
+  <obstacle id="3"><role>dynamic</role><type>car</type>
+    <shape><rectangle><length>4.5</length><width>1.8</width></rectangle></shape>
+    <initialState><position><rectangle><length>0.6</length><width>0.2</width><orientation>0</orientation>
+      <center><x>60</x><y>1.75</y></center></rectangle></position>
+      <orientation><exact>0</exact></orientation><time><exact>0</exact></time><velocity><exact>5</exact></velocity>
+    </initialState>
+    <trajectory>{track}</trajectory></obstacle>
+  <obstacle id="4"><role>static</role><type>parkedVehicle</type><shape><circle><radius>1.0</radius></circle></shape>
+    <initialState><position>{point.format(200, 5.25)}</position><orientation><exact>0</exact></orientation>
+      <time><exact>0</exact></time></initialState></obstacle>
+  <planningProblem id="100">
+    <initialState><position>{point.format(10, 1.75)}</position><orientation><exact>0</exact></orientation>
+      <time><exact>0</exact></time><velocity><exact>10</exact></velocity><yawRate><exact>0</exact></yawRate>
+      <slipAngle><exact>0</exact></slipAngle></initialState>
+    <goalState><position><rectangle><length>10</length><width>3</width><orientation>0</orientation>
+      <center><x>250</x><y>1.75</y></center></rectangle></position>
+      <time><intervalStart>0</intervalStart><intervalEnd>400</intervalEnd></time></goalState>
+  </planningProblem>
+</commonRoad>
+"""
+
+
+def test_a_2018b_file_with_uncertain_states_and_a_circle_runs_to_its_goal(tmp_path):
+    from simgap.experiment.single_run import RunRequest, execute
+
+    xml = tmp_path / "DEU_Test-1_1_T-1.xml"
+    xml.write_text(_scenario_2018b())
+    run = execute(RunRequest(scenario=xml, backend="ideal"))
+    (agent,) = run.agents
+    assert agent.outcome == "goal_reached" and agent.min_distance_to_traffic_m > 0.0
