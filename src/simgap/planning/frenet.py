@@ -76,6 +76,8 @@ BLOCKED_SPEED_GAIN = 0.2
 BLOCKED_SEARCH_SAMPLES = 256
 # ... except within this distance of the goal (or the speed lookahead, when longer) [m]
 NO_OVERTAKING_BEFORE_GOAL_M = 15.0
+# a vehicle whose footprint grown by this much leaves the road is at the road's edge [m]
+ROAD_EDGE_M = 0.3
 
 
 @dataclass(frozen=True)
@@ -154,6 +156,8 @@ class FrenetPlanner:
             resolution=s.collision.road_grid_resolution_m, margin=s.collision.road_margin_m,
             max_cells=s.collision.road_grid_max_cells)
         self._outline = footprint_outline(vehicle.length, vehicle.width, s.collision.footprint_point_spacing_m)
+        self._edge_outline = footprint_outline(vehicle.length + 2 * ROAD_EDGE_M, vehicle.width + 2 * ROAD_EDGE_M,
+                                               s.collision.footprint_point_spacing_m)
         self._handler: frenetix.TrajectoryHandler | None = None
         self._dt: float | None = None
         self._approach: GoalApproach | None = None
@@ -352,17 +356,21 @@ class FrenetPlanner:
         """In cost order, a few at a time: the first plan within the limits, clear of traffic and on
         the road (and within the lateral-acceleration bound if any is). When traffic holds the
         cheapest such plan well below the desired speed (``blocked_speed_share``), a faster one among
-        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead."""
+        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. When
+        every plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they
+        are checked again with the recovery time of a vehicle that is off the road."""
         recovery = self._recovery_steps(start)
         clock = time.perf_counter()
         chosen: CartesianBatch | None = None
         fallback: CartesianBatch | None = None
+        checked: list[CartesianBatch] = []
         taken, chunk, beyond_chosen = 0, FIRST_CHUNK, 0
         while taken < feasible and beyond_chosen < BLOCKED_SEARCH_SAMPLES:
             samples = [next(ordered) for _ in range(min(chunk, feasible - taken))]
             taken += len(samples)
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
+            checked.append(batch)
             passing, lateral_ok = self._verdicts(batch, traffic, recovery, start.dt, cycle)
             for i in np.flatnonzero(passing):
                 if not (lateral_ok[i] or not self.settings.speed.enforce_lateral_acceleration):
@@ -378,8 +386,29 @@ class FrenetPlanner:
                     return _row(batch, i)
             if chosen is not None:
                 beyond_chosen += len(samples)
+        if chosen is None and fallback is None and recovery == 0 and cycle.rejected_road and self._at_road_edge(start):
+            chosen = self._first_recovering(checked, start, traffic)
         _lap(cycle, "collision", clock)
         return chosen or fallback
+
+    def _at_road_edge(self, start: _Start) -> bool:
+        """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""
+        r = self.vehicle.rear_axle_to_center
+        cx0 = start.x_rear + r * math.cos(start.yaw_local)
+        cy0 = start.y_rear + r * math.sin(start.yaw_local)
+        return not footprints_on_road(self.drivable_area, self._edge_outline, np.array([cx0]), np.array([cy0]),
+                                      np.array([start.yaw_local]))[0]
+
+    def _first_recovering(self, checked: list[CartesianBatch], start: _Start,
+                          traffic: TrafficPrediction) -> CartesianBatch | None:
+        """The cheapest of the ``checked`` plans that passes when it may leave the road for the
+        recovery time (the rejections of this second look are not counted)."""
+        recovery = int(round(self.settings.collision.recovery_s / start.dt))
+        for batch in checked:
+            passing, _ = self._verdicts(batch, traffic, recovery, start.dt, PlanningCycle())
+            if passing.any():
+                return _row(batch, int(np.flatnonzero(passing)[0]))
+        return None
 
     def _blocked(self, plan: CartesianBatch, start: _Start, cycle: PlanningCycle) -> bool:
         """Traffic holds ``plan`` well below the desired speed."""
