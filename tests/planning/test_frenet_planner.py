@@ -148,10 +148,13 @@ def _plan_collides(plan, participant, sedan):
     return False
 
 
-def test_stops_behind_a_parked_car(sedan, straight_road, straight_planner):
-    """With the paper's weights, leaving the lane costs more than waiting: it stops behind."""
+def test_stops_behind_a_parked_car_when_told_to_wait(sedan, straight_road):
+    """With the paper's weights and no search for a faster plan, leaving the lane costs more than
+    waiting: it stops behind."""
+    planner = FrenetPlanner(sedan, straight_road.lanelet_network, straight_road.problem,
+                            FrenetSettings.from_mapping({"speed": {"blocked_speed_share": 0.0}}))
     parked = _parked(straight_road, 7, 60.0)
-    run = drive(straight_planner, straight_road, _lane_state(straight_road, 10.0, 10.0), steps=100,
+    run = drive(planner, straight_road, _lane_state(straight_road, 10.0, 10.0), steps=100,
                 world=_world(straight_road, [parked]), stop_at_goal=False)
     assert run.failures == 0
     for plan in run.plans:
@@ -160,6 +163,17 @@ def test_stops_behind_a_parked_car(sedan, straight_road, straight_planner):
     assert last.v < 0.5
     gap = footprint(last, sedan.length, sedan.width).distance(footprint(parked.prediction[0], 4.5, 1.8))
     assert 0.1 <= gap < 3.0
+
+
+def test_passes_a_parked_car_that_blocks_its_lane(sedan, straight_road, straight_planner):
+    """By default a lane blocked by a standing car is left for a faster plan around it."""
+    parked = _parked(straight_road, 7, 60.0)
+    run = drive(straight_planner, straight_road, _lane_state(straight_road, 10.0, 10.0), steps=100,
+                world=_world(straight_road, [parked]), stop_at_goal=False)
+    assert run.failures == 0
+    for plan in run.plans:
+        assert not _plan_collides(plan, parked, sedan)
+    assert run.states[-1].x > 70.0
 
 
 def test_overtakes_a_parked_car_when_leaving_the_lane_is_cheap(sedan, straight_road):

@@ -14,7 +14,7 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.cosim import CosimSettings, Outcome, Run
-from simgap.errors import InputError
+from simgap.errors import InputError, validated
 from simgap.files import read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.records import PLANNER_VEHICLE
@@ -46,7 +46,11 @@ def run(
     knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
-    max_time: float = typer.Option(60.0, help="stop after this much simulated time [s]"),
+    max_time: Optional[float] = typer.Option(
+        None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
+                   "(60 s when the goal has none)"),
+    traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
+                                               "its recorded path by an IDM towards the vehicle ahead)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
 ) -> None:
     """Run a scenario and print a per-agent summary.
@@ -63,7 +67,8 @@ def run(
                          planner_vehicle=planner_vehicle,
                          backend_settings=backend_settings | knob_settings,
                          planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
-                         cosim=CosimSettings(replan_every=replan_every, max_time_s=max_time, **knob_cosim))
+                         cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
+                                                             traffic=traffic, **knob_cosim)))
     _execute(request, out, as_json)
 
 
@@ -138,3 +143,4 @@ def print_summary(console: Console, result: Run) -> None:
     console.print(f"wall time {result.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
     if result.failure:
         console.print(f"[red]run failed: {result.failure}[/red]")
+

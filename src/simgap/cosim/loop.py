@@ -2,8 +2,13 @@
 
 Every dt: observe each agent's state from the backend → every active agent plans (every
 ``replan_every`` steps, or at once if its plan failed or ran out) → the backend advances one dt
-→ the loop checks goal, collision, road departure and timeout. The loop knows nothing about
-any concrete backend or planner: it is handed a `Backend` and one `Planner` per agent.
+and the non-agent traffic moves (as recorded, or by its IDM) → the loop checks goal, collision,
+road departure and timeout. The loop knows nothing about any concrete backend or planner: it is
+handed a `Backend` and one `Planner` per agent.
+
+The goal is CommonRoad's (`simgap.scenario.goal`): any goal state counts, and the end of its time
+window is the agent's deadline. When a planner finds no plan, the agent brakes along the path of
+its last plan (in its lane), and the event records the planner's reason.
 
 Observation noise (a reality knob, off by default as in the ideal world): each time an agent
 plans, it sees its own state with seeded Gaussian noise on position, heading and speed; the
@@ -12,6 +17,7 @@ backend, the record and the monitors keep the true state.
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -19,13 +25,13 @@ from typing import Callable, Mapping
 
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
-from commonroad.scenario.state import CustomState
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Outcome, Run
-from simgap.cosim.traffic import DrivableArea, footprint, non_agent_traffic
+from simgap.cosim.traffic import DrivableArea, Traffic, TrafficMode, footprint, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
+from simgap.scenario.goal import Goal
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -52,19 +58,26 @@ class ObservationNoise(BaseModel):
                              v=max(0.0, state.v + self.speed_mps * dv))
 
 
+DEFAULT_TIME_LIMIT_S = 60.0
+
+
 class CosimSettings(BaseModel):
     """Settings of the loop (not of the planner or backend)."""
 
     model_config = ConfigDict(extra="forbid")
 
     replan_every: int = Field(1, ge=1, description="replan every N steps (the paper's Frenetix: 3)")
-    max_time_s: float = Field(60.0, gt=0, description="hard limit on simulated time [s]")
+    max_time_s: float | None = Field(
+        None, gt=0, description="limit on simulated time [s]; default: the end of the goal's time window "
+                                f"(the planning problem's deadline), or {DEFAULT_TIME_LIMIT_S:g} s when it states none")
     emergency_decel: float = Field(8.0, gt=0, description="deceleration of the emergency stop [m/s^2]")
     planner_failure_limit: int = Field(
         10, ge=1, description="consecutive failed planning cycles before an agent is given up")
     offroad_tolerance: float = Field(0.05, ge=0, description="footprint may exceed the road by [m]")
     observation_noise: ObservationNoise = Field(default_factory=ObservationNoise,
                                                 description="noise on the state each planner observes")
+    traffic: TrafficMode = Field(TrafficMode.REPLAY, description="recorded traffic: replay (as recorded) or idm "
+                                 "(driven along its recorded path by an IDM towards the vehicle ahead)")
 
 
 @dataclass
@@ -72,6 +85,8 @@ class _AgentProgress:
     agent: Agent
     planner: Planner
     problem: PlanningProblem
+    goal: Goal
+    deadline: float
     driven: list[State] = field(default_factory=list)
     plans: list[Trajectory] = field(default_factory=list)
     plan: Trajectory | None = None
@@ -88,29 +103,47 @@ class _AgentProgress:
         return self.outcome is None
 
 
-def emergency_stop(state: State, dt: float, decel: float, horizon_s: float = 3.0) -> Trajectory:
-    """Brake along the current heading to standstill (the loop's fallback when planning fails)."""
+def emergency_stop(state: State, dt: float, decel: float, horizon_s: float = 3.0,
+                   path: Trajectory | None = None) -> Trajectory:
+    """Brake to standstill: along ``path`` (the last plan: in lane) from where it passes closest to
+    ``state``, else along the current heading (the loop's fallback when planning fails)."""
     n = max(2, int(round(horizon_s / dt)) + 1)
-    states, x, y, v = [], state.x, state.y, state.v
-    for k in range(n):
-        a = -decel if v > 0 else 0.0
-        states.append(State(state.t + k * dt, x, y, state.yaw, v, a, 0.0, state.steer))
-        v_next = max(0.0, v - decel * dt)
-        dist = 0.5 * (v + v_next) * dt
-        x, y, v = x + dist * math.cos(state.yaw), y + dist * math.sin(state.yaw), v_next
-    return Trajectory.from_states(states, dt)
+    v = max(state.v, 0.0)
+    speeds = np.maximum(v - decel * dt * np.arange(n), 0.0)
+    travel = np.concatenate([[0.0], np.cumsum(0.5 * (speeds[1:] + speeds[:-1]) * dt)])
+    x, y, yaw = _along(path, state, travel)
+    a = np.where(speeds > 0, -decel, 0.0)
+    return Trajectory(dt, t=state.t + dt * np.arange(n), x=x, y=y, yaw=yaw, v=speeds, a=a,
+                      yaw_rate=np.zeros(n), steer=np.full(n, state.steer))
 
 
-def _goal_reached(problem: PlanningProblem, state: State, dt: float) -> bool:
-    cr_state = CustomState(position=state.position, orientation=state.yaw, velocity=state.v,
-                           time_step=int(round(state.t / dt)))
-    return bool(problem.goal.is_reached(cr_state))
+def _along(path: Trajectory | None, state: State, travel: np.ndarray):
+    """Poses ``travel`` metres from ``state`` along ``path`` (continued straight past its end)."""
+    straight = (state.x + travel * math.cos(state.yaw), state.y + travel * math.sin(state.yaw),
+                np.full(len(travel), state.yaw))
+    if path is None or len(path) < 2:
+        return straight
+    xy = np.stack([path.x, path.y], axis=1)
+    k = int(np.hypot(xy[:, 0] - state.x, xy[:, 1] - state.y).argmin())
+    if math.hypot(xy[k, 0] - state.x, xy[k, 1] - state.y) > 1.0:
+        return straight                     # the vehicle is not on its plan's path
+    xy = np.vstack([[state.x, state.y], xy[k + 1:]])
+    if len(xy) < 2:
+        return straight
+    steps = np.hypot(*np.diff(xy, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(steps)])
+    yaw = np.unwrap(np.concatenate([[state.yaw], np.arctan2(*np.diff(xy, axis=0).T[::-1])]))
+    beyond = np.maximum(travel - s[-1], 0.0)
+    x = np.interp(travel, s, xy[:, 0]) + beyond * math.cos(yaw[-1])
+    y = np.interp(travel, s, xy[:, 1]) + beyond * math.sin(yaw[-1])
+    return x, y, np.interp(travel, s, yaw)
 
 
-def _deadline(problem: PlanningProblem, dt: float, max_time: float) -> float:
-    ends = [gs.time_step.end for gs in problem.goal.state_list
-            if getattr(gs, "time_step", None) is not None and hasattr(gs.time_step, "end")]
-    return min([max_time] + [e * dt for e in ends])
+def deadline(goal: Goal, settings: CosimSettings) -> float:
+    """When an agent times out: the cap when set, else the goal's deadline, else the default."""
+    if settings.max_time_s is not None:
+        return settings.max_time_s
+    return goal.deadline_s if goal.deadline_s is not None else DEFAULT_TIME_LIMIT_S
 
 
 def simulate(
@@ -125,116 +158,196 @@ def simulate(
 ) -> Run:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``; ``seed``
     seeds the observation noise."""
-    settings = settings or CosimSettings()
-    noise, rng = settings.observation_noise, np.random.default_rng(seed)
-    dt = float(scenario.dt)
-    wall_start = time.perf_counter()
-    timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
-    events: list[Event] = []
-    obstacles = non_agent_traffic(scenario)
-    road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
-    progress_of = {
-        a.id: _AgentProgress(a, planners[a.id], problems.planning_problem_dict[a.id]) for a in agents
-    }
-    deadlines = {aid: _deadline(p.problem, dt, settings.max_time_s) for aid, p in progress_of.items()}
-    horizon = max(deadlines.values())
+    return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed).run(progress)
 
-    def finish(p: _AgentProgress, outcome: Outcome, state: State, detail: str = "",
-               other: int | None = None) -> None:
+
+class _CoSimulation:
+    """One run of the loop: the agents' progress, the traffic, the events and the timings."""
+
+    def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
+                 planners: Mapping[int, Planner], settings: CosimSettings, seed: int):
+        self.scenario, self.backend, self.settings = scenario, backend, settings
+        self.rng = np.random.default_rng(seed)
+        self.dt = float(scenario.dt)
+        self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
+        self.events: list[Event] = []
+        self.traffic: Traffic = make_traffic(scenario, settings.traffic)
+        self.road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
+        self.progress_of: dict[int, _AgentProgress] = {}
+        for a in agents:
+            problem = problems.planning_problem_dict[a.id]
+            goal = Goal.of(problem.goal, self.dt)
+            self.progress_of[a.id] = _AgentProgress(a, planners[a.id], problem, goal, deadline(goal, settings))
+        self.horizon = max(p.deadline for p in self.progress_of.values())
+        self.agents = agents
+
+    def run(self, progress: Callable[[float], None] | None) -> Run:
+        wall_start = time.perf_counter()
+        self.backend.load(self._scenario_for_backend(), self.agents)
+        failure = None
+        try:
+            states = self.backend.reset()
+            for aid, st in states.items():
+                self.progress_of[aid].driven.append(st)
+            step = 0
+            while any(p.active for p in self.progress_of.values()):
+                states = self._step(step, states)
+                step += 1
+                if progress is not None:
+                    progress(min(1.0, step * self.dt / self.horizon))
+        except PhysicsDiverged as exc:
+            failure = f"physics diverged: {exc}"
+            for p in self.progress_of.values():
+                if p.active:
+                    self._finish(p, Outcome.DIVERGED, p.driven[-1], str(exc))
+        finally:
+            backend_timings = dict(self.backend.timings)
+            backend_notes = list(self.backend.notes)
+            self.backend.close()
+        self.timings.update(backend_timings)
+        return self._record(time.perf_counter() - wall_start, backend_notes, failure)
+
+    def _scenario_for_backend(self) -> Scenario:
+        """The scenario as the backend builds it: with IDM traffic the loop moves the recorded
+        vehicles, so the backend gets none of the obstacles the IDM drives."""
+        if self.settings.traffic is TrafficMode.REPLAY or not self.scenario.dynamic_obstacles:
+            return self.scenario
+        scenario = copy.deepcopy(self.scenario)
+        for obstacle in list(scenario.dynamic_obstacles):
+            scenario.remove_obstacle(obstacle)
+        return scenario
+
+    def _step(self, step: int, states: dict[int, State]) -> dict[int, State]:
+        """Plan, execute one dt, move the traffic, monitor; returns the new states."""
+        t = step * self.dt
+        clock = time.perf_counter()
+        snapshot = _traffic_snapshot(self.progress_of, states, self.dt)   # every agent plans from it
+        for p in self.progress_of.values():
+            self._plan(p, states[p.agent.id], t, snapshot)
+        self.timings["planning"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        states = self.backend.step({aid: p.plan for aid, p in self.progress_of.items()})
+        self.timings["execution"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        self.traffic.advance(t, self.dt, snapshot)
+        for aid, st in states.items():
+            if self.progress_of[aid].active:      # a finished agent's record ends where it finished
+                self.progress_of[aid].driven.append(st)
+        self._monitor(states)
+        self.timings["monitoring"] += time.perf_counter() - clock
+        return states
+
+    def _plan(self, p: _AgentProgress, state: State, t: float, snapshot: Mapping[int, TrafficParticipant]) -> None:
+        """Let ``p``'s planner plan when it is due; a failure brakes the agent in its lane."""
+        settings, dt = self.settings, self.dt
+        if not p.active:
+            if p.plan is None or p.plan.t_end < t + dt:
+                p.plan = emergency_stop(state, dt, settings.emergency_decel, path=p.plan)
+            return
+        due = (p.plan is None or p.plan_age >= settings.replan_every
+               or p.plan.t_end < t + dt or p.failures_in_row > 0)
+        if not due:
+            p.plan_age += 1
+            return
+        world = World(self.scenario.lanelet_network, p.problem.goal, dt,
+                      tuple(_traffic_for(p.agent.id, snapshot, self.traffic.participants())))
+        try:
+            plan = p.planner.plan(settings.observation_noise.observe(state, self.rng), t, world)
+            reason = getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+        except Exception as exc:  # a planner that crashes fails its cycle, not the run
+            plan, reason = None, f"planner raised {type(exc).__name__}: {exc}"
+        if plan is None:
+            self._planner_failed(p, state, t, reason)
+        else:
+            p.failures_in_row = 0
+            p.plan, p.plan_age = plan, 1
+            p.plans.append(plan)
+
+    def _planner_failed(self, p: _AgentProgress, state: State, t: float, reason: str) -> None:
+        p.failures += 1
+        p.failures_in_row += 1
+        self.events.append(Event(t, p.agent.id, "planner_no_solution", state.x, state.y,
+                                 f"{reason}; braking in lane"))
+        if p.failures_in_row == 1:
+            p.plan = emergency_stop(state, self.dt, self.settings.emergency_decel, path=p.plan)
+        p.plan_age = 0
+        if p.failures_in_row >= self.settings.planner_failure_limit:
+            self._finish(p, Outcome.PLANNER_FAILURE, state,
+                         f"{p.failures_in_row} consecutive cycles without a plan; last: {reason}")
+
+    def _finish(self, p: _AgentProgress, outcome: Outcome, state: State, detail: str = "",
+                other: int | None = None) -> None:
         p.outcome = outcome
         if outcome == Outcome.GOAL_REACHED:
             p.time_to_goal = state.t
-        events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
+        self.events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
 
-    backend.load(scenario, agents)
-    failure: str | None = None
-    try:
-        states = backend.reset()
-        for aid, st in states.items():
-            progress_of[aid].driven.append(st)
-        step = 0
-        while any(p.active for p in progress_of.values()):
-            t = step * dt
-            # 1. plan
-            t0 = time.perf_counter()
-            # every agent plans from the same snapshot: the others' plans of the previous step
-            snapshot = _traffic_snapshot(progress_of, states, dt)
-            for aid, p in progress_of.items():
-                state = states[aid]
-                if not p.active:
-                    if p.plan is None or p.plan.t_end < t + dt:
-                        p.plan = emergency_stop(state, dt, settings.emergency_decel)
-                    continue
-                due = (p.plan is None or p.plan_age >= settings.replan_every
-                       or p.plan.t_end < t + dt or p.failures_in_row > 0)
-                if not due:
-                    p.plan_age += 1
-                    continue
-                world = World(scenario.lanelet_network, p.problem.goal, dt,
-                              tuple(_traffic_for(aid, snapshot, obstacles)))
-                reason = "no feasible collision-free sample; emergency stop"
-                try:
-                    plan = p.planner.plan(noise.observe(state, rng), t, world)
-                except Exception as exc:  # a planner that crashes fails its cycle, not the run
-                    plan, reason = None, f"planner raised {type(exc).__name__}: {exc}; emergency stop"
-                if plan is None:
-                    p.failures += 1
-                    p.failures_in_row += 1
-                    events.append(Event(t, aid, "planner_no_solution", state.x, state.y, reason))
-                    if p.failures_in_row == 1:
-                        p.plan = emergency_stop(state, dt, settings.emergency_decel)
-                    p.plan_age = 0
-                    if p.failures_in_row >= settings.planner_failure_limit or state.v < 0.1:
-                        finish(p, Outcome.PLANNER_FAILURE, state,
-                               f"{p.failures_in_row} consecutive cycles without a plan")
-                else:
-                    p.failures_in_row = 0
-                    p.plan, p.plan_age = plan, 1
-                    p.plans.append(plan)
-            timings["planning"] += time.perf_counter() - t0
-            # 2. execute
-            t0 = time.perf_counter()
-            states = backend.step({aid: p.plan for aid, p in progress_of.items()})
-            timings["execution"] += time.perf_counter() - t0
-            step += 1
-            # 3. monitor
-            t0 = time.perf_counter()
-            for aid, st in states.items():
-                if progress_of[aid].active:      # a finished agent's record ends where it finished
-                    progress_of[aid].driven.append(st)
-            _monitor(progress_of, states, obstacles, road, backend, dt, deadlines, finish)
-            timings["monitoring"] += time.perf_counter() - t0
-            if progress is not None:
-                progress(min(1.0, step * dt / horizon))
-    except PhysicsDiverged as exc:
-        failure = f"physics diverged: {exc}"
-        for p in progress_of.values():
+    def _monitor(self, states: Mapping[int, State]) -> None:
+        """Collision, road departure, goal and deadline of every agent still in the scene."""
+        progress_of = self.progress_of
+        shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
+                  for aid, st in states.items()}
+        present = [aid for aid, p in progress_of.items() if p.outcome != Outcome.GOAL_REACHED]
+        t = next(iter(states.values())).t
+        obstacle_shapes = {oid: footprint(st, length, width)
+                           for oid, (st, length, width) in self.traffic.poses(t).items()}
+        contacts = {}
+        for ev in self.backend.events():
+            if ev.kind == "collision":
+                contacts.setdefault(ev.agent_id, ev.other_id)
+        for aid in present:
+            p = progress_of[aid]
+            others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
+            hit = _first_contact(p, shapes[aid], others)
+            if aid in contacts and hit is None:
+                hit = contacts[aid]
+            excursion = self.road.excursion(shapes[aid])
+            p.max_excursion = max(p.max_excursion, excursion)
             if p.active:
-                last = p.driven[-1]
-                finish(p, Outcome.DIVERGED, last, str(exc))
-    finally:
-        backend_timings = dict(backend.timings)
-        backend_notes = list(backend.notes)
-        backend.close()
-    timings.update(backend_timings)
+                self._judge(p, states[aid], hit, excursion)
 
-    outcomes = []
-    for aid, p in progress_of.items():
-        driven = Trajectory.from_states(p.driven, dt)
-        outcomes.append(AgentOutcome(
-            id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
-            time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
-            distance_m=round(driven.path_length(), 3),
-            min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
-            max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures))
-    return Run(
-        scenario_id=str(scenario.scenario_id), backend=backend.name, dt=dt, agents=outcomes,
-        driven={aid: Trajectory.from_states(p.driven, dt) for aid, p in progress_of.items()},
-        plans={aid: p.plans for aid, p in progress_of.items()},
-        events=events, timings=timings, wall_time_s=time.perf_counter() - wall_start,
-        settings={"cosim": settings.model_dump()} | ({"backend_notes": backend_notes} if backend_notes else {}),
-        failure=failure,
-    )
+    def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float) -> None:
+        if hit is not None:
+            self._finish(p, Outcome.COLLISION, state, "footprints overlap", hit)
+        elif excursion > 0.0:
+            self._finish(p, Outcome.OFF_ROAD, state, f"footprint {excursion:.3f} m beyond the road")
+        elif p.goal.is_reached(state):
+            self._finish(p, Outcome.GOAL_REACHED, state)
+        elif state.t >= p.deadline - 1e-9:
+            self._finish(p, Outcome.TIMEOUT, state, f"goal not reached by t = {p.deadline:.1f} s: "
+                                              f"{p.goal.miss_reason(p.driven)}")
+
+    def _record(self, wall_time: float, backend_notes: list[str], failure: str | None) -> Run:
+        dt = self.dt
+        outcomes = []
+        for aid, p in self.progress_of.items():
+            driven = Trajectory.from_states(p.driven, dt)
+            outcomes.append(AgentOutcome(
+                id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
+                time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
+                distance_m=round(driven.path_length(), 3),
+                min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
+                max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures))
+        settings = {"cosim": self.settings.model_dump(mode="json")}
+        return Run(
+            scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
+            driven={aid: Trajectory.from_states(p.driven, dt) for aid, p in self.progress_of.items()},
+            plans={aid: p.plans for aid, p in self.progress_of.items()},
+            events=self.events, timings=self.timings, wall_time_s=wall_time,
+            settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
+            failure=failure,
+        )
+
+
+def _first_contact(p: _AgentProgress, shape, others) -> int | None:
+    """The first of ``others`` that ``shape`` touches (None: clear); updates the closest distance."""
+    hit = None
+    for oid, other_shape in others.items():
+        dist = shape.distance(other_shape)
+        p.min_distance = min(p.min_distance, dist)
+        if dist <= 0.0 and hit is None:
+            hit = oid
+    return hit
 
 
 def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping[int, State],
@@ -253,44 +366,6 @@ def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping
 
 
 def _traffic_for(aid: int, snapshot: Mapping[int, TrafficParticipant],
-                 obstacles: list[TrafficParticipant]) -> list[TrafficParticipant]:
-    """What agent ``aid`` sees: the other agents' latest plans and the obstacles' recordings."""
+                 obstacles) -> list[TrafficParticipant]:
+    """What agent ``aid`` sees: the other agents' latest plans and the obstacles' motion."""
     return [tp for oid, tp in snapshot.items() if oid != aid] + list(obstacles)
-
-
-def _monitor(progress_of, states, obstacles, road, backend, dt, deadlines, finish) -> None:
-    shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
-              for aid, st in states.items()}
-    present = [aid for aid, p in progress_of.items() if p.outcome != Outcome.GOAL_REACHED]
-    t = next(iter(states.values())).t
-    obstacle_shapes = {o.id: footprint(o.prediction.at(t), o.length, o.width) for o in obstacles
-                       if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9}
-    contacts = {}
-    for ev in backend.events():
-        if ev.kind == "collision":
-            contacts.setdefault(ev.agent_id, ev.other_id)
-    for aid in present:
-        p = progress_of[aid]
-        state, shape = states[aid], shapes[aid]
-        others = {oid: shapes[oid] for oid in present if oid != aid}
-        others.update(obstacle_shapes)
-        hit = None
-        for oid, other_shape in others.items():
-            dist = shape.distance(other_shape)
-            p.min_distance = min(p.min_distance, dist)
-            if dist <= 0.0 and hit is None:
-                hit = oid
-        if aid in contacts and hit is None:
-            hit = contacts[aid]
-        excursion = road.excursion(shape) if not road.contains(shape) else 0.0
-        p.max_excursion = max(p.max_excursion, excursion)
-        if not p.active:
-            continue
-        if hit is not None:
-            finish(p, Outcome.COLLISION, state, "footprints overlap", hit)
-        elif excursion > 0.0:
-            finish(p, Outcome.OFF_ROAD, state, f"footprint {excursion:.2f} m beyond the road")
-        elif _goal_reached(p.problem, state, dt):
-            finish(p, Outcome.GOAL_REACHED, state)
-        elif state.t >= deadlines[aid] - 1e-9:
-            finish(p, Outcome.TIMEOUT, state, f"goal not reached by t = {deadlines[aid]:.1f} s")

@@ -1,8 +1,16 @@
-"""Road users as the loop sees them: footprints, non-agent obstacles, the drivable area."""
+"""Road users as the loop sees them: footprints, the drivable area, and the non-agent traffic.
+
+Non-agent traffic comes in two modes (`TrafficMode`): ``replay`` (the default: every obstacle
+follows its recording, whatever happens — a replay stays a replay) and ``idm`` (recorded vehicles
+are driven along their recorded paths by an IDM towards the vehicle ahead, agents included; see
+`simgap.cosim.idm`).
+"""
 
 from __future__ import annotations
 
 import math
+from enum import Enum
+from typing import Mapping, Protocol, Sequence
 
 import numpy as np
 import shapely
@@ -14,6 +22,13 @@ from shapely.ops import unary_union
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.trajectory import State
+
+
+class TrafficMode(str, Enum):
+    """How recorded traffic moves: as recorded, or reacting to the vehicle ahead."""
+
+    REPLAY = "replay"
+    IDM = "idm"
 
 
 def footprint(state: State, length: float, width: float) -> Polygon:
@@ -47,5 +62,47 @@ class DrivableArea:
 
 
 def non_agent_traffic(scenario: Scenario) -> list[TrafficParticipant]:
-    """Dynamic obstacles of the scenario: they follow their recorded trajectory."""
+    """Obstacles of the scenario as they were recorded (static ones stand still for ever)."""
     return [TrafficParticipant(o.id, o.length, o.width, o.motion) for o in recorded_obstacles(scenario)]
+
+
+class Traffic(Protocol):
+    """The non-agent traffic of one run."""
+
+    mode: TrafficMode
+
+    def participants(self) -> Sequence[TrafficParticipant]:
+        """Every obstacle as planners see it now: its size and predicted motion."""
+
+    def poses(self, t: float) -> dict[int, tuple[State, float, float]]:
+        """Obstacles in the scene at ``t``: (centre state, length, width) by id."""
+
+    def advance(self, t: float, dt: float, agents: Mapping[int, TrafficParticipant]) -> None:
+        """Move the traffic from ``t`` to ``t + dt``; ``agents`` stand where they are at ``t``."""
+
+
+class ReplayedTraffic:
+    """Every obstacle follows its recording."""
+
+    mode = TrafficMode.REPLAY
+
+    def __init__(self, scenario: Scenario):
+        self._participants = non_agent_traffic(scenario)
+
+    def participants(self) -> Sequence[TrafficParticipant]:
+        return self._participants
+
+    def poses(self, t: float) -> dict[int, tuple[State, float, float]]:
+        return {o.id: (o.prediction.at(t), o.length, o.width) for o in self._participants
+                if o.prediction.t[0] - 1e-9 <= t <= o.prediction.t_end + 1e-9}
+
+    def advance(self, t: float, dt: float, agents: Mapping[int, TrafficParticipant]) -> None:
+        pass
+
+
+def make_traffic(scenario: Scenario, mode: TrafficMode) -> Traffic:
+    if mode is TrafficMode.IDM:
+        from simgap.cosim.idm import IdmTraffic
+
+        return IdmTraffic(scenario)
+    return ReplayedTraffic(scenario)

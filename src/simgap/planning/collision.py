@@ -125,10 +125,23 @@ class TrafficPrediction:
     yaw: np.ndarray
     half_length: np.ndarray   # (participants,)
     half_width: np.ndarray
+    v_end: np.ndarray | None = None   # (participants,) speed at the last instant
 
     @property
     def empty(self) -> bool:
         return len(self.half_length) == 0
+
+    def braking_from_end(self, steps: int, dt: float, deceleration: float | None) -> "TrafficPrediction":
+        """Beyond the last instant, ``steps`` more: every participant brakes to standstill along its
+        last heading at ``deceleration`` (None: stands where it is at the last instant)."""
+        tile = lambda a: np.repeat(a[:, -1:], steps, axis=1)  # noqa: E731
+        x, y, yaw = tile(self.x), tile(self.y), tile(self.yaw)
+        if deceleration is not None and self.v_end is not None and steps > 0:
+            v = np.maximum(self.v_end, 0.0)[:, None]
+            tt = np.minimum(dt * np.arange(1, steps + 1)[None, :], v / deceleration)
+            travel = v * tt - 0.5 * deceleration * tt**2
+            x, y = x + travel * np.cos(yaw), y + travel * np.sin(yaw)
+        return TrafficPrediction(x, y, yaw, self.half_length, self.half_width, self.v_end)
 
 
 def predict_traffic(traffic: Sequence[TrafficParticipant], times: np.ndarray, to_local_xy,
@@ -150,13 +163,13 @@ def predict_traffic(traffic: Sequence[TrafficParticipant], times: np.ndarray, to
         x = x + beyond * v_last * math.cos(yaw_u[-1])
         y = y + beyond * v_last * math.sin(yaw_u[-1])
         lx, ly = to_local_xy(x, y)
-        rows.append((lx, ly, yaw - rotation, tp.length / 2 + margin, tp.width / 2 + margin))
+        v_end = v_last if beyond[-1] > 0 else float(np.interp(times[-1], t, pred.v))
+        rows.append((lx, ly, yaw - rotation, tp.length / 2 + margin, tp.width / 2 + margin, v_end))
     if not rows:
         z = np.zeros((0, len(times)))
-        return TrafficPrediction(z, z, z, np.zeros(0), np.zeros(0))
-    return TrafficPrediction(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]),
-                             np.array([r[2] for r in rows]), np.array([r[3] for r in rows]),
-                             np.array([r[4] for r in rows]))
+        return TrafficPrediction(z, z, z, np.zeros(0), np.zeros(0), np.zeros(0))
+    columns = [np.array([r[k] for r in rows]) for k in range(6)]
+    return TrafficPrediction(*columns)
 
 
 def traffic_collisions(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_length: float,

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import frenetix
 import frenetix.trajectory_functions as trajectory_functions
@@ -48,6 +48,9 @@ from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
 from simgap.planning.protocol import World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
+    END_OFFSET,
+    END_SPEED,
+    END_TIME,
     TIME_NUDGE,
     end_speeds,
     end_times,
@@ -56,13 +59,44 @@ from simgap.planning.sampling import (
     steps_in_horizon,
 )
 from simgap.planning.settings import FrenetSettings
-from simgap.planning.speed_profile import SpeedProfile, cruise_speed
+from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
+from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 from simgap.vehicles import Vehicle
 
 __all__ = ["FrenetPlanner", "FrenetSettings", "PlanningCycle"]
 
 PHASES = ("projection", "sampling", "evaluation", "collision", "conversion")
+
+# plans are checked in cost order in chunks growing from FIRST_CHUNK to MAX_CHUNK
+FIRST_CHUNK, MAX_CHUNK = 4, 64
+# when traffic blocks the cheapest plan (settings.speed.blocked_speed_share), a plan faster by
+# BLOCKED_SPEED_GAIN x the desired speed is looked for among this many more samples
+BLOCKED_SPEED_GAIN = 0.2
+BLOCKED_SEARCH_SAMPLES = 256
+# ... except within this distance of the goal (or the speed lookahead, when longer) [m]
+NO_OVERTAKING_BEFORE_GOAL_M = 15.0
+# a vehicle whose footprint grown by this much leaves the road is at the road's edge [m]
+ROAD_EDGE_M = 0.3
+
+
+@dataclass(frozen=True)
+class _Start:
+    """Where a planning cycle starts: the observed state in the Frenet frame (core layout:
+    ``x0_lon`` = s, s_dot, s_ddot; ``x0_lat`` = d, d_dot, d_ddot), the rear axle in the local
+    frame, and the speed the cycle aims at."""
+
+    t: float
+    dt: float
+    x0_lon: np.ndarray
+    x0_lat: np.ndarray
+    x_rear: float
+    y_rear: float
+    yaw_local: float
+    v: float
+    desired: float
+    low_velocity: bool
+    may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
 
 
 @dataclass
@@ -106,7 +140,10 @@ class FrenetPlanner:
             smoothing=s.reference_path.smoothing_m, extension_back=s.reference_path.extension_back_m,
             extension_forward=extension)
         self.frame = FrenetFrame(self.reference_path)
-        self.cruise_speed = cruise_speed(planning_problem.goal, s.speed.cruise_m_s, vehicle.limits.max_speed)
+        self.goal = planning_problem.goal
+        initial_speed = float(getattr(planning_problem.initial_state, "velocity", 0.0) or 0.0)
+        self.cruise_speed = cruise_speed(planning_problem.goal, s.speed.cruise_m_s, vehicle.limits.max_speed,
+                                         initial_speed)
         self.speed_profile = SpeedProfile(self.reference_path, self.cruise_speed,
                                           s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration)
         route_end = np.asarray(lanelet_network.find_lanelet_by_id(
@@ -119,8 +156,11 @@ class FrenetPlanner:
             resolution=s.collision.road_grid_resolution_m, margin=s.collision.road_margin_m,
             max_cells=s.collision.road_grid_max_cells)
         self._outline = footprint_outline(vehicle.length, vehicle.width, s.collision.footprint_point_spacing_m)
+        self._edge_outline = footprint_outline(vehicle.length + 2 * ROAD_EDGE_M, vehicle.width + 2 * ROAD_EDGE_M,
+                                               s.collision.footprint_point_spacing_m)
         self._handler: frenetix.TrajectoryHandler | None = None
         self._dt: float | None = None
+        self._approach: GoalApproach | None = None
         # the manoeuvre chosen last: (absolute end time, end speed, lateral end offset)
         self._previous: tuple[float, float, float] | None = None
         self._previous_t: float | None = None
@@ -155,15 +195,68 @@ class FrenetPlanner:
         self._handler, self._dt = handler, dt
         return handler
 
+    def _approach_for(self, dt: float) -> GoalApproach:
+        """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
+        if self._approach is None or self._dt != dt:
+            self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
+                                          self.settings.speed.comfortable_deceleration)
+        return self._approach
+
     # -- planning ----------------------------------------------------------------------------
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
         cycle = PlanningCycle(t=t)
         self.last_cycle = cycle
         dt = float(world.dt)
-        n_steps = steps_in_horizon(self.settings.sampling, dt)
-        times = t + dt * np.arange(n_steps + 1)
-
+        times = t + dt * np.arange(steps_in_horizon(self.settings.sampling, dt) + 1)
         clock = time.perf_counter()
+        start = self._start(observed, t, dt, cycle)
+        cycle.timings["projection"] += time.perf_counter() - clock
+        if start is None:
+            cycle.outcome = "projection_failed"
+            return None
+        traffic = predict_traffic(world.traffic, times, self.frame.xy_to_local, self.frame.rotation,
+                                  self.settings.collision.traffic_margin_m)
+        if self._previous_t is None or not (self._previous_t < t <= self._previous_t + 10 * dt):
+            self._previous = None          # a new run, or a long gap: nothing to continue
+        chosen = self._search(start, traffic, cycle)
+        if chosen is None and cycle.feasible == cycle.rejected_infeasible and self.settings.relax_initial_state:
+            # nothing feasible from the observed acceleration and steering (physics may hand us
+            # values no polynomial can continue): retry from the observed pose and speed alone
+            clock = time.perf_counter()
+            start = self._relaxed(start)
+            cycle.timings["projection"] += time.perf_counter() - clock
+            if start is not None:
+                cycle.relaxed = True
+                chosen = self._search(start, traffic, cycle)
+        self._previous_t = t
+        if chosen is None:
+            self._previous = None
+            if not cycle.outcome:
+                cycle.outcome = ("no_feasible_sample" if cycle.feasible == cycle.rejected_infeasible
+                                 else "all_colliding")
+            return None
+        p = chosen.parameters[0]
+        self._previous = (t + float(p[END_TIME]), float(p[END_SPEED]), float(p[END_OFFSET]))
+        clock = time.perf_counter()
+        plan = self._to_trajectory(chosen, observed, times, dt)
+        cycle.timings["conversion"] += time.perf_counter() - clock
+        cycle.outcome = "planned"
+        return plan
+
+    @property
+    def failure_reason(self) -> str:
+        """Why the last cycle found no plan, in counts of rejected samples ("" after a plan)."""
+        c = self.last_cycle
+        if c.outcome in ("", "planned"):
+            return ""
+        if c.outcome == "projection_failed":
+            return "the observed state cannot be projected onto the reference path"
+        return (f"{c.outcome.replace('_', ' ')}: of {c.samples} samples {c.feasible} feasible; "
+                f"rejected {c.rejected_traffic} for traffic, {c.rejected_road} for the road edge, "
+                f"{c.rejected_infeasible} for the vehicle's limits")
+
+    def _start(self, observed: State, t: float, dt: float, cycle: PlanningCycle) -> _Start | None:
+        """The observed state projected into the Frenet frame, and the speed to aim at."""
         v = max(float(observed.v), 0.0)
         low_velocity = v < self.settings.sampling.low_velocity_threshold_m_s
         cycle.low_velocity = low_velocity
@@ -178,77 +271,52 @@ class FrenetPlanner:
             x0_lon, x0_lat = self.frame.initial_state(float(x_rear), float(y_rear), yaw_local, v, a0, steer0,
                                                       self.vehicle.wheelbase, low_velocity)
         except (RuntimeError, ValueError):
-            cycle.outcome = "projection_failed"
-            cycle.timings["projection"] += time.perf_counter() - clock
             return None
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
-        desired = self.speed_profile.desired_speed(s_ref, lookahead)
+        approach = self._approach_for(dt)
+        desired = min(self.speed_profile.desired_speed(s_ref, lookahead), approach.speed_cap(s_ref, t, v))
         cycle.desired_speed = desired
-        cycle.timings["projection"] += time.perf_counter() - clock
+        may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
+        return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
+                      may_overtake)
 
-        traffic = predict_traffic(world.traffic, times, self.frame.xy_to_local, self.frame.rotation,
-                                  self.settings.collision.traffic_margin_m)
-        if self._previous_t is None or not (self._previous_t < t <= self._previous_t + 10 * dt):
-            self._previous = None          # a new run, or a long gap: nothing to continue
-        chosen = self._search(x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic, cycle,
-                              x_rear, y_rear)
-        if chosen is None and cycle.feasible == cycle.rejected_infeasible and self.settings.relax_initial_state:
-            # nothing feasible from the observed acceleration and steering (physics may hand us
-            # values no polynomial can continue): retry from the observed pose and speed alone
-            clock = time.perf_counter()
-            _, kappa_ref, _ = self.frame.reference_at(np.array([x0_lon[0]]))
-            steer_ref = math.atan(self.vehicle.wheelbase * float(kappa_ref[0]))
-            try:
-                x0_lon, x0_lat = self.frame.initial_state(float(x_rear), float(y_rear), yaw_local, v, 0.0,
-                                                          steer_ref, self.vehicle.wheelbase, low_velocity)
-            except (RuntimeError, ValueError):
-                x0_lon = None
-            cycle.timings["projection"] += time.perf_counter() - clock
-            if x0_lon is not None:
-                cycle.relaxed = True
-                chosen = self._search(x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic,
-                                      cycle, x_rear, y_rear)
-        self._previous_t = t
-        if chosen is None:
-            self._previous = None
-            if not cycle.outcome:
-                cycle.outcome = ("no_feasible_sample" if cycle.feasible == cycle.rejected_infeasible
-                                 else "all_colliding")
+    def _relaxed(self, start: _Start) -> _Start | None:
+        """``start`` with zero acceleration and the reference path's curvature."""
+        _, kappa_ref, _ = self.frame.reference_at(np.array([start.x0_lon[0]]))
+        steer_ref = math.atan(self.vehicle.wheelbase * float(kappa_ref[0]))
+        try:
+            x0_lon, x0_lat = self.frame.initial_state(start.x_rear, start.y_rear, start.yaw_local, start.v, 0.0,
+                                                      steer_ref, self.vehicle.wheelbase, start.low_velocity)
+        except (RuntimeError, ValueError):
             return None
-        p = chosen.parameters[0]
-        self._previous = (t + float(p[1]), float(p[5]), float(p[10]))
+        return replace(start, x0_lon=x0_lon, x0_lat=x0_lat)
 
-        clock = time.perf_counter()
-        plan = self._to_trajectory(chosen, observed, times, dt)
-        cycle.timings["conversion"] += time.perf_counter() - clock
-        cycle.outcome = "planned"
-        return plan
-
-    def _search(self, x0_lon, x0_lat, yaw_local, v, desired, dt, low_velocity, traffic, cycle,
-                x_rear, y_rear) -> CartesianBatch | None:
+    def _search(self, start: _Start, traffic: TrafficPrediction, cycle: PlanningCycle) -> CartesianBatch | None:
         """Sample, evaluate in the core, and return the cheapest plan that passes our checks."""
-        s = self.settings
+        ordered, feasible = self._evaluate(start, cycle)
+        if feasible == 0:
+            return None
+        return self._first_passing(ordered, feasible, start, traffic, cycle)
+
+    def _evaluate(self, start: _Start, cycle: PlanningCycle):
+        """The core's samples, feasible ones first in cost order, and how many are feasible."""
+        s, dt = self.settings, start.dt
         clock = time.perf_counter()
         handler = self._handler_for(dt)
-        n_steps = steps_in_horizon(s.sampling, dt)
-        speeds = end_speeds(s.sampling, v, desired, self.vehicle.limits.max_speed)
-        matrix = sampling_matrix(x0_lon, x0_lat, end_times(s.sampling, dt), speeds, lateral_offsets(s.sampling))
-        if self._previous is not None:
-            # the last cycle's manoeuvre, continued: from the state it predicted, the polynomials
-            # with the same end conditions are its remainder (so a plan found stays available)
-            t_end, v_end, d_end = self._previous
-            remaining = t_end - cycle.t
-            if dt <= remaining <= s.sampling.horizon_s + TIME_NUDGE:
-                matrix = np.vstack([matrix, sampling_matrix(x0_lon, x0_lat, np.array([remaining - TIME_NUDGE]),
-                                                            np.array([v_end]), np.array([d_end]))])
+        speeds = end_speeds(s.sampling, start.v, start.desired, self.vehicle.limits.max_speed)
+        matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(s.sampling, dt), speeds,
+                                 lateral_offsets(s.sampling))
+        continued = self._continued_manoeuvre(start)
+        if continued is not None:
+            matrix = np.vstack([matrix, continued])
         if s.costs.velocity_offset > 0:
             handler.add_cost_function(cost_functions.CalculateVelocityOffsetCost(
-                "velocity_offset", s.costs.velocity_offset, desired, dt, s.sampling.t_min_s, False, 2))
+                "velocity_offset", s.costs.velocity_offset, start.desired, dt, s.sampling.t_min_s, False, 2))
         handler.add_function(trajectory_functions.FillCoordinates(
-            lowVelocityMode=low_velocity, initialOrientation=yaw_local, coordinateSystem=self.frame.core,
-            horizon=n_steps * dt + TIME_NUDGE))
-        handler.generate_trajectories(matrix, low_velocity)
+            lowVelocityMode=start.low_velocity, initialOrientation=start.yaw_local, coordinateSystem=self.frame.core,
+            horizon=steps_in_horizon(s.sampling, dt) * dt + TIME_NUDGE))
+        handler.generate_trajectories(matrix, start.low_velocity)
         cycle.samples += len(matrix)
         clock = _lap(cycle, "sampling", clock)
         if s.concurrent_evaluation:
@@ -258,43 +326,106 @@ class FrenetPlanner:
         feasible = handler.get_feasible_count()
         cycle.feasible += feasible
         ordered = handler.get_sorted_trajectories()
-        clock = _lap(cycle, "evaluation", clock)
-        if feasible == 0:
-            return None
+        _lap(cycle, "evaluation", clock)
+        return ordered, feasible
 
-        # tolerate leaving the road for a while when the vehicle is already off it
+    def _continued_manoeuvre(self, start: _Start) -> np.ndarray | None:
+        """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
+        the same end conditions are its remainder (so a plan once found stays available)."""
+        if self._previous is None:
+            return None
+        t_end, v_end, d_end = self._previous
+        remaining = t_end - start.t
+        if not start.dt <= remaining <= self.settings.sampling.horizon_s + TIME_NUDGE:
+            return None
+        return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
+                               np.array([v_end]), np.array([d_end]))
+
+    def _recovery_steps(self, start: _Start) -> int:
+        """Steps during which a plan may be off the road: when the vehicle is off it already."""
         r = self.vehicle.rear_axle_to_center
-        recovery = 0
-        cx0, cy0 = x_rear + r * math.cos(yaw_local), y_rear + r * math.sin(yaw_local)
-        if not footprints_on_road(self.drivable_area, self._outline, np.array([cx0]), np.array([cy0]),
-                                  np.array([yaw_local]))[0]:
-            recovery = int(round(s.collision.recovery_s / dt))
+        cx0 = start.x_rear + r * math.cos(start.yaw_local)
+        cy0 = start.y_rear + r * math.sin(start.yaw_local)
+        if footprints_on_road(self.drivable_area, self._outline, np.array([cx0]), np.array([cy0]),
+                              np.array([start.yaw_local]))[0]:
+            return 0
+        return int(round(self.settings.collision.recovery_s / start.dt))
+
+    def _first_passing(self, ordered, feasible: int, start: _Start, traffic: TrafficPrediction,
+                       cycle: PlanningCycle) -> CartesianBatch | None:
+        """In cost order, a few at a time: the first plan within the limits, clear of traffic and on
+        the road (and within the lateral-acceleration bound if any is). When traffic holds the
+        cheapest such plan well below the desired speed (``blocked_speed_share``), a faster one among
+        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. When
+        every plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they
+        are checked again with the recovery time of a vehicle that is off the road."""
+        recovery = self._recovery_steps(start)
+        clock = time.perf_counter()
+        chosen: CartesianBatch | None = None
         fallback: CartesianBatch | None = None
-        taken, chunk = 0, 4
-        while taken < feasible:
-            batch_samples = [next(ordered) for _ in range(min(chunk, feasible - taken))]
-            taken += len(batch_samples)
-            chunk = min(chunk * 2, 64)
-            batch = self.frame.cartesian(batch_samples, low_velocity, yaw_local)
-            feasible_ok = self._feasible(batch)
-            hit, on_road, lat_ok = self._check(batch, traffic, recovery, dt)
-            cycle.checked += len(batch_samples)
-            for i in range(len(batch_samples)):
-                if not feasible_ok[i]:
-                    cycle.rejected_infeasible += 1
-                elif hit[i]:
-                    cycle.rejected_traffic += 1
-                elif not on_road[i]:
-                    cycle.rejected_road += 1
-                elif lat_ok[i] or not s.speed.enforce_lateral_acceleration:
+        checked: list[CartesianBatch] = []
+        taken, chunk, beyond_chosen = 0, FIRST_CHUNK, 0
+        while taken < feasible and beyond_chosen < BLOCKED_SEARCH_SAMPLES:
+            samples = [next(ordered) for _ in range(min(chunk, feasible - taken))]
+            taken += len(samples)
+            chunk = min(chunk * 2, MAX_CHUNK)
+            batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
+            checked.append(batch)
+            passing, lateral_ok = self._verdicts(batch, traffic, recovery, start.dt, cycle)
+            for i in np.flatnonzero(passing):
+                if not (lateral_ok[i] or not self.settings.speed.enforce_lateral_acceleration):
+                    cycle.rejected_lateral_acceleration += 1
+                    fallback = fallback or _row(batch, i)
+                elif chosen is None:
+                    chosen = _row(batch, i)
+                    if not self._blocked(chosen, start, cycle):
+                        _lap(cycle, "collision", clock)
+                        return chosen
+                elif batch.v[i, -1] >= chosen.v[0, -1] + BLOCKED_SPEED_GAIN * start.desired:
                     _lap(cycle, "collision", clock)
                     return _row(batch, i)
-                else:
-                    cycle.rejected_lateral_acceleration += 1
-                    if fallback is None:
-                        fallback = _row(batch, i)
+            if chosen is not None:
+                beyond_chosen += len(samples)
+        if chosen is None and fallback is None and recovery == 0 and cycle.rejected_road and self._at_road_edge(start):
+            chosen = self._first_recovering(checked, start, traffic)
         _lap(cycle, "collision", clock)
-        return fallback
+        return chosen or fallback
+
+    def _at_road_edge(self, start: _Start) -> bool:
+        """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""
+        r = self.vehicle.rear_axle_to_center
+        cx0 = start.x_rear + r * math.cos(start.yaw_local)
+        cy0 = start.y_rear + r * math.sin(start.yaw_local)
+        return not footprints_on_road(self.drivable_area, self._edge_outline, np.array([cx0]), np.array([cy0]),
+                                      np.array([start.yaw_local]))[0]
+
+    def _first_recovering(self, checked: list[CartesianBatch], start: _Start,
+                          traffic: TrafficPrediction) -> CartesianBatch | None:
+        """The cheapest of the ``checked`` plans that passes when it may leave the road for the
+        recovery time (the rejections of this second look are not counted)."""
+        recovery = int(round(self.settings.collision.recovery_s / start.dt))
+        for batch in checked:
+            passing, _ = self._verdicts(batch, traffic, recovery, start.dt, PlanningCycle())
+            if passing.any():
+                return _row(batch, int(np.flatnonzero(passing)[0]))
+        return None
+
+    def _blocked(self, plan: CartesianBatch, start: _Start, cycle: PlanningCycle) -> bool:
+        """Traffic holds ``plan`` well below the desired speed."""
+        return (start.may_overtake and cycle.rejected_traffic > 0
+                and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired)
+
+    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, recovery: int, dt: float,
+                  cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
+        """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
+        acceleration bound? Counts the rejections in ``cycle``."""
+        feasible_ok = self._feasible(batch)
+        hit, on_road, lateral_ok = self._check(batch, traffic, recovery, dt)
+        cycle.checked += len(feasible_ok)
+        cycle.rejected_infeasible += int((~feasible_ok).sum())
+        cycle.rejected_traffic += int((feasible_ok & hit).sum())
+        cycle.rejected_road += int((feasible_ok & ~hit & ~on_road).sum())
+        return feasible_ok & ~hit & on_road, lateral_ok
 
     def _feasible(self, batch: CartesianBatch) -> np.ndarray:
         """Acceleration and curvature within the vehicle's limits, from the exact values (the
@@ -323,8 +454,8 @@ class FrenetPlanner:
             hit = traffic_collisions(cx, cy, batch.yaw, hl, hw, traffic)[:, 1:].any(axis=1)
             b = s.collision.stopping_deceleration
             if b is not None and not hit.all():
-                # braking beyond the horizon along the path must stop clear of traffic as it
-                # stands at the horizon's end
+                # braking beyond the horizon along the path must stop clear of traffic braking
+                # from where it is at the horizon's end
                 v_end = np.maximum(batch.v[:, -1], 0.0)
                 steps = int(math.ceil(float(v_end.max()) / b / dt))
                 if steps > 0:
@@ -334,9 +465,7 @@ class FrenetPlanner:
                     travel = v_end[:, None] * tt - 0.5 * b * tt**2
                     ex, ey, eyaw = self.frame.curvilinear_to_local(batch.s[:, -1:] + travel, batch.d[:, -1:])
                     ex, ey = ex + r * np.cos(eyaw), ey + r * np.sin(eyaw)
-                    last = TrafficPrediction(
-                        np.repeat(traffic.x[:, -1:], steps, axis=1), np.repeat(traffic.y[:, -1:], steps, axis=1),
-                        np.repeat(traffic.yaw[:, -1:], steps, axis=1), traffic.half_length, traffic.half_width)
+                    last = traffic.braking_from_end(steps, dt, s.collision.traffic_deceleration)
                     hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
         # the road only for plans clear of traffic (the road test costs most: many points)
         on_road = np.ones(n, dtype=bool)

@@ -7,6 +7,7 @@ Evaluation uses the same path (``xy`` and ``s``) to express lateral displacement
 
 from __future__ import annotations
 
+import copy
 import logging
 from dataclasses import dataclass
 
@@ -17,6 +18,9 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from simgap.errors import InputError
 
 _FINE_STEP_M = 0.1
+# tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
+KINK_CURVATURE = 0.25
+KINK_SMOOTHING_M = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,23 +58,82 @@ class ReferencePath:
 def route_centre_line(lanelet_network: LaneletNetwork,
                       planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
     """The centre line of the shortest route (fewest lane changes) from the initial state to the
-    goal, as commonroad-route-planner computes it, and the route's lanelet ids."""
+    goal, as commonroad-route-planner computes it, and the route's lanelet ids.
+
+    The route planner changes lanes where the goal lanelet needs it and, for a goal without
+    lanelets (no position, or one off the lanelets), follows the road from the start. An initial
+    state off every lanelet (between lanelets, on the shoulder) starts the route from the nearest
+    lanelet with a matching direction; only where no route exists on the map is the planning
+    problem refused, with the reason."""
+    pid = planning_problem.planning_problem_id
+    try:
+        return _planned_route(lanelet_network, planning_problem)
+    except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
+        first = str(exc) or type(exc).__name__
+    snapped = _snapped_to_lanelet(lanelet_network, planning_problem)
+    if snapped is not None:
+        try:
+            return _planned_route(lanelet_network, snapped)
+        except Exception:  # noqa: BLE001
+            pass
+    raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
+                     field=f"planning problem {pid}",
+                     allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
+
+
+def _planned_route(lanelet_network: LaneletNetwork,
+                   planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
     # imported here: the route planner pulls in networkx and its own logging at import time
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
     from commonroad_route_planner.route_planner import RoutePlanner
 
-    pid = planning_problem.planning_problem_id
+    routes = RoutePlanner(lanelet_network, planning_problem, logging_level=logging.ERROR).plan_routes()
     try:
-        routes = RoutePlanner(lanelet_network, planning_problem, logging_level=logging.ERROR).plan_routes()
         route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
                                      logging_level=logging.ERROR).plan_shortest_reference_path()
-    except (ValueError, IndexError, KeyError) as exc:
-        raise InputError(f"no route from the initial state to the goal: {exc}",
-                         field=f"planning problem {pid}", allowed="a goal reachable along lanelets") from None
-    centre = np.asarray(route.reference_path, dtype=float)
+        centre, ids = np.asarray(route.reference_path, dtype=float), tuple(int(i) for i in route.lanelet_ids)
+    except Exception:  # noqa: BLE001 - its lane-change geometry fails on some real maps
+        centre, ids = _joined_centre_lines(lanelet_network, min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
     if len(centre) < 2:
-        raise InputError("the route's centre line has fewer than two points", field=f"planning problem {pid}")
-    return centre, tuple(int(i) for i in route.lanelet_ids)
+        raise ValueError("the route's centre line has fewer than two points")
+    return centre, ids
+
+
+def _joined_centre_lines(lanelet_network: LaneletNetwork, lanelet_ids) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The route's centre lines joined end to end (a lane change becomes a short lateral shift,
+    which the smoothing rounds off) - used where the route planner's own geometry fails."""
+    parts = []
+    for lanelet_id in lanelet_ids:
+        centre = np.asarray(lanelet_network.find_lanelet_by_id(lanelet_id).center_vertices, dtype=float)
+        if parts:
+            # after a lane change, continue the neighbour from the point beside where we are
+            k = int(np.hypot(*(centre - parts[-1][-1]).T).argmin())
+            centre = centre[min(k + 1, len(centre) - 1):] if k else centre[1:]
+        parts.append(centre)
+    return np.vstack(parts), tuple(int(i) for i in lanelet_ids)
+
+
+def _snapped_to_lanelet(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> PlanningProblem | None:
+    """A copy of the planning problem whose initial position is moved onto the nearest centre-line
+    point of a lanelet heading within 90 degrees of the initial orientation (None: no lanelet)."""
+    init = planning_problem.initial_state
+    pos = np.asarray(init.position, dtype=float)
+    yaw = float(getattr(init, "orientation", 0.0) or 0.0)
+    best, best_distance = None, np.inf
+    for lanelet in lanelet_network.lanelets:
+        centre = np.asarray(lanelet.center_vertices, dtype=float)
+        if len(centre) < 2:
+            continue
+        distance = np.hypot(*(centre - pos).T)
+        k = int(min(distance.argmin(), len(centre) - 2))
+        heading = np.arctan2(*(centre[k + 1] - centre[k])[::-1])
+        if np.cos(heading - yaw) > 0 and distance[k] < best_distance:
+            best, best_distance = centre[k] + 0.05 * (centre[k + 1] - centre[k]), distance[k]
+    if best is None:
+        return None
+    snapped = copy.deepcopy(planning_problem)
+    snapped.initial_state.position = best
+    return snapped
 
 
 def _arc_length(xy: np.ndarray) -> np.ndarray:
@@ -167,6 +230,15 @@ def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: f
 def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem,
                         spacing: float = 1.0, smoothing: float = 1.0, extension_back: float = 20.0,
                         extension_forward: float = 100.0) -> ReferencePath:
-    """The reference path of ``planning_problem``: route → centre line → `smooth_reference_path`."""
+    """The reference path of ``planning_problem``: route → centre line → `smooth_reference_path`.
+
+    Real maps have kinks where lanelets meet off-line (a lane shifting by a metre within a few
+    metres): where the smoothed route still turns tighter than `KINK_CURVATURE`, it is smoothed
+    again with `KINK_SMOOTHING_M`, as a driver would round the kink off."""
     centre, ids = route_centre_line(lanelet_network, planning_problem)
-    return smooth_reference_path(centre, spacing, smoothing, extension_back, extension_forward, ids)
+    path = smooth_reference_path(centre, spacing, smoothing, extension_back, extension_forward, ids)
+    lo, hi = path.route_s
+    on_route = (path.s >= lo) & (path.s <= hi)
+    if smoothing < KINK_SMOOTHING_M and np.abs(path.kappa[on_route]).max(initial=0.0) > KINK_CURVATURE:
+        path = smooth_reference_path(centre, spacing, KINK_SMOOTHING_M, extension_back, extension_forward, ids)
+    return path

@@ -11,6 +11,14 @@ import numpy as np
 
 from simgap.planning.settings import SamplingSettings
 
+# columns of the sampling matrix
+START_TIME, END_TIME = 0, 1
+LONGITUDINAL_START = slice(2, 5)      # s, s_dot, s_ddot at the start
+END_SPEED = 5
+LATERAL_START = slice(7, 10)          # d, d_dot, d_ddot at the start
+END_OFFSET = 10
+COLUMNS = 13
+
 # the core counts the points of a plan as int(1 + t / dt): nudge times up so that a time on the
 # grid keeps its last point
 TIME_NUDGE = 1e-6
@@ -31,7 +39,8 @@ def end_times(settings: SamplingSettings, dt: float) -> np.ndarray:
 
 def end_speeds(settings: SamplingSettings, current: float, desired: float, max_speed: float) -> np.ndarray:
     """End speeds: standstill, the desired speed, and evenly between a little below the lower
-    and a little above the higher of the current and the desired speed."""
+    and a little above the higher of the current and the desired speed; with four or more, one
+    of them halfway down to standstill (to fall in behind slower traffic from a high speed)."""
     current = max(current, 0.0)
     lo = max(0.0, min(current, desired) - settings.speed_below_m_s)
     hi = min(max_speed, max(current, desired) + settings.speed_above_m_s)
@@ -40,8 +49,10 @@ def end_speeds(settings: SamplingSettings, current: float, desired: float, max_s
         speeds = np.array([desired])
     elif n == 2:
         speeds = np.array([0.0, desired])
-    else:
+    elif n == 3:
         speeds = np.concatenate([[0.0, desired], np.linspace(lo, hi, n - 2)])
+    else:
+        speeds = np.concatenate([[0.0, desired, 0.5 * lo], np.linspace(lo, hi, n - 3)])
     speeds = np.unique(np.round(speeds, 6))
     return speeds
 
@@ -56,10 +67,10 @@ def sampling_matrix(x0_lon: np.ndarray, x0_lat: np.ndarray, times: np.ndarray, s
                     offsets: np.ndarray) -> np.ndarray:
     """All combinations of end time x end speed x lateral offset from one initial state."""
     t1, v1, d1 = (g.ravel() for g in np.meshgrid(times + TIME_NUDGE, speeds, offsets, indexing="ij"))
-    matrix = np.zeros((len(t1), 13))
-    matrix[:, 1] = t1
-    matrix[:, 2:5] = x0_lon
-    matrix[:, 5] = v1
-    matrix[:, 7:10] = x0_lat
-    matrix[:, 10] = d1
+    matrix = np.zeros((len(t1), COLUMNS))
+    matrix[:, END_TIME] = t1
+    matrix[:, LONGITUDINAL_START] = x0_lon
+    matrix[:, END_SPEED] = v1
+    matrix[:, LATERAL_START] = x0_lat
+    matrix[:, END_OFFSET] = d1
     return matrix

@@ -63,7 +63,7 @@ class CostWeights(_Section):
 class SpeedSettings(_Section):
     """The desired speed: the goal's velocity interval or a cruise speed, slowed for curvature."""
 
-    cruise_m_s: float = Field(10.0, gt=0, description="desired speed when the goal states none [m/s]")
+    cruise_m_s: float = Field(10.0, gt=0, description="desired speed [m/s]; a faster start keeps its speed, and a goal velocity window above it raises it")
     max_lateral_acceleration: float = Field(
         4.0, gt=0, description="bound on v^2 * curvature along plans and the reference path [m/s^2]")
     comfortable_deceleration: float = Field(
@@ -72,6 +72,10 @@ class SpeedSettings(_Section):
         3.0, ge=0, description="the desired speed is the lowest of the speed profile this far ahead [s]")
     enforce_lateral_acceleration: bool = Field(
         True, description="prefer plans within max_lateral_acceleration (others only if none is)")
+    blocked_speed_share: float = Field(
+        0.8, ge=0, le=1, description="when traffic holds the cheapest plan below this share of the desired "
+                                     "speed, a clearly faster plan (a lane change, an overtaking) is taken "
+                                     "if one passes; 0: always the cheapest (wait behind)")
 
 
 class ReferencePathSettings(_Section):
@@ -99,8 +103,11 @@ class CollisionSettings(_Section):
         0.5, gt=0.05, le=2.0, description="spacing of the footprint-outline points tested on the grid [m]")
     stopping_deceleration: float | None = Field(
         6.0, gt=0, description="a plan must end where braking at this deceleration along the reference "
-                               "path stops clear of traffic as it stands at the horizon's end [m/s^2]; "
-                               "null: no such check")
+                               "path stops clear of traffic braking from where it is at the horizon's end "
+                               "[m/s^2]; null: no such check")
+    traffic_deceleration: float | None = Field(
+        8.0, gt=0, description="beyond the horizon, other traffic is assumed to brake at this deceleration "
+                               "[m/s^2]; null: it is assumed to stop at once where it is at the horizon's end")
     recovery_s: float = Field(
         1.0, ge=0, description="when the vehicle is already off the road, leaving it is tolerated this long [s]")
 

@@ -1,36 +1,97 @@
 """The desired speed along the reference path.
 
-A cruise speed (from the goal's velocity interval, or the configured default), lowered wherever
-the reference path's curvature would push the lateral acceleration v^2 * kappa over the bound,
-and lowered ahead of such places so that a comfortable deceleration reaches them in time.
+A cruise speed (the configured default, or faster when the start or the goal's velocity window
+asks for it), lowered wherever the reference path's curvature would push the lateral acceleration
+v^2 * kappa over the bound, and lowered ahead of such places so that a comfortable deceleration
+reaches them in time. `GoalApproach` then aims the arrival at the goal: inside its velocity
+window (braking towards it at the comfortable deceleration) and not before its time window
+(slowing to the average speed that arrives in time, down to waiting at the goal).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from commonroad.planning.goal import GoalRegion
 
 from simgap.planning.reference_path import ReferencePath
+from simgap.scenario.goal import Goal, Window
 
 # the profile aims at this share of the lateral-acceleration bound, leaving room for plans
 # whose curvature overshoots the reference path's while they converge onto it
 _LATERAL_ACCELERATION_SHARE = 0.85
 
 
-def cruise_speed(goal: GoalRegion | None, default: float, max_speed: float) -> float:
-    """The default cruise speed, moved into the goal's velocity interval when it states one
-    (10 % of the interval's width inside its bounds), and capped at ``max_speed``."""
-    speed = default
-    if goal is not None:
-        for state in goal.state_list:
-            interval = getattr(state, "velocity", None)
-            if interval is None or not hasattr(interval, "start"):
-                continue
-            lo, hi = float(interval.start), float(interval.end)
-            inset = 0.1 * max(hi - lo, 0.0)
-            speed = float(np.clip(speed, lo + inset, hi - inset))
-            break
+# a target inside a window keeps this share of the window's width from its bounds
+_WINDOW_INSET = 0.1
+# the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``)
+_TIME_AIM_SHARE = 0.5
+_TIME_AIM_MAX_S = 1.0
+# the planned speed follows the desired one with a lag: the velocity window is aimed this long ahead
+_RESPONSE_S = 1.0
+# a goal whose centre lies farther than this from the reference path is not aimed at
+_GOAL_ON_PATH_M = 20.0
+
+
+def target_in(window: Window, default: float) -> float:
+    """``default`` moved inside ``window`` (``_WINDOW_INSET`` of its width from the bounds)."""
+    inset = _WINDOW_INSET * max(window.hi - window.lo, 0.0)
+    return float(np.clip(default, window.lo + inset, window.hi - inset))
+
+
+def cruise_speed(goal: GoalRegion | None, default: float, max_speed: float, initial_speed: float = 0.0,
+                 dt: float = 0.1) -> float:
+    """The cruise speed: the default, or the initial speed when faster (a highway start keeps its
+    speed), raised into the goal's velocity window when that lies above; capped at ``max_speed``."""
+    speed = max(default, initial_speed)
+    window = Goal.of(goal, dt).velocity_window() if goal is not None else None
+    if window is not None and window.lo > speed:
+        speed = target_in(window, speed)
     return float(min(max(speed, 0.0), max_speed))
+
+
+class GoalApproach:
+    """A cap on the desired speed that makes the arrival at the goal's centre (on the reference
+    path, arc length ``s_goal``) fall inside its velocity and time windows (see the module docstring)."""
+
+    def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float):
+        self.s_goal = _goal_arc_length(reference, goal)
+        velocity, time = goal.velocity_window(), goal.time_window()
+        self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
+        self.arrival_time = (None if time is None else
+                             time.lo + min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
+        self.deceleration = deceleration
+
+    def distance_to_goal(self, s: float) -> float:
+        """Arc length from ``s`` to the goal's centre (inf: no goal on the path, or passed)."""
+        if self.s_goal is None or s > self.s_goal:
+            return math.inf
+        return self.s_goal - s
+
+    def speed_cap(self, s: float, t: float, v: float) -> float:
+        """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
+        remaining = self.distance_to_goal(s)
+        if math.isinf(remaining):
+            return math.inf
+        cap = math.inf
+        if self.arrival_speed is not None:
+            braking = max(remaining - v * _RESPONSE_S, 0.0)
+            cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
+        if self.arrival_time is not None and t < self.arrival_time:
+            cap = min(cap, remaining / (self.arrival_time - t))
+        return cap
+
+
+def _goal_arc_length(reference: ReferencePath, goal: Goal) -> float | None:
+    """Arc length of the first goal centre near the reference path (None: no such centre)."""
+    for state in goal.states:
+        for centre in state.centres():
+            distance = np.hypot(reference.xy[:, 0] - centre[0], reference.xy[:, 1] - centre[1])
+            k = int(distance.argmin())
+            if distance[k] <= _GOAL_ON_PATH_M:
+                return float(reference.s[k])
+    return None
 
 
 class SpeedProfile:
