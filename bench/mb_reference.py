@@ -44,7 +44,7 @@ from simgap.vehicles import Vehicle, load_vehicle
 NAME = "MB model (CommonRoad parameter set 2)"
 
 
-SLIDING = 0.5                  # wheel circumferential / forward speed under which LSODA is not used
+SLIDING = 0.9                  # wheel circumferential / forward speed below which (slip > 10 %) LSODA is not used
 FALLBACK_STEP = 5e-4           # s
 WHEEL_SPIN = slice(23, 27)     # the model's wheel angular speeds (front left, front right, rear left, rear right)
 
