@@ -1,4 +1,4 @@
-"""Reference manoeuvres for validating tracking controllers: steady circle, speed step, lane change.
+"""Reference manoeuvres for validating tracking controllers: steady circle, speed step, lane changes.
 
 Each manoeuvre is a kinematically consistent reference motion given as a function of time. A
 test or benchmark hands the controller receding windows of it (`Manoeuvre.plan`), as a planner
@@ -100,22 +100,51 @@ def speed_ramp(vehicle, v0: float, v1: float, accel: float, t_start: float = 1.0
                      state_at, vehicle.wheelbase, vehicle.rear_axle_to_center)
 
 
+@dataclass(frozen=True)
+class LateralShift:
+    """A sideways move of ``offset`` metres (> 0: left) over ``length`` metres of travel along
+    +x, starting ``start`` metres in (a quintic in distance: zero lateral speed and acceleration
+    at both ends)."""
+
+    start: float
+    length: float
+    offset: float
+
+    def lateral(self, x: float) -> tuple[float, float, float]:
+        """Displacement and its first and second derivatives in x at ``x``."""
+        u = min(max((x - self.start) / self.length, 0.0), 1.0)
+        a, n = self.offset, self.length
+        return (a * (10 * u ** 3 - 15 * u ** 4 + 6 * u ** 5),
+                a * (30 * u ** 2 - 60 * u ** 3 + 30 * u ** 4) / n,
+                a * (60 * u - 180 * u ** 2 + 120 * u ** 3) / n ** 2)
+
+    @property
+    def end(self) -> float:
+        return self.start + self.length
+
+
 def lane_change(vehicle, speed: float, offset: float = 3.5, length: float = 60.0,
                 start: float = 20.0, duration: float | None = None) -> Manoeuvre:
     """Straight at ``speed``, then a lateral shift of ``offset`` over ``length`` metres starting
-    ``start`` metres in (a quintic in distance: zero lateral speed and acceleration at both
-    ends), then straight again."""
+    ``start`` metres in, then straight again."""
+    return lane_changes(vehicle, speed, [LateralShift(start, length, offset)],
+                        f"lane change {offset:g} m over {length:g} m at {speed:g} m/s", duration)
+
+
+def lane_changes(vehicle, speed: float, shifts: list[LateralShift], name: str,
+                 duration: float | None = None) -> Manoeuvre:
+    """Straight along +x at ``speed`` with the rear axle moved sideways by each of ``shifts`` in
+    turn (their displacements add up), e.g. a double lane change. The default duration ends 5 s
+    after the last shift."""
     b, wb = vehicle.rear_axle_to_center, vehicle.wheelbase
+    end = max(shift.end for shift in shifts)
 
     def lateral(xr: float) -> tuple[float, float, float]:
-        u = min(max((xr - start) / length, 0.0), 1.0)
-        y = offset * (10 * u ** 3 - 15 * u ** 4 + 6 * u ** 5)
-        dy = offset * (30 * u ** 2 - 60 * u ** 3 + 30 * u ** 4) / length
-        ddy = offset * (60 * u - 180 * u ** 2 + 120 * u ** 3) / length ** 2
-        return y, dy, ddy
+        parts = [shift.lateral(xr) for shift in shifts]
+        return tuple(sum(p[k] for p in parts) for k in range(3))
 
     # Parametrise the rear axle path by its x coordinate; convert arc length to time.
-    xs = np.linspace(0.0, start + length + speed * 60.0, 20001)
+    xs = np.linspace(0.0, end + speed * 60.0, 20001)
     dys = np.array([lateral(x)[1] for x in xs])
     ds = np.hypot(1.0, dys)
     s = np.concatenate(([0.0], np.cumsum(0.5 * (ds[1:] + ds[:-1]) * np.diff(xs))))
@@ -131,6 +160,5 @@ def lane_change(vehicle, speed: float, offset: float = 3.5, length: float = 60.0
         return State(t=t, x=x_c, y=y_c, yaw=yaw, v=speed, a=0.0, yaw_rate=kappa * speed,
                      steer=steer)
 
-    dur = duration if duration is not None else (start + length) / speed + 5.0
-    return Manoeuvre(f"lane change {offset:g} m over {length:g} m at {speed:g} m/s", dur,
-                     state_at, wb, b)
+    dur = duration if duration is not None else end / speed + 5.0
+    return Manoeuvre(name, dur, state_at, wb, b)
