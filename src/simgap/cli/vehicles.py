@@ -32,7 +32,7 @@ def catalogue(ctx: typer.Context) -> None:
         return
     table = Table(title="vehicle catalogue", title_justify="left")
     for col in ("name", "L x W [m]", "wheelbase [m]", "mass [kg]", "CoG [m]", "drive", "power [kW]",
-                "tyre mu", "understeer [deg/g]", "steer [deg]"):
+                "peak mu", "understeer [deg/g]", "steer [deg]"):
         table.add_column(escape(col), justify="left" if col in ("name", "drive") else "right")
     descriptions = []
     for name in vehicle_names():
@@ -45,7 +45,7 @@ def catalogue(ctx: typer.Context) -> None:
             continue
         table.add_row(name, *size, f"{p.mass:.0f}", f"{p.cg_height:.2f}", p.driven_axles,
                       f"{p.max_power / 1000:.0f}", f"{p.tyre_friction:.2f}",
-                      f"{math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * GRAVITY):.2f}",
+                      f"{round(math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * GRAVITY), 2) + 0.0:.2f}",
                       f"{math.degrees(p.steering.max_angle):.0f}")
     console = Console()
     console.print(table)
