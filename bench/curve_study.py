@@ -47,7 +47,7 @@ def main() -> None:
         for spec in SPECS:
             path = Path(tmp) / f"{spec['name']}.yaml"
             path.write_text(yaml.safe_dump(spec))
-            result = run_experiment(path, args.out / spec["name"], args.workers, report=False)
+            result = run_experiment(path, args.out / spec["name"], args.workers)
             total += result.total
             print(f"{spec['name']}: {result.total} runs, {result.failed} failed, {result.wall_time_s:.1f} s")
     print(f"{total} runs in {time.perf_counter() - start:.1f} s with {args.workers} workers")

@@ -98,12 +98,12 @@ def test_a_run_whose_worker_dies_is_recorded_with_the_reason_and_runs_again_on_r
 
     killer = threading.Thread(target=kill_the_worker)
     killer.start()
-    result = run_experiment(spec, out, workers=1, report=False)
+    result = run_experiment(spec, out, workers=1)
     killer.join()
     (row,) = ResultsStore(out).rows()
     assert result.failed == 1 and row["failure"] == "worker died (signal 9)"
     assert len(experiment_status(out).left) == 1
-    again = run_experiment(spec, out, workers=1, report=False)
+    again = run_experiment(spec, out, workers=1)
     (row,) = ResultsStore(out).rows()
     assert (again.ran, again.failed, again.skipped) == (1, 0, 0) and row["status"] == "ok"
 

@@ -136,7 +136,7 @@ def simgap_cli(*args: str) -> subprocess.CompletedProcess:
 
 def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_run(cluster, tmp_path):
     spec = spec_file(tmp_path, SMALL)
-    run_experiment(spec, tmp_path / "local", workers=2, report=False)
+    run_experiment(spec, tmp_path / "local", workers=2)
     local = store_rows(tmp_path / "local")
     assert len(local) == 3 and all(r["status"] == "ok" for r in local.values())
 
@@ -155,7 +155,7 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     before = store_rows(out)
     assert 1 <= len(before) < 3, "the kill came after the first and before the last run finished"
     # ... resumes through Ray Client: the runs it had are kept, the others run, none twice
-    result = run_experiment(spec, out, workers=None, executor="ray", address=cluster.client, report=False)
+    result = run_experiment(spec, out, workers=None, executor="ray", address=cluster.client)
     assert (result.skipped, result.ran, result.failed) == (len(before), 3 - len(before), 0)
     rows = store_rows(out)
     assert sorted(rows) == sorted(local)
@@ -170,12 +170,11 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
 
 def test_a_search_on_the_cluster_matches_a_local_one_through_both_address_forms(cluster, tmp_path):
     spec = spec_file(tmp_path, SEARCH)
-    run_search(spec, tmp_path / "local", Budget(runs=2), workers=1, report=False)
+    run_search(spec, tmp_path / "local", Budget(runs=2), workers=1)
     local = store_rows(tmp_path / "local" / "random")
     assert len(local) >= 2
     for form, address in (("gcs", cluster.address), ("client", cluster.client)):
-        (result,) = run_search(spec, tmp_path / form, Budget(runs=2), workers=1, executor="ray", address=address,
-                               report=False)
+        (result,) = run_search(spec, tmp_path / form, Budget(runs=2), workers=1, executor="ray", address=address)
         rows = store_rows(tmp_path / form / "random")
         assert result.runs == 2 and sorted(rows) == sorted(local), form
         assert {k: r["fingerprint"] for k, r in rows.items()} == {k: r["fingerprint"] for k, r in local.items()}
@@ -199,13 +198,13 @@ def test_a_worker_lost_mid_study_is_a_failed_run_with_its_reason_and_runs_again_
 
     killer = threading.Thread(target=kill_the_worker)
     killer.start()
-    result = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address, report=False)
+    result = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address)
     killer.join()
     (row,) = store_rows(out).values()
     assert result.failed == 1 and row["status"] == "failed" and row["failure"].startswith("worker died"), row
     assert len(experiment_status(out).left) == 1
     # resuming runs it again, now to the end
-    again = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address, report=False)
+    again = run_experiment(spec, out, workers=1, executor="ray", address=cluster.address)
     (row,) = store_rows(out).values()
     assert (again.ran, again.failed, again.skipped) == (1, 0, 0) and row["status"] == "ok"
 
@@ -240,7 +239,7 @@ def test_a_cluster_whose_workers_cannot_import_simgap_is_refused_before_any_run(
     try:
         with pytest.raises(InputError) as err:
             run_search(spec_file(tmp_path, SEARCH), tmp_path / "out", Budget(runs=2), workers=1, executor="ray",
-                       address=head.address, report=False)
+                       address=head.address)
     finally:
         stop_head(head)
     line = err.value.describe()
@@ -279,7 +278,6 @@ def test_a_cluster_of_another_ray_or_python_is_refused_naming_both():
 @pytest.mark.parametrize("address", ["head", "ray://head", "head:port", ":6379"])
 def test_a_malformed_address_is_refused_naming_the_forms(tmp_path, address):
     with pytest.raises(InputError) as err:
-        run_experiment(spec_file(tmp_path, SMALL), tmp_path / "out", workers=1, executor="ray", address=address,
-                       report=False)
+        run_experiment(spec_file(tmp_path, SMALL), tmp_path / "out", workers=1, executor="ray", address=address)
     assert err.value.field == "address" and address in err.value.reason and "ray://HOST:PORT" in err.value.allowed
     assert not (tmp_path / "out").exists()
