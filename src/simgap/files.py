@@ -32,6 +32,18 @@ def atomic_write(path: str | Path, write: Callable[[Path], Any], keep_suffix: bo
     return path
 
 
+def remove_stale_temporaries(root: str | Path) -> int:
+    """Delete the temporary files `atomic_write` leaves under ``root`` when its process is killed
+    mid-write (never read by anyone); call it only where no other writer is at work. Returns how
+    many it removed."""
+    removed = 0
+    for stale in Path(root).rglob(".*.tmp*"):
+        if stale.is_file() and ".tmp" in stale.name:
+            stale.unlink(missing_ok=True)
+            removed += 1
+    return removed
+
+
 def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_text(text))
 

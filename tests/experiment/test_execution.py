@@ -138,3 +138,18 @@ def test_the_ray_executor_fills_the_same_store_as_the_local_one(tmp_path):
     for key in local:
         for column in ("status", "outcome", "fingerprint", "time_to_goal_max_s", "distance_m"):
             assert local[key][column] == remote[key][column], (key, column)
+
+
+def test_temporaries_of_a_writer_killed_mid_write_are_removed_when_the_store_is_prepared(tmp_path):
+    from simgap.files import atomic_write_text
+    child = subprocess.Popen([sys.executable, "-c",
+                              "import os, sys; from simgap.files import atomic_write;"
+                              "atomic_write(sys.argv[1], lambda tmp: (tmp.write_text('half'), os.kill(os.getpid(), 9)))",
+                              str(tmp_path / "budget.json")])
+    child.wait()
+    assert child.returncode == -signal.SIGKILL
+    left = list(tmp_path.rglob(".*.tmp*"))
+    assert len(left) == 1 and not (tmp_path / "budget.json").exists()
+    atomic_write_text(tmp_path / "kept.json", "{}")
+    ResultsStore(tmp_path).prepare()
+    assert not list(tmp_path.rglob(".*.tmp*")) and (tmp_path / "kept.json").read_text() == "{}"

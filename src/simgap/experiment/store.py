@@ -26,7 +26,7 @@ import pyarrow.parquet as pq
 
 from simgap.errors import InputError
 from simgap.experiment.records import RunRow
-from simgap.files import atomic_write
+from simgap.files import atomic_write, remove_stale_temporaries
 
 
 WORKER_DIED = "worker died"     # the failure of a run whose worker died under it (a crash, a kill, a lost node)
@@ -44,9 +44,10 @@ class ResultsStore:
         self.rows_dir = self.root / "store" / "rows"
 
     def prepare(self) -> None:
+        """Make the store's folder and remove what writers killed mid-write left anywhere under
+        the output folder (rows, budget, meta files); the driver calls it before any writer starts."""
         self.rows_dir.mkdir(parents=True, exist_ok=True)
-        for stale in self.rows_dir.glob(".*.tmp"):       # a writer killed mid-write
-            stale.unlink(missing_ok=True)
+        remove_stale_temporaries(self.root)
 
     def write_row(self, row: RunRow) -> Path:
         """Write ``row`` (atomically) with the schema its type gives."""
