@@ -4,9 +4,9 @@
 code needing only the protocol does not load frenetix and the route planner.
 """
 
-from simgap.planning.protocol import Planner, TrafficParticipant, World
+from simgap.planning.protocol import Planner, PlannerSetup, TrafficParticipant, World
 
-__all__ = ["FrenetPlanner", "FrenetSettings", "Planner", "ReferencePath", "TrafficParticipant", "World"]
+__all__ = ["FrenetPlanner", "FrenetSettings", "Planner", "PlannerSetup", "ReferencePath", "TrafficParticipant", "World"]
 
 _LAZY = {"FrenetPlanner": "simgap.planning.frenet", "FrenetSettings": "simgap.planning.settings",
          "ReferencePath": "simgap.planning.reference_path"}

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import TYPE_CHECKING, Protocol, Sequence
 
 from commonroad.planning.goal import GoalRegion
+from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.trajectory import State, Trajectory
+
+if TYPE_CHECKING:
+    from simgap.vehicles.catalogue import Vehicle
 
 
 @dataclass(frozen=True)
@@ -43,3 +47,19 @@ class Planner(Protocol):
     """
 
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None: ...
+
+
+@dataclass(frozen=True)
+class PlannerSetup:
+    """What a planner is built from, once per agent, before the first cycle.
+
+    A planner class is constructed as ``cls(setup, settings)``: ``settings`` is an instance of
+    the class's ``Settings`` pydantic model when it declares one (``None`` otherwise).
+    ``vehicle`` is the model the planner assumes it drives (not necessarily the simulated car).
+    """
+
+    agent_id: int
+    vehicle: Vehicle
+    lanelet_network: LaneletNetwork
+    planning_problem: PlanningProblem
+    dt: float
