@@ -65,17 +65,18 @@ def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path)
 
 
 def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path):
+    # 125 Hz divides the physics rate (the spec is valid) but not the scenario's 0.1 s step: the run fails
     spec = spec_file(tmp_path, fidelities=[{"backend": "ideal"},
-                                           {"backend": "mujoco", "settings": {"physics_hz": 250}}],
+                                           {"backend": "mujoco", "settings": {"controller_hz": 125}}],
                      parameters={"radius": {"values": [50]}, "angle": {"values": [30]}})
     result = run_experiment(spec, tmp_path / "out", workers=2)
     report = build_experiment_report(tmp_path / "out")
     rows, _ = rows_by_key(tmp_path / "out")
     assert result.total == 2 and result.failed == 1
-    assert "whole multiple of the controller rate" in report.read_text()   # the report lists it
+    assert "not a whole number of controller periods" in report.read_text()   # the report lists it
     assert rows["curve_radius-50_angle-30/ideal"]["status"] == "ok"
     failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
-    assert failed["status"] == "failed" and "whole multiple of the controller rate" in failed["failure"]
+    assert failed["status"] == "failed" and "not a whole number of controller periods" in failed["failure"]
     # a failed run is finished too: resuming does not run it again, unless asked to
     assert run_experiment(spec, tmp_path / "out", workers=1).ran == 0
     again = run_experiment(spec, tmp_path / "out", workers=1, retry_failed=True)

@@ -30,6 +30,12 @@ def write(tmp_path, **changes):
     ({"fidelities": [{"backend": "carla"}]}, "fidelities.0.backend", "ideal, dynamic, mujoco"),
     ({"fidelities": [{"backend": "mujoco", "vehicles": ["tank"]}]}, "fidelities.0.vehicles", "sedan"),
     ({"fidelities": [{"backend": "mujoco", "controllers": ["mpc"]}]}, "fidelities.0.controllers", "lqr"),
+    ({"fidelities": [{"backend": "mujoco", "settings": {"physics_hz": 250}}]}, "fidelities.0.settings.physics_hz",
+     "whole multiple of the controller rate"),
+    ({"fidelities": [{"backend": "dynamic", "settings": {"offroad_friction": 0.5}}]},
+     "fidelities.0.settings.offroad_friction", "params_id"),
+    ({"fidelities": [{"backend": "ideal", "settings": {"road_friction": 0.5}}]},
+     "fidelities.0.settings.road_friction", "no settings"),
     ({"cosim": {"replan_every": 0}}, "cosim.replan_every", "greater than or equal to 1"),
     ({"planner": {"speed": {"cruise": 12}}}, "planner.speed.cruise", "cruise_m_s"),
 ])

@@ -20,6 +20,7 @@ from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
 from simgap.planning.frenet import FrenetSettings
+from simgap.sim.registry import check_settings
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
     f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
@@ -81,12 +82,10 @@ def _backend_settings(backend: str, backend_settings: dict, backend_config: Path
         raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
                          allowed="dynamic, mujoco, beamng")
-    if backend == "dynamic" and set(backend_settings) - {"controller", "controller_hz", "road_friction"}:
-        raise InputError("the dynamic backend has no 3D world: physics rate and off-road friction are mujoco "
-                         "settings", field="backend", allowed="mujoco")
     if backend_config is not None:
         backend_settings = read_yaml_mapping(backend_config, "backend settings file",
                                              "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
+    check_settings(backend, backend_settings, file=backend_config)
     return backend_settings
 
 

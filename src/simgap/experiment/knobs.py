@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from simgap.errors import InputError
+from simgap.sim.settings import DRY_ROAD_FRICTION, MAX_ACTUATOR_DELAY_S
 
 
 @dataclass(frozen=True)
@@ -29,10 +30,10 @@ class Knob:
 
 
 KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("road_friction", "-", 1.0, 0.1, 1.5, ("dynamic", "mujoco"), "road_friction",
+    Knob("road_friction", "-", DRY_ROAD_FRICTION, 0.1, 1.5, ("dynamic", "mujoco"), "road_friction",
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)"),
-    Knob("steer_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco", "beamng"), "steer_delay", "steering actuator dead time"),
-    Knob("pedal_delay", "s", 0.0, 0.0, 1.0, ("dynamic", "mujoco", "beamng"), "pedal_delay", "throttle and brake dead time"),
+    Knob("steer_delay", "s", 0.0, 0.0, MAX_ACTUATOR_DELAY_S, ("dynamic", "mujoco", "beamng"), "steer_delay", "steering actuator dead time"),
+    Knob("pedal_delay", "s", 0.0, 0.0, MAX_ACTUATOR_DELAY_S, ("dynamic", "mujoco", "beamng"), "pedal_delay", "throttle and brake dead time"),
     Knob("position_noise", "m", 0.0, 0.0, 5.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.position_m",
          "std. dev. of the noise on the x and y the planner observes"),
     Knob("yaw_noise", "deg", 0.0, 0.0, 30.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.yaw_deg",

@@ -165,7 +165,7 @@ def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     check_controller(spec.controller, path, "controller")
     for i, rung in enumerate(spec.ladder):
-        check_backend(rung.backend, path, f"ladder.{i}.backend")
+        check_backend(rung.backend, path, f"ladder.{i}", rung.settings)
     if spec.ladder[0].backend != "ideal":
         raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
                          file=path, field="ladder.0.backend", allowed="ideal")

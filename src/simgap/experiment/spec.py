@@ -37,7 +37,7 @@ from simgap.experiment.samplers import sample
 from simgap.files import read_model
 from simgap.planning.frenet import FrenetSettings
 from simgap.scenario.logical import LogicalScenario, load_logical
-from simgap.sim.registry import BACKENDS
+from simgap.sim.registry import BACKENDS, backend_available, check_settings
 from simgap.vehicles import load_vehicle, vehicle_names
 
 
@@ -176,7 +176,7 @@ def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -
         check_parameter(logical, name, min(values), max(values), path)
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     for i, fid in enumerate(spec.fidelities):
-        check_backend(fid.backend, path, f"fidelities.{i}.backend")
+        check_backend(fid.backend, path, f"fidelities.{i}", fid.settings)
         check_vehicles(fid.vehicles, path, f"fidelities.{i}.vehicles")
         for c in fid.controllers:
             check_controller(c, path, f"fidelities.{i}.controllers")
@@ -195,9 +195,14 @@ def check_parameter(logical: LogicalScenario, name: str, low: float, high: float
         raise InputError(what, file=path, field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
 
 
-def check_backend(name: str, path: Path, where: str) -> None:
+def check_backend(name: str, path: Path, where: str, settings: dict[str, Any] | None = None) -> None:
+    """``name`` (the field ``where``.backend) is a backend, and ``settings`` (``where``.settings)
+    are its settings, checked as it will when a run builds it (an optional backend that is not
+    installed is refused when the batch starts)."""
     if name not in BACKENDS:
-        raise InputError(f"unknown backend '{name}'", file=path, field=where, allowed=", ".join(BACKENDS))
+        raise InputError(f"unknown backend '{name}'", file=path, field=f"{where}.backend", allowed=", ".join(BACKENDS))
+    if settings is not None and backend_available(name):
+        check_settings(name, settings, file=path, where=f"{where}.settings")
 
 
 def check_controller(name: str, path: Path, where: str) -> None:

@@ -1,12 +1,13 @@
-"""Backends by name. A new backend registers here: a name, a constructor taking settings, the
-module it needs installed (and the pip extra that installs it, for an optional one), and, for a
+"""Backends by name. A new backend registers here: a name, a constructor taking settings, a
+check of those settings (run where they are read: the CLI, a spec file), the module it needs installed (and the pip extra that installs it, for an optional one), and, for a
 backend that can be unable to run at all (a server that does not answer), a check that batches
 make once before their first run."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Callable, Mapping
 
 from simgap.errors import InputError
 from simgap.sim.protocol import Backend
@@ -36,6 +37,30 @@ def _beamng(**settings: Any) -> Backend:
     return BeamngBackend(**settings)
 
 
+def _no_settings(settings: dict[str, Any]) -> None:
+    if settings:
+        raise InputError("the ideal backend has no settings: it executes every plan exactly",
+                         field=f"backend_settings.{next(iter(settings))}", allowed="none")
+
+
+def _dynamic_settings(settings: dict[str, Any]) -> None:
+    from simgap.sim.dynamic.backend import dynamic_settings
+
+    dynamic_settings(settings)
+
+
+def _mujoco_settings(settings: dict[str, Any]) -> None:
+    from simgap.sim.mujoco.backend import mujoco_settings
+
+    mujoco_settings(settings)
+
+
+def _beamng_settings(settings: dict[str, Any]) -> None:
+    from simgap.sim.beamng.settings import load_settings
+
+    load_settings(settings)
+
+
 def _beamng_server(settings: dict[str, Any]) -> None:
     from simgap.sim.beamng.session import check_server
 
@@ -45,16 +70,17 @@ def _beamng_server(settings: dict[str, Any]) -> None:
 @dataclass(frozen=True)
 class BackendEntry:
     make: Callable[..., Backend]
+    settings: Callable[[dict[str, Any]], None]             # validates settings as the backend will
     module: str                                            # must be importable
     extra: str | None = None                               # pip extra that installs it (optional backends)
     check: Callable[[dict[str, Any]], None] | None = None  # raises when it cannot run with these settings
 
 
 BACKENDS: dict[str, BackendEntry] = {
-    "ideal": BackendEntry(_ideal, "simgap.sim.ideal"),
-    "dynamic": BackendEntry(_dynamic, "simgap.sim.dynamic.backend"),
-    "mujoco": BackendEntry(_mujoco, "simgap.sim.mujoco"),
-    "beamng": BackendEntry(_beamng, "beamngpy", extra="beamng", check=_beamng_server),
+    "ideal": BackendEntry(_ideal, _no_settings, "simgap.sim.ideal"),
+    "dynamic": BackendEntry(_dynamic, _dynamic_settings, "simgap.sim.dynamic.backend"),
+    "mujoco": BackendEntry(_mujoco, _mujoco_settings, "simgap.sim.mujoco"),
+    "beamng": BackendEntry(_beamng, _beamng_settings, "beamngpy", extra="beamng", check=_beamng_server),
 }
 
 
@@ -80,6 +106,19 @@ def _entry(name: str) -> BackendEntry:
 
 def make_backend(name: str, **settings: Any) -> Backend:
     return _entry(name).make(**settings)
+
+
+def check_settings(name: str, settings: Mapping[str, Any], *, file: str | Path | None = None,
+                   where: str = "backend_settings") -> None:
+    """Validate ``settings`` of backend ``name`` now, where they were read, as the backend will
+    when it is built; the error names ``file`` and the field under ``where``."""
+    entry = _entry(name)
+    try:
+        entry.settings(dict(settings))
+    except InputError as exc:
+        field = exc.field.replace("backend_settings", where, 1) if exc.field else where
+        raise InputError(exc.reason, file=file if file is not None else exc.file, field=field,
+                         allowed=exc.allowed) from None
 
 
 def preflight(name: str, settings: dict[str, Any]) -> None:

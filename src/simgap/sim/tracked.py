@@ -13,24 +13,23 @@ and times the phases (``control`` here; ``physics`` and anything finer in the pl
 from __future__ import annotations
 
 import time
-from typing import Any, Mapping, Protocol, Sequence
+from typing import Mapping, Protocol, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control import make_controller
 from simgap.control.delay import with_actuator_delay
-from simgap.control.protocol import Command
+from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.sim.protocol import Agent, BackendEvent
+from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import State, Trajectory
-
-MAX_ACTUATOR_DELAY_S = 1.0
-
 
 class Plant(Protocol):
     """The physical world of a physics backend, driven one controller period at a time."""
 
     timings: dict[str, float]       # seconds per phase this plant spent (``physics``, ...)
+    notes: list[str]                # what the plant did that the run record should say
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
 
@@ -57,29 +56,17 @@ class Plant(Protocol):
     def close(self) -> None: ...
 
 
-def checked_delay(value: Any, name: str) -> float:
-    if not isinstance(value, (int, float)) or not 0.0 <= value <= MAX_ACTUATOR_DELAY_S:
-        raise InputError(f"{value!r} is not a delay", field=f"backend_settings.{name}",
-                         allowed=f"0 to {MAX_ACTUATOR_DELAY_S:g} s")
-    return float(value)
-
-
 class TrackedBackend:
     """A `Backend`: a `Plant` whose cars each follow their plan under a tracking controller."""
 
-    def __init__(self, name: str, plant: Plant, controller: str = "pure_pursuit", controller_hz: float = 100.0,
-                 controller_gains: Mapping[str, Any] | None = None, steer_delay: float = 0.0,
-                 pedal_delay: float = 0.0):
+    def __init__(self, name: str, plant: Plant, tracking: TrackingSettings):
         self.name = name
         self.plant = plant
-        self.controller_name = controller
-        self.controller_hz = float(controller_hz)
-        self.controller_gains = dict(controller_gains or {})
-        self.steer_delay = checked_delay(steer_delay, "steer_delay")
-        self.pedal_delay = checked_delay(pedal_delay, "pedal_delay")
+        self.tracking = tracking
+        self.controller_hz = tracking.controller_hz
         self.timings = plant.timings
         self.timings.setdefault("control", 0.0)
-        self.notes: list[str] = []
+        self.notes = plant.notes
         self._agents: list[Agent] = []
         self._dt = 0.1
         self._t0 = 0.0
@@ -87,33 +74,44 @@ class TrackedBackend:
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
+        periods = self._dt * self.controller_hz
+        if abs(periods - round(periods)) > 1e-6:
+            raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
+                             f"{self.controller_hz:g} Hz", field="backend_settings.controller_hz",
+                             allowed=f"a multiple of {1 / self._dt:g} Hz")
+        self._ticks = int(round(periods))
         self._agents = list(agents)
         self.plant.load(scenario, agents)
-        self._controllers = {a.id: with_actuator_delay(make_controller(self.controller_name, a.vehicle,
-                                                                       self.controller_hz, self.controller_gains),
-                                                       self.steer_delay, self.pedal_delay) for a in agents}
+        self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
+
+    def make_controller(self, agent: Agent) -> Controller | None:
+        """The controller that drives ``agent``'s car: the tracking settings' controller, with its
+        actuator delays. A backend whose cars drive themselves (BeamNG's script AI) returns None:
+        the loop then neither measures nor actuates that car between scenario steps."""
+        t = self.tracking
+        return with_actuator_delay(make_controller(t.controller, agent.vehicle, t.controller_hz, t.controller_gains),
+                                   t.steer_delay, t.pedal_delay)
 
     def reset(self) -> dict[int, State]:
         self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
         self._step = 0
         self.plant.reset(self._t0)
         states = {a.id: self.plant.measure(a.id, self._t0) for a in self._agents}
-        for a in self._agents:
-            self._controllers[a.id].reset(states[a.id])
+        for aid, controller in self._controllers.items():
+            controller.reset(states[aid])
         return states
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
         plant, timings = self.plant, self.timings
-        ticks = max(1, round(self._dt * self.controller_hz))
+        ticks = self._ticks
         period = self._dt / ticks
         t0 = self._t0 + self._step * self._dt
         plant.begin_step(t0)
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for a in self._agents:
-                command = self._controllers[a.id].command(plant.measure(a.id, t), plans[a.id], t)
-                plant.actuate(a.id, command, period)
+            for aid, controller in self._controllers.items():
+                plant.actuate(aid, controller.command(plant.measure(aid, t), plans[aid], t), period)
             timings["control"] += time.perf_counter() - start
             plant.advance(t, period)
         self._step += 1

@@ -5,13 +5,16 @@ paper's simulator (``pip install 'simgap[beamng]'``; see the README).
 agent (`catalogue` maps simgap vehicles to BeamNG models) and one per recorded obstacle, switches
 physics to deterministic mode at ``physics_hz`` and pauses. `reset` moves each car so that its
 body's centre, not BeamNG's reference node, sits on the agent's initial state. Each scenario dt
-is then ``physics_hz × dt`` physics steps, taken while the simulation is otherwise paused:
+is then ``physics_hz × dt`` physics steps, taken while the simulation is otherwise paused.
+`BeamngWorld` is the `Plant` and the loop is `simgap.sim.tracked`'s, as for the other physics
+backends:
 
 - ``driver: controller`` (default): every controller period simgap's tracking controller (the
   same as in the MuJoCo backend, with the same actuator-delay knobs) turns the plan in force and
   the measured state into steering, throttle and brake;
 - ``driver: script_ai``: the paper's method, BeamNG's script AI following the plan's
-  time-stamped waypoints, re-sent whenever the planner replans.
+  time-stamped waypoints, re-sent whenever the planner replans; the cars are then read only at
+  the end of each scenario step.
 
 The state read back after each step follows simgap's convention (`convert`); a jump in a car's
 damage is a collision, attributed to the nearest other road user. A moving start, which BeamNG
@@ -29,8 +32,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
-from simgap.control import make_controller
-from simgap.control.delay import with_actuator_delay
+from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.sim.beamng.catalogue import model_for
@@ -41,23 +43,24 @@ from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
 from simgap.sim.rates import SpeedRate, steps_per_tick
+from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State, Trajectory
 
 MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
 
 
-class BeamngBackend:
-    name = "beamng"
+class BeamngWorld:
+    """A running BeamNG.tech as the `Plant` of a tracked backend (see the module doc)."""
 
-    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
-        self.settings = load_settings(settings)
-        self._connect = session_factory or BeamngSession
-        self.timings = {"control": 0.0, "physics": 0.0}
+    def __init__(self, settings: BeamngSettings, session_factory: Callable[[BeamngSettings], Session]):
+        self.settings = settings
+        self._connect = session_factory
+        self.timings = {"physics": 0.0}
         self.notes: list[str] = []
         self._events: list[BackendEvent] = []
         self.session: Session | None = None
 
-    # --- Backend protocol -------------------------------------------------------------------
+    # --- Plant protocol -----------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._dt = float(scenario.dt)
@@ -67,13 +70,7 @@ class BeamngBackend:
             raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of physics steps at "
                              f"{cfg.physics_hz} Hz", field="backend_settings.physics_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
-        self._steps_per_dt = int(round(steps))
         self._steps_per_tick = steps_per_tick(cfg.physics_hz, cfg.controller_hz, "backend_settings.controller_hz")
-        self._ticks = self._steps_per_dt // self._steps_per_tick
-        if self._steps_per_dt % self._steps_per_tick:
-            raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
-                             f"{cfg.controller_hz:g} Hz", field="backend_settings.controller_hz",
-                             allowed=f"a multiple of {1 / self._dt:g} Hz that divides {cfg.physics_hz} Hz")
         self._models = {a.id: model_for(a.vehicle.name, cfg.vehicle_models, cfg.steer_locks) for a in agents}
         self._traffic = recorded_obstacles(scenario)
         traffic_model = model_for("traffic", {"traffic": "etk800"} | cfg.vehicle_models, cfg.steer_locks)
@@ -82,8 +79,6 @@ class BeamngBackend:
         for o in self._traffic:
             s = o.motion.at(o.motion.t[0])
             spawns.append(Spawn(_obstacle_vid(o.id), traffic_model.name, (s.x, s.y, 0.0), quat_from_yaw(s.yaw)))
-        self._controllers = {a.id: with_actuator_delay(make_controller(cfg.controller, a.vehicle, cfg.controller_hz),
-                                                       cfg.steer_delay, cfg.pedal_delay) for a in agents}
         roads = decal_roads(scenario.lanelet_network, cfg.materials, cfg.shape_tolerance, cfg.node_spacing)
         self.session = self._connect(cfg)
         try:
@@ -93,72 +88,63 @@ class BeamngBackend:
             raise
         self.notes.append(f"{len(roads)} decal roads on level {cfg.level}; " + ", ".join(
             f"agent {a.id}: {a.vehicle.name} as {self._models[a.id].name}" for a in agents)
-            + f"; driver {cfg.driver}; {self._steps_per_dt} physics steps per dt at {cfg.physics_hz} Hz")
+            + f"; driver {cfg.driver}; {int(round(steps))} physics steps per dt at {cfg.physics_hz} Hz")
 
-    def reset(self) -> dict[int, State]:
+    def reset(self, t0: float) -> None:
         s, cfg = self.session, self.settings
-        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
-        self._step = 0
         self._offset: dict[str, np.ndarray] = {}
         for vid in [_vid(a.id) for a in self._agents] + [_obstacle_vid(o.id) for o in self._traffic]:
             p = s.poll(vid)
             self._offset[vid] = reference_offset(p.state, bbox_centre(p.bbox))
         for a in self._agents:
             self._place(_vid(a.id), a.initial_state, reset=True)
-        self._move_traffic(self._t0)
+        self._move_traffic(t0)
         moving = [a for a in self._agents if a.initial_state.v > MOVING_START]
         if moving:
             self._run_up(moving)
-        self._accel = {a.id: SpeedRate(self._t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
+        self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._damage = {}
-        states = {}
+        self._measured: dict[int, State] = {}
         for a in self._agents:
             poll = s.poll(_vid(a.id))
             self._damage[a.id] = float(poll.damage.get("damage", 0.0))
-            states[a.id] = self._measure(a.id, poll, self._t0)
-            self._controllers[a.id].reset(states[a.id])
+            self._measured[a.id] = self._read(a.id, poll, t0)
         for a in moving:
             self.notes.append(f"agent {a.id}: moving start at {a.initial_state.v:.2f} m/s approached by a "
                               f"{cfg.run_up_s:g} s run-up (set_velocity), then placed on its initial pose "
-                              f"keeping its velocity; speed at t0 {states[a.id].v:.2f} m/s")
-        self._states = states
-        self._scripted: dict[int, Trajectory] = {}
+                              f"keeping its velocity; speed at t0 {self._measured[a.id].v:.2f} m/s")
         self._events = []
-        return dict(states)
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
-        s, cfg = self.session, self.settings
+    def begin_step(self, t: float) -> None:
         self._events = []
-        t0 = self._t0 + self._step * self._dt
-        if cfg.driver == "script_ai":
-            for a in self._agents:
-                if self._scripted.get(a.id) is not plans[a.id]:
-                    s.set_script(_vid(a.id), self._script(a.id, plans[a.id], t0))
-                    self._scripted[a.id] = plans[a.id]
-        period = self._steps_per_tick / cfg.physics_hz
-        states = self._states
-        for k in range(self._ticks):
-            t = t0 + k * period
-            c0 = time.perf_counter()
-            if cfg.driver == "controller":           # the script AI drives itself: nothing to measure
-                if k > 0:
-                    states = {a.id: self._measure(a.id, s.poll(_vid(a.id)), t) for a in self._agents}
-                for a in self._agents:
-                    command = self._controllers[a.id].command(states[a.id], plans[a.id], t)
-                    lock = self._models[a.id].steer_lock
-                    s.control(_vid(a.id), steering_input(command.steer, lock), min(max(command.throttle, 0.0), 1.0),
-                              min(max(command.brake, 0.0), 1.0))
-            self._move_traffic(t)
-            c1 = time.perf_counter()
-            s.step(self._steps_per_tick)
-            self.timings["control"] += c1 - c0
-            self.timings["physics"] += time.perf_counter() - c1
-        self._step += 1
-        t_end = t0 + self._dt
-        polls = {a.id: s.poll(_vid(a.id)) for a in self._agents}
-        self._states = {aid: self._measure(aid, p, t_end) for aid, p in polls.items()}
-        self._collisions(polls, t_end)
-        return dict(self._states)
+        self._step_end = t + self._dt
+
+    def measure(self, agent_id: int, t: float) -> State:
+        """The car's state at ``t``: polled once per controller period (the state read at the end of
+        a step serves the first period of the next)."""
+        last = self._measured[agent_id]
+        if abs(last.t - t) > 1e-9:
+            last = self._measured[agent_id] = self._read(agent_id, self.session.poll(_vid(agent_id)), t)
+        return last
+
+    def actuate(self, agent_id: int, command: Command, period: float) -> None:
+        lock = self._models[agent_id].steer_lock
+        self.session.control(_vid(agent_id), steering_input(command.steer, lock),
+                             min(max(command.throttle, 0.0), 1.0), min(max(command.brake, 0.0), 1.0))
+
+    def advance(self, t: float, period: float) -> None:
+        self._move_traffic(t)
+        start = time.perf_counter()
+        self.session.step(self._steps_per_tick)
+        self.timings["physics"] += time.perf_counter() - start
+        if t + period >= self._step_end - 1e-9:            # the end of a scenario step: read every car
+            polls = {a.id: self.session.poll(_vid(a.id)) for a in self._agents}
+            self._measured = {aid: self._read(aid, p, self._step_end) for aid, p in polls.items()}
+            self._collisions(polls, self._step_end)
+
+    def follow(self, agent_id: int, plan: Trajectory, now: float) -> None:
+        """Hand ``plan`` from ``now`` on to BeamNG's script AI of the agent's car."""
+        self.session.set_script(_vid(agent_id), self._script(agent_id, plan, now))
 
     def events(self) -> list[BackendEvent]:
         return list(self._events)
@@ -187,7 +173,7 @@ class BeamngBackend:
         for a in self._agents:
             self._place(_vid(a.id), a.initial_state, reset=a.id not in running)
 
-    def _measure(self, agent_id: int, poll: Poll, t: float) -> State:
+    def _read(self, agent_id: int, poll: Poll, t: float) -> State:
         for key in ("pos", "vel", "rotation"):
             if not np.all(np.isfinite(np.asarray(poll.state.get(key, [math.nan]), dtype=float))):
                 raise PhysicsDiverged(f"agent {agent_id}: BeamNG reported no finite {key} at t = {t:.2f} s")
@@ -206,7 +192,7 @@ class BeamngBackend:
             x, y, z = reference_position(st.x, st.y, 0.0, st.yaw, offset)
             nodes.append({"x": x, "y": y, "z": z, "t": st.t - now})
         while len(nodes) < 3:              # the script AI needs three nodes; hold the last one
-            last = dict(nodes[-1]) if nodes else {"x": self._states[agent_id].x, "y": self._states[agent_id].y,
+            last = dict(nodes[-1]) if nodes else {"x": self._measured[agent_id].x, "y": self._measured[agent_id].y,
                                                   "z": 0.0, "t": 0.0}
             last["t"] += self._dt
             nodes.append(last)
@@ -228,8 +214,8 @@ class BeamngBackend:
             rise, self._damage[aid] = damage - self._damage[aid], damage
             if rise < DAMAGE_COLLISION:
                 continue
-            me = self._states[aid]
-            others = [(oid, st) for oid, st in self._states.items() if oid != aid] + traffic
+            me = self._measured[aid]
+            others = [(oid, st) for oid, st in self._measured.items() if oid != aid] + traffic
             near = [(math.hypot(st.x - me.x, st.y - me.y), oid) for oid, st in others]
             if near:
                 dist, other = min(near)
@@ -237,6 +223,36 @@ class BeamngBackend:
                                                  f"user {other} at {dist:.1f} m", other))
             else:
                 self._events.append(BackendEvent(t, aid, "damage", f"damage rose by {rise:.0f}"))
+
+
+class BeamngBackend(TrackedBackend):
+    """The ``beamng`` backend: `BeamngWorld` under simgap's tracking controllers, or with each car
+    driven by BeamNG's script AI on its plan's waypoints (``driver: script_ai``)."""
+
+    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
+        self.settings = load_settings(settings)
+        super().__init__("beamng", BeamngWorld(self.settings, session_factory or BeamngSession), self.settings)
+        self._scripted: dict[int, Trajectory] = {}
+
+    @property
+    def session(self) -> Session | None:
+        return self.plant.session
+
+    def make_controller(self, agent: Agent) -> Controller | None:
+        return super().make_controller(agent) if self.settings.driver == "controller" else None
+
+    def reset(self) -> dict[int, State]:
+        self._scripted = {}
+        return super().reset()
+
+    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+        if self.settings.driver == "script_ai":        # a replanned plan goes to the script AI at once
+            now = self._t0 + self._step * self._dt
+            for a in self._agents:
+                if self._scripted.get(a.id) is not plans[a.id]:
+                    self.plant.follow(a.id, plans[a.id], now)
+                    self._scripted[a.id] = plans[a.id]
+        return super().step(plans)
 
 
 def _vid(agent_id: int) -> str:

@@ -10,8 +10,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from simgap.control.tracking import MIN_RATE_HZ
 from simgap.errors import InputError, validated_settings
 from simgap.sim.rates import steps_per_tick
+from simgap.sim.settings import TrackingSettings
 
 ENV = {"host": "SIMGAP_BEAMNG_HOST", "port": "SIMGAP_BEAMNG_PORT", "home": "SIMGAP_BEAMNG_HOME"}
 
@@ -27,8 +29,8 @@ class Materials(BaseModel):
     curb: str = Field("curb_concrete", description="kerbs")
 
 
-class BeamngSettings(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class BeamngSettings(TrackingSettings):
+    """The server, the level, the driver and the tracking of the ``beamng`` backend."""
 
     host: str = Field("localhost", description="BeamNG.tech server host (env SIMGAP_BEAMNG_HOST)")
     port: int = Field(25252, ge=1, le=65535, description="server port (env SIMGAP_BEAMNG_PORT)")
@@ -38,10 +40,7 @@ class BeamngSettings(BaseModel):
     physics_hz: int = Field(60, ge=20, le=2000, description="deterministic physics rate [Hz] (the paper: 60)")
     driver: Literal["controller", "script_ai"] = Field(
         "controller", description="simgap's tracking controller, or BeamNG's script AI on the plan's waypoints")
-    controller: str = "pure_pursuit"
-    controller_hz: float = Field(60.0, ge=50.0, description="controller rate [Hz], divides physics_hz")
-    steer_delay: float = Field(0.0, ge=0, le=1.0, description="steering actuator delay [s] (driver: controller)")
-    pedal_delay: float = Field(0.0, ge=0, le=1.0, description="throttle/brake actuator delay [s]")
+    controller_hz: float = Field(60.0, ge=MIN_RATE_HZ, description="controller rate [Hz], divides physics_hz")
     vehicle_models: dict[str, str] = Field(default_factory=dict, description="simgap vehicle → BeamNG model")
     steer_locks: dict[str, float] = Field(default_factory=dict, description="BeamNG model → road-wheel lock [rad]")
     materials: Materials = Materials()

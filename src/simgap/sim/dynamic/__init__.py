@@ -1,7 +1,8 @@
 """The mid-fidelity ``dynamic`` world: controllers driving CommonRoad's single-track model.
 
-For now it holds the plant (`SingleTrackPlant`) and a closed loop that tracks a sequence of
-plans with one controller (`track_plans`); the backend built on them comes later.
+The vehicle models (`plant`: CommonRoad's single-track model, and its multi-body model on
+request), the backend that drives them under the tracking controllers (`backend`), and a closed
+loop that tracks a sequence of plans with one controller (`track_plans`, for studies).
 """
 
 from simgap.sim.dynamic.closed_loop import track_plans

@@ -6,7 +6,7 @@ with RK4 at 1 kHz, so tyre slip, steering lag and powertrain limits already brea
 world's perfect tracking. The model's reference point (its centre of gravity) is taken as the
 vehicle's centre.
 
-Settings (``backend_settings``): ``controller``, ``controller_hz``, ``params_id`` (CommonRoad
+Settings (``backend_settings``): the tracking (`TrackingSettings`), ``params_id`` (CommonRoad
 parameter set), ``model`` (``st`` single-track, or ``mb`` multi-body on request), ``integration_step`` and the reality
 knobs ``road_friction`` (1.0 = dry), ``steer_delay`` and ``pedal_delay`` [s].
 """
@@ -14,32 +14,27 @@ knobs ``road_friction`` (1.0 = dry), ``steer_delay`` and ``pedal_delay`` [s].
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from typing import Any, Sequence
 
 from commonroad.scenario.scenario import Scenario
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from simgap.control.protocol import Command
 from simgap.errors import InputError, validated_settings
 from simgap.sim.dynamic.plant import PLANTS, make_plant
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.settings import DRY_ROAD_FRICTION, RoadFriction, TrackingSettings
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
 
-class DynamicSettings(BaseModel):
+class DynamicSettings(TrackingSettings):
     """Settings of the ``dynamic`` world (``backend_settings`` of a run)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    controller: str = "pure_pursuit"
-    controller_hz: float = Field(100.0, ge=50.0, description="controller rate [Hz]")
     params_id: int = Field(2, ge=1, le=3, description="CommonRoad vehicle parameter set")
     model: str = Field("st", description=f"vehicle model: {', '.join(PLANTS)}")
     integration_step: float = Field(0.001, gt=0, le=0.01, description="RK4 sub-step of the vehicle model [s]")
-    road_friction: float = Field(1.0, gt=0, le=1.5, description="road friction, scales the tyres' [-]")
-    steer_delay: float = Field(0.0, ge=0, le=1.0, description="steering actuator delay [s]")
-    pedal_delay: float = Field(0.0, ge=0, le=1.0, description="throttle/brake actuator delay [s]")
+    road_friction: RoadFriction = DRY_ROAD_FRICTION
 
 
 class SingleTrackWorld:
@@ -49,6 +44,7 @@ class SingleTrackWorld:
     def __init__(self, settings: DynamicSettings):
         self.settings = settings
         self.timings = {"physics": 0.0}
+        self.notes: list[str] = []
         self._agents: list[Agent] = []
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
@@ -86,14 +82,19 @@ class SingleTrackWorld:
         pass
 
 
+def dynamic_settings(values: dict[str, Any]) -> DynamicSettings:
+    """``values`` validated as the backend's settings."""
+    cfg = validated_settings(DynamicSettings, values)
+    if cfg.model not in PLANTS:
+        raise InputError(f"unknown vehicle model '{cfg.model}'", field="backend_settings.model",
+                         allowed=", ".join(PLANTS))
+    return cfg
+
+
 class DynamicBackend(TrackedBackend):
     """The ``dynamic`` backend: `SingleTrackWorld` under a tracking controller per car."""
 
     def __init__(self, **settings):
-        cfg = validated_settings(DynamicSettings, settings)
-        if cfg.model not in PLANTS:
-            raise InputError(f"unknown vehicle model '{cfg.model}'", field="backend_settings.model",
-                             allowed=", ".join(PLANTS))
+        cfg = dynamic_settings(settings)
         self.settings = cfg
-        super().__init__("dynamic", SingleTrackWorld(cfg), cfg.controller, cfg.controller_hz,
-                         steer_delay=cfg.steer_delay, pedal_delay=cfg.pedal_delay)
+        super().__init__("dynamic", SingleTrackWorld(cfg), cfg)

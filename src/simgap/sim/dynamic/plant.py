@@ -41,10 +41,11 @@ from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
 from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_parameters
 
 from simgap.control.longitudinal import LongitudinalMap
-from simgap.vehicles.constants import GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError
+from simgap.sim.settings import DRY_ROAD_FRICTION
 from simgap.trajectory import State, wrap_angle
+from simgap.vehicles.constants import GRAVITY
 
 PARAMETER_SETS = (1, 2, 3)
 
@@ -84,7 +85,7 @@ class SingleTrackPlant:
 
     def __init__(self, vehicle, params_id: int = 2, *, integration_step: float = 1e-3,
                  steer_time_constant: float = 0.05, accel_time_constant: float = 0.1,
-                 road_friction: float = 1.0):
+                 road_friction: float = DRY_ROAD_FRICTION):
         if integration_step <= 0:
             raise ValueError("integration_step must be > 0")
         if road_friction <= 0:
@@ -214,7 +215,7 @@ class MultiBodyPlant(SingleTrackPlant):
 PLANTS = {"st": SingleTrackPlant, "mb": MultiBodyPlant}
 
 
-def make_plant(model: str, vehicle, params_id: int = 2, road_friction: float = 1.0,
+def make_plant(model: str, vehicle, params_id: int = 2, road_friction: float = DRY_ROAD_FRICTION,
                integration_step: float = 1e-3) -> SingleTrackPlant:
     """The plant of vehicle model ``model``: ``st`` (single-track) or ``mb`` (multi-body)."""
     if model not in PLANTS:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import mujoco
 import numpy as np
@@ -37,6 +37,7 @@ from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, sing
 from simgap.sim.mujoco.world import World, WorldSettings, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
 from simgap.sim.rates import SpeedRate, steps_per_tick
+from simgap.sim.settings import TrackingSettings, fields_of
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
@@ -50,6 +51,7 @@ class MujocoPhysics:
     def __init__(self, **world: Any):
         self.settings = validated_settings(WorldSettings, world)
         self.timings = {"physics": 0.0, "tyres": 0.0}
+        self.notes: list[str] = []
         self.world: World | None = None
         self._events: list[BackendEvent] = []
         self._seen: set[tuple[int, int | None]] = set()
@@ -227,20 +229,24 @@ class MujocoPhysics:
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))
 
 
+class MujocoSettings(TrackingSettings, WorldSettings):
+    """Settings of the ``mujoco`` backend (``backend_settings`` of a run): the tracking and the world."""
+
+
+def mujoco_settings(values: dict[str, Any]) -> MujocoSettings:
+    """``values`` validated as the backend's settings (the physics rate a multiple of the controller's)."""
+    cfg = validated_settings(MujocoSettings, values)
+    steps_per_tick(cfg.physics_hz, cfg.controller_hz)
+    return cfg
+
+
 class MujocoBackend(TrackedBackend):
     """The ``mujoco`` backend: `MujocoPhysics` under a tracking controller per car."""
 
-    def __init__(self, controller: str = "pure_pursuit", controller_hz: float = 100.0,
-                 controller_gains: Mapping[str, Any] | None = None, steer_delay: float = 0.0,
-                 pedal_delay: float = 0.0, **world: Any):
-        physics = MujocoPhysics(**world)
-        steps_per_tick(physics.settings.physics_hz, float(controller_hz))
-        super().__init__("mujoco", physics, controller, controller_hz, controller_gains, steer_delay, pedal_delay)
+    def __init__(self, **settings: Any):
+        cfg = self.settings = mujoco_settings(settings)
+        super().__init__("mujoco", MujocoPhysics(**fields_of(WorldSettings, cfg.model_dump())), cfg)
 
     @property
     def world(self) -> World | None:
         return self.plant.world
-
-    @property
-    def settings(self) -> WorldSettings:
-        return self.plant.settings

@@ -21,6 +21,7 @@ from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, static_ty
 from simgap.sim.mujoco.road import SurfaceMap, add_road
 from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
+from simgap.sim.settings import DRY_ROAD_FRICTION, RoadFriction
 from simgap.trajectory import State
 from simgap.vehicles.constants import GRAVITY
 
@@ -39,8 +40,8 @@ class WorldSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     physics_hz: float = Field(500.0, ge=200.0, le=5000.0, description="physics rate [Hz]")
-    road_friction: float = Field(1.0, gt=0, le=1.5, description="road surface friction, scales each tyre's [-]")
-    offroad_friction: float = Field(0.6, gt=0, le=1.5, description="off-road (verge) friction, scales each tyre's [-]")
+    road_friction: RoadFriction = DRY_ROAD_FRICTION
+    offroad_friction: RoadFriction = Field(0.6, description="off-road (verge) friction, scales each tyre's [-]")
     road_bank: float = Field(0.0, ge=-15.0, le=15.0,
                              description="cross slope [deg]; positive: the road falls to the right of the way of travel")
     road_grade: float = Field(0.0, ge=-15.0, le=15.0, description="grade [deg]; positive: uphill in the way of travel")

@@ -1,0 +1,43 @@
+"""Settings every physics backend shares, each bound and default written once: the tracking
+(controller, its rate and gains, actuator delays) and the road's friction. A backend's own
+settings model extends `TrackingSettings`; a world with a road surface adds `RoadFriction`."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from simgap.control import controller_names
+from simgap.control.tracking import MIN_RATE_HZ
+
+MAX_ACTUATOR_DELAY_S = 1.0      # s: longer dead times are no actuator but a broken car
+DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
+
+ActuatorDelay = Annotated[float, Field(ge=0.0, le=MAX_ACTUATOR_DELAY_S)]
+RoadFriction = Annotated[float, Field(gt=0.0, le=1.5, description="scales each tyre's friction [-]")]
+
+
+class TrackingSettings(BaseModel):
+    """How each car of a physics backend follows its plan."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    controller: str = Field("pure_pursuit", description="tracking controller: pure_pursuit, stanley, lqr")
+    controller_hz: float = Field(100.0, ge=MIN_RATE_HZ, description="controller rate [Hz]")
+    controller_gains: dict[str, Any] = Field(default_factory=dict,
+                                             description="gains over the controller's defaults and the vehicle's")
+    steer_delay: ActuatorDelay = Field(0.0, description="steering actuator dead time [s]")
+    pedal_delay: ActuatorDelay = Field(0.0, description="throttle and brake dead time [s]")
+
+    @field_validator("controller")
+    @classmethod
+    def _known_controller(cls, name: str) -> str:
+        if name not in controller_names():
+            raise ValueError(f"unknown controller '{name}'; known: {', '.join(controller_names())}")
+        return name
+
+
+def fields_of(model: type[BaseModel], values: dict[str, Any]) -> dict[str, Any]:
+    """The entries of ``values`` that are fields of ``model``."""
+    return {k: v for k, v in values.items() if k in model.model_fields}
