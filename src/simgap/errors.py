@@ -68,14 +68,14 @@ def validation_error(err: ValidationError, *, file: str | Path | None = None, pr
 
 
 def validated(model: type[M], values: Mapping[str, Any] | None, *, file: str | Path | None = None,
-              prefix: str | None = None) -> M:
+              prefix: str | None = None, unknown: str | None = None) -> M:
     """``values`` validated as ``model``, or the `InputError` of `validation_error`."""
     try:
         return model.model_validate(dict(values or {}))
     except ValidationError as err:
-        raise validation_error(err, file=file, prefix=prefix, model=model) from None
+        raise validation_error(err, file=file, prefix=prefix, model=model, unknown=unknown) from None
 
 
 def validated_settings(model: type[M], values: Mapping[str, Any], prefix: str = "backend_settings") -> M:
     """A backend's settings, validated; errors name ``backend_settings.FIELD``."""
-    return validated(model, values, prefix=prefix)
+    return validated(model, values, prefix=prefix, unknown="not a setting of this backend")
