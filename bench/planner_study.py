@@ -1,0 +1,181 @@
+"""The planner study: frenet vs reactive vs idm on the paper's curves (r = 10 m and 50 m, 90 deg;
+the left-right curve, the built-in ``s-curve``) and the T-junction (three agents, each driven by
+the same planner), in the ideal world and in MuJoCo with the sedan.
+
+Per scenario and planner: agents at the goal per fidelity, mean time to goal, the cross-fidelity
+gap (|d_mujoco - d_ideal| by arc length along each agent's route centre, mean and max over agents),
+the planning cycles that found no plan, and the wall time per planning call (mean and 95th
+percentile over both fidelities).
+
+Usage: MUJOCO_GL=egl PYTHONPATH=src python bench/planner_study.py [--planners frenet,reactive,idm]
+       [--scenarios curve-r10,curve-r50,s-curve,t-junction] [--replan-every 1] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from simgap.cosim import CosimSettings, Run, simulate
+from simgap.cosim.agents import agents_from_problems
+from simgap.evaluate.compare import compare_runs
+from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.idm_planner import IdmPlanner
+from simgap.planning.protocol import PlannerSetup
+from simgap.planning.reactive import ReactivePlanner
+from simgap.scenario import build_scenario
+from simgap.sim.registry import make_backend
+from simgap.vehicles import load_vehicle
+
+
+def _frenet(setup: PlannerSetup):
+    return FrenetPlanner(setup.vehicle, setup.lanelet_network, setup.planning_problem)
+
+
+# name -> planner factory; the planner registry (issue 15, item 1) replaces this map
+PLANNERS = {"frenet": _frenet, "reactive": ReactivePlanner, "idm": IdmPlanner}
+SCENARIOS = {
+    "curve-r10": ("curve", {"radius": 10, "angle": 90}),
+    "curve-r50": ("curve", {"radius": 50, "angle": 90}),
+    "s-curve": ("s-curve", {}),
+    "t-junction": ("t-junction", {}),
+}
+BACKENDS = ("ideal", "mujoco")
+
+
+class TimedPlanner:
+    """A planner whose every call is timed (wall clock)."""
+
+    def __init__(self, planner):
+        self.planner = planner
+        self.seconds: list[float] = []
+
+    def plan(self, observed, t, world):
+        clock = time.perf_counter()
+        try:
+            return self.planner.plan(observed, t, world)
+        finally:
+            self.seconds.append(time.perf_counter() - clock)
+
+    @property
+    def failure_reason(self) -> str:
+        return getattr(self.planner, "failure_reason", "")
+
+
+@dataclass
+class Row:
+    scenario: str
+    planner: str
+    agents: int
+    goals_ideal: int
+    goals_mujoco: int
+    outcomes_ideal: str
+    outcomes_mujoco: str
+    time_to_goal_ideal_s: float | None
+    time_to_goal_mujoco_s: float | None
+    gap_mean_m: float | None
+    gap_max_m: float | None
+    planner_failures: int           # cycles without a plan, both fidelities, all agents
+    planning_calls: int
+    ms_per_call_mean: float
+    ms_per_call_p95: float
+    wall_s: float
+
+
+def _run(template: str, params: dict, planner: str, backend: str, replan_every: int):
+    built = build_scenario(template, params)
+    scenario, problems = built.scenario, built.problems
+    sedan = load_vehicle("sedan")
+    agents = agents_from_problems(problems, scenario.dt, sedan)
+    timed = {a.id: TimedPlanner(PLANNERS[planner](PlannerSetup(
+        a.id, sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id], scenario.dt))) for a in agents}
+    run = simulate(scenario, problems, make_backend(backend), agents, timed, CosimSettings(replan_every=replan_every))
+    seconds = [s for p in timed.values() for s in p.seconds]
+    return built, run, seconds
+
+
+def _mean_time_to_goal(run: Run) -> float | None:
+    times = [a.time_to_goal_s for a in run.agents if a.time_to_goal_s is not None]
+    return float(np.mean(times)) if times else None
+
+
+def _outcomes(run: Run) -> str:
+    return ",".join(str(a.outcome.value) for a in run.agents)
+
+
+def study(scenarios: list[str], planners: list[str], replan_every: int) -> list[Row]:
+    rows = []
+    for name in scenarios:
+        template, params = SCENARIOS[name]
+        for planner in planners:
+            clock = time.perf_counter()
+            runs, seconds, built = {}, [], None
+            for backend in BACKENDS:
+                built, runs[backend], calls = _run(template, params, planner, backend, replan_every)
+                seconds += calls
+            comparisons = compare_runs(runs["ideal"], runs["mujoco"], built.scenario, built.problems,
+                                       {str(k): v for k, v in built.sections.items()})
+            gaps = [c.lateral_displacement for c in comparisons if np.isfinite(c.lateral_displacement.max)]
+            ms = 1000.0 * np.asarray(seconds)
+            ideal, mujoco = runs["ideal"], runs["mujoco"]
+            rows.append(Row(
+                name, planner, len(ideal.agents),
+                sum(a.outcome == "goal_reached" for a in ideal.agents),
+                sum(a.outcome == "goal_reached" for a in mujoco.agents),
+                _outcomes(ideal), _outcomes(mujoco), _mean_time_to_goal(ideal), _mean_time_to_goal(mujoco),
+                float(np.mean([g.mean for g in gaps])) if gaps else None,
+                float(max(g.max for g in gaps)) if gaps else None,
+                sum(a.planner_failures for run in runs.values() for a in run.agents),
+                len(ms), float(ms.mean()), float(np.percentile(ms, 95)), time.perf_counter() - clock))
+            print(f"  {name} / {planner}: {rows[-1].wall_s:.0f} s", file=sys.stderr, flush=True)
+    return rows
+
+
+def _fmt(value: float | None, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def print_table(rows: list[Row]) -> None:
+    print(f"{'scenario':<11} {'planner':<9} {'goal ideal':>10} {'goal mujoco':>11} {'t_goal ideal':>12} "
+          f"{'t_goal mujoco':>13} {'gap mean':>8} {'gap max':>8} {'failed':>6} {'calls':>6} {'ms/call':>8} "
+          f"{'p95 ms':>7}")
+    for r in rows:
+        print(f"{r.scenario:<11} {r.planner:<9} {f'{r.goals_ideal}/{r.agents}':>10} "
+              f"{f'{r.goals_mujoco}/{r.agents}':>11} {_fmt(r.time_to_goal_ideal_s, '.1f'):>12} "
+              f"{_fmt(r.time_to_goal_mujoco_s, '.1f'):>13} {_fmt(r.gap_mean_m, '.3f'):>8} "
+              f"{_fmt(r.gap_max_m, '.3f'):>8} {r.planner_failures:>6} {r.planning_calls:>6} "
+              f"{r.ms_per_call_mean:>8.1f} {r.ms_per_call_p95:>7.1f}")
+    missed = [r for r in rows if r.goals_ideal < r.agents or r.goals_mujoco < r.agents]
+    for r in missed:
+        print(f"{r.scenario} / {r.planner}: ideal {r.outcomes_ideal}; mujoco {r.outcomes_mujoco}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--planners", default=",".join(PLANNERS))
+    parser.add_argument("--scenarios", default=",".join(SCENARIOS))
+    parser.add_argument("--replan-every", type=int, default=1, help="replan every N steps (the loop's default: 1)")
+    parser.add_argument("--json", action="store_true", help="print the rows as JSON instead of the table")
+    args = parser.parse_args()
+    planners, scenarios = args.planners.split(","), args.scenarios.split(",")
+    for name, known in ((planners, PLANNERS), (scenarios, SCENARIOS)):
+        unknown = sorted(set(name) - set(known))
+        if unknown:
+            parser.error(f"unknown {unknown}; choose from {', '.join(known)}")
+    start = time.perf_counter()
+    rows = study(scenarios, planners, args.replan_every)
+    if args.json:
+        print(json.dumps([asdict(r) for r in rows], indent=2))
+    else:
+        print_table(rows)
+        print(f"\n{len(rows) * len(BACKENDS)} runs in {time.perf_counter() - start:.0f} s "
+              f"(replan every {args.replan_every} step(s); sedan; gap = |d_mujoco - d_ideal| by arc length)")
+
+
+if __name__ == "__main__":
+    main()
