@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 
 from planner_roads import DT, drive, lateral_offset, two_lane_road
 from simgap.cosim import CosimSettings, simulate
@@ -77,6 +78,33 @@ def test_reactive_gives_none_for_a_heading_against_the_road(sedan):
     x, y, heading = road.ego_lane_pose(40.0)
     assert planner.plan(State(0.0, x, y, heading + math.pi, 5.0), 0.0, _world(road)) is None
     assert planner.failure_reason
+
+
+def _footprint(x, y, yaw, length, width):
+    c, s = math.cos(yaw), math.sin(yaw)
+    corners = [(dx * length / 2, dy * width / 2) for dx, dy in ((1, 1), (1, -1), (-1, -1), (-1, 1))]
+    return shapely.Polygon([(x + c * u - s * v, y + s * u + c * v) for u, v in corners])
+
+
+def test_reactive_never_plans_into_a_parked_car(sedan):
+    """A car parked in the lane 14 m ahead, seen at t = 5 s (time step 50): without it the plan
+    drives through its place; with it the plan keeps clear of it at every instant."""
+    road = two_lane_road(radius=10.0, angle_deg=0.0)
+    planner = ReactivePlanner(_setup(road, sedan))
+    x, y, heading = road.ego_lane_pose(40.0)
+    observed = State(5.0, x, y, heading, 6.0)
+    px, py, _ = road.ego_lane_pose(54.0)
+    parked_box = _footprint(px, py, heading, sedan.length, sedan.width)
+    parked = TrafficParticipant(9, sedan.length, sedan.width, Trajectory.from_states(
+        [State(5.0 + k * DT, px, py, heading, 0.0) for k in range(31)], DT))
+
+    def overlaps(plan):
+        return [k for k, s in enumerate(plan) if _footprint(s.x, s.y, s.yaw, sedan.length, sedan.width)
+                .intersects(parked_box)]
+
+    assert overlaps(planner.plan(observed, observed.t, _world(road)))
+    plan = planner.plan(observed, observed.t, _world(road, [parked]))
+    assert plan is None or not overlaps(plan)
 
 
 def test_idm_joins_the_lane_from_an_offset_and_reaches_the_goal(sedan):
