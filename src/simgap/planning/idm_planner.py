@@ -133,7 +133,6 @@ class IdmPlanner:
 
     # -- longitudinal: the IDM -----------------------------------------------------------------
     def _longitudinal(self, s0: float, v0: float, times: np.ndarray, world: World, cycle: IdmCycle):
-        p = self.settings
         dt = float(times[1] - times[0])
         leaders = self._leaders(world, times)
         s, v = np.empty(len(times)), np.empty(len(times))
@@ -149,8 +148,8 @@ class IdmPlanner:
             if k + 1 == len(times):
                 break
             sk, vk = s[k], v[k]
-            for _ in range(_SUBSTEPS):
-                gap_now = gap - (sk - s[k])
+            for j in range(_SUBSTEPS):
+                gap_now = gap - (sk - s[k]) + v_lead * j * h
                 acc = self._acceleration(vk, desired, gap_now, v_lead)
                 v_next = max(vk + acc * h, 0.0)
                 sk += 0.5 * (vk + v_next) * h
@@ -190,8 +189,7 @@ class IdmPlanner:
         across = (np.abs(np.sin(rel)) * pred.half_length[:, None] + np.abs(np.cos(rel)) * pred.half_width[:, None])
         in_lane = np.abs(d) < across + 0.5 * self.vehicle.width + self.settings.lane_margin_m
         along = np.abs(np.cos(rel)) * pred.half_length[:, None] + np.abs(np.sin(rel)) * pred.half_width[:, None]
-        v_pred = np.array([[float(np.interp(tt, tp.prediction.t, tp.prediction.v)) for tt in times]
-                           for tp in world.traffic])
+        v_pred = np.array([np.interp(times, tp.prediction.t, tp.prediction.v) for tp in world.traffic])
         ids = np.array([tp.id for tp in world.traffic])
         return s, along, in_lane, v_pred * np.cos(rel), ids
 
