@@ -42,7 +42,7 @@ from simgap.trajectory import State, Trajectory, wrap_angle
 
 __all__ = ["IdmPlanner", "IdmSettings"]
 
-# the heading error the lateral quintic starts from is clipped to this [rad]
+# the heading error the lateral quartic starts from is clipped to this [rad]
 _MAX_HEADING_ERROR = math.radians(60.0)
 # spacing of the reference path's points [m]
 _PATH_SPACING_M = 0.2
@@ -53,7 +53,8 @@ _SUBSTEPS = 5
 
 
 class IdmSettings(BaseModel):
-    """Settings of the IDM lane follower (IDM defaults: those of simgap's reactive recorded traffic)."""
+    """Settings of the IDM lane follower (a, b, T and s0 as the recorded traffic's IDM,
+    `simgap.cosim.idm.IdmParameters`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
