@@ -90,7 +90,9 @@ class IdmCycle:
 
 
 class IdmPlanner:
-    """IDM lane follower for one agent (see the module docstring)."""
+    """A lane-following Intelligent Driver Model for traffic not under test: keeps its route's
+    centre line and the IDM gap to whatever is ahead in its lane, and stops at its route's end
+    (see the module docstring)."""
 
     Settings = IdmSettings
 

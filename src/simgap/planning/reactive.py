@@ -114,7 +114,9 @@ class ReactiveCycle:
 
 
 class ReactivePlanner:
-    """CommonRoad's reactive planner for one agent (see the module docstring)."""
+    """CommonRoad's reactive planner (commonroad-reactive-planner 2025.1): Frenet polynomial samples
+    along the route's reference path, checked against the vehicle's limits, the road boundary and
+    the other traffic; one per agent, built in code (see the module docstring)."""
 
     Settings = ReactiveSettings
 
