@@ -10,7 +10,8 @@ Conventions:
   tyre, hub, brake, half the link mass); the sprung chassis carries the rest.
 * Inertias are about the centre of gravity: roll about x (forward), pitch about y (left),
   yaw about z (up).
-* Suspension stiffness and damping are per wheel at the wheel centre (wheel rates).
+* Suspension stiffness and damping are per wheel at the wheel centre (wheel rates); an axle's
+  anti-roll bar resists the body's roll against the axle (N m/rad), not its heave.
 * ``max_drive_torque`` is the torque at the driven wheels, summed, in first gear at full
   throttle; ``max_power`` caps it at speed (``torque <= power / wheel speed``).
 * ``tyres`` are the four (alike) tyres (`simgap.vehicles.tyres`); ``wheel_radius`` is their
@@ -37,6 +38,11 @@ class Suspension(BaseModel):
     stiffness: float = Field(gt=0, description="wheel rate [N/m]")
     damping: float = Field(gt=0, description="damping at the wheel [N s/m]")
     travel: float = Field(gt=0, description="travel each way from static ride height [m]")
+    anti_roll: float = Field(0.0, ge=0, description="anti-roll bar of the axle: moment per body roll against the axle [N m/rad]")
+
+    def roll_stiffness(self, track: float) -> float:
+        """The axle's roll stiffness [N m/rad]: its two springs (``k t^2 / 2``) and its anti-roll bar."""
+        return self.stiffness * track ** 2 / 2.0 + self.anti_roll
 
 
 class Steering(BaseModel):
@@ -113,9 +119,9 @@ class VehiclePhysics(BaseModel):
     def steady_roll(self, lateral_acceleration: float, gravity: float = GRAVITY) -> float:
         """Body roll [rad, about the forward axis, > 0 left side up] in steady cornering at
         ``lateral_acceleration`` (> 0 turning left): the sprung mass's moment about the ground,
-        held by the springs' roll stiffness ``k t^2 / 2`` per axle."""
-        stiffness = (self.suspension_front.stiffness * self.track_front ** 2
-                     + self.suspension_rear.stiffness * self.track_rear ** 2) / 2.0
+        held by the axles' roll stiffness (springs and anti-roll bars)."""
+        stiffness = (self.suspension_front.roll_stiffness(self.track_front)
+                     + self.suspension_rear.roll_stiffness(self.track_rear))
         moment_arm = self.sprung_mass * self.cg_height
         return moment_arm * lateral_acceleration / (stiffness - moment_arm * gravity)
 

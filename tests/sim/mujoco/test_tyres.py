@@ -117,3 +117,25 @@ def test_bad_tyre_data_names_the_file_and_field(tmp_path):
     with pytest.raises(InputError) as err:
         load_vehicle_file(bad)
     assert "bad.yaml" in str(err.value) and "physics.tyres.magic_formula.p_ky1" in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["sedan", "suv", "city"])
+def test_a_car_steered_beyond_its_limit_slides_and_does_not_roll_over(name):
+    """80 km/h on flat ground, the wheels turned 8 deg (2.5 g on the kinematic radius): the
+    tyres saturate and the car ploughs or spins, all four wheels on the ground, the body's roll
+    bounded (no anti-roll bars and no load sensitivity: the sedan rolled over here)."""
+    vehicle = load_vehicle(name)
+    plant = MujocoPlant(vehicle)
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=80.0 / 3.6))
+    world, car = plant.world, plant.world.cars[1]
+    roll, least_load, slip = [], [], []
+    for _ in range(300):                                   # 3 s
+        state = plant.step(Command(math.radians(8.0), 0.0, 0.0), 0.01)
+        m = world.data.xmat[car.chassis_body]
+        roll.append(abs(math.atan2(m[7], m[8])))
+        least_load.append(world.tyres.load.min())
+        slip.append(np.abs(world.tyres.slip_angle).max())
+    assert math.degrees(max(roll)) < 9.0
+    assert min(least_load) > 100.0                         # N: no wheel lifts
+    assert math.degrees(np.mean(slip[-100:])) > 7.0        # far past the linear range: sliding
+    assert abs(state.v * state.yaw_rate) < 1.1 * 9.81      # the friction caps a_y

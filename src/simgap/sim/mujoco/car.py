@@ -2,7 +2,7 @@
 
 Bodies: a sprung chassis on a free joint; at each corner an upright on a vertical slide joint
 (the suspension: wheel rate and damping from the data file, pre-loaded so that the car stands at
-its static ride height) with, at the front, a vertical steering hinge; in each upright a wheel
+its static ride height; an axle's anti-roll bar is a spring tendon on its left and right travel) with, at the front, a vertical steering hinge; in each upright a wheel
 spinning on a hinge, with its mass and spin inertia. The chassis frame has its origin at the
 vehicle's centre of gravity at static ride height (x forward, y left, z up), so the chassis
 pose *is* the `State`'s reference point.
@@ -212,7 +212,23 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
             act = spec.add_actuator(name=f"{prefix}drive_{corner}", target=f"{prefix}spin_{corner}",
                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
             act.set_to_motor()
+    for axle, susp, track in (("front", ph.suspension_front, ph.track_front),
+                              ("rear", ph.suspension_rear, ph.track_rear)):
+        if susp.anti_roll > 0.0:
+            _add_anti_roll_bar(spec, prefix, axle, susp.anti_roll, track)
     return CarIndex(prefix, vehicle, ph)
+
+
+def _add_anti_roll_bar(spec: mujoco.MjSpec, prefix: str, axle: str, stiffness: float, track: float) -> None:
+    """An axle's anti-roll bar: a spring on the difference of its left and right suspension
+    travel. Body roll phi moves the wheels by -+ phi t / 2 against the body, so a spring of rate
+    ``stiffness / t^2`` on (q_left - q_right) resists roll with ``stiffness`` [N m/rad] and leaves
+    heave alone."""
+    bar = spec.add_tendon(name=f"{prefix}anti_roll_{axle}")
+    bar.wrap_joint(f"{prefix}suspension_{axle}_left", 1.0)
+    bar.wrap_joint(f"{prefix}suspension_{axle}_right", -1.0)
+    bar.stiffness[0] = stiffness / track ** 2
+    bar.springlength[:] = [0.0, 0.0]
 
 
 def yaw_quaternion(yaw: float) -> np.ndarray:

@@ -16,7 +16,8 @@ every physics step, for all wheels of all cars at once:
    slip by the relaxation length; at standstill they become springs, so a braked car holds on a
    slope without creeping. They are updated implicitly in their own decay, stable at any speed.
 3. **Forces** by the Magic Formula, pure and combined slip (`simgap.vehicles.tyres`), the peak
-   scaled by the friction of the surface under the tyre (road, verge, the ``road_friction`` knob).
+   friction falling with load (the tyre's load sensitivity) and scaled by the friction of the
+   surface under the tyre (road, verge, the ``road_friction`` knob).
 4. **Low speed**: below ``low_speed`` a damping force on the slip velocity fades in (as MF-Tyre's
    low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
    reflected to the patch, and critical damping of the tyre spring). The total force never
@@ -46,8 +47,8 @@ from simgap.vehicles.physics import VehiclePhysics
 # columns of the per-wheel parameter table
 (R_ROLL, R_FREE, K_Z, C_Z, SIGMA_X, SIGMA_Y, P_CX1, P_DX1, P_DX3, P_EX1, P_KX1, P_CY1, P_DY1, P_DY3,
  P_EY1, P_KY1, P_KY2, F_Z0, R_BX1, R_BX2, R_CX1, R_EX1, R_BY1, R_BY2, R_CY1, R_EY1, V_LOW, C_LOW_X,
- C_LOW_Y) = range(29)
-N_PARAMS = 29
+ C_LOW_Y, P_DX2, P_DY2) = range(31)
+N_PARAMS = 31
 # columns of the per-wheel output table
 OUT_FZ, OUT_KAPPA, OUT_ALPHA, OUT_FX, OUT_FY, OUT_CAMBER = range(6)
 MAX_SLIP_RATIO = 2.0        # |kappa| bound of the transient state (a locked wheel is -1)
@@ -122,10 +123,11 @@ def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root
         # pure slip
         g2 = camber * camber
         lam = mu[i]
-        dx = lam * p[P_DX1] * (1.0 - p[P_DX3] * g2) * fz
+        dfz = (fz - p[F_Z0]) / p[F_Z0] if p[F_Z0] > 0.0 else 0.0
+        dx = lam * (p[P_DX1] + p[P_DX2] * dfz) * (1.0 - p[P_DX3] * g2) * fz
         bx = p[P_KX1] * fz / (p[P_CX1] * dx + EPS)
         fx0 = _magic(bx, p[P_CX1], dx, p[P_EX1], kappa)
-        dy = lam * p[P_DY1] * (1.0 - p[P_DY3] * g2) * fz
+        dy = lam * (p[P_DY1] + p[P_DY2] * dfz) * (1.0 - p[P_DY3] * g2) * fz
         if p[P_KY2] > 0.0:
             ky = p[P_KY1] * p[F_Z0] * math.sin(2.0 * math.atan(fz / (p[P_KY2] * p[F_Z0])))
         else:
@@ -177,6 +179,7 @@ def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], tim
         row[P_CX1], row[P_DX1], row[P_DX3], row[P_EX1], row[P_KX1] = mf.p_cx1, mf.p_dx1, mf.p_dx3, mf.p_ex1, mf.p_kx1
         row[P_CY1], row[P_DY1], row[P_DY3], row[P_EY1], row[P_KY1] = mf.p_cy1, mf.p_dy1, mf.p_dy3, mf.p_ey1, mf.p_ky1
         row[P_KY2] = mf.p_ky2 or 0.0
+        row[P_DX2], row[P_DY2] = mf.p_dx2, mf.p_dy2
         row[F_Z0] = t.nominal_load or 0.0
         row[R_BX1], row[R_BX2], row[R_CX1], row[R_EX1] = mf.r_bx1, mf.r_bx2, mf.r_cx1, mf.r_ex1
         row[R_BY1], row[R_BY2], row[R_CY1], row[R_EY1] = mf.r_by1, mf.r_by2, mf.r_cy1, mf.r_ey1
