@@ -13,8 +13,9 @@ and see only the measured `State`; steering commands pass through each car's ste
   distance stays under 1 m (2 % of R). Sweep: 4, 6, 8, ... m/s up to the first speed not held,
   then every 0.5 m/s within the 4 m/s below it. Understeer gradient = slope of
   (steer - kinematic steer for the driven radius v / yaw rate) against a_y / g, sideslip gradient =
-  slope of beta against a_y / g, both fitted on the speeds with v^2 / R <= 0.4 g; limit = the
-  largest a_y held; the lateral error over the last 2 m/s below the limiting speed is printed.
+  slope of beta against a_y / g, roll gradient = slope of the body roll against a_y / g, all
+  fitted on the speeds with v^2 / R <= 0.4 g; limit = the largest a_y held; the lateral error
+  over the last 2 m/s below the limiting speed is printed.
 * step_steer — ISO 7401 style: straight at 80 km/h, speed held (P on speed through the pedal
   map), at t = 1 s the steering target jumps to the angle for ~4 m/s^2 of steady a_y (kinematic
   first guess, rescaled once by the measured a_y); each car turns its wheels at its own steering
@@ -110,6 +111,32 @@ def wheel_speeds(plant) -> np.ndarray:
     return plant.wheel_speeds()
 
 
+def body_roll(plant) -> float:
+    """Roll of the sprung body [rad, about the heading, > 0 left side up]."""
+    if isinstance(plant, MujocoPlant):
+        m = plant.world.data.xmat[plant.world.cars[AGENT].chassis_body]
+        return math.atan2(m[7], m[8])
+    return plant.body_roll()
+
+
+class RollRecorder:
+    """A plant that notes its body roll after every reset and step (in step with the states
+    `track_plans` returns)."""
+
+    def __init__(self, plant):
+        self.plant, self.roll = plant, []
+
+    def reset(self, initial: State) -> State:
+        state = self.plant.reset(initial)
+        self.roll = [body_roll(self.plant)]
+        return state
+
+    def step(self, command: Command, period: float) -> State:
+        state = self.plant.step(command, period)
+        self.roll.append(body_roll(self.plant))
+        return state
+
+
 def speed_hold(pedals: LongitudinalMap, target: float, v: float) -> tuple[float, float]:
     """(throttle, brake) of a P driver on speed."""
     return pedals.pedals(2.0 * (target - v), max(v, 0.0))
@@ -124,6 +151,7 @@ class CirclePoint:
     kinematic_steer: float = math.nan       # rad, for the driven radius
     sideslip: float = math.nan              # rad, of the centre
     yaw_rate: float = math.nan
+    roll: float = math.nan                  # rad, body roll (> 0 left side up: outwards on a left circle)
     lateral_error: float = math.inf         # m, largest distance from the circle, steady part
     lost: str = ""                          # why the physics gave up, if it did
 
@@ -137,6 +165,7 @@ class CircleResult:
     points: list[CirclePoint]
     understeer_gradient: float              # deg/g
     sideslip_gradient: float                # deg/g
+    roll_gradient: float                    # deg/g
     max_lateral_acceleration: float         # m/s^2
     limit_speed: float                      # m/s
 
@@ -148,8 +177,9 @@ class CircleResult:
 def circle_point(car: TestCar, speed: float, duration: float, average_last: float) -> CirclePoint:
     vehicle = car.vehicle
     man = manoeuvres.circle(vehicle, RADIUS, speed, duration=duration)
+    plant = RollRecorder(car.make_plant())
     try:
-        states = track_plans(car.make_plant(), make_controller("pure_pursuit", vehicle, 1.0 / PERIOD),
+        states = track_plans(plant, make_controller("pure_pursuit", vehicle, 1.0 / PERIOD),
                              lambda t, s: man.plan(t, 3.0), man.initial_state(), man.duration)
     except PhysicsDiverged as exc:
         return CirclePoint(speed, lost=str(exc))
@@ -163,7 +193,8 @@ def circle_point(car: TestCar, speed: float, duration: float, average_last: floa
         steer=float(np.mean([states[k].steer for k in steady])),
         kinematic_steer=math.atan(wb / math.sqrt(max(driven_radius ** 2 - b ** 2, wb ** 2))),
         sideslip=float(np.mean([sideslip(states[k - 1], states[k]) for k in steady])),
-        yaw_rate=float(r), lateral_error=float(max(abs(man.lateral_error(states[k].x, states[k].y)) for k in steady)))
+        yaw_rate=float(r), roll=float(np.mean([plant.roll[k] for k in steady])),
+        lateral_error=float(max(abs(man.lateral_error(states[k].x, states[k].y)) for k in steady)))
 
 
 def gradient(points: list[CirclePoint], value: Callable[[CirclePoint], float]) -> float:
@@ -201,6 +232,7 @@ def circle(car: TestCar, quick: bool) -> CircleResult:
     return CircleResult(
         ordered, understeer_gradient=gradient(ordered, lambda p: p.steer - p.kinematic_steer),
         sideslip_gradient=gradient(ordered, lambda p: p.sideslip),
+        roll_gradient=gradient(ordered, lambda p: p.roll),
         max_lateral_acceleration=max((p.lateral_acceleration for p in held), default=math.nan),
         limit_speed=max((p.speed for p in held), default=math.nan))
 
@@ -403,6 +435,7 @@ def summary(results: dict) -> dict:
         c: CircleResult = results["circle"]
         out.update(understeer_gradient_deg_per_g=finite(c.understeer_gradient),
                    sideslip_gradient_deg_per_g=finite(c.sideslip_gradient),
+                   roll_gradient_deg_per_g=finite(c.roll_gradient),
                    max_lateral_acceleration=finite(c.max_lateral_acceleration),
                    circle_limit_speed=finite(c.limit_speed),
                    circle_near_limit_lateral_error_m={f"{p.speed:g}": finite(p.lateral_error)
@@ -454,16 +487,16 @@ def print_circle(results: dict[str, dict]) -> None:
         if name == MB or "circle" not in res:
             continue
         rows = res["circle"].points
-        mb = {p.speed: p for p in results.get(MB, {}).get("circle", CircleResult([], 0, 0, 0, 0)).points} \
+        mb = {p.speed: p for p in results.get(MB, {}).get("circle", CircleResult([], 0, 0, 0, 0, 0)).points} \
             if name == "sedan" else {}
-        header = f"{'v':>5} {'a_y':>6} {'steer':>7} {'kin':>6} {'beta':>6} {'lat err':>7}"
+        header = f"{'v':>5} {'a_y':>6} {'steer':>7} {'kin':>6} {'beta':>6} {'roll':>5} {'lat err':>7}"
         if mb:
             header += f" | {'MB a_y':>6} {'MB steer':>8} {'MB beta':>7} {'MB lat err':>10}"
         print(f"\n{name}:  (angles in deg, a_y in m/s^2, lateral error in m)\n{header}")
         for p in sorted(set(r.speed for r in rows) | set(mb)):
             r = next((q for q in rows if q.speed == p), None)
             line = (f"{p:>5.1f} {r.lateral_acceleration:>6.2f} {deg(r.steer):>7.3f} {deg(r.kinematic_steer):>6.3f} "
-                    f"{deg(r.sideslip):>6.2f} {r.lateral_error:>7.3f}" if r else f"{p:>5.1f} {'':>37}")
+                    f"{deg(r.sideslip):>6.2f} {deg(r.roll):>5.2f} {r.lateral_error:>7.3f}" if r else f"{p:>5.1f} {'':>43}")
             if r and r.lost:
                 line = f"{p:>5.1f} lost: {r.lost[:60]}"
             m = mb.get(p)
