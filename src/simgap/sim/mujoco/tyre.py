@@ -18,8 +18,9 @@ every physics step, for all wheels of all cars at once:
 3. **Forces** by the Magic Formula, pure and combined slip (`simgap.vehicles.tyres`), the peak
    friction falling with load (the tyre's load sensitivity) and scaled by the friction of the
    surface under the tyre (road, verge, the ``road_friction`` knob).
-4. **Low speed**: below ``low_speed`` a damping force on the slip velocity fades in (as MF-Tyre's
-   low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
+4. **Low speed**: below ``low_speed`` of the contact patch over the ground (forward and sideways:
+   a wheel sliding sideways in a spin is not slow, its force is the Magic Formula's) a damping
+   force on the slip velocity fades in (as MF-Tyre's low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
    reflected to the patch, and critical damping of the tyre spring). The total force never
    exceeds the tyre's peak friction times its load.
 
@@ -140,8 +141,9 @@ def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root
         fx = fx0 * _weight(bxa, p[R_CX1], p[R_EX1], alpha)
         fy = fy0 * _weight(byk, p[R_CY1], p[R_EY1], kappa)
         # low-speed damping, then the friction limit
-        if ax < p[V_LOW]:
-            blend = 1.0 - ax / p[V_LOW]
+        patch_speed = math.sqrt(vx * vx + vy * vy)   # a wheel sliding sideways is not slow
+        if patch_speed < p[V_LOW]:
+            blend = 1.0 - patch_speed / p[V_LOW]
             fx -= blend * p[C_LOW_X] * vsx
             fy -= blend * p[C_LOW_Y] * vy
         limit = max(dx, dy)
