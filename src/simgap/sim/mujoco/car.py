@@ -2,8 +2,9 @@
 
 Bodies: a sprung chassis on a free joint; at each corner an upright on a vertical slide joint
 (the suspension: wheel rate and damping from the data file, pre-loaded so that the car stands at
-its static ride height; an axle's anti-roll bar is a spring tendon on its left and right travel) with, at the front, a vertical steering hinge; in each upright a wheel
-spinning on a hinge, with its mass and spin inertia. The chassis frame has its origin at the
+its static ride height; an axle's anti-roll bar is a spring tendon on its left and right travel;
+its camber gain enters the tyres' camber, not the drawn wheel) with, at the front, a vertical
+steering hinge; in each upright a wheel spinning on a hinge, with its mass and spin inertia. The chassis frame has its origin at the
 vehicle's centre of gravity at static ride height (x forward, y left, z up), so the chassis
 pose *is* the `State`'s reference point.
 
@@ -23,6 +24,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from simgap.sim.mujoco.tyre import Wheel
 from simgap.vehicles import Vehicle
 from simgap.vehicles.constants import GRAVITY
 from simgap.vehicles.physics import VehiclePhysics
@@ -96,6 +98,18 @@ class CarIndex:
         """(x forward, y left) of each wheel centre from the centre of gravity, in CORNERS order."""
         geometry = _corner_geometry(self.vehicle, self.physics)
         return [geometry[c] for c in CORNERS]
+
+    def wheels(self) -> list[Wheel]:
+        """The car's four tyre mounts, in CORNERS order (after `resolve`). A linkage's camber gain
+        turns a wheel's top inwards in bump (gain < 0): a right wheel about +x, a left one about -x."""
+        loads = static_tyre_loads(self.vehicle, self.physics)
+        mounts = []
+        for k, corner in enumerate(CORNERS):
+            susp = self.physics.suspension_front if k < 2 else self.physics.suspension_rear
+            side = -1.0 if corner.endswith("left") else 1.0
+            mounts.append(Wheel(self.wheel_bodies[k], self.upright_bodies[k], self.spin_dofs[k], self.suspension_qpos[k],
+                                self.physics, loads[k], side * susp.camber_gain))
+        return mounts
 
     def resolve(self, model: mujoco.MjModel) -> "CarIndex":
         p = self.prefix

@@ -16,8 +16,9 @@ every physics step, for all wheels of all cars at once:
    slip by the relaxation length; at standstill they become springs, so a braked car holds on a
    slope without creeping. They are updated implicitly in their own decay, stable at any speed.
 3. **Forces** by the Magic Formula, pure and combined slip (`simgap.vehicles.tyres`), the peak
-   friction falling with load (the tyre's load sensitivity) and scaled by the friction of the
-   surface under the tyre (road, verge, the ``road_friction`` knob).
+   friction falling with load (the tyre's load sensitivity), changed by camber (the wheel leans
+   with the body, less what the suspension linkage turns it in its travel: ``camber_gain``) and
+   scaled by the friction of the surface under the tyre (road, verge, the ``road_friction`` knob).
 4. **Low speed**: below ``low_speed`` of the contact patch over the ground (forward and sideways:
    a wheel sliding sideways in a spin is not slow, its force is the Magic Formula's) a damping
    force on the slip velocity fades in (as MF-Tyre's low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
@@ -36,6 +37,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from typing import Sequence
 
 import mujoco
@@ -48,8 +50,8 @@ from simgap.vehicles.physics import VehiclePhysics
 # columns of the per-wheel parameter table
 (R_ROLL, R_FREE, K_Z, C_Z, SIGMA_X, SIGMA_Y, P_CX1, P_DX1, P_DX3, P_EX1, P_KX1, P_CY1, P_DY1, P_DY3,
  P_EY1, P_KY1, P_KY2, F_Z0, R_BX1, R_BX2, R_CX1, R_EX1, R_BY1, R_BY2, R_CY1, R_EY1, V_LOW, C_LOW_X,
- C_LOW_Y, P_DX2, P_DY2) = range(31)
-N_PARAMS = 31
+ C_LOW_Y, P_DX2, P_DY2, CAMBER_GAIN) = range(32)
+N_PARAMS = 32
 # columns of the per-wheel output table
 OUT_FZ, OUT_KAPPA, OUT_ALPHA, OUT_FX, OUT_FY, OUT_CAMBER = range(6)
 MAX_SLIP_RATIO = 2.0        # |kappa| bound of the transient state (a locked wheel is -1)
@@ -72,7 +74,7 @@ def _weight(b: float, c: float, e: float, x: float) -> float:
 
 
 @njit(cache=True)
-def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root, spin,
+def tyre_forces(xipos, xmat, cvel, subtree_com, qpos, qvel, xfrc, wheel, upright, root, spin, travel,
                 par, mu, u, v, dt, settle, out):     # pragma: no cover - compiled
     for i in range(wheel.shape[0]):
         wb, ub, rb = wheel[i], upright[i], root[i]
@@ -85,7 +87,8 @@ def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root
         norm = math.sqrt(hx * hx + hy * hy) + EPS
         ex_x, ex_y = hx / norm, hy / norm
         ey_x, ey_y = -ex_y, ex_x
-        camber = math.asin(min(max(m[7], -1.0), 1.0))
+        # the wheel leans with the body, less what its linkage turns it in its travel
+        camber = math.asin(min(max(m[7], -1.0), 1.0)) + p[CAMBER_GAIN] * qpos[travel[i]]
         # velocity of the upright at the contact point (world frame)
         rx = xipos[wb, 0] - subtree_com[rb, 0]
         ry = xipos[wb, 1] - subtree_com[rb, 1]
@@ -167,7 +170,21 @@ def tyre_forces(xipos, xmat, cvel, subtree_com, qvel, xfrc, wheel, upright, root
         out[i, OUT_CAMBER] = camber
 
 
-def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], timestep: float) -> np.ndarray:
+@dataclass(frozen=True)
+class Wheel:
+    """Where one tyre's wheel lives in the compiled model, and what it is."""
+
+    body: int                   # the spinning wheel
+    upright: int                # its upright (carries the heading and the lean)
+    spin_dof: int
+    travel_qpos: int            # its suspension slide (> 0: bump)
+    physics: VehiclePhysics
+    static_load: float          # N
+    camber_gain: float          # rad/m of bump travel about the forward axis (the axle's, signed for the side)
+
+
+def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], timestep: float,
+                     camber_gain: float = 0.0) -> np.ndarray:
     """The parameter table rows of one car's four wheels (`corner_loads`: static load per wheel, N)."""
     t, mf = physics.tyres, physics.tyres.magic_formula
     rows = np.zeros((len(corner_loads), N_PARAMS))
@@ -182,6 +199,7 @@ def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], tim
         row[P_CY1], row[P_DY1], row[P_DY3], row[P_EY1], row[P_KY1] = mf.p_cy1, mf.p_dy1, mf.p_dy3, mf.p_ey1, mf.p_ky1
         row[P_KY2] = mf.p_ky2 or 0.0
         row[P_DX2], row[P_DY2] = mf.p_dx2, mf.p_dy2
+        row[CAMBER_GAIN] = camber_gain
         row[F_Z0] = t.nominal_load or 0.0
         row[R_BX1], row[R_BX2], row[R_CX1], row[R_EX1] = mf.r_bx1, mf.r_bx2, mf.r_cx1, mf.r_ex1
         row[R_BY1], row[R_BY2], row[R_CY1], row[R_EY1] = mf.r_by1, mf.r_by2, mf.r_cy1, mf.r_ey1
@@ -199,20 +217,20 @@ def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], tim
 class SlipTyres:
     """The tyres of every car in one compiled world: parameters, transient state, forces.
 
-    ``wheels`` are (wheel body, upright body, spin dof, physics, static load) per wheel, in the
-    order the backend's per-wheel arrays use. ``mu`` scales each tyre's peak friction (the
+    ``wheels`` in the order the backend's per-wheel arrays use. ``mu`` scales each tyre's peak friction (the
     surface under it); `apply` computes and applies the forces for the current positions and
     velocities (call it between ``mj_step1`` and ``mj_step2``)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
-                 wheels: Sequence[tuple[int, int, int, VehiclePhysics, float]]):
+                 wheels: Sequence[Wheel]):
         self.model, self.data = model, data
-        self.wheel = np.array([w[0] for w in wheels], dtype=np.int64)
-        self.upright = np.array([w[1] for w in wheels], dtype=np.int64)
-        self.root = np.array([model.body_rootid[w[0]] for w in wheels], dtype=np.int64)
-        self.spin = np.array([w[2] for w in wheels], dtype=np.int64)
-        self.params = np.vstack([wheel_parameters(w[3], [w[4]], model.opt.timestep) for w in wheels]) \
-            if wheels else np.zeros((0, N_PARAMS))
+        self.wheel = np.array([w.body for w in wheels], dtype=np.int64)
+        self.upright = np.array([w.upright for w in wheels], dtype=np.int64)
+        self.root = np.array([model.body_rootid[w.body] for w in wheels], dtype=np.int64)
+        self.spin = np.array([w.spin_dof for w in wheels], dtype=np.int64)
+        self.travel = np.array([w.travel_qpos for w in wheels], dtype=np.int64)
+        self.params = np.vstack([wheel_parameters(w.physics, [w.static_load], model.opt.timestep, w.camber_gain)
+                                 for w in wheels]) if wheels else np.zeros((0, N_PARAMS))
         self.mu = np.ones(len(wheels))
         self.u = np.zeros(len(wheels))
         self.v = np.zeros(len(wheels))
@@ -220,7 +238,7 @@ class SlipTyres:
         self._dt = float(model.opt.timestep)
         self.seconds = 0.0              # wall time spent in `apply`
         # views into MjData: its buffers never move, so they can be held
-        self._views = (data.xipos, data.xmat, data.cvel, data.subtree_com, data.qvel, data.xfrc_applied)
+        self._views = (data.xipos, data.xmat, data.cvel, data.subtree_com, data.qpos, data.qvel, data.xfrc_applied)
 
     def reset(self) -> None:
         self.u[:] = 0.0
@@ -231,9 +249,9 @@ class SlipTyres:
         """Compute and apply the forces; ``settle``: first set each tyre's deflections to the
         steady values of its present motion (for a car placed in motion, see `World.place`)."""
         start = time.perf_counter()
-        xipos, xmat, cvel, com, qvel, xfrc = self._views
-        tyre_forces(xipos, xmat, cvel, com, qvel, xfrc, self.wheel, self.upright, self.root, self.spin,
-                    self.params, self.mu, self.u, self.v, self._dt, settle, self.out)
+        xipos, xmat, cvel, com, qpos, qvel, xfrc = self._views
+        tyre_forces(xipos, xmat, cvel, com, qpos, qvel, xfrc, self.wheel, self.upright, self.root, self.spin,
+                    self.travel, self.params, self.mu, self.u, self.v, self._dt, settle, self.out)
         self.seconds += time.perf_counter() - start
 
     # --- what the tyres do now, per wheel (for monitors, tests and benchmarks) -----------------

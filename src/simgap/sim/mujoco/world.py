@@ -17,7 +17,7 @@ from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
-from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, static_tyre_loads, yaw_quaternion
+from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
 from simgap.sim.mujoco.road import SurfaceMap, add_road
 from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
@@ -171,8 +171,6 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
     traffic_geoms = {model.geom(f"obstacle{o.id}").id: o.id for o in traffic_specs}
     owner = {g: aid for aid, car in cars.items() for g in car.geoms}
     bounds = (*pts.min(axis=0).tolist(), *pts.max(axis=0).tolist())
-    tyres = SlipTyres(model, data, [(car.wheel_bodies[k], car.upright_bodies[k], car.spin_dofs[k], car.physics, load)
-                                    for car in cars.values()
-                                    for k, load in enumerate(static_tyre_loads(car.vehicle, car.physics))])
+    tyres = SlipTyres(model, data, [wheel for car in cars.values() for wheel in car.wheels()])
     return World(model, data, cars, traffic, traffic_geoms, SurfaceMap(scenario.lanelet_network), settings, tyres,
                  owner, bounds)
