@@ -38,8 +38,10 @@ class Suspension(BaseModel):
     stiffness: float = Field(gt=0, description="wheel rate [N/m]")
     damping: float = Field(gt=0, description="damping at the wheel [N s/m]")
     travel: float = Field(gt=0, description="travel each way from static ride height [m]")
-    anti_roll: float = Field(0.0, ge=0, description="anti-roll bar of the axle: moment per body roll against the axle [N m/rad]")
-    camber_gain: float = Field(0.0, ge=-2.0, le=2.0, description="camber change per bump travel [rad/m]; < 0: the wheel's top leans in as it rises")
+    anti_roll: float = Field(0.0, ge=0,
+                             description="anti-roll bar of the axle: moment per body roll against the axle [N m/rad]")
+    camber_gain: float = Field(0.0, ge=-2.0, le=2.0,
+                               description="camber change per bump travel [rad/m]; < 0: the top leans in as the wheel rises")
 
     def roll_stiffness(self, track: float) -> float:
         """The axle's roll stiffness [N m/rad]: its two springs (``k t^2 / 2``) and its anti-roll bar."""

@@ -4,9 +4,9 @@ Bodies: a sprung chassis on a free joint; at each corner an upright on a vertica
 (the suspension: wheel rate and damping from the data file, pre-loaded so that the car stands at
 its static ride height; an axle's anti-roll bar is a spring tendon on its left and right travel;
 its camber gain enters the tyres' camber, not the drawn wheel) with, at the front, a vertical
-steering hinge; in each upright a wheel spinning on a hinge, with its mass and spin inertia. The chassis frame has its origin at the
-vehicle's centre of gravity at static ride height (x forward, y left, z up), so the chassis
-pose *is* the `State`'s reference point.
+steering hinge; in each upright a wheel spinning on a hinge, with its mass and spin inertia. The
+chassis frame has its origin at the vehicle's centre of gravity at static ride height (x
+forward, y left, z up), so the chassis pose *is* the `State`'s reference point.
 
 Actuation, all at the wheels: the front steering hinges follow position servos (the Ackermann
 angles of the requested road-wheel angle, after the rate and angle limits of the steering
@@ -107,8 +107,8 @@ class CarIndex:
         for k, corner in enumerate(CORNERS):
             susp = self.physics.suspension_front if k < 2 else self.physics.suspension_rear
             side = -1.0 if corner.endswith("left") else 1.0
-            mounts.append(Wheel(self.wheel_bodies[k], self.upright_bodies[k], self.spin_dofs[k], self.suspension_qpos[k],
-                                self.physics, loads[k], side * susp.camber_gain))
+            mounts.append(Wheel(self.wheel_bodies[k], self.upright_bodies[k], self.spin_dofs[k],
+                                self.suspension_qpos[k], self.physics, loads[k], side * susp.camber_gain))
         return mounts
 
     def resolve(self, model: mujoco.MjModel) -> "CarIndex":

@@ -19,11 +19,12 @@ every physics step, for all wheels of all cars at once:
    friction falling with load (the tyre's load sensitivity), changed by camber (the wheel leans
    with the body, less what the suspension linkage turns it in its travel: ``camber_gain``) and
    scaled by the friction of the surface under the tyre (road, verge, the ``road_friction`` knob).
-4. **Low speed**: below ``low_speed`` of the contact patch over the ground (forward and sideways:
-   a wheel sliding sideways in a spin is not slow, its force is the Magic Formula's) a damping
-   force on the slip velocity fades in (as MF-Tyre's low-speed damping), its coefficient capped for the explicit step (the wheel's spin inertia
-   reflected to the patch, and critical damping of the tyre spring). The total force never
-   exceeds the tyre's peak friction times its load.
+4. **Low speed**: below ``low_speed`` of the contact patch over the ground (forward and
+   sideways: a wheel sliding sideways in a spin is not slow, its force is the Magic Formula's) a
+   damping force on the slip velocity fades in (as MF-Tyre's low-speed damping), its coefficient
+   capped for the explicit step (the wheel's spin inertia reflected to the patch, and critical
+   damping of the tyre spring). The total force never exceeds the tyre's peak friction times its
+   load.
 
 The force and its moment are applied to the wheel body (``xfrc_applied``) at a point one rolling
 radius below the wheel centre, so the longitudinal force brakes or drives the wheel's spin and the
