@@ -36,11 +36,15 @@ and see only the measured `State`; steering commands pass through each car's ste
   The reference path runs through the lane centres with two quintic lane changes timed so that a
   car exactly on it clears every cone line by >= 0.17 m. Passed: the car's footprint stayed
   inside the lanes of sections 1, 3 and 5; peak lateral error from the reference path.
+* beyond_limit — on flat ground at 60, 80 and 100 km/h, pedals off, the wheels turned 6 or 10 deg
+  at 0.3 s (far past every car's limit) and held, or turned the other way 1 s later (a fishhook),
+  4 s each: rollovers (diverged physics), the largest body roll and the longest time both wheels of
+  one side were off the ground. MuJoCo cars only (the MB model's wheels cannot lift).
 
-Usage: python bench/vehicle_dynamics.py [--sections circle step_steer braking lane_change]
+Usage: python bench/vehicle_dynamics.py [--sections circle step_steer braking lane_change beyond_limit]
        [--vehicles sedan suv city] [--controllers pure_pursuit stanley lqr] [--no-mb] [--quick]
        [--json]
-``--quick`` is a smoke run (3 speeds, short runs, 2 bisection steps). ``--json`` prints one JSON
+``--quick`` is a smoke run (3 speeds, short runs, 2 bisection steps, 2 runs past the limit). ``--json`` prints one JSON
 object: per vehicle its figures, the sedan's MB reference under ``mb_reference`` (wall times go to
 stderr). Prints tables and per-section wall time; no pass/fail.
 """
@@ -81,7 +85,7 @@ SPUN = 0.5                      # rad of heading: the car spun, the stop does no
 LOCKED_WHEEL = 0.1              # circumferential / car speed below which a wheel counts as locked
 LANE_CHANGE_SPEED = 60.0 / 3.6
 MB = "mb_reference"
-SECTIONS = ("circle", "step_steer", "braking", "lane_change")
+SECTIONS = ("circle", "step_steer", "braking", "lane_change", "beyond_limit")
 
 
 @dataclass(frozen=True)
@@ -423,6 +427,43 @@ def lane_change(car: TestCar, controllers: list[str]) -> list[LaneChangeRun]:
     return [lane_change_run(car, c) for c in controllers]
 
 
+# --- beyond the limit -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LimitRun:
+    speed: float
+    steer: float                            # rad, road wheel
+    fishhook: bool                          # turned the other way 1 s after the onset
+    max_roll: float                         # rad
+    two_wheel_lift: float                   # s, longest time both wheels of one side were off the ground
+    lost: str = ""                          # why the physics gave up (a rollover), if it did
+
+
+def limit_run(car: TestCar, speed: float, steer: float, fishhook: bool) -> LimitRun:
+    plant = car.make_plant()
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=speed))
+    load = plant.world.tyres.load                       # front left, front right, rear left, rear right
+    max_roll = lifted = longest = 0.0
+    try:
+        for k in range(int(round(4.0 / PERIOD))):
+            t = k * PERIOD
+            target = 0.0 if t < 0.3 else -steer if fishhook and t >= 1.3 else steer
+            plant.step(Command(target, 0.0, 0.0), PERIOD)
+            max_roll = max(max_roll, abs(body_roll(plant)))
+            side_up = (load[0] <= 0.0 and load[2] <= 0.0) or (load[1] <= 0.0 and load[3] <= 0.0)
+            lifted = lifted + PERIOD if side_up else 0.0
+            longest = max(longest, lifted)
+    except PhysicsDiverged as exc:
+        return LimitRun(speed, steer, fishhook, max_roll, longest, str(exc))
+    return LimitRun(speed, steer, fishhook, max_roll, longest)
+
+
+def beyond_limit(car: TestCar, quick: bool) -> list[LimitRun] | None:
+    if car.name == MB:
+        return None
+    speeds, steers = ((80.0,), (10.0,)) if quick else ((60.0, 80.0, 100.0), (6.0, 10.0))
+    return [limit_run(car, v / 3.6, math.radians(d), hook) for v in speeds for d in steers for hook in (False, True)]
+
+
 # --- summary ------------------------------------------------------------------------------------
 def finite(value: float) -> float | None:
     return float(value) if value is not None and math.isfinite(value) else None
@@ -451,6 +492,11 @@ def summary(results: dict) -> dict:
                    braking_distance_100_unlocked_m=finite(b.unlocked.distance) if b.unlocked else None,
                    braking_unlocked_pedal=finite(b.unlocked.pedal) if b.unlocked else None,
                    braking_full_pedal_locks=b.locked.locked, braking_full_pedal_lost=b.locked.lost or None)
+    if results.get("beyond_limit"):
+        runs: list[LimitRun] = results["beyond_limit"]
+        out.update(beyond_limit_runs=len(runs), beyond_limit_rollovers=sum(1 for r in runs if r.lost),
+                   beyond_limit_max_roll_deg=max(math.degrees(r.max_roll) for r in runs),
+                   beyond_limit_longest_two_wheel_lift_s=max(r.two_wheel_lift for r in runs))
     if "lane_change" in results:
         out["lane_change_60"] = {r.controller: {"passed": r.passed, "peak_lateral_error_m": finite(r.peak_lateral_error),
                                                 "clearance_m": finite(r.clearance)}
@@ -465,6 +511,8 @@ def run_section(section: str, car: TestCar, quick: bool, controllers: list[str])
         return step_steer(car, quick)
     if section == "braking":
         return braking(car, quick)
+    if section == "beyond_limit":
+        return beyond_limit(car, quick)
     return lane_change(car, controllers)
 
 
@@ -523,6 +571,12 @@ def print_summary(results: dict[str, dict]) -> None:
             near = results[n]["circle"].near_limit()
             print(f"{('MB' if n == MB else n):<6} lateral error over the last 2 m/s below the limit: "
                   + ", ".join(f"{p.speed:g} m/s {p.lateral_error:.3f} m" for p in near))
+    for n in names:
+        for r in results[n].get("beyond_limit") or []:
+            print(f"{n:<6} beyond the limit, {r.speed * 3.6:.0f} km/h, {math.degrees(r.steer):.0f} deg "
+                  f"{'fishhook' if r.fishhook else 'step    '}: "
+                  + (f"ROLLED OVER ({r.lost})" if r.lost else f"max roll {math.degrees(r.max_roll):.1f} deg, "
+                     f"longest two-wheel lift {r.two_wheel_lift:.2f} s"))
     for n in names:
         if "lane_change" in results[n]:
             print(f"{('MB' if n == MB else n):<6} double lane change at 60 km/h: "

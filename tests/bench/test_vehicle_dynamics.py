@@ -41,5 +41,8 @@ def test_quick_benchmark_of_one_car_gives_sane_handling_figures(vehicle_dynamics
     assert 25.0 < figures["braking_distance_100_m"] < 80.0
     unlocked = figures["braking_distance_100_unlocked_m"]
     assert unlocked is None or 25.0 < unlocked < 80.0
+    assert 1.0 < figures["roll_gradient_deg_per_g"] < 15.0
+    # past the limit on flat ground a car slides: it does not roll over
+    assert figures["beyond_limit_runs"] == 2 and figures["beyond_limit_rollovers"] == 0
     run = figures["lane_change_60"]["pure_pursuit"]
     assert math.isfinite(run["peak_lateral_error_m"]) and run["peak_lateral_error_m"] < 5.0
