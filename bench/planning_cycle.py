@@ -22,6 +22,7 @@ import numpy as np
 from commonroad.scenario.state import CustomState
 
 from simgap.planning.frenet import PHASES, FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.planning.protocol import World
 from simgap.planning.settings import FrenetSettings
 from simgap.trajectory import State
@@ -49,7 +50,7 @@ def closed_loop(radius: float, angle: float, settings: FrenetSettings, max_steps
     network, problem, dt = curve_scenario(radius, angle)
     vehicle = load_vehicle("sedan")
     t0 = time.perf_counter()
-    planner = FrenetPlanner(vehicle, network, problem, settings)
+    planner = FrenetPlanner(PlannerSetup.for_problem(problem, vehicle, network), settings)
     build_s = time.perf_counter() - t0
     ini = problem.initial_state
     state = State(0.0, float(ini.position[0]), float(ini.position[1]), float(ini.orientation), float(ini.velocity))

@@ -20,6 +20,7 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
 
@@ -91,7 +92,7 @@ def run_ego(scenario: Scenario, initial: InitialState, goal: GoalRegion, backend
     problems = PlanningProblemSet([PlanningProblem(1, initial, goal)])
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, DT, sedan)
-    planner = FrenetPlanner(sedan, scenario.lanelet_network, problems.planning_problem_dict[1], planner_settings)
+    planner = FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[1], sedan, scenario.lanelet_network), planner_settings)
     return simulate(scenario, problems, backend or IdealBackend(), agents, {1: planner}, settings or CosimSettings())
 
 

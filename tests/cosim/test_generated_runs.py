@@ -13,6 +13,7 @@ from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
@@ -22,7 +23,7 @@ def run_ideal(concrete, replan_every=1):
     scenario, problems = concrete.scenario, concrete.problems
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id])
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
     return simulate(scenario, problems, IdealBackend(), agents, planners, CosimSettings(replan_every=replan_every))
 

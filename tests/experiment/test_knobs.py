@@ -12,6 +12,7 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table, knob_value
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
 from simgap.sim.registry import make_backend
 from simgap.vehicles import load_vehicle
@@ -21,7 +22,7 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
     scenario, problems = concrete.scenario, concrete.problems
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id])
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
     run = simulate(scenario, problems, make_backend(backend, **(settings or {})), agents, planners,
                    CosimSettings(**(cosim or {})), seed=seed)

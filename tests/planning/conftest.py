@@ -6,6 +6,7 @@ import pytest
 
 from planner_roads import two_lane_road
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.vehicles import load_vehicle
 
 
@@ -27,9 +28,9 @@ def curve_road():
 
 @pytest.fixture(scope="session")
 def curve_planner(sedan, curve_road):
-    return FrenetPlanner(sedan, curve_road.lanelet_network, curve_road.problem)
+    return FrenetPlanner(PlannerSetup.for_problem(curve_road.problem, sedan, curve_road.lanelet_network))
 
 
 @pytest.fixture(scope="session")
 def straight_planner(sedan, straight_road):
-    return FrenetPlanner(sedan, straight_road.lanelet_network, straight_road.problem)
+    return FrenetPlanner(PlannerSetup.for_problem(straight_road.problem, sedan, straight_road.lanelet_network))

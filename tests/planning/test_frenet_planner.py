@@ -12,6 +12,7 @@ import shapely
 from planner_roads import DT, drive, lateral_offset, two_lane_road
 from simgap.cosim.traffic import DrivableArea, footprint
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.planning.protocol import TrafficParticipant, World
 from simgap.planning.settings import FrenetSettings
 from simgap.trajectory import State, Trajectory
@@ -66,7 +67,7 @@ def test_heading_and_steering_match_the_motion_on_a_sharp_curve(curve_planner, c
 
 def test_planning_is_deterministic_and_stateless(sedan, curve_road, curve_planner):
     observed = _lane_state(curve_road, 60.0, 9.0, d=0.5)
-    again = FrenetPlanner(sedan, curve_road.lanelet_network, curve_road.problem,
+    again = FrenetPlanner(PlannerSetup.for_problem(curve_road.problem, sedan, curve_road.lanelet_network),
                           FrenetSettings(concurrent_evaluation=True))
     first = curve_planner.plan(observed, 0.0, _world(curve_road))
     curve_planner.plan(_lane_state(curve_road, 10.0, 0.0), 0.0, _world(curve_road))
@@ -82,7 +83,7 @@ def test_unfollowable_observed_acceleration_is_relaxed(straight_planner, straigh
     assert plan is not None and straight_planner.last_cycle.relaxed
     assert (plan[0].x, plan[0].y, plan[0].yaw, plan[0].v) == (observed.x, observed.y, observed.yaw, observed.v)
     settings = FrenetSettings(relax_initial_state=False)
-    strict = FrenetPlanner(straight_planner.vehicle, straight_road.lanelet_network, straight_road.problem, settings)
+    strict = FrenetPlanner(PlannerSetup.for_problem(straight_road.problem, straight_planner.vehicle, straight_road.lanelet_network), settings)
     assert strict.plan(observed, 0.0, _world(straight_road)) is None
     assert strict.last_cycle.outcome == "no_feasible_sample"
 
@@ -112,7 +113,7 @@ def test_converges_to_the_lane_centre_from_an_offset_moving_start(straight_plann
 ])
 def test_reaches_the_goal(sedan, radius, angle, v0):
     road = two_lane_road(radius, angle, straight=50.0, v0=v0)   # shorter straights: a faster test
-    planner = FrenetPlanner(sedan, road.lanelet_network, road.problem)
+    planner = FrenetPlanner(PlannerSetup.for_problem(road.problem, sedan, road.lanelet_network))
     run = drive(planner, road, steps=300)
     assert run.failures == 0
     assert run.goal_time is not None and run.goal_time < 25.0
@@ -151,7 +152,7 @@ def _plan_collides(plan, participant, sedan):
 def test_stops_behind_a_parked_car_when_told_to_wait(sedan, straight_road):
     """With the paper's weights and no search for a faster plan, leaving the lane costs more than
     waiting: it stops behind."""
-    planner = FrenetPlanner(sedan, straight_road.lanelet_network, straight_road.problem,
+    planner = FrenetPlanner(PlannerSetup.for_problem(straight_road.problem, sedan, straight_road.lanelet_network),
                             FrenetSettings.from_mapping({"speed": {"blocked_speed_share": 0.0}}))
     parked = _parked(straight_road, 7, 60.0)
     run = drive(planner, straight_road, _lane_state(straight_road, 10.0, 10.0), steps=100,
@@ -177,7 +178,7 @@ def test_passes_a_parked_car_that_blocks_its_lane(sedan, straight_road, straight
 
 
 def test_overtakes_a_parked_car_when_leaving_the_lane_is_cheap(sedan, straight_road):
-    planner = FrenetPlanner(sedan, straight_road.lanelet_network, straight_road.problem,
+    planner = FrenetPlanner(PlannerSetup.for_problem(straight_road.problem, sedan, straight_road.lanelet_network),
                             FrenetSettings.from_mapping({"costs": {"distance_to_reference_path": 1.0}}))
     parked = _parked(straight_road, 7, 60.0)
     run = drive(planner, straight_road, _lane_state(straight_road, 10.0, 10.0), steps=80,
@@ -231,7 +232,7 @@ def test_never_plans_into_parked_or_oncoming_traffic(sedan, straight_road, strai
 def test_swerving_plans_stay_on_the_road(sedan, curve_road):
     """A car parked in the curve, leaving the lane made cheap: plans swerve, but only where the
     road is (the outer edge lies 1.5 m right of the lane centre, the other lane is free)."""
-    planner = FrenetPlanner(sedan, curve_road.lanelet_network, curve_road.problem,
+    planner = FrenetPlanner(PlannerSetup.for_problem(curve_road.problem, sedan, curve_road.lanelet_network),
                             FrenetSettings.from_mapping({"costs": {"distance_to_reference_path": 0.5}}))
     parked = _parked(curve_road, 7, 112.0)
     road_area = DrivableArea(curve_road.lanelet_network, tolerance=0.0)

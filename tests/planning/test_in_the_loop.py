@@ -7,6 +7,7 @@ import pytest
 from simgap.cosim import simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
 
@@ -20,7 +21,7 @@ def test_ideal_run_reaches_the_goal(params):
     scenario, problems = built.scenario, built.problems
     vehicle = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, vehicle)
-    planners = {a.id: FrenetPlanner(vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id])
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], vehicle, scenario.lanelet_network))
                 for a in agents}
     run = simulate(scenario, problems, IdealBackend(), agents, planners)
     (agent,) = run.agents

@@ -19,7 +19,8 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from simgap.cli import compare, demo, experiment, generate, render, report, run, search, vehicles  # noqa: F401
+    from simgap.cli import (compare, demo, experiment, generate, planners, render, report, run, search,  # noqa: F401
+                            vehicles)
 
 
 def main() -> None:

@@ -18,8 +18,8 @@ from simgap.errors import InputError, validated
 from simgap.files import read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.records import PLANNER_VEHICLE
-from simgap.experiment.single_run import RunRequest, execute, parse_vehicle_map
-from simgap.planning.frenet import FrenetSettings
+from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
+from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.sim.registry import check_settings
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
@@ -46,7 +46,12 @@ def run(
     offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
     knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
-    planner_config: Optional[Path] = typer.Option(None, help="YAML file of Frenet planner settings"),
+    planner: str = typer.Option(DEFAULT_PLANNER, help="planner of every agent, or per agent: 1=frenet,2=idm; a "
+                                "name (simgap planners), my_pkg.module:Class or path/to/file.py:Class"),
+    planner_config: Optional[Path] = typer.Option(None, help="YAML file of the planner's settings (several "
+                                                  "planners: planner name -> its settings)"),
+    planning_budget: Optional[float] = typer.Option(None, help="wall time a planning call may take [s]; longer "
+                                                    "calls are counted per agent"),
     max_time: Optional[float] = typer.Option(
         None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
                    "(60 s when the goal has none)"),
@@ -57,6 +62,7 @@ def run(
     """Run a scenario and print a per-agent summary.
 
     Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
+    (your planner: --planner my_planner.py:MyPlanner; a planner per agent: --planner 1=frenet,2=my_planner)
     (on snow, with a late steering: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.1)
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
@@ -64,12 +70,13 @@ def run(
     backend_settings = _backend_settings(backend, {k: v for k, v in physical.items() if v is not None},
                                          backend_config)
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
-    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_vehicle_map(vehicle),
+    request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_agent_map(vehicle),
                          planner_vehicle=planner_vehicle,
                          backend_settings=backend_settings | knob_settings,
-                         planner=FrenetSettings.from_yaml(planner_config) if planner_config else FrenetSettings(),
+                         planner=parse_planners(planner, planner_config),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
-                                                             traffic=traffic, **knob_cosim)))
+                                                             traffic=traffic, planning_budget_s=planning_budget,
+                                                             **knob_cosim)))
     _execute(request, out, as_json)
 
 
@@ -126,18 +133,31 @@ def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
 
 def print_summary(console: Console, result: Run) -> None:
     table = Table(title=f"{result.scenario_id} — {result.backend}")
-    for col in ("agent", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed"):
-        table.add_column(escape(col), justify="left" if col in ("vehicle", "outcome") else "right", no_wrap=True)
+    budget = result.settings.get("cosim", {}).get("planning_budget_s")
+    columns = ["agent", "planner", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed",
+               "plan [ms]"] + (["over budget"] if budget else [])
+    for col in columns:
+        table.add_column(escape(col), justify="left" if col in ("planner", "vehicle", "outcome") else "right",
+                         no_wrap=True)
     for a in result.agents:
         colour = "green" if a.outcome == Outcome.GOAL_REACHED else "red"
-        table.add_row(str(a.id), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
+        times = "—" if a.planning_mean_s is None else \
+            "/".join(f"{1000 * v:.1f}" for v in (a.planning_mean_s, a.planning_p95_s, a.planning_max_s))
+        table.add_row(str(a.id), escape(a.planner), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
                       "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
                       f"{a.distance_m:.1f}",
                       "—" if a.min_distance_to_traffic_m is None else f"{a.min_distance_to_traffic_m:.2f}",
-                      str(a.planner_failures))
+                      f"{a.planner_failures}" + (f" ({a.planner_exceptions} raised)" if a.planner_exceptions else ""),
+                      times,
+                      *([str(a.planning_over_budget)] if budget else []))
     console.print(table)
-    console.print("gap: smallest distance to any other road user; failed: planning cycles "
-                  "that found no feasible, collision-free plan", style="dim")
+    console.print("gap: smallest distance to any other road user; failed: planning cycles without a plan "
+                  "(none feasible, or the planner raised); plan: wall time per planning call, mean/p95/max"
+                  + (f"; over budget: calls longer than {budget:g} s" if budget else ""), style="dim")
+    for error in result.planner_errors[:1]:
+        console.print(f"[red]agent {error.agent_id}'s planner raised {escape(error.exception)}"
+                      f"{'' if error.t is None else f' at t = {error.t:.1f} s'}: {escape(error.message)}[/red] "
+                      "(tracebacks in run.json, planner_errors)")
     phases = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items())
     console.print(f"wall time {result.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
     if result.failure:

@@ -1,7 +1,8 @@
 """The synchronous multi-agent co-simulation loop and the `Run` record it produces."""
 
 from simgap.cosim.fidelity import REFERENCE, Fidelity
-from simgap.cosim.loop import CosimSettings, simulate
-from simgap.cosim.record import AgentOutcome, Event, Outcome, Run
+from simgap.cosim.loop import CosimSettings, not_started, simulate
+from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 
-__all__ = ["AgentOutcome", "CosimSettings", "Event", "Fidelity", "Outcome", "REFERENCE", "Run", "simulate"]
+__all__ = ["AgentOutcome", "CosimSettings", "Event", "Fidelity", "Outcome", "PlannerError", "REFERENCE", "Run",
+           "not_started", "simulate"]

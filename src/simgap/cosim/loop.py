@@ -28,7 +28,7 @@ from commonroad.scenario.scenario import Scenario
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.cosim.record import AgentOutcome, Event, Outcome, Run
+from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.traffic import DrivableArea, Traffic, TrafficMode, footprint, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
@@ -59,6 +59,7 @@ class ObservationNoise(BaseModel):
 
 
 DEFAULT_TIME_LIMIT_S = 60.0
+RECORDED_PLANNER_ERRORS = 5      # exceptions kept with their tracebacks per run (all are counted)
 
 
 class CosimSettings(BaseModel):
@@ -78,6 +79,9 @@ class CosimSettings(BaseModel):
                                                 description="noise on the state each planner observes")
     traffic: TrafficMode = Field(TrafficMode.REPLAY, description="recorded traffic: replay (as recorded) or idm "
                                  "(driven along its recorded path by an IDM towards the vehicle ahead)")
+    planning_budget_s: float | None = Field(
+        None, gt=0, description="wall time a planning call may take [s]; longer calls are counted per agent "
+                                "(over budget), the run goes on; default: no budget")
 
 
 @dataclass
@@ -95,6 +99,9 @@ class _AgentProgress:
     time_to_goal: float | None = None
     failures_in_row: int = 0
     failures: int = 0
+    exceptions: int = 0
+    call_times: list[float] = field(default_factory=list)     # wall time of every planning call [s]
+    over_budget: int = 0
     min_distance: float = math.inf
     max_excursion: float = 0.0
 
@@ -171,6 +178,7 @@ class _CoSimulation:
         self.dt = float(scenario.dt)
         self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
         self.events: list[Event] = []
+        self.planner_errors: list[PlannerError] = []
         self.traffic: Traffic = make_traffic(scenario, settings.traffic)
         self.road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
         self.progress_of: dict[int, _AgentProgress] = {}
@@ -251,17 +259,31 @@ class _CoSimulation:
             return
         world = World(self.scenario.lanelet_network, p.problem.goal, dt,
                       tuple(_traffic_for(p.agent.id, snapshot, self.traffic.participants())))
+        observed = settings.observation_noise.observe(state, self.rng)
+        clock = time.perf_counter()
         try:
-            plan = p.planner.plan(settings.observation_noise.observe(state, self.rng), t, world)
-            reason = getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+            plan = p.planner.plan(observed, t, world)
         except Exception as exc:  # a planner that crashes fails its cycle, not the run
             plan, reason = None, f"planner raised {type(exc).__name__}: {exc}"
+            self._planner_raised(p, t, exc)
+        else:
+            reason = getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+        elapsed = time.perf_counter() - clock
+        p.call_times.append(elapsed)
+        if settings.planning_budget_s is not None and elapsed > settings.planning_budget_s:
+            p.over_budget += 1
         if plan is None:
             self._planner_failed(p, state, t, reason)
         else:
             p.failures_in_row = 0
             p.plan, p.plan_age = plan, 1
             p.plans.append(plan)
+
+    def _planner_raised(self, p: _AgentProgress, t: float, exc: Exception) -> None:
+        """Count the exception; keep the first few with their tracebacks for the run record."""
+        p.exceptions += 1
+        if len(self.planner_errors) < RECORDED_PLANNER_ERRORS:
+            self.planner_errors.append(PlannerError.of(exc, p.agent.id, t))
 
     def _planner_failed(self, p: _AgentProgress, state: State, t: float, reason: str) -> None:
         p.failures += 1
@@ -327,7 +349,8 @@ class _CoSimulation:
                 time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
                 distance_m=round(driven.path_length(), 3),
                 min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
-                max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures))
+                max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures,
+                planner_exceptions=p.exceptions, **planning_time_stats(p.call_times), planning_over_budget=p.over_budget))
         settings = {"cosim": self.settings.model_dump(mode="json")}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
@@ -335,7 +358,7 @@ class _CoSimulation:
             plans={aid: p.plans for aid, p in self.progress_of.items()},
             events=self.events, timings=self.timings, wall_time_s=wall_time,
             settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
-            failure=failure,
+            failure=failure, planner_errors=self.planner_errors,
         )
 
 
@@ -369,3 +392,37 @@ def _traffic_for(aid: int, snapshot: Mapping[int, TrafficParticipant],
                  obstacles) -> list[TrafficParticipant]:
     """What agent ``aid`` sees: the other agents' latest plans and the obstacles' motion."""
     return [tp for oid, tp in snapshot.items() if oid != aid] + list(obstacles)
+
+
+def planning_time_stats(call_times: list[float]) -> dict[str, float | int | None]:
+    """Calls, mean, 95th percentile and maximum of the wall times of one agent's planning calls."""
+    if not call_times:
+        return {"planning_calls": 0}
+    times = np.asarray(call_times)
+    return {"planning_calls": len(times), "planning_mean_s": round(float(times.mean()), 6),
+            "planning_p95_s": round(float(np.percentile(times, 95)), 6), "planning_max_s": round(float(times.max()), 6)}
+
+
+def not_started(scenario: Scenario, backend: str, agents: list[Agent], errors: list[PlannerError],
+                settings: CosimSettings | None = None) -> Run:
+    """The record of a run that could not start because planners raised in their constructors:
+    every agent a planner failure where it stands, the exceptions with their tracebacks."""
+    dt = float(scenario.dt)
+    failed = {e.agent_id: e for e in errors}
+    outcomes, events = [], []
+    for a in agents:
+        st = a.initial_state
+        detail = (f"planner raised {failed[a.id].exception} in its constructor: {failed[a.id].message}"
+                  if a.id in failed else "another agent's planner could not be built")
+        outcomes.append(AgentOutcome(a.id, a.vehicle.name, Outcome.PLANNER_FAILURE, None, 0.0, None,
+                                     planner_failures=1 if a.id in failed else 0,
+                                     planner_exceptions=1 if a.id in failed else 0))
+        events.append(Event(st.t, a.id, Outcome.PLANNER_FAILURE, st.x, st.y, detail))
+    first = errors[0]
+    return Run(scenario_id=str(scenario.scenario_id), backend=backend, dt=dt, agents=outcomes,
+               driven={a.id: Trajectory.from_states([a.initial_state], dt) for a in agents},
+               plans={a.id: [] for a in agents}, events=events,
+               settings={"cosim": (settings or CosimSettings()).model_dump(mode="json")},
+               failure=f"the planner of agent {first.agent_id} raised {first.exception} in its constructor: "
+                       f"{first.message}",
+               planner_errors=list(errors))

@@ -17,6 +17,7 @@ import json
 import os
 import shutil
 import tempfile
+import traceback
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -61,6 +62,22 @@ class Event:
     other_id: int | None = None
 
 
+@dataclass(frozen=True)
+class PlannerError:
+    """An exception a planner raised: in its constructor (``t`` None) or in a planning cycle."""
+
+    agent_id: int
+    t: float | None
+    exception: str          # the exception's type
+    message: str
+    traceback: str
+
+    @classmethod
+    def of(cls, exc: BaseException, agent_id: int, t: float | None) -> "PlannerError":
+        return cls(agent_id, t, type(exc).__name__, str(exc),
+                   "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
+
+
 @dataclass
 class AgentOutcome:
     id: int
@@ -70,7 +87,14 @@ class AgentOutcome:
     distance_m: float
     min_distance_to_traffic_m: float | None
     max_road_excursion_m: float = 0.0
-    planner_failures: int = 0
+    planner_failures: int = 0                   # planning cycles without a plan (None or an exception)
+    planner: str = ""                           # the planner's name (label)
+    planner_exceptions: int = 0                 # ... of them, cycles in which the planner raised
+    planning_calls: int = 0
+    planning_mean_s: float | None = None        # wall time per planning call
+    planning_p95_s: float | None = None
+    planning_max_s: float | None = None
+    planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
 
     def __post_init__(self) -> None:
         self.outcome = Outcome(self.outcome)          # as read back from run.json
@@ -96,6 +120,7 @@ class Run:
     failure: str | None = None
     vehicles: dict[int, Vehicle] = field(default_factory=dict)    # the model each agent drove
     metrics: dict[str, float] = field(default_factory=dict)       # simgap.evaluate.run_metrics, worst over agents
+    planner_errors: list[PlannerError] = field(default_factory=list)   # the first few, with tracebacks
 
     # ------------------------------------------------------------------ derived
     def vehicle_of(self, agent_id: int) -> Vehicle:
@@ -145,6 +170,7 @@ class Run:
                 "seed": self.seed,
                 "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
                 "metrics": self.metrics,
+                "planner_errors": [asdict(e) for e in self.planner_errors],
             }
             (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
@@ -220,6 +246,7 @@ class Run:
             seed=meta.get("seed", 0), failure=meta.get("failure"),
             vehicles={int(aid): Vehicle.model_validate(v) for aid, v in (meta.get("vehicles") or {}).items()},
             metrics=meta.get("metrics") or {},
+            planner_errors=[PlannerError(**e) for e in meta.get("planner_errors") or []],
         )
 
 

@@ -13,8 +13,7 @@ from simgap.experiment.single_run import RunRequest, execute
 
 
 def run_dir_of(root: Path, job: Job) -> Path:
-    path = Path(root) / "runs" / job.scenario / job.fidelity.replace("/", "-")
-    return path / f"r{job.id.repeat}" if job.id.repeat is not None else path
+    return Path(root) / "runs" / job.id.folder
 
 
 def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) -> RunRow:
@@ -31,11 +30,22 @@ def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) ->
         distance_m=sum(a.distance_m for a in run.agents),
         max_road_excursion_m=max((a.max_road_excursion_m for a in run.agents), default=0.0),
         planner_failures=sum(a.planner_failures for a in run.agents),
+        planner_exceptions=sum(a.planner_exceptions for a in run.agents),
+        planning_mean_s=_slowest(a.planning_mean_s for a in run.agents),
+        planning_p95_s=_slowest(a.planning_p95_s for a in run.agents),
+        planning_max_s=_slowest(a.planning_max_s for a in run.agents),
+        planning_over_budget=sum(a.planning_over_budget for a in run.agents),
         min_distance_m=min(gaps) if gaps else math.nan,
         peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
         peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
         wall_time_s=run.wall_time_s, fingerprint=run.fingerprint, run_dir=str(run_dir.relative_to(root)),
         job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions))
+
+
+def _slowest(values) -> float:
+    """The largest of the agents' planning-time figures (NaN when no agent planned)."""
+    known = [v for v in values if v is not None]
+    return max(known) if known else math.nan
 
 
 def execute_job(job: Job, context: JobContext) -> RunRow:
@@ -45,6 +55,6 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
     scenario = job.scenario_path or (context.scenarios or {})[job.scenario]
     request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
                          planner_vehicle=context.planner_vehicle, backend_settings=dict(job.backend_settings),
-                         planner=context.planner, cosim=context.cosim_of(job), seed=job.seed)
+                         planner=job.planner, cosim=context.cosim_of(job), seed=job.seed)
     run = execute(request, run_dir)
     return run_row(job, run, run_dir, context.root, time.perf_counter() - started)

@@ -2,9 +2,10 @@
 execute (`Job`) and its row in the results store (`RunRow`), whose columns and Parquet schema come
 from this one definition.
 
-A job's key — ``scenario/fidelity`` (``/rN`` when the experiment repeats runs; a search names its
-ladder's rungs instead of fidelities: ``c00012/high``) — is printed only by `JobId.key`; code that
-needs the parts of a job holds its `JobId`, never a key taken apart.
+A job's key — ``scenario/fidelity`` (``/PLANNER`` unless the planner is the default ``frenet``,
+``/rN`` when the experiment repeats runs; a search names its ladder's rungs instead of fidelities:
+``c00012/high``) — is printed only by `JobId.key`; code that needs the parts of a job holds its
+`JobId`, never a key taken apart.
 """
 
 from __future__ import annotations
@@ -17,10 +18,9 @@ import pyarrow as pa
 
 from simgap.cosim import CosimSettings, Fidelity, Outcome
 from simgap.errors import validated
-from simgap.planning.settings import FrenetSettings
+from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 
 Status = Literal["ok", "failed"]
-DEFAULT_PLANNER = "frenet"          # the one planner a run has today
 PLANNER_VEHICLE = "sedan"           # the vehicle the planner assumes it drives, unless a spec says another
 
 
@@ -40,7 +40,14 @@ class JobId:
     def key(self) -> str:
         """Unique and stable within an experiment; names the run's row in the store."""
         parts = [self.scenario, self.stage or self.fidelity.label]
+        parts += [self.planner] if self.planner != DEFAULT_PLANNER else []
         return "/".join(parts + ([f"r{self.repeat}"] if self.repeat is not None else []))
+
+    @property
+    def folder(self) -> str:
+        """The run directory's path under ``runs/``: ``scenario/fidelity[@planner][/rN]``."""
+        name = self.fidelity.label.replace("/", "-") + (f"@{self.planner}" if self.planner != DEFAULT_PLANNER else "")
+        return "/".join([self.scenario, name] + ([f"r{self.repeat}"] if self.repeat is not None else []))
 
     def __str__(self) -> str:
         return self.key
@@ -63,6 +70,7 @@ class Job:
     backend_settings: dict[str, Any] = field(default_factory=dict)
     cosim: dict[str, Any] = field(default_factory=dict)      # over the experiment's cosim settings
     scenario_path: str | None = None                          # else the context's scenarios[scenario]
+    planner: PlannerChoice = field(default_factory=PlannerChoice)   # of every agent; its name is id.planner
 
     @property
     def key(self) -> str:
@@ -110,6 +118,11 @@ class RunRow:
     distance_m: float | None = None
     max_road_excursion_m: float | None = None
     planner_failures: int | None = None
+    planner_exceptions: int | None = None        # planning cycles in which the planner raised
+    planning_mean_s: float | None = None         # wall time per planning call (the slowest agent's)
+    planning_p95_s: float | None = None
+    planning_max_s: float | None = None
+    planning_over_budget: int | None = None      # calls over the loop's planning_budget_s
     min_distance_m: float | None = None          # the smallest gap to any other road user
     peak_lateral_acceleration: float | None = None
     peak_jerk: float | None = None
@@ -170,10 +183,9 @@ _SCALARS: dict[str, pa.DataType] = {
 @dataclass(frozen=True)
 class JobContext:
     """What every job of an experiment or a search shares: where it writes, the scenario file of
-    each scenario, and the planner and loop settings (validated once, where the spec was read)."""
+    each scenario, and the loop settings (validated once, where the spec was read)."""
 
     root: Path
-    planner: FrenetSettings
     cosim: CosimSettings
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = PLANNER_VEHICLE        # catalogue name or data file

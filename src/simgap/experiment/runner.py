@@ -19,7 +19,6 @@ from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import ExperimentSpec, jobs, load_spec, vehicle_ref
 from simgap.experiment.store import ResultsStore
 from simgap.files import atomic_write_text
-from simgap.planning.settings import FrenetSettings
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -141,8 +140,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
             on_progress(progress)
 
     start = time.perf_counter()
-    context = JobContext(root, validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim),
-                         scenarios, vehicle_ref(spec.planner_vehicle, path))
+    context = JobContext(root, validated(CosimSettings, spec.cosim), scenarios, vehicle_ref(spec.planner_vehicle, path))
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()

@@ -10,7 +10,7 @@ Layout::
     <strategy>/budget.json          budget spent so far (wall-clock seconds, runs)
     report/index.html               the comparison of the strategies
 
-Every run's row carries the candidate (``candidate``, ``param_*``, ``knob_*``, ``vehicle``), its
+Every run's row carries the candidate (``candidate``, ``param_*``, ``knob_*``, ``vehicle``, ``planner``), its
 rung of the ladder (0 = ideal, last = high), whether it failed by the spec's rule and why, and
 ``elapsed_s``: the strategy's clock when it finished. A high-fidelity failure is checked in the
 ideal world; if the ideal run passes, the candidate is a *violated assumption*. The ideal world
@@ -18,7 +18,7 @@ takes no reality knob, so candidates that differ only in their knobs share one i
 later ones get a copy of its row with ``ideal_of`` (the candidate that ran it) and no cost, and
 are not counted as runs. Distinct
 violations are counted after de-duplication: one closer than ``distinct_radius`` (in the
-normalised space, same vehicle) to an earlier one is the same failure.
+normalised space, same vehicle and planner) to an earlier one is the same failure.
 """
 
 from __future__ import annotations
@@ -39,12 +39,12 @@ from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_sp
 from simgap.experiment.records import Job, JobContext, JobId, RunRow
 from simgap.experiment.runner import clean_partial_runs
 from simgap.experiment.single_run import software_versions
-from simgap.experiment.spec import vehicle_ref
+from simgap.experiment.spec import planner_choices, vehicle_ref
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
 from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
-from simgap.planning.settings import FrenetSettings
+from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.sim.registry import preflight
 from simgap.vehicles import load_vehicle
 
@@ -111,8 +111,10 @@ class SharedIdealRuns:
 class StrategyRun:
     """One strategy's search in ``root``: proposes jobs, records results, keeps the budget."""
 
-    def __init__(self, spec: SearchSpec, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget):
+    def __init__(self, spec: SearchSpec, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget,
+                 planners: dict[str, PlannerChoice] | None = None):
         self.spec, self.space, self.strategy, self.root, self.budget = spec, space, strategy, root, budget
+        self.planners = planners or {DEFAULT_PLANNER: PlannerChoice()}        # by name
         self.store = ResultsStore(root)
         self.high = len(spec.ladder) - 1
         self.candidates: dict[int, Candidate] = {}
@@ -190,7 +192,7 @@ class StrategyRun:
     def _candidate_from_rows(self, index: int, rows: list[dict[str, Any]]) -> Candidate:
         r = rows[0]
         unit = [float(r[f"unit_{i}"]) for i in range(len(self.space.dims))]
-        return self.space.candidate(index, unit, r["vehicle"])
+        return self.space.candidate(index, unit, r["vehicle"], planner=r.get("planner") or DEFAULT_PLANNER)
 
     # --- jobs --------------------------------------------------------------------------------
     def _scenario(self, c: Candidate) -> str:
@@ -217,16 +219,17 @@ class StrategyRun:
     def job(self, c: Candidate, rung_index: int) -> Job:
         controller, settings, cosim = self._run_settings(c, rung_index)
         fidelity = Fidelity(self.spec.ladder[rung_index].backend, load_vehicle(c.vehicle).name, controller)
-        job_id = JobId(_scenario_name(c.index), fidelity, seed=self.spec.seed + c.index,
+        job_id = JobId(_scenario_name(c.index), fidelity, seed=self.spec.seed + c.index, planner=c.planner,
                        stage=_rung_name(rung_index, len(self.spec.ladder)))
-        return Job(job_id, c.params, c.vehicle, settings, cosim, self._scenario(c))
+        return Job(job_id, c.params, c.vehicle, settings, cosim, self._scenario(c), self.planners[c.planner])
 
     def _ideal_key(self, c: Candidate) -> str:
         """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
-        rung's settings, and the seed only if that rung observes with noise."""
+        planner, the rung's settings, and the seed only if that rung observes with noise."""
         _, settings, cosim = self._run_settings(c, 0)
         noisy = any(v for v in (cosim.get("observation_noise") or {}).values())
-        return json.dumps([c.params, c.vehicle, settings, cosim, self.spec.seed + c.index if noisy else None],
+        driver = [c.vehicle] if c.planner == DEFAULT_PLANNER else [c.vehicle, c.planner]
+        return json.dumps([c.params, *driver, settings, cosim, self.spec.seed + c.index if noisy else None],
                           sort_keys=True, default=str)
 
     def _settle_ideal(self, index: int) -> bool:
@@ -241,7 +244,8 @@ class StrategyRun:
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.candidates[index]
         name = _scenario_name(index)
-        row = dict(self.rows[(source, 0)]) | {"key": f"{name}/{_rung_name(0, len(self.spec.ladder))}",
+        key = JobId(name, Fidelity("ideal", c.vehicle), planner=c.planner, stage=_rung_name(0, len(self.spec.ladder))).key
+        row = dict(self.rows[(source, 0)]) | {"key": key,
                                                "scenario": name, "candidate": index, "ideal_of": source,
                                                "elapsed_s": self.elapsed()}
         row |= {k: 0.0 for k in row if k.startswith("time_") or k in ("job_time_s", "wall_time_s")}
@@ -357,15 +361,16 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     root = Path(root)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     _claim(root, spec)
-    space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles])
-    planner, cosim = validated(FrenetSettings, spec.planner), validated(CosimSettings, spec.cosim)
+    planners = {c.name: c for c in planner_choices(spec, path)}
+    space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles], list(planners))
+    cosim = validated(CosimSettings, spec.cosim)
     results = []
     for name in names:
         sroot = root / name
         sroot.mkdir(parents=True, exist_ok=True)
-        run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget)
+        run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget, planners)
         run.resume()
-        context = JobContext(sroot, planner, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
+        context = JobContext(sroot, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
 
         def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)

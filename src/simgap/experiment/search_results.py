@@ -13,6 +13,7 @@ from typing import Any
 from simgap.errors import InputError
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec
 from simgap.experiment.store import ResultsStore
+from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory
 
@@ -25,7 +26,7 @@ class StrategyResult:
     high_failures: int = 0
     violations: int = 0
     distinct: int = 0
-    scenarios: int = 0                # distinct scenarios (road, start, vehicle) among the violations
+    scenarios: int = 0                # distinct scenarios (road, start, vehicle, planner) among the violations
     errors: int = 0
     wall_s: float = 0.0
     cpu_s: float = 0.0
@@ -63,14 +64,15 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
             continue
         res.violations += 1
-        scenarios.add((h["vehicle"],) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
+        driver = f"{h['vehicle']}|{h.get('planner') or DEFAULT_PLANNER}"
+        scenarios.add((driver,) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
         when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
         unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, h["vehicle"]))
+        found.append((when, unit, driver))
     distinct: list[tuple[tuple[float, ...], str]] = []
-    for when, unit, vehicle in sorted(found):
-        if all(v != vehicle or math.dist(unit, u) >= radius for u, v in distinct):
-            distinct.append((unit, vehicle))
+    for when, unit, driver in sorted(found):
+        if all(d != driver or math.dist(unit, u) >= radius for u, d in distinct):
+            distinct.append((unit, driver))
             res.curve.append((when, len(distinct)))
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)

@@ -12,6 +12,7 @@ Example (the built-in ``curve-gaps``, abridged)::
       road_friction: {min: 0.2, max: 1.0}
       steer_delay: {min: 0, max: 0.25}
     vehicles: [sedan, suv, city]       # more than one: a dimension of the search
+    planners: [frenet]                 # likewise (default [frenet]; entries as in experiment specs)
     ladder:                            # cheapest first: ideal, optional screens, the high fidelity
       - {backend: ideal}
       - {backend: dynamic, cosim: {replan_every: 5}}
@@ -39,9 +40,11 @@ from simgap.cosim import Outcome
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import check_knob
-from simgap.experiment.spec import (PLANNER_VEHICLE, builtin_or_file, check_backend, check_controller,
-                                    check_parameter, check_vehicles, logical_of, read_spec, results_hash,
+from simgap.experiment.spec import (LEGACY_PLANNER_DESCRIPTION, PLANNER_VEHICLE, PLANNERS_DESCRIPTION,
+                                    builtin_or_file, check_backend, check_controller, check_parameter,
+                                    check_vehicles, logical_of, planner_choices, read_spec, results_hash,
                                     results_relevant)
+from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
 
 STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
@@ -124,7 +127,9 @@ class SearchSpec(BaseModel):
     grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")
     lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
     seed: int = 0
-    planner: dict[str, Any] = Field(default_factory=dict)
+    planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
+                                          description=PLANNERS_DESCRIPTION)
+    planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
     planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
                                  "world drives it too")
     cosim: dict[str, Any] = Field(default_factory=dict)
@@ -158,9 +163,10 @@ def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
         check_parameter(logical, name, rng.min, rng.max, path)
     for name, rng in spec.knobs.items():
         check_knob(name, rng.min, rng.max, file=path, where=f"knobs.{name}")
-    if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2:
-        raise InputError("nothing to search: no parameter, knob or vehicle varies", file=path,
+    if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2 and len(spec.planners) < 2:
+        raise InputError("nothing to search: no parameter, knob, vehicle or planner varies", file=path,
                          field="parameters", allowed=", ".join(logical.parameters))
+    planner_choices(spec, path)
     check_vehicles(spec.vehicles, path, "vehicles")
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     check_controller(spec.controller, path, "controller")

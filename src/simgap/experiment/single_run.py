@@ -12,14 +12,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from simgap.cosim import CosimSettings, Run, simulate
+from simgap.cosim import CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.records import PLANNER_VEHICLE
-from simgap.planning.frenet import FrenetPlanner, FrenetSettings
+from simgap.files import read_yaml_mapping
+from simgap.planning.protocol import PlannerSetup
+from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.scenario import load_scenario, read_metadata
 from simgap.sim.registry import make_backend
 from simgap.vehicles import load_vehicle
@@ -29,14 +31,14 @@ VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
 
 @dataclass
 class RunRequest:
-    """What to run: a scenario file in a backend, with vehicles, planner and loop settings."""
+    """What to run: a scenario file in a backend, with vehicles, planners and loop settings."""
 
     scenario: Path
     backend: str = "ideal"
     vehicles: str | Mapping[int, str] = "sedan"
     planner_vehicle: str = PLANNER_VEHICLE      # the vehicle the planner assumes it drives
     backend_settings: dict[str, Any] = field(default_factory=dict)
-    planner: FrenetSettings = field(default_factory=FrenetSettings)
+    planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
     seed: int = 0
 
@@ -51,19 +53,55 @@ def software_versions() -> dict[str, str]:
     return versions
 
 
-def parse_vehicle_map(text: str) -> str | dict[int, str]:
-    """``sedan`` (every agent) or ``1=sedan,2=suv`` (per planning problem id)."""
+def parse_agent_map(text: str, what: str = "vehicle", example: str = "1=sedan,2=suv") -> str | dict[int, str]:
+    """``NAME`` (every agent) or ``1=NAME,2=OTHER`` (per planning problem id), for ``--vehicle``
+    and ``--planner``."""
     if "=" not in text:
-        return text
+        return text.strip()
     mapping = {}
     for item in text.split(","):
         key, _, name = item.partition("=")
         try:
             mapping[int(key)] = name.strip()
         except ValueError:
-            raise InputError(f"'{item}' is not AGENT_ID=VEHICLE", field="vehicle",
-                             allowed="a vehicle name, or 1=sedan,2=suv") from None
+            raise InputError(f"'{item}' is not AGENT_ID={what.upper()}", field=what,
+                             allowed=f"a {what} for every agent, or {example}") from None
+        if not name.strip():
+            raise InputError(f"'{item}' names no {what}", field=what, allowed=f"a {what}, or {example}")
     return mapping
+
+
+def parse_planners(text: str, settings_file: Path | None = None) -> PlannerAssignment:
+    """``--planner`` and ``--planner-config`` as a planner assignment, every planner loaded and its
+    settings validated (errors name the file and the field).
+
+    The settings file holds the settings of the planner when one planner drives every agent (or
+    every agent named); with several different planners, it maps each planner, as ``--planner``
+    names it, to its settings (``{frenet: {speed: {cruise_m_s: 8}}, idm: {...}}``).
+    """
+    parsed = parse_agent_map(text, "planner", "1=frenet,2=idm")
+    refs = list(dict.fromkeys([parsed] if isinstance(parsed, str) else parsed.values()))
+    settings: dict[str, dict] = {ref: {} for ref in refs}
+    if settings_file is not None:
+        raw = read_yaml_mapping(settings_file, "planner settings file", empty_ok=True)
+        if len(refs) == 1:
+            settings[refs[0]] = raw
+        else:
+            for ref, values in raw.items():
+                if ref not in settings or not isinstance(values, dict):
+                    raise InputError(f"with several planners the file maps each planner to its settings; "
+                                     f"'{ref}' is not one of them" if ref not in settings else
+                                     f"the settings of '{ref}' are not a mapping", file=settings_file,
+                                     field=str(ref), allowed=", ".join(refs))
+                settings[ref] = values
+    choices = {}
+    for ref in refs:
+        choice = PlannerChoice(planner=ref, settings=settings[ref])
+        choice.load(file=settings_file, settings_field="" if len(refs) == 1 else ref)
+        choices[ref] = choice
+    if isinstance(parsed, str):
+        return choices[parsed]
+    return {aid: choices[ref] for aid, ref in parsed.items()}
 
 
 def execute(request: RunRequest, out: Path | None = None,
@@ -77,13 +115,24 @@ def execute(request: RunRequest, out: Path | None = None,
         vehicles = {pid: load_vehicle(name) for pid, name in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
-    planners = {
-        a.id: FrenetPlanner(planner_vehicle, scenario.lanelet_network,
-                            problems.planning_problem_dict[a.id], request.planner)
-        for a in agents
-    }
-    backend = make_backend(request.backend, **request.backend_settings)
-    run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
+    planners, errors, records = {}, [], {}
+    for a in agents:
+        choice = planner_of(request.planner, a.id, [b.id for b in agents])
+        planner_class, settings = choice.load()
+        records[a.id] = {"name": choice.name, "planner": choice.planner,
+                         "settings": settings.model_dump(mode="json") if settings is not None else {}}
+        setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id], dt)
+        try:
+            planners[a.id] = planner_class.build(setup, settings)
+        except Exception as exc:       # the planner's own bug: this run fails, recorded, the batch goes on
+            errors.append(PlannerError.of(exc, a.id, None))
+    if errors:
+        run = not_started(scenario, request.backend, agents, errors, request.cosim)
+    else:
+        backend = make_backend(request.backend, **request.backend_settings)
+        run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
+    for outcome in run.agents:
+        outcome.planner = records[outcome.id]["name"]
     meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)
@@ -94,7 +143,7 @@ def execute(request: RunRequest, out: Path | None = None,
     run.vehicles = {a.id: a.vehicle for a in agents}
     run.metrics = run_metrics(run, scenario, problems, knob_value("road_friction", request.backend_settings))
     run.settings |= {"parameter_units": meta.get("units", {}),
-                     "planner": request.planner.model_dump(), "backend": request.backend_settings,
+                     "planner": _planner_record(request.planner, records), "backend": request.backend_settings,
                      "planner_vehicle": request.planner_vehicle}
     if out is not None:
         t0 = time.perf_counter()
@@ -102,3 +151,11 @@ def execute(request: RunRequest, out: Path | None = None,
         run.timings["io"] = time.perf_counter() - t0
         run.save(out, xml)
     return run
+
+
+def _planner_record(planners: PlannerAssignment, records: dict[int, dict]) -> dict[str, Any]:
+    """run.json's ``settings.planner``: name, reference and full settings of the planner of every
+    agent (``agents`` per agent id when they differ)."""
+    if isinstance(planners, PlannerChoice):
+        return next(iter(records.values())) if records else {"name": planners.name, "planner": planners.planner}
+    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in records.items()}}

@@ -14,6 +14,10 @@ Example (the built-in `demo`)::
       - backend: mujoco
         vehicles: [sedan, city]
         controllers: [pure_pursuit]
+    planners:                         # optional (default [frenet]): every run with each planner
+      - frenet
+      - {planner: frenet, label: frenet-slow, settings: {speed: {cruise_m_s: 6}}}
+      - my_planners.py:TimeGapPlanner # a file beside the spec (or my_pkg.module:Class, or an installed name)
     cosim: {replan_every: 1}
 
 A wrong key, type or range is an `InputError` naming the file, the field path and what is allowed.
@@ -35,13 +39,17 @@ from simgap.errors import InputError, validated
 from simgap.experiment.records import PLANNER_VEHICLE, Job, JobId
 from simgap.experiment.samplers import sample
 from simgap.files import read_model
-from simgap.planning.frenet import FrenetSettings
+from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.sim.registry import BACKENDS, backend_available, check_settings
 from simgap.vehicles import load_vehicle, vehicle_names
 
 
-ADDED_FIELDS = {"planner_vehicle": PLANNER_VEHICLE}     # spec fields newer than stored results, and their defaults
+# spec fields newer than stored results, and their defaults
+ADDED_FIELDS = {"planner_vehicle": PLANNER_VEHICLE, "planners": [PlannerChoice().model_dump()]}
+PLANNERS_DESCRIPTION = ("the planners every run is made with (each a dimension value): a name, module:Class, "
+                        "path/to/file.py:Class (relative to the spec), or {planner, settings, label}")
+LEGACY_PLANNER_DESCRIPTION = "the frenet planner's settings (older specs; now: planners: [{planner: frenet, settings: ...}])"
 
 
 class ParameterRange(BaseModel):
@@ -100,7 +108,9 @@ class ExperimentSpec(BaseModel):
     fidelities: list[FidelitySpec] = Field(min_length=1)
     repeats: int = Field(1, ge=1, le=1000)
     seed: int = 0
-    planner: dict[str, Any] = Field(default_factory=dict)
+    planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
+                                          description=PLANNERS_DESCRIPTION)
+    planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
     planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
                                  "world drives it too (a catalogue name or a data file beside the spec)")
     cosim: dict[str, Any] = Field(default_factory=dict)
@@ -180,8 +190,32 @@ def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -
         check_vehicles(fid.vehicles, path, f"fidelities.{i}.vehicles")
         for c in fid.controllers:
             check_controller(c, path, f"fidelities.{i}.controllers")
-    for section, model in (("planner", FrenetSettings), ("cosim", CosimSettings)):
-        validated(model, getattr(spec, section), file=path, prefix=section)
+    planner_choices(spec, path)
+    validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
+
+
+def planner_choices(spec: Any, spec_file: Path) -> list[PlannerChoice]:
+    """The planners of an experiment or search spec, each loaded and its settings validated, file
+    references made absolute against the spec's folder; an older spec's ``planner:`` section is the
+    frenet planner's settings. Errors name the spec file and ``planners.N``."""
+    if spec.planner:
+        if spec.planners != [PlannerChoice()]:
+            raise InputError("a spec with planners gives each planner's settings there, not in 'planner'",
+                             file=spec_file, field="planner",
+                             allowed="planners: [{planner: frenet, settings: {...}}]")
+        choices = [PlannerChoice(planner=DEFAULT_PLANNER, settings=spec.planner)]
+        choices[0].load(file=spec_file, field="planner", settings_field="planner")
+        return choices
+    choices = [c.with_file_base(spec_file.parent) for c in spec.planners]
+    seen: dict[str, int] = {}
+    for i, choice in enumerate(choices):
+        choice.load(file=spec_file, field=f"planners.{i}")
+        if choice.name in seen:
+            raise InputError(f"two planners are named '{choice.name}' (planners.{seen[choice.name]} and "
+                             f"planners.{i})", file=spec_file, field=f"planners.{i}.label",
+                             allowed="a label of its own for each planner")
+        seen[choice.name] = i
+    return choices
 
 
 def check_parameter(logical: LogicalScenario, name: str, low: float, high: float, path: Path) -> None:
@@ -232,6 +266,7 @@ def jobs(spec: ExperimentSpec, logical: LogicalScenario, spec_file: Path
     """Every concrete parameter set of the spec with the runs it takes, in a stable order."""
     out = []
     planner_vehicle = vehicle_ref(spec.planner_vehicle, spec_file)
+    planners = planner_choices(spec, spec_file)
     for params in sample(spec, logical):
         name = logical.scenario_name(params)
         runs = []
@@ -241,8 +276,9 @@ def jobs(spec: ExperimentSpec, logical: LogicalScenario, spec_file: Path
             for vehicle, controller in combos:
                 settings = dict(fid.settings) | ({"controller": controller} if controller is not None else {})
                 fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller)
-                for r in range(spec.repeats):
-                    job_id = JobId(name, fidelity, r if spec.repeats > 1 else None, spec.seed + r)
-                    runs.append(Job(job_id, params, vehicle, settings))
+                for planner in planners:
+                    for r in range(spec.repeats):
+                        job_id = JobId(name, fidelity, r if spec.repeats > 1 else None, spec.seed + r, planner.name)
+                        runs.append(Job(job_id, params, vehicle, settings, planner=planner))
         out.append((params, runs))
     return out

@@ -46,6 +46,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from simgap.experiment.search_spec import SearchSpec
+from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario.logical import LogicalScenario
 
 EXPLORE_EVERY = 10          # multi_fidelity: one candidate in this many is promoted whatever its risk
@@ -60,22 +61,32 @@ class Candidate:
     knobs: dict[str, float]
     trial: Any = None                  # the optuna trial that proposed it, if any
     start_rung: int | None = None      # the rung it runs in first, if not the strategy's usual one
+    planner: str = DEFAULT_PLANNER     # the name of the planner of every agent
+
+    @property
+    def driver(self) -> tuple[str, str]:
+        """Who drives: the vehicle and the planner (failures of different drivers are distinct)."""
+        return (self.vehicle, self.planner)
 
     def distance(self, other: "Candidate") -> float:
-        if self.vehicle != other.vehicle:
+        if self.driver != other.driver:
             return math.inf
         return float(np.linalg.norm(np.subtract(self.unit, other.unit)))
 
 
 class SearchSpace:
-    """The continuous dimensions of a spec (scenario parameters, then knobs) and its vehicles."""
+    """The continuous dimensions of a spec (scenario parameters, then knobs), its vehicles and its
+    planners (by name)."""
 
-    def __init__(self, spec: SearchSpec, logical: LogicalScenario, vehicles: list[str] | None = None):
+    def __init__(self, spec: SearchSpec, logical: LogicalScenario, vehicles: list[str] | None = None,
+                 planners: list[str] | None = None):
         self.spec, self.logical = spec, logical
         self.dims = spec.dimensions
         self.vehicles = list(vehicles or spec.vehicles)      # as runs load them (data files resolved)
+        self.planners = list(planners or [DEFAULT_PLANNER])
 
-    def candidate(self, index: int, unit: Any, vehicle: str, trial: Any = None) -> Candidate:
+    def candidate(self, index: int, unit: Any, vehicle: str, trial: Any = None, planner: str | None = None
+                  ) -> Candidate:
         unit = tuple(float(min(max(u, 0.0), 1.0)) for u in unit)
         params = {n: p.coerce(p.default) for n, p in self.logical.parameters.items()}
         knobs = {}
@@ -85,7 +96,7 @@ class SearchSpace:
                 params[name] = self.logical.parameters[name].coerce(value)
             else:
                 knobs[name] = value
-        return Candidate(index, unit, vehicle, params, knobs, trial)
+        return Candidate(index, unit, vehicle, params, knobs, trial, planner=planner or self.planners[0])
 
     def distributions(self) -> dict[str, Any]:
         import optuna
@@ -93,17 +104,21 @@ class SearchSpace:
         out: dict[str, Any] = {f"u{i}": optuna.distributions.FloatDistribution(0.0, 1.0) for i in range(len(self.dims))}
         if len(self.vehicles) > 1:
             out["vehicle"] = optuna.distributions.CategoricalDistribution(self.vehicles)
+        if len(self.planners) > 1:
+            out["planner"] = optuna.distributions.CategoricalDistribution(self.planners)
         return out
 
     def trial_params(self, c: Candidate) -> dict[str, Any]:
         out: dict[str, Any] = {f"u{i}": u for i, u in enumerate(c.unit)}
         if len(self.vehicles) > 1:
             out["vehicle"] = c.vehicle
+        if len(self.planners) > 1:
+            out["planner"] = c.planner
         return out
 
     def from_trial(self, index: int, params: dict[str, Any], trial: Any = None) -> Candidate:
         unit = [params[f"u{i}"] for i in range(len(self.dims))]
-        return self.candidate(index, unit, params.get("vehicle", self.vehicles[0]), trial)
+        return self.candidate(index, unit, params.get("vehicle", self.vehicles[0]), trial, params.get("planner"))
 
 
 class Strategy:
@@ -137,15 +152,15 @@ class GridStrategy(Strategy):
     def __init__(self, space: SearchSpace, seed: int, levels: int):
         super().__init__(space, seed)
         axes = [np.linspace(0.0, 1.0, levels) for _ in space.dims]
-        points = [(u, v) for v in space.vehicles for u in itertools.product(*axes)]
+        points = [(u, v, p) for p in space.planners for v in space.vehicles for u in itertools.product(*axes)]
         order = np.random.default_rng(seed).permutation(len(points))
         self.points = [points[i] for i in order]
 
     def propose(self, index: int) -> Candidate | None:
         if index >= len(self.points):
             return None
-        unit, vehicle = self.points[index]
-        return self.space.candidate(index, unit, vehicle)
+        unit, vehicle, planner = self.points[index]
+        return self.space.candidate(index, unit, vehicle, planner=planner)
 
 
 class RandomStrategy(Strategy):
@@ -157,7 +172,9 @@ class RandomStrategy(Strategy):
 
 def _uniform(space: SearchSpace, index: int, rng: np.random.Generator) -> Candidate:
     unit = rng.random(len(space.dims))
-    return space.candidate(index, unit, space.vehicles[rng.integers(len(space.vehicles))])
+    vehicle = space.vehicles[rng.integers(len(space.vehicles))]
+    planner = space.planners[rng.integers(len(space.planners))] if len(space.planners) > 1 else None
+    return space.candidate(index, unit, vehicle, planner=planner)
 
 
 class LatinHypercubeStrategy(Strategy):
@@ -165,7 +182,7 @@ class LatinHypercubeStrategy(Strategy):
 
     def __init__(self, space: SearchSpace, seed: int, samples: int):
         super().__init__(space, seed)
-        d = len(space.dims) + (1 if len(space.vehicles) > 1 else 0)
+        d = len(space.dims) + (1 if len(space.vehicles) > 1 else 0) + (1 if len(space.planners) > 1 else 0)
         self.design = qmc.LatinHypercube(d=max(d, 1), seed=seed).random(samples)
 
     def propose(self, index: int) -> Candidate | None:
@@ -173,9 +190,11 @@ class LatinHypercubeStrategy(Strategy):
             return None
         row = self.design[index]
         n = len(self.space.dims)
-        vehicles = self.space.vehicles
+        vehicles, planners = self.space.vehicles, self.space.planners
         vehicle = vehicles[min(int(row[n] * len(vehicles)), len(vehicles) - 1)] if len(vehicles) > 1 else vehicles[0]
-        return self.space.candidate(index, row[:n], vehicle)
+        n += len(vehicles) > 1
+        planner = planners[min(int(row[n] * len(planners)), len(planners) - 1)] if len(planners) > 1 else None
+        return self.space.candidate(index, row[:len(self.space.dims)], vehicle, planner=planner)
 
 
 class BayesianStrategy(Strategy):
@@ -284,7 +303,7 @@ class MultiFidelityStrategy(Strategy):
         self.threshold = PromotionThreshold()
         self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
         self.scenario_of: dict[int, tuple] = {}      # ... their scenarios
-        self._failure_points: dict[str, np.ndarray] = {}     # ... their points, per vehicle
+        self._failure_points: dict[tuple[str, str], np.ndarray] = {}     # ... their points, per driver
         self.live: dict[int, Candidate] = {}         # proposed, verdict still open
         self.risk: dict[int, float] = {}
         self.explored: set[int] = set()
@@ -351,7 +370,7 @@ class MultiFidelityStrategy(Strategy):
             direction /= np.linalg.norm(direction)
             unit = np.array(parent.unit)
             unit[dims] = np.clip(unit[dims] + rng.uniform(*NEIGHBOUR_DISTANCE) * self.radius * direction, 0.0, 1.0)
-            c = self.space.candidate(index, unit, parent.vehicle)
+            c = self.space.candidate(index, unit, parent.vehicle, planner=parent.planner)
             if move == "scenario" and _scenario_key(c) == _scenario_key(parent):
                 continue
             if self._novelty(c, include_live=True) >= 1.0:
@@ -360,7 +379,7 @@ class MultiFidelityStrategy(Strategy):
 
     def _novelty(self, c: Candidate, include_live: bool = False) -> float:
         """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
-        points = self._failure_points.get(c.vehicle)
+        points = self._failure_points.get(c.driver)
         nearest = math.inf if points is None else float(np.sqrt(((points - c.unit) ** 2).sum(axis=1)).min())
         if include_live:
             nearest = min([nearest] + [c.distance(o) for o in self.live.values() if o.index != c.index])
@@ -421,8 +440,8 @@ class MultiFidelityStrategy(Strategy):
         if failed:
             self.failures[candidate.index] = candidate
             self.scenario_of[candidate.index] = _scenario_key(candidate)
-            points = self._failure_points.get(candidate.vehicle, np.empty((0, len(candidate.unit))))
-            self._failure_points[candidate.vehicle] = np.vstack([points, candidate.unit])
+            points = self._failure_points.get(candidate.driver, np.empty((0, len(candidate.unit))))
+            self._failure_points[candidate.driver] = np.vstack([points, candidate.unit])
             self.parents[candidate.index] = _Yield()
         risk = self.risk.get(candidate.index)
         if risk is None:
@@ -435,8 +454,8 @@ class MultiFidelityStrategy(Strategy):
 
 
 def _scenario_key(c: Candidate) -> tuple:
-    """What the ideal world sees of a candidate: its road and start, and its vehicle."""
-    return (c.vehicle, tuple(sorted(c.params.items())))
+    """What the ideal world sees of a candidate: its road and start, its vehicle and its planner."""
+    return (c.driver, tuple(sorted(c.params.items())))
 
 
 def _value(row: dict[str, Any], name: str) -> float:

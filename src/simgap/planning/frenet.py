@@ -33,8 +33,6 @@ import frenetix.trajectory_functions as trajectory_functions
 import frenetix.trajectory_functions.cost_functions as cost_functions
 import frenetix.trajectory_functions.feasability_functions as feasibility_functions
 import numpy as np
-from commonroad.planning.planning_problem import PlanningProblem
-from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.planning.collision import (
     DrivableAreaGrid,
@@ -45,7 +43,7 @@ from simgap.planning.collision import (
     traffic_collisions,
 )
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
-from simgap.planning.protocol import World
+from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
     END_OFFSET,
@@ -62,7 +60,6 @@ from simgap.planning.settings import FrenetSettings
 from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
-from simgap.vehicles import Vehicle
 
 __all__ = ["FrenetPlanner", "FrenetSettings", "PlanningCycle"]
 
@@ -119,7 +116,8 @@ class PlanningCycle:
 
 
 class FrenetPlanner:
-    """Frenet sampling planner for one agent (see the module docstring).
+    """The paper's planner: Frenet sampling on the frenetix core, end time x end speed x lateral
+    offset along the route's reference path, checked against road, traffic and vehicle limits.
 
     Built once per agent: the reference path from ``planning_problem``'s route, the Frenet
     frame, the drivable-area grid and the speed profile. ``plan`` accepts any observed state
@@ -128,8 +126,10 @@ class FrenetPlanner:
     feasible and collision-free.
     """
 
-    def __init__(self, vehicle: Vehicle, lanelet_network: LaneletNetwork,
-                 planning_problem: PlanningProblem, settings: FrenetSettings | None = None):
+    Settings = FrenetSettings
+
+    def __init__(self, setup: PlannerSetup, settings: FrenetSettings | None = None):
+        vehicle, lanelet_network, planning_problem = setup.vehicle, setup.lanelet_network, setup.planning_problem
         self.vehicle = vehicle
         self.settings = settings or FrenetSettings()
         s = self.settings

@@ -54,8 +54,12 @@ class PlannerSetup:
     """What a planner is built from, once per agent, before the first cycle.
 
     A planner class is constructed as ``cls(setup, settings)``: ``settings`` is an instance of
-    the class's ``Settings`` pydantic model when it declares one (``None`` otherwise).
-    ``vehicle`` is the model the planner assumes it drives (not necessarily the simulated car).
+    the class's ``Settings`` pydantic model when it declares one (``None`` otherwise; the
+    registry validates the user's settings through that model, so a bad field is refused before
+    any run starts). ``vehicle`` is the model the planner assumes it drives (not necessarily the
+    simulated car). ``agent_id`` is the planning problem's id; ``dt`` the scenario's time step,
+    the grid every returned trajectory must lie on. A constructor that raises fails that run
+    (recorded with the traceback), not the batch.
     """
 
     agent_id: int
@@ -63,3 +67,9 @@ class PlannerSetup:
     lanelet_network: LaneletNetwork
     planning_problem: PlanningProblem
     dt: float
+
+    @classmethod
+    def for_problem(cls, planning_problem: PlanningProblem, vehicle: Vehicle, lanelet_network: LaneletNetwork,
+                    dt: float = 0.1) -> "PlannerSetup":
+        """The setup of the agent that drives ``planning_problem`` (the agent's id is the problem's)."""
+        return cls(planning_problem.planning_problem_id, vehicle, lanelet_network, planning_problem, dt)

@@ -23,6 +23,7 @@ from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.errors import InputError
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario, write_scenario
 from simgap.sim.beamng import BeamngBackend
 from simgap.sim.beamng.catalogue import DEFAULT_MODELS, MODELS, model_for
@@ -205,7 +206,7 @@ def _run(concrete, servers, **settings):
     scenario, problems = concrete.scenario, concrete.problems
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id])
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
 
     def connect(cfg):
@@ -268,8 +269,7 @@ def test_a_dropped_connection_fails_the_run_with_its_reason():
     concrete = build_scenario("curve", {"radius": 30, "angle": 90})
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(concrete.problems, concrete.scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(sedan, concrete.scenario.lanelet_network,
-                                    concrete.problems.planning_problem_dict[a.id]) for a in agents}
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(concrete.problems.planning_problem_dict[a.id], sedan, concrete.scenario.lanelet_network)) for a in agents}
     servers = []
 
     def connect(cfg):

@@ -8,6 +8,7 @@ from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.compare import compare_runs
 from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
 from simgap.sim.registry import make_backend
 from simgap.vehicles import load_vehicle
@@ -17,7 +18,7 @@ def run(concrete, backend):
     scenario, problems = concrete.scenario, concrete.problems
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id])
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
     return simulate(scenario, problems, backend, agents, planners, CosimSettings(replan_every=3))
 

@@ -1,0 +1,263 @@
+"""The planner registry: which planner class a name or a reference means, and its settings.
+
+A planner is named in one of three ways:
+
+* a built-in name (`BUILTIN_PLANNERS`, one line per planner, imported on first use);
+* the name of an installed planner: a package declares its class in the entry-point group
+  ``simgap.planners`` (in its pyproject: ``[project.entry-points."simgap.planners"]``,
+  ``time_gap = "time_gap_planner:TimeGapPlanner"``);
+* a reference to any class: ``my_pkg.module:MyPlanner`` (an importable module) or
+  ``path/to/file.py:MyPlanner`` (a Python file, imported by its path).
+
+A built-in name wins over an installed planner of the same name. A class qualifies when it has a
+``plan`` method and is constructed as ``cls(setup, settings)`` (`PlannerSetup`); the pydantic
+model in its optional ``Settings`` attribute validates what the user passes. Every problem is an
+`InputError` naming the reference (or the file and field) and what is allowed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import inspect
+import re
+import sys
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib.metadata import EntryPoint, entry_points
+from pathlib import Path
+from typing import Any, Mapping, Union
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from simgap.errors import InputError, validated
+from simgap.planning.protocol import Planner, PlannerSetup
+
+BUILTIN_PLANNERS: dict[str, str] = {
+    "frenet": "simgap.planning.frenet:FrenetPlanner",
+}
+ENTRY_POINT_GROUP = "simgap.planners"
+DEFAULT_PLANNER = "frenet"
+LABEL = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"      # what names a planner in job keys, store rows and reports
+
+
+@dataclass(frozen=True)
+class PlannerClass:
+    """A loaded planner class: what it was named by, where it comes from, and its settings model."""
+
+    ref: str            # the name or reference it was loaded by
+    origin: str         # "built-in", "installed (DIST)", "module" or "file"
+    cls: type
+
+    @property
+    def settings_model(self) -> type[BaseModel] | None:
+        model = getattr(self.cls, "Settings", None)
+        return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+
+    @property
+    def description(self) -> str:
+        """The first paragraph of the class's docstring, on one line."""
+        doc = inspect.getdoc(self.cls) or ""
+        return " ".join(doc.split("\n\n")[0].split())
+
+    def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                 prefix: str | None = None) -> BaseModel | None:
+        """``values`` validated by the class's ``Settings`` (None for a class without one)."""
+        model = self.settings_model
+        if model is None:
+            if values:
+                raise InputError(f"planner '{self.ref}' takes no settings", file=file, field=prefix or "settings",
+                                 allowed="none (its class declares no Settings model)")
+            return None
+        return validated(model, values, file=file, prefix=prefix)
+
+    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> Planner:
+        return self.cls(setup, settings)
+
+
+def installed_planners() -> dict[str, EntryPoint]:
+    """The planners installed packages declare in the entry-point group ``simgap.planners``."""
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def planner_names() -> list[str]:
+    """Built-in names, then installed planners' names."""
+    return list(BUILTIN_PLANNERS) + sorted(set(installed_planners()) - set(BUILTIN_PLANNERS))
+
+
+def allowed_planners() -> str:
+    return ", ".join(planner_names()) + ", a module:Class or a path/to/file.py:Class"
+
+
+def load_planner(ref: str, *, file: str | Path | None = None, field: str = "planner") -> PlannerClass:
+    """The planner class ``ref`` names (a name or a reference); an `InputError` if none qualifies."""
+    ref = ref.strip()
+    if ref in BUILTIN_PLANNERS:
+        return _checked(ref, "built-in", _import_class(BUILTIN_PLANNERS[ref], ref, file, field), file, field)
+    if ":" not in ref:
+        installed = installed_planners()
+        if ref not in installed:
+            raise InputError(f"unknown planner '{ref}'", file=file, field=field, allowed=allowed_planners())
+        ep = installed[ref]
+        dist = ep.dist.name if ep.dist is not None else "?"
+        try:
+            cls = ep.load()
+        except Exception as exc:      # a broken package: its import error, named
+            raise InputError(f"installed planner '{ref}' ({ep.value}, from {dist}) cannot be loaded: "
+                             f"{type(exc).__name__}: {exc}", file=file, field=field,
+                             allowed=allowed_planners()) from None
+        return _checked(ref, f"installed ({dist})", cls, file, field)
+    where, _, _ = ref.rpartition(":")
+    origin = "file" if where.endswith(".py") or "/" in where or "\\" in where else "module"
+    return _checked(ref, origin, _import_class(ref, ref, file, field), file, field)
+
+
+def _import_class(target: str, ref: str, file: str | Path | None, field: str) -> Any:
+    """The object ``module:attr`` or ``path/file.py:attr`` names."""
+    where, _, attr = target.rpartition(":")
+    if not where or not attr.isidentifier():
+        raise InputError(f"'{ref}' is not a planner reference", file=file, field=field, allowed=allowed_planners())
+    if where.endswith(".py") and not Path(where).is_file():
+        raise InputError(f"no such planner file '{where}'", file=file, field=field,
+                         allowed="path/to/file.py:Class (relative to the working directory, or in a spec to "
+                                 "the spec's folder)")
+    try:
+        module = _module_of_file(str(Path(where).resolve())) if where.endswith(".py") \
+            else importlib.import_module(where)
+    except Exception as exc:
+        raise InputError(f"cannot import '{where}' for planner '{ref}': {type(exc).__name__}: {exc}",
+                         file=file, field=field, allowed=allowed_planners()) from None
+    if not hasattr(module, attr):
+        classes = sorted(n for n, v in vars(module).items() if inspect.isclass(v) and hasattr(v, "plan")
+                         and getattr(v, "__module__", None) == module.__name__)
+        raise InputError(f"'{where}' has no class '{attr}' (planner '{ref}')", file=file, field=field,
+                         allowed=", ".join(classes) or "a class with a plan method")
+    return getattr(module, attr)
+
+
+@lru_cache(maxsize=None)
+def _module_of_file(path_text: str) -> Any:
+    """The module a Python file defines, imported once per process under a name of its own."""
+    path = Path(path_text)
+    name = f"simgap_planner_{re.sub(r'[^A-Za-z0-9_]', '_', path.stem)}_" \
+           f"{hashlib.sha1(str(path).encode()).hexdigest()[:8]}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module            # dataclasses and pickling look their module up here
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+    return module
+
+
+def _checked(ref: str, origin: str, cls: Any, file: str | Path | None, field: str) -> PlannerClass:
+    """``cls`` as a `PlannerClass`, if it is one: a class with ``plan``, built from (setup, settings)."""
+    if not inspect.isclass(cls) or not callable(getattr(cls, "plan", None)):
+        raise InputError(f"'{ref}' is not a planner class (a class with a plan(observed, t, world) method)",
+                         file=file, field=field, allowed=allowed_planners())
+    try:
+        inspect.signature(cls).bind(None, None)
+    except TypeError:
+        raise InputError(f"planner class '{ref}' cannot be constructed as cls(setup, settings)", file=file,
+                         field=field, allowed="__init__(self, setup: PlannerSetup, settings)") from None
+    except ValueError:
+        pass                    # no signature to inspect (a class implemented in C)
+    settings = getattr(cls, "Settings", None)
+    if settings is not None and not (isinstance(settings, type) and issubclass(settings, BaseModel)):
+        raise InputError(f"planner class '{ref}' has a Settings attribute that is not a pydantic model",
+                         file=file, field=field, allowed="a pydantic BaseModel subclass, or no Settings")
+    return PlannerClass(ref, origin, cls)
+
+
+def default_label(ref: str) -> str:
+    """How a planner is named where no label is given: its name, or its class's name."""
+    return ref.rpartition(":")[2] if ":" in ref else ref
+
+
+class PlannerChoice(BaseModel):
+    """The planner an agent drives with: a name or reference, its settings (validated by the
+    class's ``Settings`` when it is loaded) and the label that names it in keys, rows and reports.
+    In YAML: ``frenet``, or ``{planner: frenet, settings: {speed: {cruise_m_s: 8}}, label: slow}``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    planner: str = Field(DEFAULT_PLANNER, min_length=1, description="a planner name, module:Class or "
+                         "path/to/file.py:Class")
+    settings: dict[str, Any] = Field(default_factory=dict, description="the planner's settings")
+    label: str | None = Field(None, pattern=LABEL, description="its name in job keys, the store and the report "
+                              "(default: the planner's name, or its class's name)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_name(cls, data: Any) -> Any:
+        return {"planner": data} if isinstance(data, str) else data
+
+    @property
+    def name(self) -> str:
+        return self.label or default_label(self.planner)
+
+    def load(self, *, file: str | Path | None = None, field: str = "planner",
+             settings_field: str | None = None) -> tuple[PlannerClass, BaseModel | None]:
+        """The class and its validated settings; errors name ``file`` and ``field`` (a bad setting:
+        ``settings_field`` and the setting's path; default ``FIELD.settings``)."""
+        planner = load_planner(self.planner, file=file, field=field)
+        prefix = f"{field}.settings" if settings_field is None else settings_field or None
+        return planner, planner.settings(self.settings, file=file, prefix=prefix)
+
+    def with_file_base(self, folder: Path) -> "PlannerChoice":
+        """This choice with a relative ``path/file.py:Class`` made absolute against ``folder``."""
+        where, _, attr = self.planner.rpartition(":")
+        if not where.endswith(".py") or Path(where).is_absolute():
+            return self
+        return self.model_copy(update={"planner": f"{(folder / where).resolve()}:{attr}"})
+
+
+#: the planner of every agent, or one per agent (planning problem id)
+PlannerAssignment = Union[PlannerChoice, Mapping[int, PlannerChoice]]
+
+
+def assignment_label(planners: PlannerAssignment) -> str:
+    """``frenet``, or per agent ``1=frenet,2=idm``."""
+    if isinstance(planners, PlannerChoice):
+        return planners.name
+    return ",".join(f"{aid}={c.name}" for aid, c in sorted(planners.items()))
+
+
+def planner_of(planners: PlannerAssignment, agent_id: int, agent_ids: list[int]) -> PlannerChoice:
+    """The planner of agent ``agent_id``; an `InputError` if a per-agent assignment leaves it out."""
+    if isinstance(planners, PlannerChoice):
+        return planners
+    if agent_id not in planners:
+        raise InputError(f"no planner given for planning problem {agent_id}", field="planner",
+                         allowed="ids " + ", ".join(map(str, agent_ids)))
+    return planners[agent_id]
+
+
+@dataclass(frozen=True)
+class SettingField:
+    """One setting of a planner's settings model: its dotted path, default and meaning."""
+
+    name: str
+    default: Any                # `REQUIRED` when the setting has no default
+    description: str
+
+
+REQUIRED = "(required)"
+
+
+def settings_fields(model: type[BaseModel], prefix: str = "") -> list[SettingField]:
+    """Every setting of ``model``, nested models flattened to dotted paths."""
+    out = []
+    for name, info in model.model_fields.items():
+        path = f"{prefix}{name}"
+        nested = info.annotation if isinstance(info.annotation, type) and issubclass(info.annotation, BaseModel) \
+            else None
+        if nested is not None:
+            out += settings_fields(nested, f"{path}.")
+            continue
+        default = REQUIRED if info.is_required() else info.get_default(call_default_factory=True)
+        out.append(SettingField(path, default, info.description or ""))
+    return out

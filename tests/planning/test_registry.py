@@ -1,0 +1,149 @@
+"""The planner registry: names, installed planners, references, settings — and a planner that raises."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from simgap.cosim import CosimSettings, Outcome
+from simgap.errors import InputError
+from simgap.experiment.single_run import RunRequest, execute, parse_planners
+from simgap.planning.frenet import FrenetPlanner, FrenetSettings
+from simgap.planning.registry import PlannerChoice, load_planner, planner_names
+from simgap.scenario import build_scenario, write_scenario
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "time_gap_planner" / "time_gap_planner" / "planner.py"
+
+FLAKY = '''
+from simgap.planning.frenet import FrenetPlanner
+
+
+class Flaky(FrenetPlanner):
+    """The Frenet planner, raising between t = 1.0 s and 1.5 s."""
+
+    def plan(self, observed, t, world):
+        if 1.0 <= t < 1.45:
+            raise ValueError(f"flaky at t = {t:.1f}")
+        return super().plan(observed, t, world)
+
+
+class Unbuildable:
+    def __init__(self, setup, settings):
+        raise RuntimeError("no map for this road")
+
+    def plan(self, observed, t, world):
+        return None
+
+
+class NoPlan:
+    def __init__(self, setup, settings):
+        pass
+
+
+class OneArgument:
+    def __init__(self, setup):
+        pass
+
+    def plan(self, observed, t, world):
+        return None
+'''
+
+
+@pytest.fixture(scope="module")
+def curve_xml(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("curve")
+    return write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 90.0}), folder, preview=False)
+
+
+@pytest.fixture
+def flaky_file(tmp_path) -> Path:
+    path = tmp_path / "flaky.py"
+    path.write_text(FLAKY)
+    return path
+
+
+def test_builtin_planner_by_name_with_its_settings_model():
+    planner = load_planner("frenet")
+    assert planner.cls is FrenetPlanner and planner.settings_model is FrenetSettings
+    assert planner.settings({"speed": {"cruise_m_s": 8}}).speed.cruise_m_s == 8
+    assert "frenet" in planner_names()
+
+
+@pytest.mark.parametrize("ref, fragments", [
+    ("nope", ["unknown planner 'nope'", "frenet", "module:Class"]),
+    ("no_such_module_xyz:Planner", ["cannot import 'no_such_module_xyz'", "ModuleNotFoundError"]),
+    ("simgap.planning.frenet:Nope", ["has no class 'Nope'", "FrenetPlanner"]),
+    ("simgap.trajectory:State", ["is not a planner class", "plan(observed, t, world)"]),
+    ("missing/planner.py:Planner", ["no such planner file 'missing/planner.py'"]),
+])
+def test_bad_references_are_refused_naming_what_is_allowed(ref, fragments):
+    with pytest.raises(InputError) as err:
+        load_planner(ref, file="spec.yaml", field="planners.1")
+    message = str(err.value)
+    assert message.startswith("spec.yaml: field 'planners.1'")
+    for fragment in fragments:
+        assert fragment in message, message
+
+
+def test_classes_not_matching_the_protocol_are_refused(flaky_file):
+    with pytest.raises(InputError, match="is not a planner class"):
+        load_planner(f"{flaky_file}:NoPlan")
+    with pytest.raises(InputError, match=r"cannot be constructed as cls\(setup, settings\)"):
+        load_planner(f"{flaky_file}:OneArgument")
+
+
+def test_a_bad_setting_names_the_file_the_field_and_what_is_allowed(tmp_path):
+    config = tmp_path / "planner.yaml"
+    config.write_text("time_gap_s: -1\n")
+    with pytest.raises(InputError) as err:
+        parse_planners(f"{EXAMPLE}:TimeGapPlanner", config)
+    assert "planner.yaml: field 'time_gap_s'" in str(err.value) and "greater than 0" in str(err.value)
+    config.write_text("speed: {cruse_m_s: 8}\n")
+    with pytest.raises(InputError) as err:
+        parse_planners("frenet", config)
+    assert "field 'speed.cruse_m_s'" in str(err.value) and "cruise_m_s" in str(err.value)
+
+
+def test_planners_per_agent_and_their_settings_file(tmp_path):
+    config = tmp_path / "planners.yaml"
+    config.write_text(f"frenet: {{speed: {{cruise_m_s: 7}}}}\n'{EXAMPLE}:TimeGapPlanner': {{time_gap_s: 2.0}}\n")
+    planners = parse_planners(f"1=frenet,2={EXAMPLE}:TimeGapPlanner", config)
+    assert planners[1] == PlannerChoice(planner="frenet", settings={"speed": {"cruise_m_s": 7}})
+    assert planners[2].name == "TimeGapPlanner" and planners[2].settings == {"time_gap_s": 2.0}
+    config.write_text("idm: {}\n")
+    with pytest.raises(InputError, match="'idm' is not one of them"):
+        parse_planners(f"1=frenet,2={EXAMPLE}:TimeGapPlanner", config)
+
+
+def test_a_planner_that_raises_fails_its_cycles_and_the_run_goes_on(curve_xml, flaky_file, tmp_path):
+    request = RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{flaky_file}:Flaky"),
+                         cosim=CosimSettings(planning_budget_s=10.0))
+    execute(request, tmp_path / "run")
+    from simgap.cosim import Run
+
+    run = Run.load(tmp_path / "run")          # as recorded
+    agent = run.agents[0]
+    assert agent.outcome == Outcome.GOAL_REACHED          # the loop's fallback, then the planner again
+    assert agent.planner_exceptions == 5 and agent.planner_failures == 5
+    assert run.planner_errors[0].exception == "ValueError" and run.planner_errors[0].t == pytest.approx(1.0)
+    assert "in plan" in run.planner_errors[0].traceback and "flaky at t = 1.0" in run.planner_errors[0].traceback
+    assert agent.planning_calls > 100 and 0 < agent.planning_mean_s <= agent.planning_p95_s <= agent.planning_max_s
+    assert agent.planning_over_budget == 0
+    assert run.settings["planner"]["name"] == "Flaky"
+    assert run.settings["planner"]["settings"]["speed"]["cruise_m_s"] == 10.0      # the full settings
+
+
+def test_a_planner_raising_in_its_constructor_is_a_recorded_failed_run(curve_xml, flaky_file, tmp_path):
+    run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{flaky_file}:Unbuildable")),
+                  tmp_path / "run")
+    assert run.failure and "RuntimeError in its constructor: no map for this road" in run.failure
+    assert run.agents[0].outcome == Outcome.PLANNER_FAILURE
+    assert "raise RuntimeError" in run.planner_errors[0].traceback and run.planner_errors[0].t is None
+    assert (tmp_path / "run" / "run.json").exists()
+
+
+def test_calls_over_the_planning_budget_are_counted(curve_xml):
+    run = execute(RunRequest(scenario=curve_xml, cosim=CosimSettings(planning_budget_s=1e-6, max_time_s=2.0)))
+    agent = run.agents[0]
+    assert agent.planning_over_budget == agent.planning_calls == 20
