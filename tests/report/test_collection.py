@@ -43,3 +43,27 @@ def test_two_runs_of_one_scenario_and_fidelity_are_refused(runs, tmp_path):
     shutil.copytree(runs / "ideal", tmp_path / "runs" / "ideal-again")
     with pytest.raises(InputError, match="two runs of scenario"):
         collect(tmp_path / "runs")
+
+
+def test_runs_of_other_planners_are_compared_within_their_planner(runs, tmp_path):
+    """A second planner's runs of the same scenario form their own group (compared with their own
+    ideal run), and the report puts the planners side by side."""
+    from pathlib import Path
+
+    from simgap.planning.registry import PlannerChoice
+    from simgap.report.site import build_report
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "time_gap_planner" / "time_gap_planner" / "planner.py"
+    shutil.copytree(runs, tmp_path / "runs")
+    xml = next((runs.parent / "scenarios").glob("*.xml"))
+    gap = PlannerChoice(planner=f"{example}:TimeGapPlanner", label="time_gap")
+    execute(RunRequest(scenario=xml, backend="ideal", planner=gap), tmp_path / "runs" / "ideal@time_gap")
+    execute(RunRequest(scenario=xml, backend="mujoco", planner=gap), tmp_path / "runs" / "sedan@time_gap")
+    frenet, time_gap = collect(tmp_path / "runs")
+    assert (frenet.planner, time_gap.planner) == ("frenet", "time_gap")
+    assert sorted(time_gap.runs) == ["ideal", "mujoco/sedan"] and list(time_gap.comparisons) == ["mujoco/sedan"]
+    assert time_gap.comparisons["mujoco/sedan"][0].lateral_displacement.max < 0.5     # against its own ideal run
+    index = build_report(tmp_path / "runs", tmp_path / "report").read_text()
+    for text in ("2 planners (frenet, time_gap)", "Time per planning call", "time_gap · mujoco/sedan"):
+        assert text in index
+    assert (tmp_path / "report" / "scenarios" / "curve_radius-10_angle-90-time_gap.html").exists()

@@ -1,7 +1,9 @@
 """The runs a report is made of: found under a directory, labelled by fidelity, grouped by
-scenario, each physics run compared with the reference (ideal) run of its scenario.
+scenario and planner, each physics run compared with the reference (ideal) run of its scenario
+with the same planner.
 
-A run's fidelity (`simgap.cosim.Fidelity`) labels it: ``ideal``, ``mujoco/suv``, ...
+A run's fidelity (`simgap.cosim.Fidelity`) labels it: ``ideal``, ``mujoco/suv``, ...; its planner
+is the name run.json records (``settings.planner.name``; ``frenet`` for runs older than planners).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from simgap.evaluate.compare import AgentComparison, compare_runs
 from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.run_metrics import lane_excursion
+from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario import load_scenario
 
 @dataclass
@@ -56,6 +59,12 @@ class ScenarioGroup:
     sections: dict[str, str] | None
     runs: dict[str, RunEntry]                                           # by fidelity, the reference first
     comparisons: dict[str, list[AgentComparison]] = field(default_factory=dict)   # fidelity vs reference
+    planner: str = DEFAULT_PLANNER                                      # every run's planner
+
+    @property
+    def name(self) -> str:
+        """The scenario, and the planner unless it is the default one (names its report page)."""
+        return self.scenario_id if self.planner == DEFAULT_PLANNER else f"{self.scenario_id}@{self.planner}"
 
     @property
     def reference(self) -> RunEntry | None:
@@ -105,21 +114,28 @@ def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet, dict | 
     return scenario, problems, run.sections or None
 
 
+def planner_of(run: Run) -> str:
+    """The name of the planner of a run (per agent: ``1=frenet,2=idm``)."""
+    recorded = run.settings.get("planner") or {}
+    return str(recorded.get("name") or DEFAULT_PLANNER)
+
+
 def collect(root: Path) -> list[ScenarioGroup]:
-    """Every run below ``root``, grouped by scenario, with tracking errors and comparisons."""
-    groups: dict[str, ScenarioGroup] = {}
+    """Every run below ``root``, grouped by scenario and planner, with tracking errors and comparisons."""
+    groups: dict[tuple[str, str], ScenarioGroup] = {}
     for run_dir in find_run_dirs(root):
         run = Run.load(run_dir)
         entry = RunEntry(run_dir, run, Fidelity.of_run(run).label)
-        group = groups.get(run.scenario_id)
+        planner = planner_of(run)
+        group = groups.get((run.scenario_id, planner))
         if group is None:
             scenario, problems, sections = _scenario_of(entry)
-            group = groups[run.scenario_id] = ScenarioGroup(run.scenario_id, dict(run.parameters), scenario,
-                                                            problems, sections, {})
+            group = groups[run.scenario_id, planner] = ScenarioGroup(
+                run.scenario_id, dict(run.parameters), scenario, problems, sections, {}, planner=planner)
         if entry.fidelity in group.runs:
-            raise InputError(f"two runs of scenario '{run.scenario_id}' with fidelity '{entry.fidelity}' "
-                             f"(the other: {group.runs[entry.fidelity].run_dir})", file=run_dir,
-                             field="fidelity", allowed="one run per scenario and fidelity")
+            raise InputError(f"two runs of scenario '{run.scenario_id}' with fidelity '{entry.fidelity}' and planner "
+                             f"'{planner}' (the other: {group.runs[entry.fidelity].run_dir})", file=run_dir,
+                             field="fidelity", allowed="one run per scenario, fidelity and planner")
         entry.tracking = _tracking(run, group.scenario, group.problems)
         group.runs[entry.fidelity] = entry
     for group in groups.values():
@@ -131,4 +147,4 @@ def collect(root: Path) -> list[ScenarioGroup]:
             if fidelity != REFERENCE:
                 group.comparisons[fidelity] = compare_runs(ref.run, entry.run, group.scenario, group.problems,
                                                            group.sections)
-    return sorted(groups.values(), key=lambda g: g.scenario_id)
+    return sorted(groups.values(), key=lambda g: (g.scenario_id, g.planner))

@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from simgap.experiment.search_results import SearchResults  # noqa: E402
+from simgap.planning.registry import DEFAULT_PLANNER  # noqa: E402
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402
 
@@ -26,7 +27,8 @@ def _violations(per_strategy: dict[str, list[dict]], dims, limit: int = 15) -> l
         found = sorted((r for r in rows if r["violation"]), key=lambda r: r["elapsed_s"])[:limit]
         for r in found:
             entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r['run_dir'])}/run.json'>"
-                                                 f"c{int(r['candidate']):05d}</a>"), "vehicle": r["vehicle"]}
+                                                 f"c{int(r['candidate']):05d}</a>"), "vehicle": r["vehicle"],
+                     "planner": r.get("planner") or DEFAULT_PLANNER}
             entry |= {n: r.get(f"{'param' if k == 'param' else 'knob'}_{n}", math.nan) for k, n, _, _ in dims}
             entry["why"] = r.get("failure_reason", "")
             out.append(entry)
@@ -114,11 +116,13 @@ def build_search_report(found: SearchResults) -> Path:
             "ideal passes failing high [%]": 100.0 * res.violations / ideal_passes if ideal_passes else math.nan,
             "run errors": res.errors})
     dims = [(k, n, lo, hi) for k, n, lo, hi in spec.dimensions]
-    body = [f"<p>Search <b>{spec.name}</b> on <code>{spec.logical}</code>: ladder "
+    planners = ", ".join(html.escape(c.name) for c in spec.planners) if not spec.planner else DEFAULT_PLANNER
+    body = [f"<p>Search <b>{spec.name}</b> on <code>{spec.logical}</code> with the planner{'s' if ',' in planners else ''} "
+            f"{planners}: ladder "
             + " → ".join(r.backend for r in spec.ladder)
             + f"; objective <code>{spec.objective}</code>; distinct radius {spec.distinct_radius:g} (normalised).</p>"
             "<p><em>Distinct</em> counts violations after de-duplication over every dimension, reality knobs "
-            "included; <em>scenarios</em> counts the different roads, starts and vehicles among them (the same "
+            "included; <em>scenarios</em> counts the different roads, starts, vehicles and planners among them (the same "
             "road under other knob settings is one scenario).</p>",
             "<p>A <em>violated assumption</em> passes in the ideal world and fails in the high fidelity. "
             "The ideal world is run where the high fidelity failed; a high-fidelity pass is taken as an "

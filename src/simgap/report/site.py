@@ -1,9 +1,9 @@
 """The HTML report of a set of runs: one self-contained folder, opened as a file, no network.
 
-``index.html`` — what was run, headline numbers per fidelity, heatmaps of the largest lateral
-displacement over the scenario parameters (hover a cell for its values), the runtime table,
-outcomes, and the scenarios ranked by their largest gap. ``scenarios/NAME.html`` — one page per
-scenario: parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
+``index.html`` — what was run, headline numbers per planner and fidelity, heatmaps of the largest
+lateral displacement over the scenario parameters (the planners side by side; hover a cell for its
+values), the runtime table, the time per planning call, outcomes, and the scenarios ranked by their
+largest gap. ``scenarios/NAME.html`` — one page per scenario (and planner, when runs have several): parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
 s and v over t (wheel to zoom, drag to pan, double-click to reset), the paths from above, error
 box plots, criticality of agent pairs, and the run's 2D and 3D pictures where they exist.
 """
@@ -26,6 +26,7 @@ from simgap.files import atomic_write_text
 from simgap.evaluate.route_centre import route_centre
 from simgap.experiment.store import ResultsStore
 from simgap.cosim import REFERENCE, Outcome
+from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.report.collection import ScenarioGroup, collect
 from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
                                    plot_paths_from_above, runtime_table)
@@ -46,6 +47,8 @@ img { max-width: 100%; border: 1px solid #ddd; }
 .zoom { overflow: hidden; border: 1px solid #ddd; cursor: zoom-in; }
 .zoom img { border: none; transform-origin: 0 0; display: block; }
 table.heatmap td { text-align: center; min-width: 3.2em; }
+.side { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
+.side > div { max-width: 48%; }
 nav { font-size: 0.9em; margin-bottom: 1em; }
 """
 
@@ -176,11 +179,12 @@ def _criticality(entry) -> list[dict]:
 
 
 def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
-    name = _slug(group.scenario_id)
+    name = _slug(group.name)
     adir = assets / name
     adir.mkdir(parents=True, exist_ok=True)
     rel = f"../assets/{name}/"
-    body = ["<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()]),
+    body = [f"<p>planner: <b>{html.escape(group.planner)}</b></p>",
+            "<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()]),
             "<h2>Outcome and tracking per fidelity</h2>",
             "<p>Tracking: where each vehicle was against where the plan in force said it would be, in the "
             "route's Frenet frame (lateral, longitudinal). The ideal backend tracks perfectly by construction.</p>",
@@ -200,7 +204,7 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
     pictures = _pictures(group, adir, rel)
     if pictures:
         body += ["<h2>Pictures</h2>"] + pictures
-    return page(out / "scenarios" / f"{name}.html", f"Scenario {group.scenario_id}", body, "../")
+    return page(out / "scenarios" / f"{name}.html", f"Scenario {group.name}", body, "../")
 
 
 def _outcome_rows(group: ScenarioGroup) -> list[dict]:
@@ -289,11 +293,12 @@ def _pictures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
 
 def _store_section(rows: list[dict]) -> list[str]:
     """What the experiment's results store holds, including runs that left no run directory."""
-    by_fidelity: dict[str, Counter] = {}
+    by_variant: dict[tuple[str, str], Counter] = {}
     for r in rows:
-        by_fidelity.setdefault(r.get("fidelity", "?"), Counter())[r.get("status", "?")] += 1
-    table_rows = [{"fidelity": f, "ok": c.get("ok", 0), "failed": c.get("failed", 0)}
-                  for f, c in sorted(by_fidelity.items())]
+        variant = (r.get("planner") or DEFAULT_PLANNER, r.get("fidelity", "?"))
+        by_variant.setdefault(variant, Counter())[r.get("status", "?")] += 1
+    table_rows = [{"planner": p, "fidelity": f, "ok": c.get("ok", 0), "failed": c.get("failed", 0)}
+                  for (p, f), c in sorted(by_variant.items())]
     failed = [{"run": r["key"], "reason": r.get("failure", "")} for r in rows if r.get("status") != "ok"]
     body = ["<h2>Results store</h2>",
             f"<p>{len(rows)} rows in the experiment's store (one per finished run; "
@@ -318,25 +323,37 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
         _scenario_page(group, out, assets)
 
     fidelities = sorted({f for g in groups for f in g.runs}, key=lambda f: (f != REFERENCE, f))
+    planners = sorted({g.planner for g in groups}, key=lambda p: (p != DEFAULT_PLANNER, p))
+    variants = [(p, f) for p in planners for f in fidelities if any(g.planner == p and f in g.runs for g in groups)]
+    n_scenarios = len({g.scenario_id for g in groups})
     n_runs = sum(len(g.runs) for g in groups)
     n_failed = sum(e.failed for g in groups for e in g.runs.values())
     params = _varying_parameters(groups)
-    body = [f"<p>{len(groups)} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}): "
+    body = [f"<p>{n_scenarios} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}) "
+            f"× {len(planners)} planner{'s' if len(planners) > 1 else ''} ({', '.join(map(html.escape, planners))}): "
             f"{n_runs} runs from <code>{html.escape(str(root))}</code>; {n_failed} did not reach every goal.</p>",
             "<h2>Headline numbers</h2>",
-            "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario, "
-            "at equal arc length along the route's lane centre.</p>", table(_headline_rows(groups, fidelities))]
+            "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario with the "
+            "same planner, at equal arc length along the route's lane centre.</p>",
+            table(_headline_rows(groups, variants))]
     if len(params) >= 2:
-        body += _heatmaps(groups, fidelities, params[0], params[1], assets)
-    wall = {f: [g.runs[f].run.wall_time_s for g in groups if f in g.runs] for f in fidelities}
-    phases = {f: [g.runs[f].run.timings for g in groups if f in g.runs] for f in fidelities}
+        body += _heatmaps(groups, fidelities, planners, params[0], params[1], assets)
+    label = {v: f"{v[0]} · {v[1]}" if len(planners) > 1 else v[1] for v in variants}
+    entries = {v: [g.runs[v[1]] for g in groups if g.planner == v[0] and v[1] in g.runs] for v in variants}
+    wall = {label[v]: [e.run.wall_time_s for e in entries[v]] for v in variants}
+    phases = {label[v]: [e.run.timings for e in entries[v]] for v in variants}
     body += ["<h2>Run times per fidelity</h2>",
              "<p>Wall time of a run (min, max, mean, median, standard deviation; the paper's Table I) and the mean "
-             "time of each phase.</p>", table(runtime_table(wall, phases))]
+             "time of each phase.</p>", table(runtime_table(wall, phases)),
+             "<h2>Time per planning call</h2>",
+             "<p>Wall time of one call of the planner's <code>plan</code> (every agent, every run): mean, the largest "
+             "95th percentile of a run, the longest call; cycles in which the planner raised, and calls over the "
+             "loop's <code>planning_budget_s</code> when one was set.</p>",
+             table([{"planner": v[0], "fidelity": v[1]} | _planning_row(entries[v]) for v in variants])]
     outcome_rows = []
-    for fidelity in fidelities:
-        counts = Counter(a.outcome for g in groups if fidelity in g.runs for a in g.runs[fidelity].run.agents)
-        outcome_rows.append({"fidelity": fidelity} | dict(sorted(counts.items())))
+    for v in variants:
+        counts = Counter(a.outcome for e in entries[v] for a in e.run.agents)
+        outcome_rows.append({"planner": v[0], "fidelity": v[1]} | dict(sorted(counts.items())))
     body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows),
              "<h2>Scenarios, largest gap first</h2>", table(_ranking_rows(groups, params))]
     if store_rows is not None:
@@ -344,51 +361,80 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
     return page(out / "index.html", "simgap report", body, "")
 
 
-def _headline_rows(groups: list[ScenarioGroup], fidelities: list[str]) -> list[dict]:
+def _planning_row(entries) -> dict:
+    """Time per planning call over ``entries``' agents (ms), exceptions and calls over budget."""
+    agents = [a for e in entries for a in e.run.agents if a.planning_calls]
+    calls = sum(a.planning_calls for a in agents)
+    if not calls:
+        return {"calls": 0}
+    return {"calls": calls,
+            "mean [ms]": 1000 * sum(a.planning_mean_s * a.planning_calls for a in agents) / calls,
+            "largest p95 [ms]": 1000 * max(a.planning_p95_s for a in agents),
+            "max [ms]": 1000 * max(a.planning_max_s for a in agents),
+            "raised": sum(a.planner_exceptions for e in entries for a in e.run.agents),
+            "over budget": sum(a.planning_over_budget for a in agents)}
+
+
+def _headline_rows(groups: list[ScenarioGroup], variants: list[tuple[str, str]]) -> list[dict]:
     rows = []
-    for fidelity in fidelities:
-        entries = [g.runs[fidelity] for g in groups if fidelity in g.runs]
+    for planner, fidelity in variants:
+        mine = [g for g in groups if g.planner == planner]
+        entries = [g.runs[fidelity] for g in mine if fidelity in g.runs]
         goals = sum(a.outcome == Outcome.GOAL_REACHED for e in entries for a in e.run.agents)
         agents = sum(len(e.run.agents) for e in entries)
-        gaps = [c.lateral_displacement.max for g in groups for c in g.comparisons.get(fidelity, [])
+        gaps = [c.lateral_displacement.max for g in mine for c in g.comparisons.get(fidelity, [])
                 if math.isfinite(c.lateral_displacement.max)]
-        rows.append({"fidelity": fidelity, "runs": len(entries), "goals reached": f"{goals}/{agents}",
+        rows.append({"planner": planner, "fidelity": fidelity, "runs": len(entries),
+                     "goals reached": f"{goals}/{agents}",
+                     "goal rate": f"{100 * goals / agents:.0f} %" if agents else "—",
                      "median max |d| [m]": float(np.median(gaps)) if gaps else "—",
                      "largest max |d| [m]": max(gaps) if gaps else "—",
                      "mean wall time [s]": float(np.mean([e.run.wall_time_s for e in entries]))})
     return rows
 
 
-def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], xp: str, yp: str, assets: Path) -> list[str]:
-    """Per fidelity, the largest gap against the ideal run over two varying parameters (one colour
-    scale for every fidelity, so colours compare across vehicles and backends)."""
+def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], planners: list[str], xp: str, yp: str,
+              assets: Path) -> list[str]:
+    """Per fidelity, the largest gap against the ideal run over two varying parameters, the planners
+    side by side (one colour scale for every fidelity and planner, so colours compare across
+    vehicles, backends and planners)."""
     units = {k: u for g in groups for e in g.runs.values()
              for k, u in (e.run.settings.get("parameter_units") or {}).items()}
     xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
     body = ["<h2>Where the gap is largest</h2>"]
-    maps = {}
+    maps: dict[str, dict[str, tuple]] = {}
     for fidelity in fidelities:
         if fidelity == REFERENCE:
             continue
-        points, links = [], {}
-        for g in groups:
-            if fidelity in g.comparisons and xp in g.parameters and yp in g.parameters:
-                gap = max((c.lateral_displacement.max for c in g.comparisons[fidelity]), default=float("nan"))
-                key = (float(g.parameters[xp]), float(g.parameters[yp]))
-                points.append((*key, gap))
-                links[key] = f"scenarios/{_slug(g.scenario_id)}.html"
-        if points:
-            maps[fidelity] = (points, links)
-    values = [v for points, _ in maps.values() for *_, v in points if math.isfinite(v)]
+        for planner in planners:
+            points, links = [], {}
+            for g in groups:
+                if g.planner == planner and fidelity in g.comparisons and xp in g.parameters and yp in g.parameters:
+                    gap = max((c.lateral_displacement.max for c in g.comparisons[fidelity]), default=float("nan"))
+                    key = (float(g.parameters[xp]), float(g.parameters[yp]))
+                    points.append((*key, gap))
+                    links[key] = f"scenarios/{_slug(g.name)}.html"
+            if points:
+                maps.setdefault(fidelity, {})[planner] = (points, links)
+    values = [v for per in maps.values() for points, _ in per.values() for *_, v in points if math.isfinite(v)]
     scale = (min(values), max(values)) if values else (0.0, 0.0)
-    if len(maps) > 1:
+    if sum(len(per) for per in maps.values()) > 1:
         body.append(f"<p>All heatmaps share one colour scale, {scale[0]:.2f} to {scale[1]:.2f} m.</p>")
-    for fidelity, (points, links) in maps.items():
-        title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}"
-        body.append(heatmap_table(points, xlabel, ylabel, title, links, scale))
-        png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}.png", title, xlabel, ylabel,
-                           "max |d| [m]", scale)
-        body.append(figure(f"assets/{png.name}", f"{title} (picture)"))
+    for fidelity, per in maps.items():
+        tables, pictures = [], []
+        if len(planners) > 1:
+            body.append(f"<h3>max |d| [m] of {html.escape(fidelity)} against ideal over {html.escape(xp)} × "
+                        f"{html.escape(yp)}, per planner</h3>")
+        for planner, (points, links) in per.items():
+            title = f"max |d| [m] of {fidelity} against ideal over {xp} × {yp}" if len(planners) == 1 else \
+                f"max |d| [m], {fidelity}, {planner}"
+            shown = f"planner {planner}" if len(planners) > 1 else title
+            tables.append(f"<div>{heatmap_table(points, xlabel, ylabel, shown, links, scale)}</div>")
+            suffix = f"_{_slug(planner)}" if len(planners) > 1 else ""
+            png = plot_heatmap(points, assets / f"heatmap_{_slug(fidelity)}{suffix}.png", title, xlabel, ylabel,
+                               "max |d| [m]", scale)
+            pictures.append(figure(f"assets/{png.name}", f"{title} (picture)", half=len(per) > 1))
+        body += [f"<div class='side'>{''.join(tables)}</div>", "".join(pictures)]
     return body
 
 
@@ -399,8 +445,8 @@ def _ranking_rows(groups: list[ScenarioGroup], params: list[str]) -> list[dict]:
     for g in ranked:
         gap, fidelity = g.largest_gap()
         outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.agents}))
-        rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.scenario_id)}.html'>"
-                                     f"{html.escape(g.scenario_id)}</a>"),
+        rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.name)}.html'>"
+                                     f"{html.escape(g.scenario_id)}</a>"), "planner": g.planner,
                      "largest max |d| [m]": gap, "in fidelity": fidelity or "—",
                      "parameters": ", ".join(f"{k}={g.parameters[k]:g}" for k in params if k in g.parameters),
                      "outcomes": outcomes})
