@@ -38,6 +38,12 @@ def write(tmp_path, **changes):
      "fidelities.0.settings.road_friction", "no settings"),
     ({"cosim": {"replan_every": 0}}, "cosim.replan_every", "greater than or equal to 1"),
     ({"planner": {"speed": {"cruise": 12}}}, "planner.speed.cruise", "cruise_m_s"),
+    ({"planners": ["frenet", "nope"]}, "planners.1", "frenet, a module:Class"),
+    ({"planners": [{"planner": "frenet", "settings": {"speed": {"cruise": 12}}}]}, "planners.0.settings.speed.cruise",
+     "cruise_m_s"),
+    ({"planners": ["frenet", {"planner": "frenet"}]}, "planners.1.label", "a label of its own"),
+    ({"planners": [{"planner": "frenet", "label": "slow"}], "planner": {"speed": {"cruise_m_s": 8}}}, "planner",
+     "planners: [{planner: frenet"),
 ])
 def test_a_bad_spec_names_the_file_the_field_and_what_is_allowed(tmp_path, changes, field, fragment):
     with pytest.raises(InputError) as err:
@@ -82,3 +88,18 @@ def test_grid_over_given_values_and_repeats(tmp_path):
     keys = [j.key for _, runs in expanded for j in runs]
     assert len(keys) == 6 * 3 * 2 == len(set(keys))
     assert "curve_radius-10_angle-30/mujoco/suv/r1" in keys
+
+
+def test_planners_are_a_dimension_and_older_specs_keep_their_results(tmp_path):
+    spec, logical, path = load_spec(write(tmp_path, parameters={"radius": {"values": [10]}, "angle": {"values": [90]}},
+                                          planners=["frenet", {"planner": "frenet", "label": "slow",
+                                                               "settings": {"speed": {"cruise_m_s": 6}}}]))
+    (_, runs), = jobs(spec, logical, path)
+    assert [(j.key, j.id.folder, j.planner.settings) for j in runs] == [
+        ("curve_radius-10_angle-90/ideal", "curve_radius-10_angle-90/ideal", {}),
+        ("curve_radius-10_angle-90/ideal/slow", "curve_radius-10_angle-90/ideal@slow", {"speed": {"cruise_m_s": 6}})]
+    # a spec from before planners: its frenet settings, the same results hash as then (so it resumes)
+    old, logical, path = load_spec(write(tmp_path, planner={"speed": {"cruise_m_s": 8}}))
+    assert "planners" not in old.results_relevant()
+    (_, runs), *_ = jobs(old, logical, path)
+    assert runs[0].planner.settings == {"speed": {"cruise_m_s": 8}} and runs[0].key.endswith("/ideal")

@@ -26,20 +26,24 @@ def listing(ctx: typer.Context) -> None:
         return
     installed = installed_planners()
     table = Table(title="planners", title_justify="left")
-    for col in ("name", "origin", "class", "settings", "description"):
+    for col in ("name", "origin", "class", "settings"):
         table.add_column(col, justify="right" if col == "settings" else "left")
+    descriptions = []
     for name in planner_names():
         target = BUILTIN_PLANNERS.get(name) or installed[name].value
         try:
             planner = load_planner(name)
         except Exception as exc:        # a broken installed package: listed, with why it cannot be used
-            table.add_row(escape(name), "installed", escape(target), "—", f"[red]{escape(str(exc))}[/red]")
+            table.add_row(escape(name), "installed", escape(target), "—")
+            descriptions.append(f"[red]{escape(name)}: {escape(str(exc))}[/red]")
             continue
         model = planner.settings_model
         table.add_row(escape(name), escape(planner.origin), escape(target),
-                      str(len(settings_fields(model))) if model else "none", escape(planner.description))
+                      str(len(settings_fields(model))) if model else "none")
+        descriptions.append(f"{escape(name)}: {escape(planner.description)}")
     console = Console()
     console.print(table)
+    console.print("\n".join(descriptions))
     console.print(f"installed planners: packages declaring the entry-point group '{ENTRY_POINT_GROUP}'; any class "
                   "also runs by reference (--planner my_pkg.module:Class or path/to/file.py:Class); "
                   "`simgap planners show NAME` prints a planner's settings")

@@ -135,7 +135,7 @@ def print_summary(console: Console, result: Run) -> None:
     table = Table(title=f"{result.scenario_id} — {result.backend}")
     budget = result.settings.get("cosim", {}).get("planning_budget_s")
     columns = ["agent", "planner", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed",
-               "plan [ms]"] + (["over budget"] if budget else [])
+               "plan [ms]"] + (["> budget"] if budget else [])
     for col in columns:
         table.add_column(escape(col), justify="left" if col in ("planner", "vehicle", "outcome") else "right",
                          no_wrap=True)
@@ -153,7 +153,7 @@ def print_summary(console: Console, result: Run) -> None:
     console.print(table)
     console.print("gap: smallest distance to any other road user; failed: planning cycles without a plan "
                   "(none feasible, or the planner raised); plan: wall time per planning call, mean/p95/max"
-                  + (f"; over budget: calls longer than {budget:g} s" if budget else ""), style="dim")
+                  + (f"; > budget: calls longer than {budget:g} s" if budget else ""), style="dim")
     for error in result.planner_errors[:1]:
         console.print(f"[red]agent {error.agent_id}'s planner raised {escape(error.exception)}"
                       f"{'' if error.t is None else f' at t = {error.t:.1f} s'}: {escape(error.message)}[/red] "
