@@ -147,3 +147,17 @@ def test_calls_over_the_planning_budget_are_counted(curve_xml):
     run = execute(RunRequest(scenario=curve_xml, cosim=CosimSettings(planning_budget_s=1e-6, max_time_s=2.0)))
     agent = run.agents[0]
     assert agent.planning_over_budget == agent.planning_calls == 20
+
+
+def test_a_planner_per_agent(tmp_path):
+    """The planner under test among traffic driven by another planner: each agent is built by its own."""
+    xml = write_scenario(build_scenario("t-junction", {}), tmp_path, preview=False)
+    gap = PlannerChoice(planner=f"{EXAMPLE}:TimeGapPlanner", settings={"time_gap_s": 2.0})
+    run = execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap, 3: gap},
+                             cosim=CosimSettings(max_time_s=2.0)))
+    assert [a.planner for a in run.agents] == ["frenet", "TimeGapPlanner", "TimeGapPlanner"]
+    assert run.settings["planner"]["name"] == "1=frenet,2=TimeGapPlanner,3=TimeGapPlanner"
+    assert run.settings["planner"]["agents"]["2"]["settings"]["time_gap_s"] == 2.0
+    assert all(a.planning_calls == 20 for a in run.agents)
+    with pytest.raises(InputError, match="no planner given for planning problem 3"):
+        execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap}))
