@@ -95,3 +95,9 @@ def test_comfort_peaks():
     assert c.peak_lateral_acceleration == pytest.approx(2.0)
     assert c.peak_longitudinal_acceleration == pytest.approx(2.0)
     assert c.peak_jerk == pytest.approx(20.0)
+
+
+def test_tracking_errors_of_an_agent_that_never_planned_are_empty():
+    """A planner that raised in its constructor leaves a run with no plan: nothing to compare, no crash."""
+    errors = tracking_errors(straight(n=1), [])
+    assert len(errors.t) == 0 and len(errors.position) == 0

@@ -114,8 +114,8 @@ def promised_states(driven: Trajectory, plans: list[Trajectory]) -> PromisedStat
             continue
         st = plans[i].at(t)
         rows.append((k, st.x, st.y, st.yaw, st.v))
-    if not rows:
-        return PromisedStates(*(np.array([]) for _ in range(5)))
+    if not rows:                  # no plan in force at any step (a planner that never planned)
+        return PromisedStates(np.array([], dtype=int), *(np.array([]) for _ in range(4)))
     k, x, y, yaw, v = (np.array(c) for c in zip(*rows))
     return PromisedStates(k.astype(int), x, y, yaw, v)
 

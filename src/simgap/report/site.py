@@ -365,13 +365,14 @@ def _planning_row(entries) -> dict:
     """Time per planning call over ``entries``' agents (ms), exceptions and calls over budget."""
     agents = [a for e in entries for a in e.run.agents if a.planning_calls]
     calls = sum(a.planning_calls for a in agents)
-    if not calls:
-        return {"calls": 0}
+    raised = sum(a.planner_exceptions for e in entries for a in e.run.agents)
+    if not calls:                   # (planners that raised in their constructors)
+        return {"calls": 0, "raised": raised}
     return {"calls": calls,
             "mean [ms]": 1000 * sum(a.planning_mean_s * a.planning_calls for a in agents) / calls,
             "largest p95 [ms]": 1000 * max(a.planning_p95_s for a in agents),
             "max [ms]": 1000 * max(a.planning_max_s for a in agents),
-            "raised": sum(a.planner_exceptions for e in entries for a in e.run.agents),
+            "raised": raised,
             "over budget": sum(a.planning_over_budget for a in agents)}
 
 
