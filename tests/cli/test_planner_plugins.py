@@ -122,9 +122,11 @@ def test_experiment_compares_planners_and_survives_one_that_raises(installed, tm
     spec = tmp_path / "plugins.yaml"
     spec.write_text(SPEC.format(by_file=BY_FILE))
     out = tmp_path / "exp"
-    proc = simgap(installed, "experiment", "run", str(spec), "--out", str(out), "--workers", "2", "--no-report")
+    proc = simgap(installed, "experiment", "run", str(spec), "--out", str(out), "--workers", "2")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "3 runs: 3 ran now (1 failed)" in proc.stdout
+    index = (out / "report" / "index.html").read_text()          # the report too, the failed run in it
+    assert "3 planners (Broken, gap_file, time_gap)" in index and "raised RuntimeError in its constructor" in index
     query = simgap(installed, "experiment", "query", str(out),
                    "SELECT planner, status, outcome, planner_exceptions FROM runs ORDER BY planner", "--csv",
                    str(tmp_path / "rows.csv"))
