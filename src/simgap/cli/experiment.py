@@ -91,7 +91,8 @@ def query_cmd(
     to_csv: Optional[Path] = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
 ) -> None:
     """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,
-    controller, param_*, status, failure, outcome, wall_time_s, time_*_s, version_*, ...
+    controller, planner, param_*, status, failure, outcome, planning_mean_s, wall_time_s, time_*_s,
+    version_*, ...
 
     Example: simgap experiment query studies/paper "SELECT fidelity, median(wall_time_s) FROM runs GROUP BY 1"
     """
