@@ -24,21 +24,14 @@ import numpy as np
 from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.compare import compare_runs
-from simgap.planning.frenet import FrenetPlanner
-from simgap.planning.idm_planner import IdmPlanner
 from simgap.planning.protocol import PlannerSetup
-from simgap.planning.reactive import ReactivePlanner
+from simgap.planning.registry import load_planner
 from simgap.scenario import build_scenario
 from simgap.sim.registry import make_backend
 from simgap.vehicles import load_vehicle
 
 
-def _frenet(setup: PlannerSetup):
-    return FrenetPlanner(setup.vehicle, setup.lanelet_network, setup.planning_problem)
-
-
-# name -> planner factory; the planner registry (issue 15, item 1) replaces this map
-PLANNERS = {"frenet": _frenet, "reactive": ReactivePlanner, "idm": IdmPlanner}
+PLANNERS = ("frenet", "reactive", "idm")        # built-in names (simgap.planning.registry), default settings
 SCENARIOS = {
     "curve-r10": ("curve", {"radius": 10, "angle": 90}),
     "curve-r50": ("curve", {"radius": 50, "angle": 90}),
@@ -92,8 +85,10 @@ def _run(template: str, params: dict, planner: str, backend: str, replan_every: 
     scenario, problems = built.scenario, built.problems
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    timed = {a.id: TimedPlanner(PLANNERS[planner](PlannerSetup(
-        a.id, sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id], scenario.dt))) for a in agents}
+    planner_class = load_planner(planner)
+    timed = {a.id: TimedPlanner(planner_class.build(PlannerSetup(
+        a.id, sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id], scenario.dt), None))
+        for a in agents}
     run = simulate(scenario, problems, make_backend(backend), agents, timed, CosimSettings(replan_every=replan_every))
     seconds = [s for p in timed.values() for s in p.seconds]
     return built, run, seconds

@@ -79,7 +79,7 @@ def test_run_reaches_the_goal_with_the_external_planner(installed, curve_xml, tm
 
 def test_bad_planner_input_is_refused_with_file_field_and_allowed(installed, curve_xml, tmp_path):
     for args, fragments in (
-            (["--planner", "nope"], ["field 'planner'", "unknown planner 'nope'", "frenet, time_gap"]),
+            (["--planner", "nope"], ["field 'planner'", "unknown planner 'nope'", "frenet, reactive, idm, time_gap"]),
             (["--planner", f"{PLANNER_FILE}:Nope"], ["has no class 'Nope'", "TimeGapPlanner"]),
             (["--planner", "1=frenet,x=time_gap"], ["'x=time_gap' is not AGENT_ID=PLANNER"])):
         proc = simgap(installed, "run", str(curve_xml), "--out", str(tmp_path / "r"), *args)
@@ -146,7 +146,7 @@ def test_experiment_spec_with_a_bad_planner_is_refused(installed, tmp_path):
     spec.write_text(SPEC.format(by_file=BY_FILE).replace("broken.py:Broken", "idmm"))
     proc = simgap(installed, "experiment", "run", str(spec), "--out", str(tmp_path / "exp"))
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
-    assert "bad.yaml: field 'planners.2': unknown planner 'idmm' (allowed: frenet, time_gap" in proc.stderr
+    assert "bad.yaml: field 'planners.2': unknown planner 'idmm' (allowed: frenet, reactive, idm, time_gap" in proc.stderr
     spec.write_text(SPEC.format(by_file=BY_FILE).replace("desired_speed_m_s: 6", "desired_speed: 6"))
     proc = simgap(installed, "experiment", "run", str(spec), "--out", str(tmp_path / "exp"))
     assert "field 'planners.1.settings.desired_speed'" in proc.stderr and "desired_speed_m_s" in proc.stderr

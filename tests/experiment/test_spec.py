@@ -38,7 +38,7 @@ def write(tmp_path, **changes):
      "fidelities.0.settings.road_friction", "no settings"),
     ({"cosim": {"replan_every": 0}}, "cosim.replan_every", "greater than or equal to 1"),
     ({"planner": {"speed": {"cruise": 12}}}, "planner.speed.cruise", "cruise_m_s"),
-    ({"planners": ["frenet", "nope"]}, "planners.1", "frenet, a module:Class"),
+    ({"planners": ["frenet", "nope"]}, "planners.1", "frenet, reactive, idm, a module:Class"),
     ({"planners": [{"planner": "frenet", "settings": {"speed": {"cruise": 12}}}]}, "planners.0.settings.speed.cruise",
      "cruise_m_s"),
     ({"planners": ["frenet", {"planner": "frenet"}]}, "planners.1.label", "a label of its own"),

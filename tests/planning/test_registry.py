@@ -67,7 +67,9 @@ def test_builtin_planner_by_name_with_its_settings_model():
     planner = load_planner("frenet")
     assert planner.cls is FrenetPlanner and planner.settings_model is FrenetSettings
     assert planner.settings({"speed": {"cruise_m_s": 8}}).speed.cruise_m_s == 8
-    assert "frenet" in planner_names()
+    assert planner_names()[:3] == ["frenet", "reactive", "idm"]
+    assert load_planner("reactive").settings_model.__name__ == "ReactiveSettings"
+    assert load_planner("idm").settings_model.__name__ == "IdmSettings"
 
 
 @pytest.mark.parametrize("ref, fragments", [

@@ -36,6 +36,8 @@ from simgap.planning.protocol import Planner, PlannerSetup
 
 BUILTIN_PLANNERS: dict[str, str] = {
     "frenet": "simgap.planning.frenet:FrenetPlanner",
+    "reactive": "simgap.planning.reactive:ReactivePlanner",
+    "idm": "simgap.planning.idm_planner:IdmPlanner",
 }
 ENTRY_POINT_GROUP = "simgap.planners"
 DEFAULT_PLANNER = "frenet"
