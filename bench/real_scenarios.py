@@ -91,18 +91,20 @@ def main() -> None:
         rates = {}
         for world in args.worlds:
             counted = goals = 0
+            wall_total = 0.0
             for xml in files:
                 results, wall = run_one(xml, world, args.traffic)
+                wall_total += wall
                 for outcome, reason in results:
                     print(f"{xml.stem:34s} {world:7s} {outcome:16s} {wall:8.1f}  {reason[:110]}", flush=True)
                     starts_in_collision = outcome == "collision" and reason.endswith("t = 0.1 s")
                     counted += not starts_in_collision
                     goals += outcome == "goal_reached"
-            rates[world] = (goals, counted)
+            rates[world] = (goals, counted, wall_total / max(len(files), 1))
         print()
-        for world, (goals, counted) in rates.items():
+        for world, (goals, counted, mean_wall) in rates.items():
             print(f"goal rate {world:7s}: {goals}/{counted} = {100 * goals / max(counted, 1):.0f} % "
-                  "(agents that do not start in a collision)")
+                  f"(agents that do not start in a collision); mean wall time {mean_wall:.1f} s per scenario")
 
 
 if __name__ == "__main__":
