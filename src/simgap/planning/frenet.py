@@ -20,6 +20,11 @@ Beyond the core:
 * When nothing is feasible from the observed acceleration and steering angle (physics may
   hand over values no polynomial continues), one retry starts from the observed pose and speed
   with zero acceleration and the reference's curvature (``relax_initial_state``).
+* A physical car tracks its plan with centimetre errors: while it is within
+  ``continue_plan_within_m`` of the last plan, the next one starts from that plan's state (the
+  controller corrects the error); a car near the road's edge but on the road is never planned
+  further out (`_RoadLeeway`); the desired speed leaves part of the steering rate unused
+  (`STEER_RATE_SHARE`), and plans beyond the steering rate are a last resort.
 """
 
 from __future__ import annotations

@@ -71,7 +71,8 @@ class SpeedSettings(_Section):
     lookahead_s: float = Field(
         3.0, ge=0, description="the desired speed is the lowest of the speed profile this far ahead [s]")
     enforce_lateral_acceleration: bool = Field(
-        True, description="prefer plans within max_lateral_acceleration (others only if none is)")
+        True, description="prefer plans within max_lateral_acceleration and the vehicle's steering rate "
+                          "(others only if none is)")
     blocked_speed_share: float = Field(
         0.8, ge=0, le=1, description="when traffic holds the cheapest plan below this share of the desired "
                                      "speed, a clearly faster plan (a lane change, an overtaking) is taken "
