@@ -3,6 +3,7 @@ straight and sharp roads, never returns a plan through other traffic or off the 
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -243,3 +244,42 @@ def test_swerving_plans_stay_on_the_road(sedan, curve_road):
         assert not _plan_collides(plan, parked, sedan)
         assert all(road_area.contains(footprint(plan[k], sedan.length, sedan.width)) for k in range(1, len(plan), 2))
     assert run.states[-1].y > 14.0                                  # past the parked car
+
+
+# -- a physical car: tracking errors of centimetres --------------------------------------------
+def test_next_plan_continues_the_last_one_from_a_small_tracking_error(straight_planner, straight_road):
+    """A vehicle a few centimetres off its plan is planned for from the plan (the controller
+    corrects the error); one far off it is planned for from where it is."""
+    start = _lane_state(straight_road, 30.0, 8.0, t=2.0)
+    first = straight_planner.plan(start, start.t, _world(straight_road))
+    on_plan = first[1]
+    near = on_plan.replace(y=on_plan.y + 0.05, yaw=on_plan.yaw + 0.02)
+    second = straight_planner.plan(near, on_plan.t, _world(straight_road))
+    assert (second[0].x, second[0].y, second[0].yaw, second[0].v) == pytest.approx(
+        (on_plan.x, on_plan.y, on_plan.yaw, on_plan.v))
+    far = second[1].replace(y=second[1].y + 0.8)
+    third = straight_planner.plan(far, far.t, _world(straight_road))
+    assert (third[0].x, third[0].y) == (far.x, far.y)
+    never = FrenetPlanner(straight_planner.vehicle, straight_road.lanelet_network, straight_road.problem,
+                          FrenetSettings(continue_plan_within_m=None))
+    never.plan(start, start.t, _world(straight_road))
+    assert never.plan(near, on_plan.t, _world(straight_road))[0].y == near.y
+
+
+def test_a_vehicle_close_to_the_road_edge_is_not_planned_off_the_road(sedan, curve_road, curve_planner):
+    """On the road but within centimetres of its outer edge (as a physical car gets by tracking
+    errors), before and in the sharp curve, heading along or out: no plan leaves the road (it
+    used to be taken for a vehicle off the road already, whose plans may leave it for a second)."""
+    road_area = DrivableArea(curve_road.lanelet_network, tolerance=0.0)
+    tried = 0
+    for s, v, gap, yaw_error in itertools.product(np.arange(90.0, 125.0, 2.5), (3.0, 6.0), (0.02, 0.06, 0.1),
+                                                  (-0.06, -0.03, 0.0)):
+        observed = _lane_state(curve_road, s, v, d=-(curve_road.lane_width / 2 - sedan.width / 2 - gap),
+                               yaw_error=yaw_error)
+        if not road_area.contains(footprint(observed, sedan.length, sedan.width)):
+            continue
+        tried += 1
+        plan = curve_planner.plan(observed, 0.0, _world(curve_road))
+        assert plan is None or all(road_area.contains(footprint(plan[k], sedan.length, sedan.width))
+                                   for k in range(1, len(plan))), (s, v, gap, yaw_error)
+    assert tried > 40

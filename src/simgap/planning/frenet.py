@@ -20,6 +20,11 @@ Beyond the core:
 * When nothing is feasible from the observed acceleration and steering angle (physics may
   hand over values no polynomial continues), one retry starts from the observed pose and speed
   with zero acceleration and the reference's curvature (``relax_initial_state``).
+* A physical car tracks its plan with centimetre errors: while it is within
+  ``continue_plan_within_m`` of the last plan, the next one starts from that plan's state (the
+  controller corrects the error); a car near the road's edge but on the road is never planned
+  further out (`_RoadLeeway`); the desired speed leaves part of the steering rate unused
+  (`STEER_RATE_SHARE`), and plans beyond the steering rate are a last resort.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ import numpy as np
 
 from simgap.planning.collision import (
     DrivableAreaGrid,
+    RoadBand,
     TrafficPrediction,
     footprint_outline,
     footprints_on_road,
@@ -75,6 +81,12 @@ BLOCKED_SEARCH_SAMPLES = 256
 NO_OVERTAKING_BEFORE_GOAL_M = 15.0
 # a vehicle whose footprint grown by this much leaves the road is at the road's edge [m]
 ROAD_EDGE_M = 0.3
+# the desired speed asks for at most this share of the vehicle's steering rate where the curvature
+# changes: a physical car needs the rest to correct its tracking errors
+STEER_RATE_SHARE = 0.85
+# the next plan continues the last one when the vehicle is this close to it (and within
+# settings.continue_plan_within_m) [rad], [m/s]
+CONTINUE_PLAN_HEADING, CONTINUE_PLAN_SPEED = 0.1, 1.0
 
 
 @dataclass(frozen=True)
@@ -94,6 +106,17 @@ class _Start:
     desired: float
     low_velocity: bool
     may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
+
+
+@dataclass(frozen=True)
+class _RoadLeeway:
+    """How a plan may use the road's edge when the vehicle is not safely on the road now: for
+    ``steps`` after the present it may leave the safe cells but must keep within ``band`` (the
+    band the vehicle is in now; None when it is off the road already: anywhere). After them
+    every plan is on the safe cells."""
+
+    steps: int = 0
+    band: RoadBand | None = RoadBand.SAFE
 
 
 @dataclass
@@ -145,7 +168,8 @@ class FrenetPlanner:
         self.cruise_speed = cruise_speed(planning_problem.goal, s.speed.cruise_m_s, vehicle.limits.max_speed,
                                          initial_speed)
         self.speed_profile = SpeedProfile(self.reference_path, self.cruise_speed,
-                                          s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration)
+                                          s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration,
+                                          (vehicle.wheelbase, STEER_RATE_SHARE * vehicle.limits.max_steer_rate))
         route_end = np.asarray(lanelet_network.find_lanelet_by_id(
             self.reference_path.lanelet_ids[-1]).center_vertices[-1]) if self.reference_path.lanelet_ids \
             else self.reference_path.xy[-1]
@@ -164,6 +188,7 @@ class FrenetPlanner:
         # the manoeuvre chosen last: (absolute end time, end speed, lateral end offset)
         self._previous: tuple[float, float, float] | None = None
         self._previous_t: float | None = None
+        self._last_plan: Trajectory | None = None
         self.last_cycle = PlanningCycle()
 
     # -- set-up of the core ------------------------------------------------------------------
@@ -209,7 +234,9 @@ class FrenetPlanner:
         dt = float(world.dt)
         times = t + dt * np.arange(steps_in_horizon(self.settings.sampling, dt) + 1)
         clock = time.perf_counter()
-        start = self._start(observed, t, dt, cycle)
+        origin = self._on_last_plan(observed, t) or observed
+        self._last_plan = None
+        start = self._start(origin, t, dt, cycle)
         cycle.timings["projection"] += time.perf_counter() - clock
         if start is None:
             cycle.outcome = "projection_failed"
@@ -238,10 +265,27 @@ class FrenetPlanner:
         p = chosen.parameters[0]
         self._previous = (t + float(p[END_TIME]), float(p[END_SPEED]), float(p[END_OFFSET]))
         clock = time.perf_counter()
-        plan = self._to_trajectory(chosen, observed, times, dt)
+        plan = self._to_trajectory(chosen, origin, times, dt)
         cycle.timings["conversion"] += time.perf_counter() - clock
         cycle.outcome = "planned"
+        self._last_plan = plan
         return plan
+
+    def _on_last_plan(self, observed: State, t: float) -> State | None:
+        """The last plan's state at ``t`` when the vehicle is close to it (`continue_plan_within_m`,
+        `CONTINUE_PLAN_HEADING` and `CONTINUE_PLAN_SPEED`): the next plan starts there, so that the
+        tracking error stays the controller's to correct instead of becoming the plan's. Replanned
+        from where the vehicle is, a car that runs a centimetre wide each cycle drifts a little
+        further every cycle and swings out of curves."""
+        plan, within = self._last_plan, self.settings.continue_plan_within_m
+        if plan is None or within is None or not plan.t[0] < t <= plan.t_end:
+            return None
+        on_plan = plan.at(t)
+        if (math.hypot(observed.x - on_plan.x, observed.y - on_plan.y) > within
+                or abs(wrap_angle(observed.yaw - on_plan.yaw)) > CONTINUE_PLAN_HEADING
+                or abs(observed.v - on_plan.v) > CONTINUE_PLAN_SPEED):
+            return None
+        return on_plan
 
     @property
     def failure_reason(self) -> str:
@@ -341,15 +385,22 @@ class FrenetPlanner:
         return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
                                np.array([v_end]), np.array([d_end]))
 
-    def _recovery_steps(self, start: _Start) -> int:
-        """Steps during which a plan may be off the road: when the vehicle is off it already."""
+    def _leeway(self, start: _Start) -> _RoadLeeway:
+        """The plans' leeway at the road's edge: none when the vehicle is safely on the road;
+        ``recovery_s`` to get back when it is not, without going further out than it is now (a
+        tracking error of centimetres at the edge is no licence to leave the road); anywhere
+        when it is off the road already."""
         r = self.vehicle.rear_axle_to_center
-        cx0 = start.x_rear + r * math.cos(start.yaw_local)
-        cy0 = start.y_rear + r * math.sin(start.yaw_local)
-        if footprints_on_road(self.drivable_area, self._outline, np.array([cx0]), np.array([cy0]),
-                              np.array([start.yaw_local]))[0]:
-            return 0
-        return int(round(self.settings.collision.recovery_s / start.dt))
+        centre = (np.array([start.x_rear + r * math.cos(start.yaw_local)]),
+                  np.array([start.y_rear + r * math.sin(start.yaw_local)]), np.array([start.yaw_local]))
+        band = next((b for b in RoadBand if footprints_on_road(self.drivable_area, self._outline, *centre, b)[0]),
+                    None)
+        if band is RoadBand.SAFE:
+            return _RoadLeeway()
+        return _RoadLeeway(self._recovery_steps(start.dt), band)
+
+    def _recovery_steps(self, dt: float) -> int:
+        return int(round(self.settings.collision.recovery_s / dt))
 
     def _first_passing(self, ordered, feasible: int, start: _Start, traffic: TrafficPrediction,
                        cycle: PlanningCycle) -> CartesianBatch | None:
@@ -358,8 +409,8 @@ class FrenetPlanner:
         cheapest such plan well below the desired speed (``blocked_speed_share``), a faster one among
         the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. When
         every plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they
-        are checked again with the recovery time of a vehicle that is off the road."""
-        recovery = self._recovery_steps(start)
+        are checked again with the recovery time to get back onto the safe cells."""
+        leeway = self._leeway(start)
         clock = time.perf_counter()
         chosen: CartesianBatch | None = None
         fallback: CartesianBatch | None = None
@@ -371,7 +422,7 @@ class FrenetPlanner:
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
             checked.append(batch)
-            passing, lateral_ok = self._verdicts(batch, traffic, recovery, start.dt, cycle)
+            passing, lateral_ok = self._verdicts(batch, traffic, leeway, start.dt, cycle)
             for i in np.flatnonzero(passing):
                 if not (lateral_ok[i] or not self.settings.speed.enforce_lateral_acceleration):
                     cycle.rejected_lateral_acceleration += 1
@@ -386,7 +437,8 @@ class FrenetPlanner:
                     return _row(batch, i)
             if chosen is not None:
                 beyond_chosen += len(samples)
-        if chosen is None and fallback is None and recovery == 0 and cycle.rejected_road and self._at_road_edge(start):
+        if chosen is None and fallback is None and leeway.steps == 0 and cycle.rejected_road \
+                and self._at_road_edge(start):
             chosen = self._first_recovering(checked, start, traffic)
         _lap(cycle, "collision", clock)
         return chosen or fallback
@@ -401,11 +453,11 @@ class FrenetPlanner:
 
     def _first_recovering(self, checked: list[CartesianBatch], start: _Start,
                           traffic: TrafficPrediction) -> CartesianBatch | None:
-        """The cheapest of the ``checked`` plans that passes when it may leave the road for the
-        recovery time (the rejections of this second look are not counted)."""
-        recovery = int(round(self.settings.collision.recovery_s / start.dt))
+        """The cheapest of the ``checked`` plans that passes when it may leave the safe cells (not
+        the road) for the recovery time (the rejections of this second look are not counted)."""
+        leeway = _RoadLeeway(self._recovery_steps(start.dt), RoadBand.ROAD)
         for batch in checked:
-            passing, _ = self._verdicts(batch, traffic, recovery, start.dt, PlanningCycle())
+            passing, _ = self._verdicts(batch, traffic, leeway, start.dt, PlanningCycle())
             if passing.any():
                 return _row(batch, int(np.flatnonzero(passing)[0]))
         return None
@@ -415,12 +467,12 @@ class FrenetPlanner:
         return (start.may_overtake and cycle.rejected_traffic > 0
                 and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired)
 
-    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, recovery: int, dt: float,
+    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float,
                   cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
         """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
         acceleration bound? Counts the rejections in ``cycle``."""
         feasible_ok = self._feasible(batch)
-        hit, on_road, lateral_ok = self._check(batch, traffic, recovery, dt)
+        hit, on_road, lateral_ok = self._check(batch, traffic, leeway, dt)
         cycle.checked += len(feasible_ok)
         cycle.rejected_infeasible += int((~feasible_ok).sum())
         cycle.rejected_traffic += int((feasible_ok & hit).sum())
@@ -439,7 +491,7 @@ class FrenetPlanner:
         ok_k = (np.abs(kappa) <= math.tan(limits.max_steer) / wheelbase + tol).all(axis=1)
         return ok_a & ok_k
 
-    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, recovery: int, dt: float):
+    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float):
         """Per plan of ``batch``: hits traffic?, stays on the road?, within the lateral-acceleration bound?"""
         veh, s = self.vehicle, self.settings
         r = veh.rear_axle_to_center
@@ -469,13 +521,19 @@ class FrenetPlanner:
                     hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
         # the road only for plans clear of traffic (the road test costs most: many points)
         on_road = np.ones(n, dtype=bool)
-        start = 1 + recovery
+        safe_from = min(1 + leeway.steps, cx.shape[1])
         rows = np.flatnonzero(~hit)
-        if start < cx.shape[1] and len(rows):
-            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, start:],
-                                               cy[rows, start:], batch.yaw[rows, start:]).all(axis=1)
+        if safe_from < cx.shape[1] and len(rows):
+            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, safe_from:],
+                                               cy[rows, safe_from:], batch.yaw[rows, safe_from:]).all(axis=1)
+        rows = rows[on_road[rows]]
+        if safe_from > 1 and leeway.band is not None and len(rows):
+            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, 1:safe_from],
+                                               cy[rows, 1:safe_from], batch.yaw[rows, 1:safe_from],
+                                               leeway.band).all(axis=1)
         a_lat = (batch.v[:, 1:] ** 2 * np.abs(batch.kappa[:, 1:])).max(axis=1)
-        return hit, on_road, a_lat <= s.speed.max_lateral_acceleration
+        steer_rate = np.abs(np.diff(np.arctan(veh.wheelbase * batch.kappa), axis=1)).max(axis=1) / dt
+        return hit, on_road, (a_lat <= s.speed.max_lateral_acceleration) & (steer_rate <= veh.limits.max_steer_rate)
 
     def _to_trajectory(self, plan: CartesianBatch, observed: State, times: np.ndarray, dt: float) -> Trajectory:
         n = len(times)

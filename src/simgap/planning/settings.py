@@ -71,7 +71,8 @@ class SpeedSettings(_Section):
     lookahead_s: float = Field(
         3.0, ge=0, description="the desired speed is the lowest of the speed profile this far ahead [s]")
     enforce_lateral_acceleration: bool = Field(
-        True, description="prefer plans within max_lateral_acceleration (others only if none is)")
+        True, description="prefer plans within max_lateral_acceleration and the vehicle's steering rate "
+                          "(others only if none is)")
     blocked_speed_share: float = Field(
         0.8, ge=0, le=1, description="when traffic holds the cheapest plan below this share of the desired "
                                      "speed, a clearly faster plan (a lane change, an overtaking) is taken "
@@ -109,7 +110,8 @@ class CollisionSettings(_Section):
         8.0, gt=0, description="beyond the horizon, other traffic is assumed to brake at this deceleration "
                                "[m/s^2]; null: it is assumed to stop at once where it is at the horizon's end")
     recovery_s: float = Field(
-        1.0, ge=0, description="when the vehicle is already off the road, leaving it is tolerated this long [s]")
+        1.0, ge=0, description="when the vehicle is not safely on the road (within a grid cell of its edge, or off "
+                               "it), plans get this long to get back, going no further out than it is [s]")
 
 
 class FrenetSettings(_Section):
@@ -122,6 +124,10 @@ class FrenetSettings(_Section):
     collision: CollisionSettings = Field(default_factory=CollisionSettings)
     check_whole_trajectory: bool = Field(
         False, description="feasibility checks include the constant-velocity tail after the end time")
+    continue_plan_within_m: float | None = Field(
+        0.3, ge=0, description="a plan starts from the last plan's state when the vehicle is this close to "
+                               "it (and within 0.1 rad and 1 m/s), else from the observed state [m]; "
+                               "null: always from the observed state")
     relax_initial_state: bool = Field(
         True, description="when no sample is feasible, retry once from the observed pose and speed "
                           "with zero acceleration and the reference path's curvature")

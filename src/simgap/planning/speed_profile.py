@@ -2,7 +2,8 @@
 
 A cruise speed (the configured default, or faster when the start or the goal's velocity window
 asks for it), lowered wherever the reference path's curvature would push the lateral acceleration
-v^2 * kappa over the bound, and lowered ahead of such places so that a comfortable deceleration
+v^2 * kappa over the bound or where it changes faster than the steering can follow (a given
+steering rate), and lowered ahead of such places so that a comfortable deceleration
 reaches them in time. `GoalApproach` then aims the arrival at the goal: inside its velocity
 window (braking towards it at the comfortable deceleration) and not before its time window
 (slowing to the average speed that arrives in time, down to waiting at the goal).
@@ -21,6 +22,8 @@ from simgap.scenario.goal import Goal, Window
 # the profile aims at this share of the lateral-acceleration bound, leaving room for plans
 # whose curvature overshoots the reference path's while they converge onto it
 _LATERAL_ACCELERATION_SHARE = 0.85
+# the steering-rate limit never asks for less than this [m/s]
+_STEERING_SPEED_FLOOR = 1.0
 
 
 # a target inside a window keeps this share of the window's width from its bounds
@@ -98,11 +101,19 @@ class SpeedProfile:
     """Desired speed at every reference point (array ``v`` over ``reference.s``)."""
 
     def __init__(self, reference: ReferencePath, cruise: float, max_lateral_acceleration: float,
-                 comfortable_deceleration: float):
+                 comfortable_deceleration: float, steering: tuple[float, float] | None = None):
+        """``steering``: (wheelbase [m], steering rate [rad/s]) to keep the curvature's change
+        within: the road-wheel angle atan(wheelbase * kappa) changes at
+        wheelbase * v * dkappa/ds / (1 + (wheelbase * kappa)^2)."""
         self.reference = reference
         self.cruise = cruise
         kappa = np.maximum(np.abs(reference.kappa), 1e-9)
         v = np.minimum(cruise, np.sqrt(_LATERAL_ACCELERATION_SHARE * max_lateral_acceleration / kappa))
+        if steering is not None and len(reference.s) > 2:
+            wheelbase, steer_rate = steering
+            change = np.abs(np.gradient(reference.kappa, reference.s)) * wheelbase
+            v = np.minimum(v, np.maximum(steer_rate * (1.0 + (wheelbase * kappa) ** 2) / np.maximum(change, 1e-9),
+                                         _STEERING_SPEED_FLOOR))
         ds = np.diff(reference.s)
         for i in range(len(v) - 2, -1, -1):
             v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2.0 * comfortable_deceleration * ds[i]))
