@@ -20,16 +20,20 @@ import tempfile
 import time
 from pathlib import Path
 
+from simgap.cosim import CosimSettings
+from simgap.errors import validated
 from simgap.experiment.executors import make_executor
+from simgap.experiment.records import JobContext
 from simgap.experiment.runner import plan
+from simgap.experiment.spec import spec_path, vehicle_ref
 
 
 def measure(executor: str, spec: str, workers: int, address: str | None) -> dict[str, float]:
     with tempfile.TemporaryDirectory(prefix="simgap-bench-") as tmp:
         root = Path(tmp)
         spec_model, jobs, scenarios = plan(spec, root)
-        context = {"root": str(root), "scenarios": scenarios, "planner": spec_model.planner,
-                   "cosim": spec_model.cosim}
+        context = JobContext(root, validated(CosimSettings, spec_model.cosim), scenarios,
+                             vehicle_ref(spec_model.planner_vehicle, spec_path(spec)))
         t0 = time.perf_counter()
         runner = make_executor(executor, workers, spec_model.run_timeout_s, address)
         connect_s = time.perf_counter() - t0

@@ -260,7 +260,8 @@ def test_next_plan_continues_the_last_one_from_a_small_tracking_error(straight_p
     far = second[1].replace(y=second[1].y + 0.8)
     third = straight_planner.plan(far, far.t, _world(straight_road))
     assert (third[0].x, third[0].y) == (far.x, far.y)
-    never = FrenetPlanner(straight_planner.vehicle, straight_road.lanelet_network, straight_road.problem,
+    never = FrenetPlanner(PlannerSetup.for_problem(straight_road.problem, straight_planner.vehicle,
+                                                   straight_road.lanelet_network),
                           FrenetSettings(continue_plan_within_m=None))
     never.plan(start, start.t, _world(straight_road))
     assert never.plan(near, on_plan.t, _world(straight_road))[0].y == near.y

@@ -42,8 +42,9 @@ class World:
 class Planner(Protocol):
     """``plan`` must accept any observed state: moving, off-centre, with a heading error.
 
-    It returns a trajectory starting at ``observed`` (time ``t``) on the grid ``world.dt``,
-    or ``None`` when no feasible, collision-free plan exists.
+    It returns a trajectory starting at time ``t`` on the grid ``world.dt`` — at ``observed``,
+    or on its own previous plan when the vehicle is close to it (plan stitching) — or ``None``
+    when no feasible, collision-free plan exists.
     """
 
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None: ...
