@@ -18,6 +18,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.traffic import TrafficMode
+from simgap.planning.idm_planner import desired_gap
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.trajectory import State, Trajectory
@@ -154,9 +155,8 @@ class IdmTraffic:
         if gap is None:
             return a
         p = self.p
-        dv = pv.v - v_lead
-        wanted = p.standstill_gap_m + max(0.0, pv.v * p.time_headway_s
-                                          + pv.v * dv / (2 * math.sqrt(p.max_acceleration * p.comfortable_deceleration)))
+        wanted = desired_gap(pv.v, pv.v - v_lead, p.standstill_gap_m, p.time_headway_s, p.max_acceleration,
+                             p.comfortable_deceleration)
         interaction = p.max_acceleration * (1.0 - (wanted / max(gap, 0.1)) ** 2)
         return float(max(min(a, interaction), -p.max_deceleration))
 

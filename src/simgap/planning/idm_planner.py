@@ -36,11 +36,10 @@ from simgap.evaluate.frenet_frame import ReferencePath as Projection
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
-from simgap.scenario.goal import Goal
+from simgap.planning.speed_profile import route_speeds
 from simgap.trajectory import State, Trajectory, wrap_angle
 
-__all__ = ["IdmPlanner", "IdmSettings"]
+__all__ = ["IdmPlanner", "IdmSettings", "desired_gap"]
 
 # the heading error the lateral quartic starts from is clipped to this [rad]
 _MAX_HEADING_ERROR = math.radians(60.0)
@@ -108,13 +107,8 @@ class IdmPlanner:
                                                   extension_forward=reach)
         # projections need no fine spacing (1 m chords are within 2 cm of a 10 m radius)
         self._projection = Projection(self.reference_path.xy[::_PROJECTION_STRIDE])
-        initial_speed = float(getattr(setup.planning_problem.initial_state, "velocity", 0.0) or 0.0)
-        cruise = cruise_speed(setup.planning_problem.goal, s.cruise_m_s, self.vehicle.limits.max_speed,
-                              initial_speed)
-        self.speed_profile = SpeedProfile(self.reference_path, cruise, s.max_lateral_acceleration,
-                                          s.comfortable_deceleration)
-        self.approach = GoalApproach(self.reference_path, Goal.of(setup.planning_problem.goal, self.dt), cruise,
-                                     s.comfortable_deceleration)
+        self.speed_profile, self.approach = route_speeds(self.reference_path, setup, s.cruise_m_s,
+                                                         s.max_lateral_acceleration, s.comfortable_deceleration)
         self.stop_s = self.reference_path.route_s[1] if s.stop_at_route_end else math.inf
         self.last_cycle = IdmCycle()
 
@@ -170,8 +164,8 @@ class IdmPlanner:
         free = 1.0 - (v / max(desired, 0.1)) ** p.exponent if desired > 0.05 else -1.0
         interaction = 0.0
         if math.isfinite(gap):
-            wanted = p.standstill_gap_m + max(0.0, v * p.time_headway_s + v * (v - v_lead) / (
-                2.0 * math.sqrt(p.max_acceleration * p.comfortable_deceleration)))
+            wanted = desired_gap(v, v - v_lead, p.standstill_gap_m, p.time_headway_s, p.max_acceleration,
+                                 p.comfortable_deceleration)
             interaction = (wanted / max(gap, 0.1)) ** 2
         acc = p.max_acceleration * (free - interaction)
         return float(np.clip(acc, -p.max_deceleration, min(p.max_acceleration, self.vehicle.limits.max_accel)))
@@ -235,6 +229,12 @@ class IdmPlanner:
     def _sideslip(self, curvature):
         """Kinematic sideslip angle of the centre on a path of ``curvature`` (the rear axle has none)."""
         return np.arctan(self.vehicle.rear_axle_to_center * np.asarray(curvature, dtype=float))
+
+
+def desired_gap(v: float, dv: float, standstill_gap: float, headway: float, a: float, b: float) -> float:
+    """The IDM's desired gap s* = s0 + max(0, v T + v dv / (2 sqrt(a b))) at speed ``v``,
+    closing on the leader at ``dv`` [m]."""
+    return standstill_gap + max(0.0, v * headway + v * dv / (2.0 * math.sqrt(a * b)))
 
 
 def _quartic_to_zero(d0: float, slope0: float, u: np.ndarray, length: float):

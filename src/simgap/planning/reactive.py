@@ -55,8 +55,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
-from simgap.scenario.goal import Goal
+from simgap.planning.speed_profile import route_speeds
 from simgap.trajectory import State, Trajectory
 
 __all__ = ["ReactivePlanner", "ReactiveSettings"]
@@ -138,12 +137,8 @@ class ReactivePlanner:
         reach = s.horizon_s * vehicle.limits.max_speed + _PATH_MARGIN_M
         self.reference_path = plan_reference_path(setup.lanelet_network, setup.planning_problem,
                                                   extension_back=reach, extension_forward=reach)
-        initial_speed = float(getattr(setup.planning_problem.initial_state, "velocity", 0.0) or 0.0)
-        cruise = cruise_speed(setup.planning_problem.goal, s.cruise_m_s, vehicle.limits.max_speed, initial_speed)
-        self.speed_profile = SpeedProfile(self.reference_path, cruise, s.max_lateral_acceleration,
-                                          s.comfortable_deceleration)
-        self.approach = GoalApproach(self.reference_path, Goal.of(setup.planning_problem.goal, self.dt), cruise,
-                                     s.comfortable_deceleration)
+        self.speed_profile, self.approach = route_speeds(self.reference_path, setup, s.cruise_m_s,
+                                                         s.max_lateral_acceleration, s.comfortable_deceleration)
         _, self._road_boundary = create_road_boundary_obstacle(scenario)
         self._upstream = UpstreamPlanner(self._config)
         self._upstream.set_reference_path(

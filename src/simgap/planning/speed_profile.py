@@ -16,6 +16,7 @@ import math
 import numpy as np
 from commonroad.planning.goal import GoalRegion
 
+from simgap.planning.protocol import PlannerSetup
 from simgap.planning.reference_path import ReferencePath
 from simgap.scenario.goal import Goal, Window
 
@@ -128,3 +129,14 @@ class SpeedProfile:
         lo, hi = max(lo, 0), min(max(hi, lo + 1), len(ref_s))
         here = float(np.interp(s, ref_s, self.v))
         return float(min(here, self.v[lo:hi].min()))
+
+
+def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: float, max_lateral_acceleration: float,
+                 comfortable_deceleration: float) -> tuple[SpeedProfile, GoalApproach]:
+    """The speed profile along ``reference`` (cruise speed from the goal's velocity window and the
+    vehicle's top speed) and the approach to the goal's time window, for the agent ``setup`` builds."""
+    problem = setup.planning_problem
+    initial_speed = float(getattr(problem.initial_state, "velocity", 0.0) or 0.0)
+    cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
+    return (SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration),
+            GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration))

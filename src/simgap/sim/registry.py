@@ -1,10 +1,12 @@
 """Backends by name. A new backend registers here: a name, a constructor taking settings, a
-check of those settings (run where they are read: the CLI, a spec file), the module it needs installed (and the pip extra that installs it, for an optional one), and, for a
-backend that can be unable to run at all (a server that does not answer), a check that batches
-make once before their first run."""
+check of those settings (run where they are read: the CLI, a spec file), the module it needs
+installed (and the pip extra that installs it, for an optional one), and, for a backend that can
+be unable to run at all (a server that does not answer), a check that batches make once before
+their first run. Each is named ``module:attr`` and imported on first use."""
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -13,28 +15,15 @@ from simgap.errors import InputError
 from simgap.sim.protocol import Backend
 
 
-def _ideal(**settings: Any) -> Backend:
-    from simgap.sim.ideal import IdealBackend
+def _lazy(target: str) -> Callable[..., Any]:
+    """A callable for ``module:attr`` that imports the module on its first call (so naming a
+    backend does not load its physics engine, nor an optional one that is not installed)."""
+    module, _, attr = target.partition(":")
 
-    return IdealBackend(**settings)
+    def call(*args: Any, **kwargs: Any) -> Any:
+        return getattr(importlib.import_module(module), attr)(*args, **kwargs)
 
-
-def _dynamic(**settings: Any) -> Backend:
-    from simgap.sim.dynamic.backend import DynamicBackend
-
-    return DynamicBackend(**settings)
-
-
-def _mujoco(**settings: Any) -> Backend:
-    from simgap.sim.mujoco import MujocoBackend
-
-    return MujocoBackend(**settings)
-
-
-def _beamng(**settings: Any) -> Backend:
-    from simgap.sim.beamng import BeamngBackend
-
-    return BeamngBackend(**settings)
+    return call
 
 
 def _no_settings(settings: dict[str, Any]) -> None:
@@ -43,44 +32,24 @@ def _no_settings(settings: dict[str, Any]) -> None:
                          field=f"backend_settings.{next(iter(settings))}", allowed="none")
 
 
-def _dynamic_settings(settings: dict[str, Any]) -> None:
-    from simgap.sim.dynamic.backend import dynamic_settings
-
-    dynamic_settings(settings)
-
-
-def _mujoco_settings(settings: dict[str, Any]) -> None:
-    from simgap.sim.mujoco.backend import mujoco_settings
-
-    mujoco_settings(settings)
-
-
-def _beamng_settings(settings: dict[str, Any]) -> None:
-    from simgap.sim.beamng.settings import load_settings
-
-    load_settings(settings)
-
-
-def _beamng_server(settings: dict[str, Any]) -> None:
-    from simgap.sim.beamng.session import check_server
-
-    check_server(settings)
-
-
 @dataclass(frozen=True)
 class BackendEntry:
     make: Callable[..., Backend]
-    settings: Callable[[dict[str, Any]], None]             # validates settings as the backend will
+    settings: Callable[[dict[str, Any]], Any]              # validates settings as the backend will
     module: str                                            # must be importable
     extra: str | None = None                               # pip extra that installs it (optional backends)
     check: Callable[[dict[str, Any]], None] | None = None  # raises when it cannot run with these settings
 
 
 BACKENDS: dict[str, BackendEntry] = {
-    "ideal": BackendEntry(_ideal, _no_settings, "simgap.sim.ideal"),
-    "dynamic": BackendEntry(_dynamic, _dynamic_settings, "simgap.sim.dynamic.backend"),
-    "mujoco": BackendEntry(_mujoco, _mujoco_settings, "simgap.sim.mujoco"),
-    "beamng": BackendEntry(_beamng, _beamng_settings, "beamngpy", extra="beamng", check=_beamng_server),
+    "ideal": BackendEntry(_lazy("simgap.sim.ideal:IdealBackend"), _no_settings, "simgap.sim.ideal"),
+    "dynamic": BackendEntry(_lazy("simgap.sim.dynamic.backend:DynamicBackend"),
+                            _lazy("simgap.sim.dynamic.backend:dynamic_settings"), "simgap.sim.dynamic.backend"),
+    "mujoco": BackendEntry(_lazy("simgap.sim.mujoco.backend:MujocoBackend"),
+                           _lazy("simgap.sim.mujoco.backend:mujoco_settings"), "simgap.sim.mujoco"),
+    "beamng": BackendEntry(_lazy("simgap.sim.beamng.backend:BeamngBackend"),
+                           _lazy("simgap.sim.beamng.settings:load_settings"), "beamngpy", extra="beamng",
+                           check=_lazy("simgap.sim.beamng.session:check_server")),
 }
 
 

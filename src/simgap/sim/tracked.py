@@ -63,7 +63,6 @@ class TrackedBackend:
         self.name = name
         self.plant = plant
         self.tracking = tracking
-        self.controller_hz = tracking.controller_hz
         self.timings = plant.timings
         self.timings.setdefault("control", 0.0)
         self.notes = plant.notes
@@ -74,10 +73,11 @@ class TrackedBackend:
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
-        periods = self._dt * self.controller_hz
+        hz = self.tracking.controller_hz
+        periods = self._dt * hz
         if abs(periods - round(periods)) > 1e-6:
             raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
-                             f"{self.controller_hz:g} Hz", field="backend_settings.controller_hz",
+                             f"{hz:g} Hz", field="backend_settings.controller_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
         self._ticks = int(round(periods))
         self._agents = list(agents)
