@@ -47,6 +47,9 @@ _MARK_TYPE = {
 }
 
 
+Geometry = xodr.Line | xodr.Arc | xodr.Spiral | xodr.ParamPoly3
+
+
 class Method(StrEnum):
     EXACT = "exact"
     FITTED = "fitted"
@@ -89,20 +92,24 @@ def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | 
         if _rebuilds(blueprint, network):
             build = _exact_road if isinstance(blueprint, RoadBlueprint) else _exact_junction
             result = build(blueprint, name, surface)
-            result.notes += _grade_note(result, surface)
+            result.notes += _surface_notes(result, surface)
             return result
         notes.append("the scenario's lanelets differ from its recorded blueprint: the road network is fitted")
     result = _fitted(network, name, surface)
-    result.notes = notes + _grade_note(result, surface)
+    result.notes = notes + _surface_notes(result, surface)
     return result
 
 
-def _grade_note(result: RoadNetwork, surface: Surface) -> list[str]:
+def _surface_notes(result: RoadNetwork, surface: Surface) -> list[str]:
+    notes = []
+    if surface.bank_deg:
+        notes.append(f"road_bank {surface.bank_deg:g} deg is every road's superelevation, falling to the right of its "
+                     "reference line (the MuJoCo world tilts the road to each vehicle's own right)")
     if surface.grade_deg and len(result.opendrive.roads) > 1:
-        return [f"road_grade {surface.grade_deg:g} deg is not written as elevation (the network has "
-                f"{len(result.opendrive.roads)} roads; a grade along each vehicle's way of travel has no single "
-                "elevation profile there)"]
-    return []
+        notes.append(f"road_grade {surface.grade_deg:g} deg is not written as elevation (the network has "
+                     f"{len(result.opendrive.roads)} roads; a grade along each vehicle's way of travel has no single "
+                     "elevation profile there)")
+    return notes
 
 
 def _rebuilds(blueprint: RoadBlueprint | JunctionBlueprint, network: LaneletNetwork) -> bool:
@@ -144,7 +151,7 @@ def _centre_lane(marking: LineMarking) -> xodr.Lane:
     return lane
 
 
-def _road(road_id: int, pieces: list[tuple[xodr.geometry._BaseGeometry, float, float, float]], lanes: xodr.Lanes,
+def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lanes: xodr.Lanes,
           surface: Surface, junction: int = -1, grade: bool = False) -> xodr.Road:
     """A road from geometries placed at (x, y, heading), laid end to end."""
     planview = xodr.PlanView()
@@ -265,7 +272,7 @@ def _exact_junction(blueprint: JunctionBlueprint, name: str, surface: Surface) -
 
 
 # ------------------------------------------------------------------------------ fitted
-def _geometry(piece: Piece) -> xodr.geometry._BaseGeometry:
+def _geometry(piece: Piece) -> Geometry:
     if piece.kind == "spiral":
         return xodr.Spiral(piece.k_start, piece.k_end, length=piece.length)
     if piece.kind == "arc":

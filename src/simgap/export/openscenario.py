@@ -172,13 +172,12 @@ def _goal_conditions(run: Run, problems: PlanningProblemSet, minor: int) -> list
     return conditions
 
 
-def openscenario(run: Run, scenario: Scenario, problems: PlanningProblemSet, road_file: str,
+def openscenario(run: Run, users: list[RoadUser], problems: PlanningProblemSet, road_file: str,
                  version: OpenScenarioVersion, description: str, friction: float) -> xosc.Scenario:
-    """The OpenSCENARIO scenario of ``run`` on the road network in ``road_file`` (a path relative
-    to the written .xosc)."""
+    """The OpenSCENARIO scenario of ``run`` and its road ``users`` on the road network in
+    ``road_file`` (a path relative to the written .xosc)."""
     minor = version.minor
     xosc.VersionBase().setVersion(1, minor)           # scenariogeneration's checks read a global version
-    users = road_users(run, scenario)
     entities, init = xosc.Entities(), xosc.Init()
     story = xosc.Story("replay")
     act = xosc.Act("as_driven", _at_start())
@@ -234,8 +233,12 @@ def openscenario(run: Run, scenario: Scenario, problems: PlanningProblemSet, roa
                          creation_date=datetime.datetime.now().replace(microsecond=0))
 
 
-def description(run: Run, notes: list[str]) -> str:
+def description(run: Run, users: list[RoadUser], notes: list[str]) -> str:
     """The file's description: what ran, and the settings OpenSCENARIO has no place for."""
+    late = [u.name for u in users if u.trajectory.t[0] > 1e-9]
+    if late:
+        notes = notes + [f"{len(late)} road user(s) recorded from a later time ({', '.join(late[:3])}"
+                         f"{', ...' if len(late) > 3 else ''}) stand at their first position until then"]
     backend = run.settings.get("backend") or {}
     cosim = run.settings.get("cosim") or {}
     noise = cosim.get("observation_noise") or {}

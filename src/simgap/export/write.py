@@ -129,7 +129,8 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
         if blueprint is None:
             result.notes.append("no blueprint beside the scenario: the road network is fitted")
         _check_road(roads, road_path, scenario.lanelet_network, result)
-        osc = openscenario(run, scenario, problems, road_path.name, version, description(run, result.notes),
+        users = road_users(run, scenario)
+        osc = openscenario(run, users, problems, road_path.name, version, description(run, users, result.notes),
                            surface.friction)
         osc_path = staged / f"{name}.xosc"
         osc.write_xml(str(osc_path))
@@ -137,7 +138,6 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
         if errors:
             raise checks.CheckFailed(f"{osc_path.name} does not validate against {result.schemas[osc_path.name]}: "
                                      f"{errors[0]}")
-        users = road_users(run, scenario)
         result.entities = len(users)
         result.trajectory_error_m = checks.trajectory_error(
             osc_path, {u.name: u.trajectory for u in users if not u.standing and len(u.trajectory) > 1})
