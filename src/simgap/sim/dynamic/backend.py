@@ -22,7 +22,7 @@ from pydantic import Field
 from simgap.control.protocol import Command
 from simgap.errors import InputError, validated_settings
 from simgap.sim.dynamic.plant import PLANTS, make_plant
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.settings import DRY_ROAD_FRICTION, RoadFriction, TrackingSettings
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
@@ -50,12 +50,19 @@ class SingleTrackWorld:
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._agents = list(agents)
+        self._dt = float(scenario.dt)
         self._plants = {a.id: make_plant(cfg.model, a.vehicle, cfg.params_id, cfg.road_friction, cfg.integration_step)
                         for a in agents}
         self._commands: dict[int, Command] = {}
 
     def reset(self, t0: float) -> None:
-        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents}
+        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents
+                        if enters_at(a, t0, self._dt)}
+        self._commands = {}
+
+    def enter(self, agent_id: int, t: float) -> None:
+        agent = next(a for a in self._agents if a.id == agent_id)
+        self._states[agent_id] = self._plants[agent_id].reset(agent.initial_state.replace(t=t))
 
     def begin_step(self, t: float) -> None:
         pass
@@ -68,11 +75,11 @@ class SingleTrackWorld:
 
     def advance(self, t: float, period: float) -> None:
         start = time.perf_counter()
-        for a in self._agents:
+        for aid, command in self._commands.items():
             try:
-                self._states[a.id] = self._plants[a.id].step(self._commands[a.id], period)
+                self._states[aid] = self._plants[aid].step(command, period)
             except FloatingPointError as exc:
-                raise PhysicsDiverged(f"agent {a.id}: {exc}") from None
+                raise PhysicsDiverged(f"agent {aid}: {exc}") from None
         self.timings["physics"] += time.perf_counter() - start
 
     def events(self) -> list[BackendEvent]:
