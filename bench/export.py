@@ -32,9 +32,9 @@ def main() -> None:
     parser.add_argument("--maps", type=int, default=None, help="export only the first N real maps")
     args = parser.parse_args()
     t0 = time.perf_counter()
-    for name in checks._SCHEMA_FILES.values():
-        checks._schema(name)
-    print(f"loading the {len(checks._SCHEMA_FILES)} XSD schemas: {time.perf_counter() - t0:.2f} s (once per process)\n")
+    for name in checks.SCHEMA_FILES.values():
+        checks.schema(name)
+    print(f"loading the {len(checks.SCHEMA_FILES)} XSD schemas: {time.perf_counter() - t0:.2f} s (once per process)\n")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         print("runs (ideal world) as OpenSCENARIO 1.0 + OpenDRIVE 1.7")

@@ -26,7 +26,7 @@ from simgap.export.opendrive import RoadNetwork
 from simgap.export.opendrive_sampling import sample_roads
 from simgap.trajectory import Trajectory
 
-_SCHEMA_FILES = {("OpenSCENARIO", 1, 0): "OpenSCENARIO_1_0.xsd", ("OpenSCENARIO", 1, 1): "OpenSCENARIO_1_1.xsd",
+SCHEMA_FILES = {("OpenSCENARIO", 1, 0): "OpenSCENARIO_1_0.xsd", ("OpenSCENARIO", 1, 1): "OpenSCENARIO_1_1.xsd",
                  ("OpenSCENARIO", 1, 2): "OpenSCENARIO_1_2.xsd", ("OpenSCENARIO", 1, 3): "OpenSCENARIO_1_3_1.xsd",
                  ("OpenDRIVE", 1, 7): "opendrive_17_core.xsd"}
 
@@ -45,7 +45,8 @@ def declared_version(path: str | Path) -> tuple[str, int, int]:
 
 
 @functools.cache
-def _schema(name: str) -> xmlschema.XMLSchema:
+def schema(name: str) -> xmlschema.XMLSchema:
+    """The XSD ``name`` as scenariogeneration installs it, loaded once per process."""
     files = importlib.metadata.files("scenariogeneration") or []
     found = next((f for f in files if f.name == name), None)
     if found is None:
@@ -56,10 +57,10 @@ def _schema(name: str) -> xmlschema.XMLSchema:
 def schema_errors(path: str | Path) -> tuple[str, list[str]]:
     """The schema a file is checked against (by the version it declares) and its errors."""
     version = declared_version(path)
-    if version not in _SCHEMA_FILES:
+    if version not in SCHEMA_FILES:
         raise CheckFailed(f"{path}: no schema for {version[0]} {version[1]}.{version[2]}")
-    name = _SCHEMA_FILES[version]
-    return name, [str(e.reason or e) for e in _schema(name).iter_errors(str(path))]
+    name = SCHEMA_FILES[version]
+    return name, [str(e.reason or e) for e in schema(name).iter_errors(str(path))]
 
 
 def _trajectories(path: str | Path) -> dict[str, list[tuple[float, float, float]]]:
