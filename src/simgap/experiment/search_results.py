@@ -11,11 +11,54 @@ from pathlib import Path
 from typing import Any
 
 from simgap.errors import InputError
+from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec
 from simgap.experiment.store import ResultsStore
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory
+
+
+@dataclass(frozen=True)
+class Violation:
+    """A distinct violated assumption: a candidate whose high-fidelity run failed and whose ideal
+    run passed — its search dimensions, the run's row (metrics included) and where it lies."""
+
+    strategy: str
+    candidate: int
+    parameters: dict[str, float]       # the logical scenario's parameters
+    knobs: dict[str, float]            # the reality knobs
+    vehicle: str
+    planner: str
+    reason: str                        # why the high-fidelity run failed, by the spec's failure rule
+    row: dict[str, Any]                # the high-fidelity run's store row
+    ideal_row: dict[str, Any]          # ... and the ideal run's, which passed
+    run_dir: Path                      # the high-fidelity run's directory
+    scenario_xml: Path | None          # the candidate's CommonRoad scenario
+
+    def facts(self, spec: SearchSpec) -> dict[str, Any]:
+        """What made it a violation, as plain data: the search dimensions (value and range), the
+        driver, why the high-fidelity run failed, and both runs' outcome and metrics."""
+        watched = list(RUN_METRICS) + [spec.objective, *spec.failure.above, *spec.failure.below] + [
+            "goals_reached", "max_road_excursion_m", "min_distance_m", "peak_lateral_acceleration", "peak_jerk"]
+
+        def run(row: dict[str, Any]) -> dict[str, Any]:
+            return {"fidelity": row.get("fidelity"), "outcome": row.get("outcome"),
+                    "metrics": {k: _plain(row[k]) for k in dict.fromkeys(watched) if k in row}}
+
+        values = {"param": self.parameters, "knob": self.knobs}
+        return {"search": spec.name, "logical": spec.logical, "strategy": self.strategy, "candidate": self.candidate,
+                "dimensions": [{"kind": kind, "name": name, "value": values[kind][name], "range": [low, high]}
+                               for kind, name, low, high in spec.dimensions if name in values[kind]],
+                "vehicle": self.vehicle, "planner": self.planner, "failure": self.reason,
+                "high_fidelity": run(self.row), "ideal": run(self.ideal_row)}
+
+
+def _plain(value: Any) -> Any:
+    """A store value as JSON has it (NaN as null)."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value.item() if hasattr(value, "item") else value
 
 
 @dataclass
@@ -31,6 +74,7 @@ class StrategyResult:
     wall_s: float = 0.0
     cpu_s: float = 0.0
     curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
+    found: list[Violation] = field(default_factory=list)            # the distinct violations, first found first
 
     @property
     def per_cpu_hour(self) -> float:
@@ -50,7 +94,7 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         res.runs += "ideal_of" not in r
         res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
         res.errors += r.get("status") != "ok"
-    found: list[tuple[float, tuple[float, ...], str]] = []
+    found: list[tuple[float, tuple[float, ...], str, int]] = []
     scenarios: set[tuple] = set()
     for index, runs in by_candidate.items():
         h = runs.get(high)
@@ -68,15 +112,24 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         scenarios.add((driver,) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
         when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
         unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, driver))
+        found.append((when, unit, driver, index))
     distinct: list[tuple[tuple[float, ...], str]] = []
-    for when, unit, driver in sorted(found):
+    for when, unit, driver, index in sorted(found):
         if all(d != driver or math.dist(unit, u) >= radius for u, d in distinct):
             distinct.append((unit, driver))
             res.curve.append((when, len(distinct)))
+            res.found.append(_violation(root, name, by_candidate[index][high], by_candidate[index][0]))
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)
     return res
+
+
+def _violation(root: Path, strategy: str, high: dict[str, Any], ideal: dict[str, Any]) -> Violation:
+    return Violation(
+        strategy, int(high["candidate"]), {k[6:]: float(v) for k, v in high.items() if k.startswith("param_")},
+        {k[5:]: float(v) for k, v in high.items() if k.startswith("knob_")}, str(high["vehicle"]),
+        str(high.get("planner") or DEFAULT_PLANNER), str(high.get("failure_reason") or ""), dict(high), dict(ideal),
+        root / str(high["run_dir"]), next(iter(sorted((root / "scenarios" / str(high["scenario"])).glob("*.xml"))), None))
 
 
 @dataclass

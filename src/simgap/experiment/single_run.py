@@ -14,7 +14,7 @@ from typing import Any, Callable, Mapping
 
 from simgap.cosim import CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
+from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.experiment.knobs import knob_value

@@ -22,7 +22,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
-from simgap.cosim.driven_scenario import AGENT_ID_OFFSET  # noqa: E402
+from simgap.export.driven_scenario import AGENT_ID_OFFSET  # noqa: E402
 from simgap.cosim.record import Run  # noqa: E402
 from simgap.report.scene2d import _draw, _load  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
