@@ -452,19 +452,23 @@ class FrenetPlanner:
     def _struck_from_behind(self, checked: list[CartesianBatch], start: _Start, traffic: TrafficPrediction,
                             leeway: _RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
         """When every plan within the limits and on the road meets traffic: the cheapest whose every
-        encounter is another road user running into the ego from behind (replayed traffic does not
-        brake for it, and braking would only bring it sooner), ``cycle.outcome`` saying so; None
-        when every plan meets someone the ego runs into (the planner fails, and says so)."""
+        encounter within the horizon is another road user running into the ego from behind
+        (replayed traffic does not brake for it, and braking would only bring it sooner; what the
+        stopping distance beyond the horizon would meet is not counted here), ``cycle.outcome``
+        saying so; None when every plan runs into someone (the planner fails, and says so)."""
         veh = self.vehicle
         r, hl, hw = veh.rear_axle_to_center, veh.length / 2, veh.width / 2
         no_traffic = TrafficPrediction(*(np.zeros((0, 1)),) * 3, np.zeros(0), np.zeros(0), np.zeros(0))
         for batch in checked:
             cx, cy = batch.x + r * np.cos(batch.yaw), batch.y + r * np.sin(batch.yaw)
             overlaps = traffic_overlaps(cx, cy, batch.yaw, hl, hw, traffic)
-            if overlaps is None:
-                continue
-            struck = struck_from_behind(cx, cy, batch.yaw, hl, traffic)
-            at_fault = (overlaps[:, 1:] & ~struck[:, 1:]).any(axis=(1, 2))
+            if overlaps is None:      # met only beyond the horizon (braking to a stop): nobody the ego hits
+                at_fault = np.zeros(len(cx), dtype=bool)
+            else:        # judged where each participant is met first (replayed, it drives on through the ego)
+                met, struck = overlaps[:, 1:], struck_from_behind(cx, cy, batch.yaw, hl, traffic)[:, 1:]
+                first = met.argmax(axis=1)                                  # (plans, participants)
+                struck_first = np.take_along_axis(struck, first[:, None, :], axis=1)[:, 0, :]
+                at_fault = (met.any(axis=1) & ~struck_first).any(axis=1)
             _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt)
             innocent = np.flatnonzero(self._feasible(batch) & on_road & ~at_fault)
             if len(innocent):
