@@ -21,7 +21,6 @@ import dataclasses
 import json
 import multiprocessing as mp
 import os
-import shutil
 import tempfile
 import time
 import traceback
@@ -31,6 +30,7 @@ from typing import Any, Callable
 
 from simgap.experiment.records import Job, JobContext, RunRow
 from simgap.experiment.store import WORKER_DIED
+from simgap.files import replace_directory
 
 OnResult = Callable[[Job, RunRow], None]
 JobSource = Callable[[], "Job | None"]
@@ -180,31 +180,22 @@ def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple
 
 
 def _receive_run(root: Path, job: Job, files: dict[str, bytes], scenario_path: str) -> None:
-    """Write the run directory a node sent back into ``root``, atomically (aside, then renamed);
+    """Write the run directory a node sent back into ``root``, atomically (aside, then swapped in);
     its ``run.json`` names the scenario file on this machine, as a local run's does."""
     from simgap.experiment.job import run_dir_of
 
     if not files:
         return
-    target = run_dir_of(root, job)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
+
+    def write(tmp: Path) -> None:
         for name, data in files.items():
             (tmp / name).parent.mkdir(parents=True, exist_ok=True)
             (tmp / name).write_bytes(data)
         meta = tmp / "run.json"
         if meta.exists():
             meta.write_text(json.dumps(json.loads(meta.read_text()) | {"scenario_path": scenario_path}, indent=2))
-        old = target.with_name(f".{target.name}.old")
-        if target.exists():
-            shutil.rmtree(old, ignore_errors=True)
-            os.replace(target, old)
-        os.replace(tmp, target)
-        shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+
+    replace_directory(run_dir_of(root, job), write)
 
 
 def _lost(exc: Exception) -> str:

@@ -18,7 +18,7 @@ from simgap.experiment.records import Job, JobContext, RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import ExperimentSpec, jobs, load_spec, vehicle_ref
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text
+from simgap.files import atomic_write_text, restore_directory
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -96,11 +96,14 @@ def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], d
 
 
 def clean_partial_runs(root: Path) -> None:
-    """Remove run directories a killed worker left half-built (they are never read)."""
+    """Remove run directories a killed writer left half-built (they are never read), and put back
+    a whole one it had set aside (`simgap.files.replace_directory`)."""
     runs = root / "runs"
     if runs.exists():
-        for tmp in runs.rglob(".*"):
-            if tmp.is_dir():
+        for tmp in sorted(runs.rglob(".*")):
+            if tmp.is_dir() and tmp.name.endswith(".old"):
+                restore_directory(tmp.with_name(tmp.name[1:-len(".old")]))
+            elif tmp.is_dir():
                 shutil.rmtree(tmp, ignore_errors=True)
 
 
