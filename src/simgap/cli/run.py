@@ -13,6 +13,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.main import app
+from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import CosimSettings, Outcome, Run
 from simgap.errors import InputError, validated
 from simgap.files import read_yaml_mapping
@@ -58,6 +59,8 @@ def run(
     traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
                                                "its recorded path by an IDM towards the vehicle ahead)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
+    overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
+                                   "backend, vehicle or planner)"),
 ) -> None:
     """Run a scenario and print a per-agent summary.
 
@@ -77,6 +80,7 @@ def run(
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim)))
+    check_run_out(out, request, overwrite)
     _execute(request, out, as_json)
 
 

@@ -23,6 +23,7 @@ from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 # colour-blind-safe (Okabe–Ito), distinguishable in grayscale by line style as well
 AGENT_COLOURS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9"]
 LINE_STYLES = ["-", "--", "-.", ":"]
+PICTURES = ("scene.png", "run.gif")          # what `render_run` writes (the GIF with its animation)
 
 
 def _load(run_dir: Path):
@@ -70,13 +71,13 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     rnd = MPRenderer(plot_limits=limits, figsize=size)
     _draw(rnd, scenario, problems, run, last,
           f"{run.scenario_id} — {run.backend}: driven paths, t = {last * run.dt:.1f} s")
-    png = out_dir / "scene.png"
+    png = out_dir / PICTURES[0]
     rnd.f.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(rnd.f)
     if not animation:
         return [png]
 
-    gif = out_dir / "run.gif"
+    gif = out_dir / PICTURES[1]
     frames = []
     for step in list(range(0, last, frame_every)) + [last]:
         rnd = MPRenderer(plot_limits=limits, figsize=(size[0] * 0.7, size[1] * 0.7))

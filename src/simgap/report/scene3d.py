@@ -31,6 +31,7 @@ from simgap.sim.protocol import Agent  # noqa: E402
 
 STILL = (1280, 720)
 ANIMATION = (640, 360)
+PICTURES = ("scene3d_chase.png", "scene3d_birdseye.png", "scene3d.gif", "side_by_side.png")   # what it writes
 
 
 def _replay_world(scenario, run: Run) -> World:
@@ -109,7 +110,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None = None, frame_
         chase = renderer.render().copy()
         renderer.update_scene(world.data, camera=_birdseye(world, run, step), scene_option=opt)
         birdseye = renderer.render().copy()
-    for name, image in (("scene3d_chase.png", chase), ("scene3d_birdseye.png", birdseye)):
+    for name, image in zip(PICTURES[:2], (chase, birdseye)):
         imageio.imwrite(out_dir / name, image)
         written.append(out_dir / name)
 
@@ -120,11 +121,11 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None = None, frame_
             _pose(world, run, k)
             renderer.update_scene(world.data, camera=_chase(world, run, k, first), scene_option=opt)
             frames.append(renderer.render().copy())
-    gif = out_dir / "scene3d.gif"
+    gif = out_dir / PICTURES[2]
     imageio.mimsave(gif, frames, duration=1000 * frame_every * run.dt, loop=0)
     written.append(gif)
 
-    written.append(_side_by_side(out_dir / "side_by_side.png", chase, scenario, problems, run, step))
+    written.append(_side_by_side(out_dir / PICTURES[3], chase, scenario, problems, run, step))
     return written
 
 

@@ -113,8 +113,11 @@ def figure(src: str, caption: str, zoom: bool = False, half: bool = False) -> st
     return f"<figure{cls}>{img}<figcaption>{html.escape(caption)}</figcaption></figure>"
 
 
+GENERATOR = "<meta name='generator' content='simgap'>"       # marks every page simgap writes
+
+
 def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
-    text = ("<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+    text = (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>{GENERATOR}"
             "<link rel='icon' href='data:,'>"
             f"<title>{html.escape(title)}</title><link rel='stylesheet' href='{root}report.css'></head><body>"
             f"<nav><a href='{root}index.html'>overview</a></nav><h1>{html.escape(title)}</h1>"
