@@ -17,7 +17,6 @@ from typing import Mapping, Sequence
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.traffic import TrafficMode
 from simgap.planning.idm_planner import desired_gap
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
@@ -82,9 +81,8 @@ def _path_vehicle(obstacle: RecordedObstacle) -> _PathVehicle | None:
 
 
 class IdmTraffic:
-    """Recorded vehicles driven by an IDM along their recorded paths (see the module docstring)."""
-
-    mode = TrafficMode.IDM
+    """Recorded vehicles driven by an IDM along their recorded paths (see the module docstring);
+    a `simgap.cosim.traffic.Traffic`."""
 
     def __init__(self, scenario: Scenario, parameters: IdmParameters | None = None):
         self.p = parameters or IdmParameters()

@@ -67,9 +67,7 @@ def non_agent_traffic(scenario: Scenario) -> list[TrafficParticipant]:
 
 
 class Traffic(Protocol):
-    """The non-agent traffic of one run."""
-
-    mode: TrafficMode
+    """The non-agent traffic of one run (`ReplayedTraffic`, or `simgap.cosim.idm.IdmTraffic`)."""
 
     def participants(self) -> Sequence[TrafficParticipant]:
         """Every obstacle as planners see it now: its size and predicted motion."""
@@ -83,8 +81,6 @@ class Traffic(Protocol):
 
 class ReplayedTraffic:
     """Every obstacle follows its recording."""
-
-    mode = TrafficMode.REPLAY
 
     def __init__(self, scenario: Scenario):
         self._participants = non_agent_traffic(scenario)

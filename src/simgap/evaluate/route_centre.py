@@ -13,7 +13,7 @@ from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad_route_planner.route_planner import RoutePlanner
 
-from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.scenario.road_frame import PathFrame
 
 
 def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[int]:
@@ -23,13 +23,13 @@ def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[in
     return list(min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
 
 
-def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> ReferencePath | None:
+def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame | None:
     ids = route_lanelets(network, problem)
     if not ids:
         return None
     parts = [network.find_lanelet_by_id(i).center_vertices for i in ids]
     xy = np.vstack([parts[0]] + [p[1:] for p in parts[1:]])
-    return ReferencePath(xy)
+    return PathFrame(xy)
 
 
 def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: dict[str, str],

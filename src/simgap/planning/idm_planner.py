@@ -32,11 +32,11 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.evaluate.frenet_frame import ReferencePath as Projection
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
 from simgap.planning.speed_profile import route_speeds
+from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import State, Trajectory, wrap_angle
 
 __all__ = ["IdmPlanner", "IdmSettings", "desired_gap"]
@@ -106,7 +106,7 @@ class IdmPlanner:
                                                   spacing=_PATH_SPACING_M, extension_back=reach,
                                                   extension_forward=reach)
         # projections need no fine spacing (1 m chords are within 2 cm of a 10 m radius)
-        self._projection = Projection(self.reference_path.xy[::_PROJECTION_STRIDE])
+        self._frame = PathFrame(self.reference_path.xy[::_PROJECTION_STRIDE])
         self.speed_profile, self.approach = route_speeds(self.reference_path, setup, s.cruise_m_s,
                                                          s.max_lateral_acceleration, s.comfortable_deceleration)
         self.stop_s = self.reference_path.route_s[1] if s.stop_at_route_end else math.inf
@@ -122,7 +122,7 @@ class IdmPlanner:
         dt = float(world.dt)
         n = max(1, int(round(self.settings.horizon_s / dt)))
         times = t + dt * np.arange(n + 1)
-        (s0,), (d0,) = self._projection.project(np.array([[observed.x, observed.y]]))
+        (s0,), (d0,) = self._frame.project(np.array([[observed.x, observed.y]]))
         s, v, a = self._longitudinal(float(s0), max(float(observed.v), 0.0), times, world, cycle)
         plan = self._trajectory(observed, float(d0), s, v, a, times, dt)
         cycle.seconds = time.perf_counter() - clock
@@ -178,7 +178,7 @@ class IdmPlanner:
         pred = predict_traffic(world.traffic, times, lambda x, y: (x, y), 0.0, 0.0)
         m = len(times)
         pts = np.column_stack([pred.x.ravel(), pred.y.ravel()])
-        s, d = self._projection.project(pts)
+        s, d = self._frame.project(pts)
         s, d = s.reshape(-1, m), d.reshape(-1, m)
         theta = np.interp(s, self.reference_path.s, self.reference_path.theta)
         rel = pred.yaw - theta

@@ -1,13 +1,21 @@
-"""Positions in the Frenet frame of a reference path: arc length s and signed lateral offset d
-(positive to the left of the path's direction)."""
+"""The road frame: where a point lies along a path — the Frenet frame of a polyline (a lane's
+centre line, a route's reference path): arc length s and signed lateral offset d (positive to the
+left of the path's direction).
+
+The one Frenet frame of the project below the planners, the controllers, the loop and the
+evaluation: the `idm` planner projects positions and traffic onto its route with it, the
+evaluation measures lateral displacement d(s) in it. (The Frenet planner's frame on the frenetix
+core, `simgap.planning.frenet_frame`, adds the core's local planning frame and rear-axle
+conversions for sampling.)"""
 
 from __future__ import annotations
 
 import numpy as np
 
 
-class ReferencePath:
-    """A polyline with cumulative arc length; projects points onto it."""
+class PathFrame:
+    """The Frenet frame of a polyline: its cumulative arc length, and the projection of points
+    onto it."""
 
     def __init__(self, xy: np.ndarray):
         xy = np.asarray(xy, dtype=float)
