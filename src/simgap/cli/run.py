@@ -14,14 +14,14 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
-from simgap.cosim import CosimSettings, Outcome, Run
+from simgap.cosim import REFERENCE, CosimSettings, Outcome, Run
 from simgap.errors import InputError, validated
 from simgap.files import read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
-from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.sim.registry import check_settings
+from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
     f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
@@ -31,13 +31,13 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
-    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking), dynamic (single-track model), "
+    backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
                                                   "port, home, driver, ...)"),
-    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
+    vehicle: str = typer.Option(DEFAULT_VEHICLE, help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
                                 "names or vehicle data files)"),
-    planner_vehicle: str = typer.Option(PLANNER_VEHICLE, help="the vehicle the planner assumes it drives"),
+    planner_vehicle: str = typer.Option(DEFAULT_VEHICLE, help="the vehicle the planner assumes it drives"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
     controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
@@ -86,10 +86,10 @@ def run(
 
 def _backend_settings(backend: str, backend_settings: dict, backend_config: Path | None) -> dict:
     """The options' backend settings over the ``--backend-config`` file's, checked against the backend."""
-    if backend_config is not None and backend == "ideal":
+    if backend_config is not None and backend == REFERENCE:
         raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
                          allowed="dynamic, mujoco, beamng")
-    if backend_settings and backend == "ideal":
+    if backend_settings and backend == REFERENCE:
         raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
                          allowed="dynamic, mujoco, beamng")

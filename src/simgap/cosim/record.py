@@ -26,6 +26,8 @@ import pyarrow.parquet as pq
 
 from simgap.errors import InputError
 from simgap.files import replace_directory
+from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.cosim.fidelity import Fidelity
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
@@ -126,6 +128,18 @@ class Run:
         if agent_id in self.vehicles:
             return self.vehicles[agent_id]
         return load_vehicle(next(a.vehicle for a in self.agents if a.id == agent_id))
+
+    @property
+    def fidelity(self) -> Fidelity:
+        """What produced the run: its backend, its agents' vehicles and its controller."""
+        vehicles = "+".join(sorted({a.vehicle for a in self.agents}))
+        return Fidelity(self.backend, vehicles, (self.settings.get("backend") or {}).get("controller"))
+
+    @property
+    def planner(self) -> str:
+        """The name of the planner (of every agent; per agent ``1=frenet,2=idm``) that drove it
+        (``frenet`` for runs recorded before planners were named)."""
+        return (self.settings.get("planner") or {}).get("name") or DEFAULT_PLANNER
 
     @property
     def fingerprint(self) -> str:

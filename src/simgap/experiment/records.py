@@ -19,9 +19,9 @@ import pyarrow as pa
 from simgap.cosim import CosimSettings, Fidelity, Outcome
 from simgap.errors import validated
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
+from simgap.vehicles import DEFAULT_VEHICLE
 
 Status = Literal["ok", "failed"]
-PLANNER_VEHICLE = "sedan"           # the vehicle the planner assumes it drives, unless a spec says another
 
 
 @dataclass(frozen=True)
@@ -188,7 +188,7 @@ class JobContext:
     root: Path
     cosim: CosimSettings
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
-    planner_vehicle: str = PLANNER_VEHICLE        # catalogue name or data file
+    planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
 
     def cosim_of(self, job: Job) -> CosimSettings:
         """The loop settings of ``job``: the shared ones, a section the job sets replaced by its own."""

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from simgap.cosim import CosimSettings, Fidelity
+from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.errors import InputError, validated
 from simgap.experiment.executors import make_executor
 from simgap.experiment.knobs import apply_knobs
@@ -75,7 +75,7 @@ def parse_budget(text: str) -> Budget:
 
 
 def _rung_name(rung: int, ladder_len: int) -> str:
-    return "ideal" if rung == 0 else "high" if rung == ladder_len - 1 else f"screen{rung}"
+    return REFERENCE if rung == 0 else "high" if rung == ladder_len - 1 else f"screen{rung}"
 
 
 class SharedIdealRuns:
@@ -208,7 +208,7 @@ class StrategyRun:
         settings, cosim = apply_knobs(rung.backend, c.knobs)
         settings = dict(rung.settings) | settings
         controller = None
-        if rung.backend != "ideal":
+        if rung.backend != REFERENCE:
             controller = settings.pop("controller", self.spec.controller)
             settings["controller"] = controller
         merged = dict(rung.cosim)
@@ -244,7 +244,7 @@ class StrategyRun:
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.candidates[index]
         name = _scenario_name(index)
-        key = JobId(name, Fidelity("ideal", c.vehicle), planner=c.planner, stage=_rung_name(0, len(self.spec.ladder))).key
+        key = JobId(name, Fidelity(REFERENCE, c.vehicle), planner=c.planner, stage=_rung_name(0, len(self.spec.ladder))).key
         row = dict(self.rows[(source, 0)]) | {"key": key,
                                                "scenario": name, "candidate": index, "ideal_of": source,
                                                "elapsed_s": self.elapsed()}

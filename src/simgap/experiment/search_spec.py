@@ -36,16 +36,16 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.cosim import Outcome
+from simgap.control import DEFAULT_CONTROLLER
+from simgap.cosim import REFERENCE, Outcome
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import check_knob
-from simgap.experiment.spec import (LEGACY_PLANNER_DESCRIPTION, PLANNER_VEHICLE, PLANNERS_DESCRIPTION,
-                                    builtin_or_file, check_backend, check_controller, check_parameter,
+from simgap.experiment.spec import (BatchSpec, builtin_or_file, check_backend, check_controller, check_parameter,
                                     check_vehicles, logical_of, planner_choices, read_spec, results_hash,
                                     results_relevant)
-from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
+from simgap.vehicles import DEFAULT_VEHICLE
 
 STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
 #: metrics a failure rule or an objective may name: the per-run metrics and the store's scalars
@@ -104,16 +104,11 @@ class FailureRule(BaseModel):
         return None
 
 
-class SearchSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
-    description: str = ""
-    logical: str
+class SearchSpec(BatchSpec):
     parameters: dict[str, Range] = Field(default_factory=dict)
     knobs: dict[str, Range] = Field(default_factory=dict)
-    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
-    controller: str = "pure_pursuit"
+    vehicles: list[str] = Field(default_factory=lambda: [DEFAULT_VEHICLE], min_length=1)
+    controller: str = DEFAULT_CONTROLLER
     ladder: list[Rung] = Field(min_length=2)
     failure: FailureRule = Field(default_factory=FailureRule)
     objective: str = "max_lateral_offset_m"
@@ -126,14 +121,6 @@ class SearchSpec(BaseModel):
         Field(default_factory=lambda: list(STRATEGIES), min_length=1)
     grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")
     lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
-    seed: int = 0
-    planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
-                                          description=PLANNERS_DESCRIPTION)
-    planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
-    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
-                                 "world drives it too")
-    cosim: dict[str, Any] = Field(default_factory=dict)
-    run_timeout_s: float = Field(300.0, gt=0)
 
     def results_hash(self) -> str:
         return results_hash(results_relevant(self, {"name", "description", "run_timeout_s", "strategies"}))
@@ -172,10 +159,10 @@ def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
     check_controller(spec.controller, path, "controller")
     for i, rung in enumerate(spec.ladder):
         check_backend(rung.backend, path, f"ladder.{i}", rung.settings)
-    if spec.ladder[0].backend != "ideal":
+    if spec.ladder[0].backend != REFERENCE:
         raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
-                         file=path, field="ladder.0.backend", allowed="ideal")
-    if any(r.backend == "ideal" for r in spec.ladder[1:]):
+                         file=path, field="ladder.0.backend", allowed=REFERENCE)
+    if any(r.backend == REFERENCE for r in spec.ladder[1:]):
         raise InputError("only the first rung is ideal", file=path, field="ladder", allowed="dynamic, mujoco")
     for where, names in (("objective", [spec.objective]), ("failure.above", list(spec.failure.above)),
                          ("failure.below", list(spec.failure.below))):

@@ -12,19 +12,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from simgap.cosim import CosimSettings, PlannerError, Run, not_started, simulate
+from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.scenario import load_scenario, read_metadata
 from simgap.sim.registry import make_backend
-from simgap.vehicles import load_vehicle
+from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
 
 VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
 
@@ -34,9 +33,9 @@ class RunRequest:
     """What to run: a scenario file in a backend, with vehicles, planners and loop settings."""
 
     scenario: Path
-    backend: str = "ideal"
-    vehicles: str | Mapping[int, str] = "sedan"
-    planner_vehicle: str = PLANNER_VEHICLE      # the vehicle the planner assumes it drives
+    backend: str = REFERENCE
+    vehicles: str | Mapping[int, str] = DEFAULT_VEHICLE
+    planner_vehicle: str = DEFAULT_VEHICLE      # the vehicle the planner assumes it drives
     backend_settings: dict[str, Any] = field(default_factory=dict)
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)

@@ -33,20 +33,20 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.control import controller_names
+from simgap.control import DEFAULT_CONTROLLER, controller_names
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.errors import InputError, validated
-from simgap.experiment.records import PLANNER_VEHICLE, Job, JobId
+from simgap.experiment.records import Job, JobId
 from simgap.experiment.samplers import sample
 from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.sim.registry import BACKENDS, backend_available, check_settings
-from simgap.vehicles import load_vehicle, vehicle_names
+from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle, vehicle_names
 
 
 # spec fields newer than stored results, and their defaults
-ADDED_FIELDS = {"planner_vehicle": PLANNER_VEHICLE, "planners": [PlannerChoice().model_dump()]}
+ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [PlannerChoice().model_dump()]}
 PLANNERS_DESCRIPTION = ("the planners every run is made with (each a dimension value): a name, module:Class, "
                         "path/to/file.py:Class (relative to the spec), or {planner, settings, label}")
 LEGACY_PLANNER_DESCRIPTION = "the frenet planner's settings (older specs; now: planners: [{planner: frenet, settings: ...}])"
@@ -92,29 +92,36 @@ class FidelitySpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     backend: str
-    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
-    controllers: list[str] = Field(default_factory=lambda: ["pure_pursuit"], min_length=1)
+    vehicles: list[str] = Field(default_factory=lambda: [DEFAULT_VEHICLE], min_length=1)
+    controllers: list[str] = Field(default_factory=lambda: [DEFAULT_CONTROLLER], min_length=1)
     settings: dict[str, Any] = Field(default_factory=dict, description="backend settings (physics_hz, ...)")
 
 
-class ExperimentSpec(BaseModel):
+class BatchSpec(BaseModel):
+    """What experiment and search specs share, each default written once: the name, the logical
+    scenario, the seed, the planners, the vehicle the planner assumes, the loop settings and the
+    per-run timeout."""
+
     model_config = ConfigDict(extra="forbid")
 
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
     description: str = ""
     logical: str
-    parameters: dict[str, ParameterRange] = Field(default_factory=dict)
-    sampler: SamplerSpec = Field(default_factory=SamplerSpec)
-    fidelities: list[FidelitySpec] = Field(min_length=1)
-    repeats: int = Field(1, ge=1, le=1000)
     seed: int = 0
     planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
                                           description=PLANNERS_DESCRIPTION)
     planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
-    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
+    planner_vehicle: str = Field(DEFAULT_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
                                  "world drives it too (a catalogue name or a data file beside the spec)")
     cosim: dict[str, Any] = Field(default_factory=dict)
     run_timeout_s: float = Field(600.0, gt=0, description="a run taking longer is stopped and recorded as failed")
+
+
+class ExperimentSpec(BatchSpec):
+    parameters: dict[str, ParameterRange] = Field(default_factory=dict)
+    sampler: SamplerSpec = Field(default_factory=SamplerSpec)
+    fidelities: list[FidelitySpec] = Field(min_length=1)
+    repeats: int = Field(1, ge=1, le=1000)
 
     def results_relevant(self) -> dict[str, Any]:
         return results_relevant(self, {"name", "description", "run_timeout_s"})

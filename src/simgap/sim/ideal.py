@@ -10,12 +10,12 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.sim.protocol import Agent, BackendEvent
+from simgap.sim.protocol import REFERENCE, Agent, BackendEvent
 from simgap.trajectory import State, Trajectory
 
 
 class IdealBackend:
-    name = "ideal"
+    name = REFERENCE
 
     def __init__(self) -> None:
         self._agents: list[Agent] = []

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from simgap.errors import InputError
-from simgap.sim.protocol import Backend
+from simgap.sim.protocol import REFERENCE, Backend
 
 
 def _lazy(target: str) -> Callable[..., Any]:
@@ -42,7 +42,7 @@ class BackendEntry:
 
 
 BACKENDS: dict[str, BackendEntry] = {
-    "ideal": BackendEntry(_lazy("simgap.sim.ideal:IdealBackend"), _no_settings, "simgap.sim.ideal"),
+    REFERENCE: BackendEntry(_lazy("simgap.sim.ideal:IdealBackend"), _no_settings, "simgap.sim.ideal"),
     "dynamic": BackendEntry(_lazy("simgap.sim.dynamic.backend:DynamicBackend"),
                             _lazy("simgap.sim.dynamic.backend:dynamic_settings"), "simgap.sim.dynamic.backend"),
     "mujoco": BackendEntry(_lazy("simgap.sim.mujoco.backend:MujocoBackend"),

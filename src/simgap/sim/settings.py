@@ -8,8 +8,8 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from simgap.control import controller_names
-from simgap.control.tracking import MIN_RATE_HZ
+from simgap.control import DEFAULT_CONTROLLER, controller_names
+from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
 
 MAX_ACTUATOR_DELAY_S = 1.0      # s: longer dead times are no actuator but a broken car
 DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
@@ -23,8 +23,8 @@ class TrackingSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    controller: str = Field("pure_pursuit", description="tracking controller: pure_pursuit, stanley, lqr")
-    controller_hz: float = Field(100.0, ge=MIN_RATE_HZ, description="controller rate [Hz]")
+    controller: str = Field(DEFAULT_CONTROLLER, description="tracking controller: pure_pursuit, stanley, lqr")
+    controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, description="controller rate [Hz]")
     controller_gains: dict[str, Any] = Field(default_factory=dict,
                                              description="gains over the controller's defaults and the vehicle's")
     steer_delay: ActuatorDelay = Field(0.0, description="steering actuator dead time [s]")

@@ -18,6 +18,8 @@ from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.vehicles.physics import VehiclePhysics
 
+DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
+
 
 class VehicleLimits(BaseModel):
     """Kinematic limits as CommonRoad's vehicle models state them (SI units)."""
