@@ -196,6 +196,16 @@ def test_search_refuses_bad_input_clearly(tmp_path, args, fragments):
     assert not (tmp_path / "s" / "search.json").exists()
 
 
+def test_a_bad_key_in_any_rung_of_a_search_is_refused_before_anything_runs(tmp_path):
+    spec = tmp_path / "bad.yaml"
+    spec.write_text("name: t\nlogical: curve\nparameters: {radius: {min: 10, max: 50}}\n"
+                    "ladder: [{backend: ideal}, {backend: dynamic}, {backend: mujoco, cosim: {replan_evry: 3}}]\n")
+    proc = simgap("search", str(spec), "--budget", "4", "--out", str(tmp_path / "s"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, "bad.yaml: field 'ladder.2.cosim.replan_evry'", "replan_every")
+    assert not (tmp_path / "s").exists()
+
+
 def test_vehicles_lists_the_catalogue_and_shows_one():
     proc = simgap("vehicles")
     assert proc.returncode == 0, proc.stderr

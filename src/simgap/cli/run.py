@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from pydantic import BaseModel
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -20,7 +21,7 @@ from simgap.files import read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
-from simgap.sim.registry import check_settings
+from simgap.sim.registry import backend_settings
 from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
@@ -70,12 +71,11 @@ def run(
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
-    backend_settings = _backend_settings(backend, {k: v for k, v in physical.items() if v is not None},
-                                         backend_config)
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_agent_map(vehicle),
                          planner_vehicle=planner_vehicle,
-                         backend_settings=backend_settings | knob_settings,
+                         backend_settings=_settings(backend, {k: v for k, v in physical.items() if v is not None},
+                                                    backend_config, knob_settings),
                          planner=parse_planners(planner, planner_config),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
@@ -84,20 +84,20 @@ def run(
     _execute(request, out, as_json)
 
 
-def _backend_settings(backend: str, backend_settings: dict, backend_config: Path | None) -> dict:
-    """The options' backend settings over the ``--backend-config`` file's, checked against the backend."""
+def _settings(backend: str, options: dict, backend_config: Path | None, knob_settings: dict) -> BaseModel:
+    """The backend's settings model: the options' settings over the ``--backend-config`` file's,
+    the knobs' over both, validated once."""
     if backend_config is not None and backend == REFERENCE:
         raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
                          allowed="dynamic, mujoco, beamng")
-    if backend_settings and backend == REFERENCE:
-        raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
+    if options and backend == REFERENCE:
+        raise InputError(f"--{next(iter(options)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
                          allowed="dynamic, mujoco, beamng")
     if backend_config is not None:
-        backend_settings = read_yaml_mapping(backend_config, "backend settings file",
-                                             "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
-    check_settings(backend, backend_settings, file=backend_config)
-    return backend_settings
+        options = read_yaml_mapping(backend_config, "backend settings file",
+                                    "setting: value, e.g. host: 10.0.0.5, port: 25252") | options
+    return backend_settings(backend, options | knob_settings, file=backend_config)
 
 
 def _execute(request: RunRequest, out: Path, as_json: bool) -> None:

@@ -54,7 +54,7 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
     run_dir = run_dir_of(context.root, job)
     scenario = job.scenario_path or (context.scenarios or {})[job.scenario]
     request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
-                         planner_vehicle=context.planner_vehicle, backend_settings=dict(job.backend_settings),
-                         planner=job.planner, cosim=context.cosim_of(job), seed=job.seed)
+                         planner_vehicle=context.planner_vehicle, backend_settings=job.backend_settings,
+                         planner=job.planner, cosim=job.cosim, seed=job.seed)
     run = execute(request, run_dir)
     return run_row(job, run, run_dir, context.root, time.perf_counter() - started)

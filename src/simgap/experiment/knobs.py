@@ -13,6 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+from pydantic import BaseModel
+
+from simgap.cosim import CosimSettings
 from simgap.errors import InputError
 from simgap.sim.settings import DRY_ROAD_FRICTION, MAX_ACTUATOR_DELAY_S
 
@@ -66,9 +69,13 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
     return k
 
 
-def knob_value(name: str, values: Mapping[str, Any]) -> float:
-    """The value of knob ``name`` in ``values`` (backend settings or knob values), else its default."""
-    return float(values.get(KNOBS[name].setting, KNOBS[name].default))
+def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float:
+    """The value of knob ``name`` in ``values`` (a backend's settings model, or knob values), else
+    its default."""
+    k = KNOBS[name]
+    if isinstance(values, BaseModel):
+        return float(getattr(values, k.setting, k.default))
+    return float(values.get(k.setting, k.default))
 
 
 def knob_table() -> str:
@@ -93,4 +100,18 @@ def apply_knobs(backend: str, values: Mapping[str, float]) -> tuple[dict[str, An
             cosim.setdefault(section, {})[field] = float(value)
         else:
             settings[knob.setting] = float(value)
+    return settings, cosim
+
+
+def with_knobs(backend: str, settings: BaseModel | None, cosim: CosimSettings,
+               values: Mapping[str, float]) -> tuple[BaseModel | None, CosimSettings]:
+    """``backend``'s settings and the loop's with the knob ``values`` put in (those that apply to
+    it). The values lie in the knobs' ranges, which are the settings models' own bounds, so the
+    models take them as they are."""
+    overrides, sections = apply_knobs(backend, values)
+    if overrides and settings is not None:
+        settings = settings.model_copy(update=overrides)
+    if sections:
+        cosim = cosim.model_copy(update={name: getattr(cosim, name).model_copy(update=fields)
+                                         for name, fields in sections.items()})
     return settings, cosim

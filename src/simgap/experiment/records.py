@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 import pyarrow as pa
+from pydantic import BaseModel
 
 from simgap.cosim import CosimSettings, Fidelity, Outcome
-from simgap.errors import validated
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.vehicles import DEFAULT_VEHICLE
 
@@ -67,8 +67,8 @@ class Job:
     id: JobId
     parameters: dict[str, float]                    # the scenario's parameters
     vehicle: str                                    # catalogue name or data file the vehicle is loaded from
-    backend_settings: dict[str, Any] = field(default_factory=dict)
-    cosim: dict[str, Any] = field(default_factory=dict)      # over the experiment's cosim settings
+    backend_settings: BaseModel | None = None       # the backend's settings model (None: its defaults)
+    cosim: CosimSettings = field(default_factory=CosimSettings)   # the loop's settings
     scenario_path: str | None = None                          # else the context's scenarios[scenario]
     planner: PlannerChoice = field(default_factory=PlannerChoice)   # of every agent; its name is id.planner
 
@@ -183,13 +183,8 @@ _SCALARS: dict[str, pa.DataType] = {
 @dataclass(frozen=True)
 class JobContext:
     """What every job of an experiment or a search shares: where it writes, the scenario file of
-    each scenario, and the loop settings (validated once, where the spec was read)."""
+    each scenario, and the vehicle the planner assumes."""
 
     root: Path
-    cosim: CosimSettings
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
-
-    def cosim_of(self, job: Job) -> CosimSettings:
-        """The loop settings of ``job``: the shared ones, a section the job sets replaced by its own."""
-        return validated(CosimSettings, self.cosim.model_dump() | job.cosim, prefix="cosim")

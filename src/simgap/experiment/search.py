@@ -30,21 +30,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from pydantic import BaseModel
+
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
-from simgap.errors import InputError, validated
+from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
-from simgap.experiment.knobs import apply_knobs
+from simgap.experiment.knobs import with_knobs
 from simgap.experiment.search_results import META, StrategyResult, summarise
-from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_spec
+from simgap.experiment.search_spec import STRATEGIES, Search, SearchSpec, load_search_spec
 from simgap.experiment.records import Job, JobContext, JobId, RunRow
 from simgap.experiment.runner import clean_partial_runs
 from simgap.experiment.single_run import software_versions
-from simgap.experiment.spec import planner_choices, vehicle_ref
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.strategies import Candidate, SearchSpace, Strategy, make_strategy
 from simgap.files import atomic_write_text
 from simgap.scenario import write_scenario
-from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
+from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.sim.registry import preflight
 from simgap.vehicles import load_vehicle
 
@@ -111,12 +112,12 @@ class SharedIdealRuns:
 class StrategyRun:
     """One strategy's search in ``root``: proposes jobs, records results, keeps the budget."""
 
-    def __init__(self, spec: SearchSpec, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget,
-                 planners: dict[str, PlannerChoice] | None = None):
-        self.spec, self.space, self.strategy, self.root, self.budget = spec, space, strategy, root, budget
-        self.planners = planners or {DEFAULT_PLANNER: PlannerChoice()}        # by name
+    def __init__(self, search: Search, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget):
+        self.search, self.spec = search, search.spec
+        self.space, self.strategy, self.root, self.budget = space, strategy, root, budget
+        self.planners = search.planners                                        # by name
         self.store = ResultsStore(root)
-        self.high = len(spec.ladder) - 1
+        self.high = len(self.spec.ladder) - 1
         self.candidates: dict[int, Candidate] = {}
         self.rows: dict[tuple[int, int], dict[str, Any]] = {}
         self.queue: list[tuple[int, int]] = []        # (candidate, rung) follow-ups
@@ -202,23 +203,15 @@ class StrategyRun:
             return str(existing[0])
         return str(write_scenario(self.space.logical.build(c.params), folder, preview=False))
 
-    def _run_settings(self, c: Candidate, rung_index: int) -> tuple[str | None, dict[str, Any], dict[str, Any]]:
-        """(controller, backend settings, cosim settings) of ``c`` in a rung."""
-        rung = self.spec.ladder[rung_index]
-        settings, cosim = apply_knobs(rung.backend, c.knobs)
-        settings = dict(rung.settings) | settings
-        controller = None
-        if rung.backend != REFERENCE:
-            controller = settings.pop("controller", self.spec.controller)
-            settings["controller"] = controller
-        merged = dict(rung.cosim)
-        for key, value in cosim.items():
-            merged[key] = dict(merged.get(key) or {}) | value
-        return controller, settings, merged
+    def _run_settings(self, c: Candidate, rung_index: int) -> tuple[BaseModel | None, CosimSettings]:
+        """(backend settings, loop settings) of ``c`` in a rung: the rung's with ``c``'s knobs."""
+        rung = self.search.rungs[rung_index]
+        return with_knobs(rung.backend, rung.settings, rung.cosim, c.knobs)
 
     def job(self, c: Candidate, rung_index: int) -> Job:
-        controller, settings, cosim = self._run_settings(c, rung_index)
-        fidelity = Fidelity(self.spec.ladder[rung_index].backend, load_vehicle(c.vehicle).name, controller)
+        rung = self.search.rungs[rung_index]
+        settings, cosim = self._run_settings(c, rung_index)
+        fidelity = Fidelity(rung.backend, load_vehicle(c.vehicle).name, rung.controller)
         job_id = JobId(_scenario_name(c.index), fidelity, seed=self.spec.seed + c.index, planner=c.planner,
                        stage=_rung_name(rung_index, len(self.spec.ladder)))
         return Job(job_id, c.params, c.vehicle, settings, cosim, self._scenario(c), self.planners[c.planner])
@@ -226,10 +219,11 @@ class StrategyRun:
     def _ideal_key(self, c: Candidate) -> str:
         """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
         planner, the rung's settings, and the seed only if that rung observes with noise."""
-        _, settings, cosim = self._run_settings(c, 0)
-        noisy = any(v for v in (cosim.get("observation_noise") or {}).values())
+        settings, cosim = self._run_settings(c, 0)
         driver = [c.vehicle] if c.planner == DEFAULT_PLANNER else [c.vehicle, c.planner]
-        return json.dumps([c.params, *driver, settings, cosim, self.spec.seed + c.index if noisy else None],
+        return json.dumps([c.params, *driver, settings.model_dump(mode="json") if settings is not None else None,
+                           cosim.model_dump(mode="json"),
+                           self.spec.seed + c.index if cosim.observation_noise.active else None],
                           sort_keys=True, default=str)
 
     def _settle_ideal(self, index: int) -> bool:
@@ -351,9 +345,10 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
-    spec, logical, path = load_search_spec(spec_ref)
-    for rung in spec.ladder:
-        preflight(rung.backend, dict(rung.settings))
+    search = load_search_spec(spec_ref)
+    spec = search.spec
+    for rung in search.rungs:
+        preflight(rung.backend, rung.settings)
     names = strategies or list(spec.strategies)
     for n in names:
         if n not in STRATEGIES:
@@ -361,16 +356,14 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     root = Path(root)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     _claim(root, spec)
-    planners = {c.name: c for c in planner_choices(spec, path)}
-    space = SearchSpace(spec, logical, [vehicle_ref(v, path) for v in spec.vehicles], list(planners))
-    cosim = validated(CosimSettings, spec.cosim)
+    space = SearchSpace(spec, search.logical, search.vehicles, list(search.planners))
     results = []
     for name in names:
         sroot = root / name
         sroot.mkdir(parents=True, exist_ok=True)
-        run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget, planners)
+        run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, budget)
         run.resume()
-        context = JobContext(sroot, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
+        context = JobContext(sroot, planner_vehicle=search.planner_vehicle)
 
         def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)

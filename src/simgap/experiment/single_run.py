@@ -12,17 +12,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from pydantic import BaseModel
+
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
-from simgap.experiment.knobs import knob_value
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.scenario import load_scenario, read_metadata
-from simgap.sim.registry import make_backend
+from simgap.sim.registry import backend_settings, make_backend
+from simgap.sim.settings import road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
 
 VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
@@ -30,16 +32,24 @@ VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
 
 @dataclass
 class RunRequest:
-    """What to run: a scenario file in a backend, with vehicles, planners and loop settings."""
+    """What to run: a scenario file in a backend, with vehicles, planners and loop settings.
+
+    ``backend_settings`` is the backend's settings model (`simgap.sim.registry.backend_settings`,
+    validated where they were read), which goes to the backend as it is; a mapping given here
+    (by a script) is validated into that model now, None means the backend's defaults."""
 
     scenario: Path
     backend: str = REFERENCE
     vehicles: str | Mapping[int, str] = DEFAULT_VEHICLE
     planner_vehicle: str = DEFAULT_VEHICLE      # the vehicle the planner assumes it drives
-    backend_settings: dict[str, Any] = field(default_factory=dict)
+    backend_settings: BaseModel | Mapping[str, Any] | None = None
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
     seed: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.backend_settings, BaseModel):
+            self.backend_settings = backend_settings(self.backend, self.backend_settings)
 
 
 def software_versions() -> dict[str, str]:
@@ -128,7 +138,7 @@ def execute(request: RunRequest, out: Path | None = None,
     if errors:
         run = not_started(scenario, request.backend, agents, errors, request.cosim)
     else:
-        backend = make_backend(request.backend, **request.backend_settings)
+        backend = make_backend(request.backend, request.backend_settings)
         run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
     for outcome in run.agents:
         outcome.planner = records[outcome.id]["name"]
@@ -140,9 +150,10 @@ def execute(request: RunRequest, out: Path | None = None,
     run.versions = software_versions()
     run.seed = request.seed
     run.vehicles = {a.id: a.vehicle for a in agents}
-    run.metrics = run_metrics(run, scenario, problems, knob_value("road_friction", request.backend_settings))
+    run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings))
     run.settings |= {"parameter_units": meta.get("units", {}),
-                     "planner": _planner_record(request.planner, records), "backend": request.backend_settings,
+                     "planner": _planner_record(request.planner, records),
+                     "backend": request.backend_settings.model_dump(mode="json"),
                      "planner_vehicle": request.planner_vehicle}
     if out is not None:
         t0 = time.perf_counter()

@@ -17,7 +17,8 @@ from simgap.trajectory import State, Trajectory
 class IdealBackend:
     name = REFERENCE
 
-    def __init__(self) -> None:
+    def __init__(self, settings: object = None) -> None:
+        """``settings``: the registry's `NoSettings` (the ideal world takes none)."""
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
         self._dt = 0.1

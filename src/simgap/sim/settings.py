@@ -1,6 +1,6 @@
 """Settings every physics backend shares, each bound and default written once: the tracking
 (controller, its rate and gains, actuator delays) and the road's friction. A backend's own
-settings model extends `TrackingSettings`; a world with a road surface adds `RoadFriction`."""
+settings model extends `TrackingSettings`; a world with a road surface extends `RoadSurface`."""
 
 from __future__ import annotations
 
@@ -16,6 +16,20 @@ DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal w
 
 ActuatorDelay = Annotated[float, Field(ge=0.0, le=MAX_ACTUATOR_DELAY_S)]
 RoadFriction = Annotated[float, Field(gt=0.0, le=1.5, description="scales each tyre's friction [-]")]
+
+
+class RoadSurface(BaseModel):
+    """The settings of a world with a road surface: its friction."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    road_friction: RoadFriction = DRY_ROAD_FRICTION
+
+
+def road_friction(settings: BaseModel | None) -> float:
+    """The friction of a world's road: its setting, or the dry road of a world without one (the
+    ideal world's assumption)."""
+    return settings.road_friction if isinstance(settings, RoadSurface) else DRY_ROAD_FRICTION
 
 
 class TrackingSettings(BaseModel):
@@ -36,8 +50,3 @@ class TrackingSettings(BaseModel):
         if name not in controller_names():
             raise ValueError(f"unknown controller '{name}'; known: {', '.join(controller_names())}")
         return name
-
-
-def fields_of(model: type[BaseModel], values: dict[str, Any]) -> dict[str, Any]:
-    """The entries of ``values`` that are fields of ``model``."""
-    return {k: v for k, v in values.items() if k in model.model_fields}

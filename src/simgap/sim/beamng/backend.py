@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Callable, Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -229,8 +229,9 @@ class BeamngBackend(TrackedBackend):
     """The ``beamng`` backend: `BeamngWorld` under simgap's tracking controllers, or with each car
     driven by BeamNG's script AI on its plan's waypoints (``driver: script_ai``)."""
 
-    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
-        self.settings = load_settings(settings)
+    def __init__(self, settings: BeamngSettings | None = None,
+                 session_factory: Callable[[BeamngSettings], Session] | None = None):
+        self.settings = settings or load_settings({})
         super().__init__("beamng", BeamngWorld(self.settings, session_factory or BeamngSession), self.settings)
         self._scripted: dict[int, Trajectory] = {}
 

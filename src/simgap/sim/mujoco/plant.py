@@ -9,7 +9,9 @@ from typing import Any
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
+from simgap.errors import validated_settings
 from simgap.sim.mujoco.backend import MujocoPhysics
+from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle
@@ -30,7 +32,7 @@ class MujocoPlant:
 
     def __init__(self, vehicle: Vehicle, **world: Any):
         self.vehicle = vehicle
-        self.physics = MujocoPhysics(**world)
+        self.physics = MujocoPhysics(validated_settings(WorldSettings, world))
         self._scenario = proving_ground()
         self._t = 0.0
 
