@@ -15,7 +15,7 @@ MAX_ACTUATOR_DELAY_S = 1.0      # s: longer dead times are no actuator but a bro
 DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
 
 ActuatorDelay = Annotated[float, Field(ge=0.0, le=MAX_ACTUATOR_DELAY_S)]
-RoadFriction = Annotated[float, Field(gt=0.0, le=1.5, description="scales each tyre's friction [-]")]
+RoadFriction = Annotated[float, Field(ge=0.1, le=1.5, description="scales each tyre's friction [-]")]
 
 
 class RoadSurface(BaseModel):
