@@ -21,7 +21,8 @@ from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_sear
 from simgap.experiment.search_results import search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.strategies import SearchSpace, make_strategy
+from simgap.experiment.search_space import SearchSpace
+from simgap.experiment.strategies import make_strategy
 from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
@@ -116,7 +117,7 @@ def search_planted(tmp_path, name, seed, runs):
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy(name, space, spec),
                       tmp_path / f"{name}-{seed}", Budget(runs=runs))
-    run._scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
         run.on_result(job, planted_row(job))
@@ -164,7 +165,7 @@ def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), root,
                       Budget(runs=runs))
-    run._scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c: "unused.xml"
     run.resume()
     return run
 

@@ -10,14 +10,16 @@ A job's key — ``scenario/fidelity`` (``/PLANNER`` unless the planner is the de
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Mapping
 
 import pyarrow as pa
 from pydantic import BaseModel
 
 from simgap.cosim import CosimSettings, Fidelity, Outcome
+from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.vehicles import DEFAULT_VEHICLE
 
@@ -57,7 +59,21 @@ class JobId:
         return {"key": self.key, "scenario": self.scenario, "fidelity": self.fidelity.label,
                 "backend": self.fidelity.backend, "vehicle": self.fidelity.vehicle,
                 "controller": self.fidelity.controller or "", "planner": self.planner,
-                "repeat": self.repeat or 0, "seed": self.seed}
+                "repeat": self.repeat or 0, "seed": self.seed, "stage": self.stage or ""}
+
+    @classmethod
+    def from_columns(cls, cols: Mapping[str, Any]) -> "JobId":
+        """The identity of a stored row (the inverse of `columns`). Rows written before the
+        ``stage`` column name their stage, and a repeat 0, in their key only: read from it there."""
+        fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None)
+        key = str(cols["key"])
+        repeat = int(cols.get("repeat") or 0)
+        stage = cols.get("stage")
+        if stage is None:                       # a row from before the stage column
+            named = key.split("/")[1] if key.count("/") else ""
+            stage = named if named and named != fidelity.label else None
+        return cls(cols["scenario"], fidelity, repeat if repeat or key.endswith("/r0") else None,
+                   int(cols.get("seed") or 0), cols.get("planner") or DEFAULT_PLANNER, stage or None)
 
 
 @dataclass(frozen=True)
@@ -142,6 +158,31 @@ class RunRow:
     def with_columns(self, **extra: Any) -> "RunRow":
         return replace(self, extra=self.extra | extra)
 
+    def value(self, name: str) -> float:
+        """A scalar or a run metric by name (what failure rules and objectives name); NaN when the
+        run has none."""
+        if name in self.metrics:
+            v = self.metrics[name]
+        else:
+            v = getattr(self, name) if name in _SCALARS else self.extra.get(name)
+        return math.nan if v is None else float(v)
+
+    @classmethod
+    def from_columns(cls, cols: Mapping[str, Any]) -> "RunRow":
+        """A row as the store holds it, typed again (the inverse of `columns`): identity, the
+        parameters, the scalars, metrics, timings and versions; every other column in ``extra``."""
+        rest = {k: v for k, v in cols.items() if k not in _ID_COLUMNS}
+        parameters = {k[len("param_"):]: rest.pop(k) for k in list(rest) if k.startswith("param_")}
+        metrics = {k: rest.pop(k) for k in list(rest) if k in RUN_METRICS}
+        timings = {k[len("time_"):-len("_s")]: rest.pop(k) for k in list(rest)
+                   if k.startswith("time_") and k.endswith("_s")}
+        versions = {k[len("version_"):]: rest.pop(k) for k in list(rest) if k.startswith("version_")}
+        scalars = {k: rest.pop(k) for k in list(rest) if k in _SCALARS}
+        if scalars.get("outcome"):
+            scalars["outcome"] = Outcome(scalars["outcome"])
+        return cls(JobId.from_columns(cols), parameters, cols["vehicle"], metrics=metrics, timings=timings,
+                   versions=versions, extra=rest, **scalars)
+
     def columns(self) -> dict[str, Any]:
         """The row as the store writes it (one flat mapping of column to value)."""
         cols = self.id.columns() | {"vehicle": self.vehicle}
@@ -161,7 +202,7 @@ class RunRow:
         cols = self.columns()
         types = {"key": pa.string(), "scenario": pa.string(), "fidelity": pa.string(), "backend": pa.string(),
                  "vehicle": pa.string(), "controller": pa.string(), "planner": pa.string(),
-                 "repeat": pa.int64(), "seed": pa.int64()} | _SCALARS
+                 "repeat": pa.int64(), "seed": pa.int64(), "stage": pa.string()} | _SCALARS
         types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_")) or k in self.metrics}
         types |= {k: pa.string() for k in cols if k.startswith("version_")}
         inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra else None
@@ -178,6 +219,7 @@ def _arrow_type(annotation: str) -> pa.DataType:
 _SCALARS: dict[str, pa.DataType] = {
     f.name: _arrow_type(str(f.type)) for f in fields(RunRow)
     if f.name not in ("id", "parameters", "vehicle", "metrics", "timings", "versions", "extra")}
+_ID_COLUMNS = ("key", "scenario", "fidelity", "backend", "vehicle", "controller", "planner", "repeat", "seed", "stage")
 
 
 @dataclass(frozen=True)

@@ -8,11 +8,10 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from simgap.errors import InputError
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec
-from simgap.experiment.store import ResultsStore
+from simgap.experiment.search_rows import SearchRow, read_search_rows
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory
@@ -39,36 +38,33 @@ class StrategyResult:
 
 def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
     """What a strategy found, from its store alone."""
-    store = ResultsStore(root)
-    rows = sorted(store.rows(), key=lambda r: r.get("elapsed_s", 0.0)) if store.rows_dir.exists() else []
+    rows = read_search_rows(root)
     high, res = ladder_len - 1, StrategyResult(name)
     budget = root / "budget.json"
     res.wall_s = json.loads(budget.read_text()).get("spent_s", 0.0) if budget.exists() else 0.0
-    by_candidate: dict[int, dict[int, dict]] = {}
+    by_candidate: dict[int, dict[int, SearchRow]] = {}
     for r in rows:
-        by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-        res.runs += "ideal_of" not in r
-        res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
-        res.errors += r.get("status") != "ok"
+        by_candidate.setdefault(r.candidate, {})[r.rung] = r
+        res.runs += r.ideal_of is None
+        res.cpu_s += float(r.run.job_time_s or r.run.wall_time_s or 0.0)
+        res.errors += not r.ok
     found: list[tuple[float, tuple[float, ...], str]] = []
     scenarios: set[tuple] = set()
     for index, runs in by_candidate.items():
         h = runs.get(high)
-        if h is None or h.get("status") != "ok":
+        if h is None or not h.ok:
             continue
         res.high_runs += 1
-        if not h.get("failed"):
+        if not h.failed:
             continue
         res.high_failures += 1
         ideal = runs.get(0)
-        if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
+        if ideal is None or not ideal.ok or ideal.failed:
             continue
         res.violations += 1
-        driver = f"{h['vehicle']}|{h.get('planner') or DEFAULT_PLANNER}"
-        scenarios.add((driver,) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
-        when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
-        unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, driver))
+        driver = f"{h.run.vehicle}|{h.run.id.planner or DEFAULT_PLANNER}"
+        scenarios.add((driver,) + tuple(sorted(h.run.parameters.items())))
+        found.append((max(h.elapsed_s, ideal.elapsed_s), h.unit, driver))
     distinct: list[tuple[tuple[float, ...], str]] = []
     for when, unit, driver in sorted(found):
         if all(d != driver or math.dist(unit, u) >= radius for u, d in distinct):
@@ -77,6 +73,16 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)
     return res
+
+
+@dataclass(frozen=True)
+class HighRun:
+    """A finished high-fidelity run of a search, with its ideal verdict: ``violation`` — it failed
+    and its ideal run passed; ``ideal_failed`` — its ideal run failed too."""
+
+    row: SearchRow
+    violation: bool
+    ideal_failed: bool
 
 
 @dataclass
@@ -88,7 +94,7 @@ class SearchResults:
     root: Path
     spec: SearchSpec
     strategies: list[StrategyResult]
-    high_rows: dict[str, list[dict[str, Any]]]
+    high_rows: dict[str, list[HighRun]]
 
 def search_results(root: Path) -> SearchResults:
     """The spec, each strategy's summary and its high-fidelity runs, of a search directory."""
@@ -100,17 +106,16 @@ def search_results(root: Path) -> SearchResults:
     names = [n for n in STRATEGIES if (root / n / "store" / "rows").exists()]
     high = len(spec.ladder) - 1
     return SearchResults(root, spec, [summarise(root / n, n, len(spec.ladder), spec.distinct_radius) for n in names],
-                         {n: _high_rows(ResultsStore(root / n).rows(), high) for n in names})
+                         {n: _high_runs(read_search_rows(root / n), high) for n in names})
 
 
-def _high_rows(rows: list[dict[str, Any]], high: int) -> list[dict[str, Any]]:
-    """The finished high-fidelity runs of a strategy, each marked with its ideal verdict."""
-    ideal = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 0}
+def _high_runs(rows: list[SearchRow], high: int) -> list[HighRun]:
+    """The finished high-fidelity runs of a strategy, each with its ideal verdict."""
+    ideal = {r.candidate: r for r in rows if r.rung == 0}
     out = []
     for r in rows:
-        if int(r["rung"]) == high and r.get("status") == "ok":
-            i = ideal.get(int(r["candidate"]))
-            ideal_ok = i is not None and i.get("status") == "ok"
-            out.append(dict(r) | {"violation": bool(r.get("failed")) and ideal_ok and not i.get("failed"),
-                                  "ideal_failed": ideal_ok and bool(i.get("failed"))})
+        if r.rung == high and r.ok:
+            i = ideal.get(r.candidate)
+            ideal_ok = i is not None and i.ok
+            out.append(HighRun(r, r.failed and ideal_ok and not i.failed, ideal_ok and i.failed))
     return out
