@@ -62,9 +62,11 @@ def start_conflicts(xml: Path) -> dict[int, str]:
     from simgap.cosim.agents import agents_from_problems
     from simgap.cosim.traffic import DrivableArea, ReplayedTraffic, footprint
     from simgap.scenario import load_scenario
+    from simgap.scenario.obstacles import without_recorded_egos
     from simgap.vehicles import load_vehicle
 
     scenario, problems = load_scenario(xml)
+    scenario, _ = without_recorded_egos(scenario, problems)     # as a run leaves them out
     dt = float(scenario.dt)
     agents = agents_from_problems(problems, dt, load_vehicle("sedan"))
     road = DrivableArea(scenario.lanelet_network, CosimSettings().offroad_tolerance)

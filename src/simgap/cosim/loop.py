@@ -207,7 +207,7 @@ class _CoSimulation:
             failure = f"physics diverged: {exc}"
             for p in self.progress_of.values():
                 if p.active:
-                    self._finish(p, Outcome.DIVERGED, p.driven[-1], str(exc))
+                    self._finish(p, Outcome.DIVERGED, p.driven[-1] if p.driven else p.agent.initial_state, str(exc))
         finally:
             backend_timings = dict(self.backend.timings)
             backend_notes = list(self.backend.notes)
@@ -230,8 +230,8 @@ class _CoSimulation:
         t = step * self.dt
         clock = time.perf_counter()
         snapshot = _traffic_snapshot(self.progress_of, states, self.dt)   # every agent plans from it
-        for p in self.progress_of.values():
-            self._plan(p, states[p.agent.id], t, snapshot)
+        for aid, state in states.items():          # agents that have entered the world
+            self._plan(self.progress_of[aid], state, t, snapshot)
         self.timings["planning"] += time.perf_counter() - clock
         clock = time.perf_counter()
         states = self.backend.step({aid: p.plan for aid, p in self.progress_of.items()})
@@ -241,7 +241,7 @@ class _CoSimulation:
         for aid, st in states.items():
             if self.progress_of[aid].active:      # a finished agent's record ends where it finished
                 self.progress_of[aid].driven.append(st)
-        self._monitor(states)
+        self._monitor(states, t + self.dt)
         self.timings["monitoring"] += time.perf_counter() - clock
         return states
 
@@ -304,18 +304,18 @@ class _CoSimulation:
             p.time_to_goal = state.t
         self.events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
 
-    def _monitor(self, states: Mapping[int, State]) -> None:
-        """Collision, road departure, goal and deadline of every agent still in the scene."""
+    def _monitor(self, states: Mapping[int, State], t: float) -> None:
+        """Collision, road departure, goal and deadline of every agent in the scene at ``t``."""
         progress_of = self.progress_of
         shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
                   for aid, st in states.items()}
-        present = [aid for aid, p in progress_of.items() if p.outcome != Outcome.GOAL_REACHED]
-        t = next(iter(states.values())).t
+        present = [aid for aid in states if progress_of[aid].outcome != Outcome.GOAL_REACHED]
         obstacle_shapes = {oid: footprint(st, length, width)
                            for oid, (st, length, width) in self.traffic.poses(t).items()}
         contacts = {}
-        for ev in self.backend.events():
-            if ev.kind == "collision":
+        for ev in self.backend.events():       # a car that reached its goal has left the scenario
+            gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
+            if ev.kind == "collision" and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
         for aid in present:
             p = progress_of[aid]
@@ -343,7 +343,7 @@ class _CoSimulation:
         dt = self.dt
         outcomes = []
         for aid, p in self.progress_of.items():
-            driven = Trajectory.from_states(p.driven, dt)
+            driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
             outcomes.append(AgentOutcome(
                 id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
                 time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
@@ -354,7 +354,8 @@ class _CoSimulation:
         settings = {"cosim": self.settings.model_dump(mode="json")}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
-            driven={aid: Trajectory.from_states(p.driven, dt) for aid, p in self.progress_of.items()},
+            driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
+                    for aid, p in self.progress_of.items()},
             plans={aid: p.plans for aid, p in self.progress_of.items()},
             events=self.events, timings=self.timings, wall_time_s=wall_time,
             settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
@@ -381,8 +382,8 @@ def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping
     """
     snapshot = {}
     for aid, p in progress_of.items():
-        if p.outcome == Outcome.GOAL_REACHED:
-            continue
+        if p.outcome == Outcome.GOAL_REACHED or (p.plan is None and aid not in states):
+            continue         # left the scenario, or not entered yet
         prediction = p.plan if p.plan is not None else Trajectory.from_states([states[aid]], dt)
         snapshot[aid] = TrafficParticipant(aid, p.agent.vehicle.length, p.agent.vehicle.width, prediction)
     return snapshot

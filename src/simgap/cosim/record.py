@@ -94,6 +94,8 @@ class AgentOutcome:
     planning_p95_s: float | None = None
     planning_max_s: float | None = None
     planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
+    recorded_as: int | None = None              # the recorded road user this agent replaces (its own
+                                                # recording in the file, left out of the traffic)
 
     def __post_init__(self) -> None:
         self.outcome = Outcome(self.outcome)          # as read back from run.json

@@ -23,6 +23,7 @@ from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
@@ -117,6 +118,7 @@ def execute(request: RunRequest, out: Path | None = None,
             progress: Callable[[float], None] | None = None) -> Run:
     """Run ``request``; write the run directory to ``out`` when given."""
     scenario, problems = load_scenario(request.scenario)
+    scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
     if isinstance(request.vehicles, str):
         vehicles: Any = load_vehicle(request.vehicles)
@@ -142,6 +144,7 @@ def execute(request: RunRequest, out: Path | None = None,
         run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
     for outcome in run.agents:
         outcome.planner = records[outcome.id]["name"]
+        outcome.recorded_as = recorded_egos.get(outcome.id)
     meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)

@@ -63,7 +63,7 @@ from simgap.planning.sampling import (
     steps_in_horizon,
 )
 from simgap.planning.settings import FrenetSettings
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
+from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -224,7 +224,7 @@ class FrenetPlanner:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
             self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
-                                          self.settings.speed.comfortable_deceleration)
+                                          self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------
@@ -319,7 +319,7 @@ class FrenetPlanner:
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
         approach = self._approach_for(dt)
-        desired = min(self.speed_profile.desired_speed(s_ref, lookahead), approach.speed_cap(s_ref, t, v))
+        desired = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
         cycle.desired_speed = desired
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
         return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,

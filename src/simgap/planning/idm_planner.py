@@ -36,7 +36,7 @@ from simgap.planning.car_following import IdmParameters
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
-from simgap.planning.speed_profile import route_speeds
+from simgap.planning.speed_profile import desired_speed, route_speeds
 from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -149,7 +149,7 @@ class IdmPlanner:
 
     def _desired_speed(self, s: float, t: float, v: float) -> float:
         lookahead = max(v, 1.0) * self.settings.lookahead_s
-        return min(self.speed_profile.desired_speed(s, lookahead), self.approach.speed_cap(s, t, v))
+        return desired_speed(self.speed_profile, self.approach, s, t, v, lookahead)
 
     def _acceleration(self, v: float, desired: float, gap: float, v_lead: float) -> float:
         """The IDM: a [1 - (v / v0)^delta - (s* / s)^2], s* = s0 + max(0, v T + v dv / (2 sqrt(a b)))."""

@@ -21,7 +21,7 @@ from simgap.control import make_controller
 from simgap.control.delay import with_actuator_delay
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
-from simgap.sim.protocol import Agent, BackendEvent
+from simgap.sim.protocol import Agent, BackendEvent, enters_at
 from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import State, Trajectory
 
@@ -34,7 +34,12 @@ class Plant(Protocol):
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
 
     def reset(self, t0: float) -> None:
-        """Put every agent at its initial state; the clock starts at ``t0``."""
+        """Put every agent that is present at ``t0`` at its initial state and keep the others out of
+        the world until they `enter`; the clock starts at ``t0``."""
+        ...
+
+    def enter(self, agent_id: int, t: float) -> None:
+        """Put an agent that was out of the world at its initial state (its time ``t`` has come)."""
         ...
 
     def begin_step(self, t: float) -> None:
@@ -68,8 +73,8 @@ class TrackedBackend:
         self.notes = plant.notes
         self._agents: list[Agent] = []
         self._dt = 0.1
-        self._t0 = 0.0
         self._step = 0
+        self._present: list[Agent] = []
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
@@ -93,30 +98,42 @@ class TrackedBackend:
                                    t.steer_delay, t.pedal_delay)
 
     def reset(self) -> dict[int, State]:
-        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
         self._step = 0
-        self.plant.reset(self._t0)
-        states = {a.id: self.plant.measure(a.id, self._t0) for a in self._agents}
-        for aid, controller in self._controllers.items():
-            controller.reset(states[aid])
+        self.plant.reset(0.0)
+        self._present = [a for a in self._agents if enters_at(a, 0.0, self._dt)]
+        states = {a.id: self.plant.measure(a.id, 0.0) for a in self._present}
+        for aid, state in states.items():
+            if aid in self._controllers:
+                self._controllers[aid].reset(state)
         return states
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
         plant, timings = self.plant, self.timings
         ticks = self._ticks
         period = self._dt / ticks
-        t0 = self._t0 + self._step * self._dt
+        t0 = self._step * self._dt
         plant.begin_step(t0)
+        driving = [(a.id, self._controllers[a.id]) for a in self._present if a.id in self._controllers]
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for aid, controller in self._controllers.items():
+            for aid, controller in driving:
                 plant.actuate(aid, controller.command(plant.measure(aid, t), plans[aid], t), period)
             timings["control"] += time.perf_counter() - start
             plant.advance(t, period)
         self._step += 1
-        t_end = t0 + self._dt
-        return {a.id: plant.measure(a.id, t_end) for a in self._agents}
+        t_end = self._step * self._dt
+        self._enter_at(t_end)
+        return {a.id: plant.measure(a.id, t_end) for a in self._present}
+
+    def _enter_at(self, t: float) -> None:
+        """Agents whose initial time is ``t`` enter the world now."""
+        for a in self._agents:
+            if a not in self._present and enters_at(a, t, self._dt):
+                self.plant.enter(a.id, t)
+                self._present.append(a)
+                if a.id in self._controllers:
+                    self._controllers[a.id].reset(self.plant.measure(a.id, t))
 
     def events(self) -> list[BackendEvent]:
         return self.plant.events()

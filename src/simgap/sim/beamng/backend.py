@@ -41,7 +41,7 @@ from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State, Trajectory
@@ -71,6 +71,11 @@ class BeamngWorld:
                              f"{cfg.physics_hz} Hz", field="backend_settings.physics_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
         self._steps_per_tick = steps_per_tick(cfg.physics_hz, cfg.controller_hz, "backend_settings.controller_hz")
+        late = [a for a in agents if not enters_at(a, 0.0, self._dt)]
+        if late:
+            raise InputError(f"agent {late[0].id} enters at t = {late[0].initial_state.t:g} s; the beamng backend "
+                             "spawns every car at the start", field="planning problem initial time step",
+                             allowed="0 for every planning problem (mujoco, dynamic and ideal take later ones)")
         self._models = {a.id: model_for(a.vehicle.name, cfg.vehicle_models, cfg.steer_locks) for a in agents}
         self._traffic = recorded_obstacles(scenario)
         traffic_model = model_for("traffic", {"traffic": "etk800"} | cfg.vehicle_models, cfg.steer_locks)
@@ -248,7 +253,7 @@ class BeamngBackend(TrackedBackend):
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
         if self.settings.driver == "script_ai":        # a replanned plan goes to the script AI at once
-            now = self._t0 + self._step * self._dt
+            now = self._step * self._dt
             for a in self._agents:
                 if self._scripted.get(a.id) is not plans[a.id]:
                     self.plant.follow(a.id, plans[a.id], now)

@@ -21,7 +21,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.control.protocol import Command
 from simgap.sim.dynamic.plant import PLANTS
 from simgap.sim.dynamic.settings import DynamicSettings
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
@@ -39,12 +39,19 @@ class SingleTrackWorld:
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._agents = list(agents)
+        self._dt = float(scenario.dt)
         self._plants = {a.id: PLANTS[cfg.model](a.vehicle, cfg.params_id, road_friction=cfg.road_friction,
                                                 integration_step=cfg.integration_step) for a in agents}
         self._commands: dict[int, Command] = {}
 
     def reset(self, t0: float) -> None:
-        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents}
+        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents
+                        if enters_at(a, t0, self._dt)}
+        self._commands = {}
+
+    def enter(self, agent_id: int, t: float) -> None:
+        agent = next(a for a in self._agents if a.id == agent_id)
+        self._states[agent_id] = self._plants[agent_id].reset(agent.initial_state.replace(t=t))
 
     def begin_step(self, t: float) -> None:
         pass
@@ -57,11 +64,11 @@ class SingleTrackWorld:
 
     def advance(self, t: float, period: float) -> None:
         start = time.perf_counter()
-        for a in self._agents:
+        for aid, command in self._commands.items():
             try:
-                self._states[a.id] = self._plants[a.id].step(self._commands[a.id], period)
+                self._states[aid] = self._plants[aid].step(command, period)
             except FloatingPointError as exc:
-                raise PhysicsDiverged(f"agent {a.id}: {exc}") from None
+                raise PhysicsDiverged(f"agent {aid}: {exc}") from None
         self.timings["physics"] += time.perf_counter() - start
 
     def events(self) -> list[BackendEvent]:

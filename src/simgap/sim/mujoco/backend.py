@@ -35,11 +35,12 @@ from simgap.control.protocol import Command
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.rates import SpeedRate
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
+PARKING_M = 100.0           # a car that has not entered the world yet waits this far beyond the road [m]
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
 
@@ -58,6 +59,7 @@ class MujocoPhysics:
     # --- Plant protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
+        self._dt = float(scenario.dt)
         self.world = build_world(scenario, agents, self.settings)
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
@@ -76,8 +78,8 @@ class MujocoPhysics:
     def reset(self, t0: float) -> None:
         w = self.world
         mujoco.mj_resetData(w.model, w.data)
-        for a in self._agents:
-            w.place(a.id, a.initial_state)
+        for k, a in enumerate(self._agents):
+            w.place(a.id, a.initial_state if enters_at(a, t0, self._dt) else self._parked(k, t0))
         self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
         w.tyres.reset()
         w.move_traffic(t0)
@@ -85,6 +87,23 @@ class MujocoPhysics:
         w.tyres.apply(settle=True)
         self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._events = []
+
+    def enter(self, agent_id: int, t: float) -> None:
+        """Bring a parked car (`_parked`) to its initial state, its tyres settled to its motion."""
+        w = self.world
+        k, agent = next((k, a) for k, a in enumerate(self._agents) if a.id == agent_id)
+        initial = agent.initial_state.replace(t=t)
+        w.place(agent_id, initial)
+        mujoco.mj_forward(w.model, w.data)
+        w.tyres.settle(slice(4 * k, 4 * k + 4))
+        self._steer_target[agent_id] = initial.steer
+        self._accel[agent_id] = SpeedRate(t, initial.v, initial.a)
+
+    def _parked(self, k: int, t: float) -> State:
+        """Where the ``k``-th car waits until it enters the world: at rest on the ground plane,
+        `PARKING_M` beyond the road's corner, one car length apart from the next."""
+        x0, y0, x1, _ = self.world.road_bounds
+        return State(t=t, x=x1 + PARKING_M + 8.0 * k, y=y0 - PARKING_M, yaw=0.0, v=0.0)
 
     def begin_step(self, t: float) -> None:
         self._events = []
