@@ -28,6 +28,7 @@ def render(
 
     if three_d:
         from simgap.report import scene3d
+        from simgap.sim.mujoco.replay import MujocoReplay
     folder = out or run_dir
     check_pictures_out(folder, list(scene2d.PICTURES) + (list(scene3d.PICTURES) if three_d else []), overwrite)
     console = Console()
@@ -35,7 +36,7 @@ def render(
         written = scene2d.render_run(run_dir, out, frame_every)
     if three_d:
         with console.status("rendering the 3D world offscreen"):
-            written += scene3d.render_run_3d(run_dir, out, frame_every)
+            written += scene3d.render_run_3d(run_dir, out, frame_every, MujocoReplay)
     record_pictures(folder, run_dir, written)
     for path in written:
         console.print(f"wrote [bold]{path}[/bold]")

@@ -4,7 +4,8 @@ On disk a run is a directory:
 
 - ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
 - ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
-- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles)
+- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
+                          offset by `AGENT_ID_OFFSET`)
 
 The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
 so a reader never sees a half-written run.
@@ -30,6 +31,8 @@ from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.cosim.fidelity import Fidelity
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
+
+AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
 
 
 class Outcome(StrEnum):

@@ -2,7 +2,7 @@
 
 `build_world` compiles it; `World` holds the model, the data, where each car and obstacle lives,
 and the surface map. The backend (`simgap.sim.mujoco.backend`) drives it; the 3D renderer
-(`simgap.report.scene3d`) poses it from a finished run.
+(`simgap.sim.mujoco.replay`) poses it from a finished run.
 """
 
 from __future__ import annotations
