@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from simgap.experiment.executors import make_executor
-from simgap.experiment.records import JobContext
+from simgap.experiment.job import JobContext
 from simgap.experiment.runner import plan
 from simgap.experiment.spec import load_spec
 

@@ -16,7 +16,7 @@ import yaml
 from simgap.errors import InputError
 from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
 from simgap.experiment.search_results import search_results, summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec

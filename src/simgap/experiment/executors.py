@@ -28,7 +28,8 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any, Callable
 
-from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.job import Job, JobContext
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import WORKER_DIED
 from simgap.files import replace_directory
 
@@ -53,7 +54,7 @@ def _crashed_row(job: Job, exc: BaseException) -> RunRow:
 
 
 def _worker(conn) -> None:
-    from simgap.experiment.job import execute_job
+    from simgap.experiment.worker import execute_job
 
     while True:
         try:
@@ -162,7 +163,7 @@ def _scenario_files(job: Job, context: JobContext) -> dict[str, bytes]:
 
 def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple[RunRow, dict[str, bytes]]:
     """On a node: run ``job`` in a scratch directory; its store row and its run directory's files."""
-    from simgap.experiment.job import execute_job, run_dir_of
+    from simgap.experiment.worker import execute_job, run_dir_of
 
     with tempfile.TemporaryDirectory(prefix="simgap-run-") as scratch:
         root = Path(scratch)
@@ -182,7 +183,7 @@ def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple
 def _receive_run(root: Path, job: Job, files: dict[str, bytes], scenario_path: str) -> None:
     """Write the run directory a node sent back into ``root``, atomically (aside, then swapped in);
     its ``run.json`` names the scenario file on this machine, as a local run's does."""
-    from simgap.experiment.job import run_dir_of
+    from simgap.experiment.worker import run_dir_of
 
     if not files:
         return

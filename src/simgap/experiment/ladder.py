@@ -13,7 +13,7 @@ from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.experiment.knobs import with_knobs
-from simgap.experiment.records import Job, JobId
+from simgap.experiment.job import Job, JobId
 from simgap.experiment.search_rows import SearchRow
 from simgap.experiment.search_spec import Search
 from simgap.experiment.search_space import Candidate

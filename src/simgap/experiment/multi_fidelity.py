@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.search_space import Candidate, SearchSpace, Strategy, uniform_candidate
 
 EXPLORE_EVERY = 10          # one candidate in this many is promoted whatever its risk

@@ -13,7 +13,8 @@ from typing import Callable
 
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
-from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.job import Job, JobContext
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore

@@ -36,7 +36,8 @@ from typing import Callable
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
 from simgap.experiment.ladder import Ladder, SharedIdealRuns
-from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.job import Job, JobContext
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.search_results import META, StrategyResult, summarise
 from simgap.experiment.search_ledger import SearchLedger
 from simgap.experiment.search_rows import SearchRow

@@ -60,7 +60,7 @@ class SearchLedger:
             self.rows[(r.candidate, r.rung)] = r
         for index in sorted(first):
             r = first[index]
-            self.candidates[index] = self.space.candidate(index, r.unit, r.run.vehicle,
+            self.candidates[index] = self.space.candidate(index, r.unit, r.run.vehicle_ref,
                                                           planner=r.run.id.planner or DEFAULT_PLANNER)
         return rows
 

@@ -62,7 +62,7 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         if ideal is None or not ideal.ok or ideal.failed:
             continue
         res.violations += 1
-        driver = f"{h.run.vehicle}|{h.run.id.planner or DEFAULT_PLANNER}"
+        driver = f"{h.run.id.fidelity.vehicle}|{h.run.id.planner or DEFAULT_PLANNER}"
         scenarios.add((driver,) + tuple(sorted(h.run.parameters.items())))
         found.append((max(h.elapsed_s, ideal.elapsed_s), h.unit, driver))
     distinct: list[tuple[tuple[float, ...], str]] = []

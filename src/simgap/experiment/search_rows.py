@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import ResultsStore
 
 _COLUMNS = ("strategy", "candidate", "rung", "rung_backend", "failed", "failure_reason", "elapsed_s", "promote",

@@ -2,7 +2,7 @@
 
 A *candidate* is a point of the space: the continuous dimensions (scenario parameters, then
 reality knobs, normalised to [0, 1]), a vehicle and a planner. A `Strategy` proposes candidates by
-index and is told, typed, how each of their runs went (`simgap.experiment.records.RunRow`, with
+index and is told, typed, how each of their runs went (`simgap.experiment.run_row.RunRow`, with
 whether the spec's failure rule calls it a failure); it answers with the rungs of the ladder to run
 the candidate in next, and hears the high-fidelity verdict on each candidate. The search loop
 (`simgap.experiment.search`) does the rest.
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.search_spec import SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario.logical import LogicalScenario

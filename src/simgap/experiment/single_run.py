@@ -126,11 +126,11 @@ def execute(request: RunRequest, out: Path | None = None,
         vehicles = {pid: load_vehicle(name) for pid, name in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
-    planners, errors, records = {}, [], {}
+    planners, errors, planner_records = {}, [], {}
     for a in agents:
         choice = planner_of(request.planner, a.id, [b.id for b in agents])
         planner_class, settings = choice.load()
-        records[a.id] = {"name": choice.name, "planner": choice.planner,
+        planner_records[a.id] = {"name": choice.name, "planner": choice.planner,
                          "settings": settings.model_dump(mode="json") if settings is not None else {}}
         setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id], dt)
         try:
@@ -143,7 +143,7 @@ def execute(request: RunRequest, out: Path | None = None,
         backend = make_backend(request.backend, request.backend_settings)
         run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
     for outcome in run.agents:
-        outcome.planner = records[outcome.id]["name"]
+        outcome.planner = planner_records[outcome.id]["name"]
         outcome.recorded_as = recorded_egos.get(outcome.id)
     meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
@@ -155,7 +155,7 @@ def execute(request: RunRequest, out: Path | None = None,
     run.vehicles = {a.id: a.vehicle for a in agents}
     run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings))
     run.settings |= {"parameter_units": meta.get("units", {}),
-                     "planner": _planner_record(request.planner, records),
+                     "planner": _planner_record(request.planner, planner_records),
                      "backend": request.backend_settings.model_dump(mode="json"),
                      "planner_vehicle": request.planner_vehicle}
     if out is not None:
@@ -166,9 +166,9 @@ def execute(request: RunRequest, out: Path | None = None,
     return run
 
 
-def _planner_record(planners: PlannerAssignment, records: dict[int, dict]) -> dict[str, Any]:
+def _planner_record(planners: PlannerAssignment, planner_records: dict[int, dict]) -> dict[str, Any]:
     """run.json's ``settings.planner``: name, reference and full settings of the planner of every
     agent (``agents`` per agent id when they differ)."""
     if isinstance(planners, PlannerChoice):
-        return next(iter(records.values())) if records else {"name": planners.name, "planner": planners.planner}
-    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in records.items()}}
+        return next(iter(planner_records.values())) if planner_records else {"name": planners.name, "planner": planners.planner}
+    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in planner_records.items()}}

@@ -37,13 +37,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from simgap.control import DEFAULT_CONTROLLER, controller_names
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.errors import InputError, validated
-from simgap.experiment.records import Job, JobId
+from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import sample
 from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
-from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle, vehicle_names
+from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehicle_names
 
 
 # spec fields newer than stored results, and their defaults
@@ -296,7 +296,7 @@ def check_controller(name: str, path: Path, where: str) -> None:
 def vehicle_ref(name_or_file: str, spec_file: Path) -> str:
     """How a run loads a vehicle a spec names: a catalogue name, or a data file's absolute path
     (relative paths are relative to the spec)."""
-    if not name_or_file.endswith((".yaml", ".yml")):
+    if not is_vehicle_file(name_or_file):
         return name_or_file
     return str((spec_file.parent / name_or_file).resolve())
 
@@ -304,7 +304,7 @@ def vehicle_ref(name_or_file: str, spec_file: Path) -> str:
 def check_vehicles(names: list[str], path: Path, where: str) -> None:
     """Every vehicle a spec names loads: a catalogue name, or a valid data file."""
     for v in names:
-        if v.endswith((".yaml", ".yml")):
+        if is_vehicle_file(v):
             load_vehicle(vehicle_ref(v, path))
         elif v not in vehicle_names():
             raise InputError(f"unknown vehicle '{v}'", file=path, field=where, allowed=", ".join(vehicle_names()))

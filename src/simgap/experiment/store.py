@@ -25,7 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.files import atomic_write, remove_stale_temporaries
 
 

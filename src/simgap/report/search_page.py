@@ -27,7 +27,7 @@ def _violations(per_strategy: dict[str, list[HighRun]], dims, limit: int = 15) -
         found = sorted((h.row for h in runs if h.violation), key=lambda r: r.elapsed_s)[:limit]
         for r in found:
             entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r.run.run_dir or '')}"
-                                                 f"/run.json'>c{r.candidate:05d}</a>"), "vehicle": r.run.vehicle,
+                                                 f"/run.json'>c{r.candidate:05d}</a>"), "vehicle": r.run.id.fidelity.vehicle,
                      "planner": r.run.id.planner or DEFAULT_PLANNER}
             entry |= {n: (r.run.parameters if k == "param" else r.knobs).get(n, math.nan) for k, n, _, _ in dims}
             entry["why"] = r.failure_reason

@@ -24,7 +24,7 @@ from simgap.evaluate.criticality import run_criticality
 from simgap.evaluate.errors import lateral_profile
 from simgap.files import atomic_write_text
 from simgap.evaluate.route_centre import route_centre
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import ResultsStore
 from simgap.cosim import REFERENCE, Outcome
 from simgap.planning.registry import DEFAULT_PLANNER

@@ -95,7 +95,7 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
         initial_speed=float(params.get("initial_speed", 0.0)), dt=dt,
         time_limit_s=float(params.get("time_limit", 60.0)))
     return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
-                            dict(road._section_by_id))
+                            dict(road.section_by_id))
 
 
 def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:

@@ -27,7 +27,7 @@ from simgap.trajectory import State
 
 
 class SingleTrackWorld:
-    """The `Plant` of the ``dynamic`` backend: one CommonRoad vehicle model per agent, each
+    """The `Physics` of the ``dynamic`` backend: one CommonRoad vehicle model per agent, each
     integrated on its own (the cars of this world do not touch)."""
 
     def __init__(self, settings: DynamicSettings):

@@ -9,7 +9,7 @@ system's rate and within its angle; drive torque (capped by the powertrain's pow
 drag and the friction of the surface under each tyre are set; then physics runs at its own rate
 (default 500 Hz) until the next controller update, with slip-based tyre forces computed every
 physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). The controllers
-and that loop are `simgap.sim.tracked`'s; this module is the plant, `MujocoPhysics`. Physical
+and that loop are `simgap.sim.tracked`'s; this module is the physics, `MujocoPhysics`. Physical
 contacts with other cars or with traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
 
@@ -45,7 +45,7 @@ FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the
 
 
 class MujocoPhysics:
-    """The MuJoCo world as the `Plant` of a tracked backend: it measures, actuates and advances
+    """The MuJoCo world as the `Physics` of a tracked backend: it measures, actuates and advances
     every car of a scenario (see the module doc)."""
 
     def __init__(self, settings: WorldSettings):
@@ -56,7 +56,7 @@ class MujocoPhysics:
         self._events: list[BackendEvent] = []
         self._seen: set[tuple[int, int | None]] = set()
 
-    # --- Plant protocol ------------------------------------------------------------------------
+    # --- Physics protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
@@ -256,4 +256,4 @@ class MujocoBackend(TrackedBackend):
 
     @property
     def world(self) -> World | None:
-        return self.plant.world
+        return self.physics.world
