@@ -9,8 +9,9 @@ import os
 import shutil
 import tempfile
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, Iterator, TypeVar
 
 import yaml
 from pydantic import BaseModel
@@ -122,3 +123,17 @@ def read_model(path: str | Path, model: type[M], what: str, keys: str | None = N
     out); every problem is an `InputError` naming the file, the field and what is allowed."""
     raw = dict(defaults or {}) | read_yaml_mapping(path, what, keys, empty_ok)
     return validated(model, raw, file=path)
+
+
+@contextmanager
+def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]:
+    """A hidden directory in ``parent`` to build several files in before any of them is moved
+    into place (by the caller, each with an `os.replace`); removed afterwards with whatever was
+    left in it, so a failure leaves nothing half-written."""
+    parent = Path(parent)
+    parent.mkdir(parents=True, exist_ok=True)
+    path = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)

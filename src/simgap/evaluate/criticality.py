@@ -1,6 +1,6 @@
 """Criticality of a driven scenario, per ordered agent pair, from commonroad-crime.
 
-The driven scenario holds every agent as a dynamic obstacle (see `cosim.driven_scenario`).
+The driven scenario holds every agent as a dynamic obstacle (see `export.driven_scenario`).
 For each pair (ego, other) the measures are evaluated every ``every`` steps and the most
 critical value is kept: the smallest time-to-collision (TTC) and time headway (THW), the
 largest brake threat number (BTN) and steer threat number (STN). A step at which CriMe cannot

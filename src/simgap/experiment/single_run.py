@@ -16,7 +16,7 @@ from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
+from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.files import read_yaml_mapping

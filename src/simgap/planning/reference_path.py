@@ -12,12 +12,18 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
 
 _FINE_STEP_M = 0.1
+# the path is smoothed more widely (these multiples of the smoothing) where that keeps it within
+# DEVIATION_TOLERANCE_M of the route's centre line (`_widened_smoothing`)
+WIDER_SMOOTHING = (1.0, 2.0, 4.0, 8.0, 16.0)
+DEVIATION_TOLERANCE_M = 0.1
+LEVEL_BLEND_M = 4.0
 # tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
 KINK_CURVATURE = 0.25
 KINK_SMOOTHING_M = 3.0
@@ -206,6 +212,40 @@ def _gaussian_smooth(xy: np.ndarray, sigma_samples: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(2)], axis=1)
 
 
+def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float) -> np.ndarray:
+    """``xy`` (a polyline `_FINE_STEP_M` apart) Gaussian-smoothed with ``sigma_m``, and more widely
+    (`WIDER_SMOOTHING`) wherever the wider smoothing stays within ``tolerance_m`` of the polyline.
+
+    Lanelets of recorded maps meet at small angles (a degree or two where two centre lines join);
+    smoothed over a metre such a kink asks for a steering rate that only a slow car has, and the
+    speed profile would brake for it on a straight highway. A driver rounds it off over tens of
+    metres within a hand's breadth of the lane centre, as this does; a curve's real shape keeps
+    the narrow smoothing (a wide one would cut it by more than the tolerance)."""
+    sigmas = [sigma_m * factor for factor in WIDER_SMOOTHING]
+    levels = [_gaussian_smooth(xy, s / _FINE_STEP_M) for s in sigmas]
+    allowed = np.zeros(len(xy))
+    ok = np.ones(len(xy), dtype=bool)
+    for j in range(1, len(sigmas)):
+        deviation = np.hypot(*(levels[j] - xy).T)
+        reach = 2 * int(np.ceil(2 * sigmas[j] / _FINE_STEP_M)) + 1
+        ok &= maximum_filter1d(deviation, size=reach, mode="nearest") <= tolerance_m
+        allowed[ok] = j
+    if not allowed.any():
+        return levels[0]
+    # the level changes gradually along the path (over `LEVEL_BLEND_M`), never above what is allowed:
+    # narrowed first by the blend's reach, then smoothed
+    reach = int(np.ceil(3 * LEVEL_BLEND_M / _FINE_STEP_M))
+    narrowed = minimum_filter1d(allowed, size=2 * reach + 1, mode="nearest")
+    blend = _gaussian_smooth(np.stack([narrowed, np.zeros_like(narrowed)], 1), LEVEL_BLEND_M / _FINE_STEP_M)[:, 0]
+    blend = np.clip(np.minimum(blend, allowed), 0.0, len(sigmas) - 1)
+    low = np.floor(blend).astype(int)
+    high = np.minimum(low + 1, len(sigmas) - 1)
+    share = (blend - low)[:, None]
+    stack = np.stack(levels)
+    rows = np.arange(len(xy))
+    return (1.0 - share) * stack[low, rows] + share * stack[high, rows]
+
+
 def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: float = 1.0,
                           extension_back: float = 20.0, extension_forward: float = 100.0,
                           lanelet_ids: tuple[int, ...] = ()) -> ReferencePath:
@@ -220,7 +260,7 @@ def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: f
     fine = _resample(centre, _FINE_STEP_M)
     route_length = _arc_length(fine)[-1]
     fine = _extend(fine, extension_back, extension_forward, _FINE_STEP_M)
-    fine = _gaussian_smooth(fine, smoothing / _FINE_STEP_M)
+    fine = _widened_smoothing(fine, smoothing, DEVIATION_TOLERANCE_M) if smoothing > 0 else fine
     s_fine = _arc_length(fine)
     dx = np.gradient(fine[:, 0], s_fine)
     dy = np.gradient(fine[:, 1], s_fine)
