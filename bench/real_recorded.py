@@ -105,18 +105,19 @@ def human_outcomes(xml: Path) -> dict[int, str]:
     return outcomes
 
 
-def run_one(task: tuple[Path, str, str, str]) -> list[AgentResult]:
+def run_one(task: tuple[Path, str, str, str, str, Path | None]) -> list[AgentResult]:
     """Every agent's outcome of one scenario in one world (never raises)."""
-    xml, world, kind, traffic = task
+    xml, world, kind, traffic, planner, planner_config = task
     from simgap.cosim import CosimSettings
     from simgap.errors import InputError
-    from simgap.experiment.single_run import RunRequest, execute
+    from simgap.experiment.single_run import RunRequest, execute, parse_planners
 
     clock = time.perf_counter()
     try:
         excluded = start_conflicts(xml)
         humans = human_outcomes(xml)
-        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic)))
+        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic),
+                                 planner=parse_planners(planner, planner_config)))
     except InputError as exc:
         return [AgentResult(xml.stem, kind, world, None, "refused", str(exc), time.perf_counter() - clock)]
     except Exception as exc:  # noqa: BLE001 - the benchmark reports every crash as an outcome
@@ -161,6 +162,8 @@ def main() -> None:
     parser.add_argument("--traffic", default="replay", choices=["replay", "idm"])
     parser.add_argument("--kind", nargs="+", default=None, choices=KINDS, help="only these kinds")
     parser.add_argument("--only", nargs="+", default=None, metavar="NAME", help="only these files (names without .xml)")
+    parser.add_argument("--planner", default="frenet", help="the planner of every agent (as simgap run --planner)")
+    parser.add_argument("--planner-config", type=Path, default=None, help="its settings (YAML)")
     parser.add_argument("--json", type=Path, default=None, help="also write every result to this JSON file")
     args = parser.parse_args()
     if args.files is None or not Path(args.files).is_dir():
@@ -174,9 +177,11 @@ def main() -> None:
     if missing:
         sys.exit(f"--only: no file named {', '.join(missing)} in {args.files} (names without .xml)")
     print(f"{len(files)} recorded scenarios in {args.files} ({dict(Counter(kinds.get(p.stem, 'other') for p in files))}), "
-          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, {args.workers} worker(s)\n")
+          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, planner {args.planner}"
+          f"{' (' + str(args.planner_config) + ')' if args.planner_config else ''}, {args.workers} worker(s)\n")
     print(f"{'scenario':40s} {'kind':10s} {'world':7s} {'agent':>6s} {'outcome':16s} {'time [s]':>8s}  reason")
-    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic) for world in args.worlds for xml in files]
+    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic, args.planner, args.planner_config)
+             for world in args.worlds for xml in files]
     results: list[AgentResult] = []
     clock = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:

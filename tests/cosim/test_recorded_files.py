@@ -10,7 +10,7 @@ import pytest
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.state import InitialState
 
-from real_like import box_goal, highway, lane_y, recorded_car, start
+from real_like import box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario.files import write_xml
 
@@ -59,3 +59,54 @@ def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, wor
     assert (late_driven.x[0], late_driven.y[0]) == pytest.approx((60.0, lane_y(0)), abs=0.02)
     assert late_driven.v[0] == pytest.approx(8.0, abs=0.2)
     assert not [e for e in run.events if e.agent_id == 2 and e.t < 6.0]
+
+
+def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):
+    # recorded maps leave centimetre gaps where lanelets meet at an intersection's entry; a start in
+    # one lies on no lanelet (the route planner finds no initial lanelet): the route starts from the
+    # nearest lanelet heading the same way, for the planner and for the run's metrics alike
+    from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+    from commonroad.scenario.scenario import Scenario
+
+    def straight(lid: int, x0: float, x1: float, successor=None, predecessor=None) -> Lanelet:
+        x = np.linspace(x0, x1, 12)
+        return Lanelet(np.stack([x, np.full_like(x, 3.5)], 1), np.stack([x, np.full_like(x, 1.75)], 1),
+                       np.stack([x, np.zeros_like(x)], 1), lid, successor=successor, predecessor=predecessor)
+
+    scenario = Scenario(0.1)
+    scenario.add_objects(LaneletNetwork.create_from_lanelet_list(
+        [straight(1, 0.0, 50.0, successor=[2]), straight(2, 50.04, 150.0, predecessor=[1])]))
+    initial = start(50.02, 0, 6.0)
+    assert not scenario.lanelet_network.find_lanelet_by_position([initial.position])[0]
+    problems = PlanningProblemSet([PlanningProblem(1, initial, box_goal(120, 0, (0, 200)))])
+    xml = tmp_path / "gap.xml"
+    write_xml(scenario, problems, xml)
+    run = execute(RunRequest(scenario=xml), out=tmp_path / "run")
+    (agent,) = run.agents
+    assert agent.outcome == "goal_reached", [e.detail for e in run.events]
+    assert run.metrics                          # the run metrics found the route too
+
+
+def test_a_recorded_vehicle_running_into_the_waiting_ego_says_so():
+    # one lane; the ego waits for its goal's time window; a car recorded at 15 m/s comes from behind
+    # and, replayed, does not brake: the collision is the other's, and the reason says so
+    scenario = highway(lanes=1, length=300, segments=1)
+    scenario.add_objects(recorded_car(700, -40, 0, 15.0, 300))
+    run = run_ego(scenario, start(40, 0, 0.0), box_goal(46, 0, (150, 200)))
+    (agent,) = run.agents
+    (event,) = [e for e in run.events if e.kind == "collision"]
+    assert agent.outcome == "collision" and event.other_id == 700
+    assert event.detail.startswith("rear-ended by recorded road user 700 (15.0 m/s) while the ego was ")
+    assert "replayed traffic does not brake for the ego" in event.detail
+
+
+def test_highway_speed_with_a_car_beside_the_lane_change():
+    # 36 m/s with the goal one lane to the left and a recorded car beside the ego in that lane at the
+    # same speed: the lane change needs a clearly lower (or higher) speed, which the end speeds reach
+    scenario = highway(lanes=2, length=900, segments=1)
+    scenario.add_objects(recorded_car(800, 12.0, 1, 36.0, 250))
+    scenario.add_objects(recorded_car(801, 120.0, 0, 33.0, 250))
+    run = run_ego(scenario, start(10, 0, 36.0), lanelet_goal(scenario, 20, (0, 250)))
+    (agent,) = run.agents
+    assert agent.outcome == "goal_reached", [e.detail for e in run.events]
+    assert agent.planner_failures == 0 and agent.min_distance_to_traffic_m > 0.0

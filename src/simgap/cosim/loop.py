@@ -318,6 +318,7 @@ class _CoSimulation:
             gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
             if ev.kind == "collision" and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
+        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in self.traffic.poses(t).items()}
         for aid in present:
             p = progress_of[aid]
             others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
@@ -327,11 +328,13 @@ class _CoSimulation:
             excursion = self.road.excursion(shapes[aid])
             p.max_excursion = max(p.max_excursion, excursion)
             if p.active:
-                self._judge(p, states[aid], hit, excursion)
+                detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
+                                                                 poses.get(hit), hit in progress_of)
+                self._judge(p, states[aid], hit, excursion, detail)
 
-    def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float) -> None:
+    def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float, detail: str = "") -> None:
         if hit is not None:
-            self._finish(p, Outcome.COLLISION, state, "footprints overlap", hit)
+            self._finish(p, Outcome.COLLISION, state, detail, hit)
         elif excursion > 0.0:
             self._finish(p, Outcome.OFF_ROAD, state, f"footprint {excursion:.3f} m beyond the road")
         elif p.goal.is_reached(state):
@@ -362,6 +365,24 @@ class _CoSimulation:
             settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
             failure=failure, planner_errors=self.planner_errors,
         )
+
+
+def collision_detail(ego: State, ego_length: float, other_id: int, other: State | None, agent: bool) -> str:
+    """A collision in a user's words: who, and whether the other road user ran into the ego from
+    behind (its centre more than half the ego's length behind, heading the ego's way) - with
+    replayed traffic, which does not brake for it, a collision the ego could not prevent - and
+    what the ego was doing then (at rest, braking, driving)."""
+    who = f"{'agent' if agent else 'recorded road user'} {other_id}"
+    if other is None:
+        return f"footprints overlap with {who}"
+    c, s = math.cos(ego.yaw), math.sin(ego.yaw)
+    ahead = (other.x - ego.x) * c + (other.y - ego.y) * s
+    if ahead < -0.5 * ego_length and math.cos(other.yaw - ego.yaw) > 0.5:
+        doing = ("at rest" if abs(ego.v) < 0.1 else
+                 f"braking at {-ego.a:.1f} m/s^2 from {ego.v:.1f} m/s" if ego.a < -0.5 else f"driving at {ego.v:.1f} m/s")
+        return (f"rear-ended by {who} ({other.v:.1f} m/s) while the ego was {doing}"
+                + ("; replayed traffic does not brake for the ego" if not agent else ""))
+    return f"ran into {who} at {ego.v:.1f} m/s (the other at {other.v:.1f} m/s)"
 
 
 def _first_contact(p: _AgentProgress, shape, others) -> int | None:

@@ -30,8 +30,9 @@ _STEERING_SPEED_FLOOR = 1.0
 
 # a target inside a window keeps this share of the window's width from its bounds
 _WINDOW_INSET = 0.1
-# the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``)
-_TIME_AIM_SHARE = 0.5
+# the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``), from either
+# end: a planned speed lags the desired one, and a late or early arrival still falls inside
+_TIME_AIM_SHARE = 0.25
 _TIME_AIM_MAX_S = 1.0
 # the planned speed follows the desired one with a lag: the velocity window is aimed this long ahead
 _RESPONSE_S = 1.0
@@ -73,6 +74,8 @@ class GoalApproach:
         self.stretch = _goal_stretch(reference, goal)
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
+        # the slowest speed the vehicle may arrive at (the velocity window's lower bound, inset)
+        self.slowest_arrival = target_in(velocity, 0.0) if velocity is not None and velocity.lo > 0 else 0.0
         self.arrival_time = (None if time is None else
                              time.lo + min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
         self.latest_arrival = (None if time is None else
@@ -106,8 +109,21 @@ class GoalApproach:
             cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
         if self.arrival_time is not None and t < self.arrival_time:
             hold = max(0.5 * (enter + leave), leave - HOLD_MARGIN_M)
-            cap = min(cap, max(hold - s, 0.0) / (self.arrival_time - t))
+            cap = min(cap, self._pace(max(hold - s, 0.0), self.arrival_time - t))
         return cap
+
+    def _pace(self, distance: float, duration: float) -> float:
+        """The speed to drive at now so as to cover ``distance`` in ``duration``: the average speed,
+        or, when that is slower than the slowest arrival the velocity window allows, a speed held
+        first and then raised (at the comfortable rate) to that slowest arrival speed."""
+        average = distance / duration
+        w, a = self.slowest_arrival, self.deceleration
+        if average >= w:
+            return average
+        # v held, then raised to w at a: v (duration - (w - v) / a) + (w^2 - v^2) / (2 a) = distance
+        b = a * duration - w
+        root = b * b - w * w + 2.0 * a * distance
+        return max(-b + math.sqrt(root), 0.0) if root >= 0.0 else 0.0
 
 
 # a late vehicle aims this far into the goal's stretch of the path when its time window is closing [m]
