@@ -61,7 +61,8 @@ def start_conflicts(xml: Path) -> dict[int, str]:
     user, or leaves the road beyond the loop's tolerance); agents that start clear are absent."""
     from simgap.cosim import CosimSettings
     from simgap.cosim.agents import agents_from_problems
-    from simgap.cosim.traffic import DrivableArea, ReplayedTraffic, footprint
+    from simgap.cosim.traffic import ReplayedTraffic
+    from simgap.scenario.road_frame import DrivableArea, footprint
     from simgap.scenario import load_scenario
     from simgap.scenario.obstacles import without_recorded_egos
     from simgap.vehicles import load_vehicle

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from simgap.cosim.traffic import DrivableArea, footprint
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.planning.collision import (
     footprint_outline,
     footprints_on_road,

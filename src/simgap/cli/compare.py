@@ -12,7 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import Fidelity, Run
+from simgap.cosim import Run
 from simgap.errors import InputError
 from simgap.evaluate.compare import compare_runs
 from simgap.evaluate.criticality import run_criticality
@@ -24,7 +24,7 @@ UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error"
 
 
 def _label(run: Run, run_dir: Path) -> str:
-    return f"{Fidelity.of_run(run).label} ({run_dir.name})"
+    return f"{run.fidelity.label} ({run_dir.name})"
 
 
 @app.command()

@@ -62,6 +62,7 @@ def _draw(out: Path, say) -> None:
     sharp = out / "runs" / RENDER_3D
     if (sharp / "run.json").exists() and not (sharp / "side_by_side.png").exists():
         from simgap.report.scene3d import render_run_3d
+        from simgap.sim.mujoco.replay import MujocoReplay
 
         say(f"rendering {RENDER_3D} in 3D")
-        render_run_3d(sharp, frame_every=5)
+        render_run_3d(sharp, None, 5, MujocoReplay)

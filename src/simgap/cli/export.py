@@ -85,23 +85,24 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
     scenario and violation.json (what made it one); each folder built aside, then moved in."""
     from simgap.experiment.search_results import search_results
     from simgap.export.write import export_run
-    from simgap.files import atomic_write_text, replace_directory, staged_directory
+    from simgap.files import replace_directory
 
     results = search_results(search_dir)
     found = [v for strategy in results.strategies for v in strategy.found]
     exports = []
     for v in found:
-        folder = f"{v.strategy}_{v.row['scenario']}"
-        with staged_directory(out, folder) as staged:
-            export = export_run(v.run_dir, staged, version, scenario_xml=v.scenario_xml, name=folder)
+        folder = f"{v.strategy}_{v.scenario}"
+
+        def write(staged: Path, v=v, folder=folder) -> None:
+            exports.append(export_run(v.run_dir, staged, version, scenario_xml=v.scenario_xml, name=folder))
             if v.scenario_xml is not None:
                 shutil.copyfile(v.scenario_xml, staged / f"{folder}.xml")
             facts = v.facts(results.spec) | {"run_dir": str(v.run_dir), "files": sorted(p.name for p in staged.iterdir())
                                              + ["violation.json"]}
-            atomic_write_text(staged / "violation.json", json.dumps(facts, indent=2))
-            replace_directory(staged, out / folder)
-        export.files = [out / folder / p.name for p in export.files]
-        exports.append(export)
+            (staged / "violation.json").write_text(json.dumps(facts, indent=2))
+
+        replace_directory(out / folder, write)
+        exports[-1].files = [out / folder / p.name for p in exports[-1].files]
     console.print(f"{len(found)} distinct violation{'s' if len(found) != 1 else ''} in {search_dir}")
     if exports:
         _show(console, exports)

@@ -29,9 +29,10 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
-from simgap.cosim.traffic import DrivableArea, Traffic, TrafficMode, footprint, make_traffic
+from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
 from simgap.trajectory import State, Trajectory, wrap_angle
 

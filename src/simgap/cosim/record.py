@@ -4,19 +4,17 @@ On disk a run is a directory:
 
 - ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
 - ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
-- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles)
+- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
+                          offset by `AGENT_ID_OFFSET`)
 
-The directory is written next to its destination and renamed into place, so a reader never
-sees a half-written run.
+The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
+so a reader never sees a half-written run.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import os
-import shutil
-import tempfile
 import traceback
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
@@ -28,9 +26,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
+from simgap.files import replace_directory
+from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.cosim.fidelity import Fidelity
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
+AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
 
 
 class Outcome(StrEnum):
@@ -133,6 +135,18 @@ class Run:
         return load_vehicle(next(a.vehicle for a in self.agents if a.id == agent_id))
 
     @property
+    def fidelity(self) -> Fidelity:
+        """What produced the run: its backend, its agents' vehicles and its controller."""
+        vehicles = "+".join(sorted({a.vehicle for a in self.agents}))
+        return Fidelity(self.backend, vehicles, (self.settings.get("backend") or {}).get("controller"))
+
+    @property
+    def planner(self) -> str:
+        """The name of the planner (of every agent; per agent ``1=frenet,2=idm``) that drove it
+        (``frenet`` for runs recorded before planners were named)."""
+        return (self.settings.get("planner") or {}).get("name") or DEFAULT_PLANNER
+
+    @property
     def fingerprint(self) -> str:
         """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
         h = hashlib.sha256()
@@ -156,11 +170,8 @@ class Run:
 
     # ------------------------------------------------------------------ writing
     def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None) -> Path:
-        """Write the run directory atomically (build aside, then rename into place)."""
-        run_dir = Path(run_dir)
-        run_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{run_dir.name}.", dir=run_dir.parent))
-        try:
+        """Write the run directory atomically (built aside, then swapped into place)."""
+        def write(tmp: Path) -> None:
             meta = self.summary() | {
                 "dt": self.dt,
                 "events": [asdict(e) for e in self.events],
@@ -178,18 +189,8 @@ class Run:
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
             if driven_scenario_xml is not None:
                 (tmp / "driven.xml").write_text(driven_scenario_xml)
-            if run_dir.exists():
-                old = run_dir.with_name(f".{run_dir.name}.old")
-                shutil.rmtree(old, ignore_errors=True)
-                os.replace(run_dir, old)
-                os.replace(tmp, run_dir)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, run_dir)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
-        return run_dir
+
+        return replace_directory(run_dir, write)
 
     def _trajectory_table(self) -> pa.Table:
         cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}

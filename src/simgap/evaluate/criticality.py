@@ -20,7 +20,7 @@ from typing import Iterable
 from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.scenario.scenario import Scenario
 
-from simgap.export.driven_scenario import AGENT_ID_OFFSET
+from simgap.cosim.record import AGENT_ID_OFFSET
 
 # measure name -> (CriMe class name, True when smaller values are more critical)
 MEASURES = {"ttc": ("TTC", True), "thw": ("THW", True), "btn": ("BTN", False), "stn": ("STN", False)}

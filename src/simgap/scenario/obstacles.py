@@ -115,11 +115,6 @@ def _centre_state(st, box: Box, dt: float) -> State:
         yaw_rate=float(exact(getattr(st, "yaw_rate", None))))
 
 
-def obstacle_trajectory(obstacle: DynamicObstacle, dt: float) -> Trajectory:
-    """A dynamic obstacle's recorded motion (initial state + trajectory prediction), box centres."""
-    return _trajectory_motion(obstacle, box_of(obstacle.obstacle_shape), dt)
-
-
 def _trajectory_motion(obstacle: Obstacle, box: Box, dt: float) -> Trajectory:
     states = [obstacle.initial_state]
     if isinstance(obstacle.prediction, TrajectoryPrediction):

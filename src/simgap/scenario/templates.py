@@ -100,7 +100,7 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
                               lane_width=layout.lane_width, two_way=layout.two_way,
                               centre_marking=layout.centre_marking, first_id=LANELET_ID_START)
     return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
-                            dict(road._section_by_id), blueprint=blueprint)
+                            dict(road.section_by_id), blueprint=blueprint)
 
 
 def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:

@@ -10,14 +10,15 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.sim.protocol import Agent, BackendEvent, enters_at
+from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, enters_at
 from simgap.trajectory import State, Trajectory
 
 
 class IdealBackend:
-    name = "ideal"
+    name = REFERENCE
 
-    def __init__(self) -> None:
+    def __init__(self, settings: object = None) -> None:
+        """``settings``: the registry's `NoSettings` (the ideal world takes none)."""
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
         self._dt = 0.1

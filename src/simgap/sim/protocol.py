@@ -10,6 +10,8 @@ from commonroad.scenario.scenario import Scenario
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import Vehicle
 
+REFERENCE = "ideal"     # the ideal backend's name: the world of the planner's assumptions, which every other is compared with
+
 
 @dataclass(frozen=True)
 class Agent:

@@ -6,7 +6,7 @@ agent (`catalogue` maps simgap vehicles to BeamNG models) and one per recorded o
 physics to deterministic mode at ``physics_hz`` and pauses. `reset` moves each car so that its
 body's centre, not BeamNG's reference node, sits on the agent's initial state. Each scenario dt
 is then ``physics_hz × dt`` physics steps, taken while the simulation is otherwise paused.
-`BeamngWorld` is the `Plant` and the loop is `simgap.sim.tracked`'s, as for the other physics
+`BeamngWorld` is the `Physics` and the loop is `simgap.sim.tracked`'s, as for the other physics
 backends:
 
 - ``driver: controller`` (default): every controller period simgap's tracking controller (the
@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Callable, Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -50,7 +50,7 @@ MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
 
 
 class BeamngWorld:
-    """A running BeamNG.tech as the `Plant` of a tracked backend (see the module doc)."""
+    """A running BeamNG.tech as the `Physics` of a tracked backend (see the module doc)."""
 
     def __init__(self, settings: BeamngSettings, session_factory: Callable[[BeamngSettings], Session]):
         self.settings = settings
@@ -60,7 +60,7 @@ class BeamngWorld:
         self._events: list[BackendEvent] = []
         self.session: Session | None = None
 
-    # --- Plant protocol -----------------------------------------------------------------------
+    # --- Physics protocol -----------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._dt = float(scenario.dt)
@@ -234,14 +234,15 @@ class BeamngBackend(TrackedBackend):
     """The ``beamng`` backend: `BeamngWorld` under simgap's tracking controllers, or with each car
     driven by BeamNG's script AI on its plan's waypoints (``driver: script_ai``)."""
 
-    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
-        self.settings = load_settings(settings)
+    def __init__(self, settings: BeamngSettings | None = None,
+                 session_factory: Callable[[BeamngSettings], Session] | None = None):
+        self.settings = settings or load_settings({})
         super().__init__("beamng", BeamngWorld(self.settings, session_factory or BeamngSession), self.settings)
         self._scripted: dict[int, Trajectory] = {}
 
     @property
     def session(self) -> Session | None:
-        return self.plant.session
+        return self.physics.session
 
     def make_controller(self, agent: Agent) -> Controller | None:
         return super().make_controller(agent) if self.settings.driver == "controller" else None
@@ -255,7 +256,7 @@ class BeamngBackend(TrackedBackend):
             now = self._step * self._dt
             for a in self._agents:
                 if self._scripted.get(a.id) is not plans[a.id]:
-                    self.plant.follow(a.id, plans[a.id], now)
+                    self.physics.follow(a.id, plans[a.id], now)
                     self._scripted[a.id] = plans[a.id]
         return super().step(plans)
 

@@ -43,6 +43,7 @@ from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_pa
 from simgap.control.longitudinal import LongitudinalMap
 from simgap.control.protocol import Command
 from simgap.errors import InputError
+from simgap.sim.dynamic.settings import VEHICLE_MODELS
 from simgap.sim.settings import DRY_ROAD_FRICTION
 from simgap.trajectory import State, wrap_angle
 from simgap.vehicles.constants import GRAVITY
@@ -94,10 +95,6 @@ class SingleTrackPlant:
     def __init__(self, vehicle, params_id: int = 2, *, integration_step: float = 1e-3,
                  steer_time_constant: float = 0.05, accel_time_constant: float = 0.1,
                  road_friction: float = DRY_ROAD_FRICTION):
-        if integration_step <= 0:
-            raise ValueError("integration_step must be > 0")
-        if road_friction <= 0:
-            raise ValueError("road_friction must be > 0")
         self.vehicle = vehicle
         self.params_id = params_id
         self.p = single_track_parameters(vehicle, params_id)
@@ -238,13 +235,4 @@ class MultiBodyPlant(SingleTrackPlant):
                      a=self._applied, yaw_rate=x[5], steer=x[2])
 
 
-PLANTS = {"st": SingleTrackPlant, "mb": MultiBodyPlant}
-
-
-def make_plant(model: str, vehicle, params_id: int = 2, road_friction: float = DRY_ROAD_FRICTION,
-               integration_step: float = 1e-3) -> SingleTrackPlant:
-    """The plant of vehicle model ``model``: ``st`` (single-track) or ``mb`` (multi-body)."""
-    if model not in PLANTS:
-        raise InputError(f"unknown vehicle model '{model}'", field="backend_settings.model",
-                         allowed=", ".join(PLANTS))
-    return PLANTS[model](vehicle, params_id, road_friction=road_friction, integration_step=integration_step)
+PLANTS = dict(zip(VEHICLE_MODELS, (SingleTrackPlant, MultiBodyPlant)))    # by DynamicSettings.model

@@ -9,7 +9,7 @@ system's rate and within its angle; drive torque (capped by the powertrain's pow
 drag and the friction of the surface under each tyre are set; then physics runs at its own rate
 (default 500 Hz) until the next controller update, with slip-based tyre forces computed every
 physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). The controllers
-and that loop are `simgap.sim.tracked`'s; this module is the plant, `MujocoPhysics`. Physical
+and that loop are `simgap.sim.tracked`'s; this module is the physics, `MujocoPhysics`. Physical
 contacts with other cars or with traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
 
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Sequence
+from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -32,12 +32,11 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
-from simgap.errors import validated_settings
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
-from simgap.sim.mujoco.world import World, WorldSettings, build_world
+from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
+from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
-from simgap.sim.rates import SpeedRate, steps_per_tick
-from simgap.sim.settings import TrackingSettings, fields_of
+from simgap.sim.rates import SpeedRate
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
@@ -46,18 +45,18 @@ FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the
 
 
 class MujocoPhysics:
-    """The MuJoCo world as the `Plant` of a tracked backend: it measures, actuates and advances
+    """The MuJoCo world as the `Physics` of a tracked backend: it measures, actuates and advances
     every car of a scenario (see the module doc)."""
 
-    def __init__(self, **world: Any):
-        self.settings = validated_settings(WorldSettings, world)
+    def __init__(self, settings: WorldSettings):
+        self.settings = settings
         self.timings = {"physics": 0.0, "tyres": 0.0}
         self.notes: list[str] = []
         self.world: World | None = None
         self._events: list[BackendEvent] = []
         self._seen: set[tuple[int, int | None]] = set()
 
-    # --- Plant protocol ------------------------------------------------------------------------
+    # --- Physics protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
@@ -248,24 +247,13 @@ class MujocoPhysics:
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))
 
 
-class MujocoSettings(TrackingSettings, WorldSettings):
-    """Settings of the ``mujoco`` backend (``backend_settings`` of a run): the tracking and the world."""
-
-
-def mujoco_settings(values: dict[str, Any]) -> MujocoSettings:
-    """``values`` validated as the backend's settings (the physics rate a multiple of the controller's)."""
-    cfg = validated_settings(MujocoSettings, values)
-    steps_per_tick(cfg.physics_hz, cfg.controller_hz)
-    return cfg
-
-
 class MujocoBackend(TrackedBackend):
     """The ``mujoco`` backend: `MujocoPhysics` under a tracking controller per car."""
 
-    def __init__(self, **settings: Any):
-        cfg = self.settings = mujoco_settings(settings)
-        super().__init__("mujoco", MujocoPhysics(**fields_of(WorldSettings, cfg.model_dump())), cfg)
+    def __init__(self, settings: MujocoSettings | None = None):
+        cfg = self.settings = settings or MujocoSettings()
+        super().__init__("mujoco", MujocoPhysics(cfg), cfg)
 
     @property
     def world(self) -> World | None:
-        return self.plant.world
+        return self.physics.world

@@ -269,17 +269,5 @@ class SlipTyres:
         return self.out[:, OUT_FZ]
 
     @property
-    def slip_ratio(self) -> np.ndarray:
-        return self.out[:, OUT_KAPPA]
-
-    @property
     def slip_angle(self) -> np.ndarray:
         return self.out[:, OUT_ALPHA]
-
-    @property
-    def longitudinal_force(self) -> np.ndarray:
-        return self.out[:, OUT_FX]
-
-    @property
-    def lateral_force(self) -> np.ndarray:
-        return self.out[:, OUT_FY]
