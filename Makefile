@@ -34,8 +34,9 @@ browser:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium >/dev/null; }
 
+# on every core (2 on CI), a test file per worker so that module fixtures are built once
 test: $(STAMP) $(MAPS) browser
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile
 
 lock:
 	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e '.[test,beamng]' \
