@@ -5,6 +5,7 @@ On disk a run is a directory:
 - ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
 - ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
 - ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles)
+- ``solution.xml``        every agent's driven trajectory as a CommonRoad solution (`simgap.evaluate.solution`)
 
 The directory is written next to its destination and renamed into place, so a reader never
 sees a half-written run.
@@ -28,9 +29,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
+from simgap.files import atomic_write_text
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
-
 
 
 class Outcome(StrEnum):
@@ -78,6 +79,18 @@ class PlannerError:
                    "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
 
 
+@dataclass(frozen=True)
+class PartialCost:
+    """One term of a CommonRoad cost function: its value (unweighted) and its weight."""
+
+    cost: float
+    weight: float
+
+    @property
+    def weighted(self) -> float:
+        return self.cost * self.weight
+
+
 @dataclass
 class AgentOutcome:
     id: int
@@ -95,9 +108,21 @@ class AgentOutcome:
     planning_p95_s: float | None = None
     planning_max_s: float | None = None
     planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
+    # scores (simgap.evaluate: closed_loop_score, solution); None: not scored (a run recorded before scores)
+    score: float | None = None                  # closed-loop score in [0, 1], built like nuPlan's CLS
+    score_components: dict[str, float] = field(default_factory=dict)   # its multipliers and weighted terms
+    score_measures: dict[str, float] = field(default_factory=dict)     # what they were computed from
+    solution_benchmark: str = ""                # the solution's benchmark ID: model+type:cost function:scenario
+    solution_cost: float | None = None          # the cost function's total
+    solution_partial_costs: dict[str, PartialCost] = field(default_factory=dict)   # by CommonRoad's term id
+    solution_cost_error: str = ""               # why the cost could not be evaluated
+    solution_valid: bool | None = None          # by commonroad-drivability-checker; None: not checked
+    solution_reason: str = ""                   # the first reason it is invalid
 
     def __post_init__(self) -> None:
         self.outcome = Outcome(self.outcome)          # as read back from run.json
+        self.solution_partial_costs = {k: v if isinstance(v, PartialCost) else PartialCost(**v)
+                                       for k, v in self.solution_partial_costs.items()}
 
 
 @dataclass
@@ -153,29 +178,41 @@ class Run:
         }
 
     # ------------------------------------------------------------------ writing
-    def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None) -> Path:
+    def _record_json(self) -> str:
+        """``run.json``: everything but the trajectories."""
+        meta = self.summary() | {
+            "dt": self.dt,
+            "events": [asdict(e) for e in self.events],
+            "settings": self.settings,
+            "scenario_path": self.scenario_path,
+            "parameters": self.parameters,
+            "sections": self.sections,
+            "versions": self.versions,
+            "seed": self.seed,
+            "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
+            "metrics": self.metrics,
+            "planner_errors": [asdict(e) for e in self.planner_errors],
+        }
+        return json.dumps(meta, indent=2, default=_json_default)
+
+    def save_record(self, run_dir: str | Path) -> Path:
+        """Rewrite the ``run.json`` of a saved run directory (atomically), e.g. once its solution
+        has been checked."""
+        return atomic_write_text(Path(run_dir) / "run.json", self._record_json())
+
+    def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None,
+             solution_xml: str | None = None) -> Path:
         """Write the run directory atomically (build aside, then rename into place)."""
         run_dir = Path(run_dir)
         run_dir.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{run_dir.name}.", dir=run_dir.parent))
         try:
-            meta = self.summary() | {
-                "dt": self.dt,
-                "events": [asdict(e) for e in self.events],
-                "settings": self.settings,
-                "scenario_path": self.scenario_path,
-                "parameters": self.parameters,
-                "sections": self.sections,
-                "versions": self.versions,
-                "seed": self.seed,
-                "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
-                "metrics": self.metrics,
-                "planner_errors": [asdict(e) for e in self.planner_errors],
-            }
-            (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
+            (tmp / "run.json").write_text(self._record_json())
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
             if driven_scenario_xml is not None:
                 (tmp / "driven.xml").write_text(driven_scenario_xml)
+            if solution_xml is not None:
+                (tmp / "solution.xml").write_text(solution_xml)
             if run_dir.exists():
                 old = run_dir.with_name(f".{run_dir.name}.old")
                 shutil.rmtree(old, ignore_errors=True)

@@ -17,6 +17,9 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
+from simgap.evaluate.run_scores import check_run_solution, score_run
+from simgap.evaluate.solution import solution_xml
+from simgap.evaluate.solution_check import SolutionCheckCache
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.files import read_yaml_mapping
@@ -41,6 +44,8 @@ class RunRequest:
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
     seed: int = 0
+    validate: bool = True                      # check the solution's validity (slow; after the run is saved)
+    check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
 
 
 def software_versions() -> dict[str, str]:
@@ -142,6 +147,9 @@ def execute(request: RunRequest, out: Path | None = None,
     run.seed = request.seed
     run.vehicles = {a.id: a.vehicle for a in agents}
     run.metrics = run_metrics(run, scenario, problems, knob_value("road_friction", request.backend_settings))
+    clock = time.perf_counter()
+    solution = score_run(run, scenario, problems, request.cosim, planner_vehicle, request.scenario)
+    run.timings["scoring"] = time.perf_counter() - clock
     run.settings |= {"parameter_units": meta.get("units", {}),
                      "planner": _planner_record(request.planner, records), "backend": request.backend_settings,
                      "planner_vehicle": request.planner_vehicle}
@@ -149,7 +157,15 @@ def execute(request: RunRequest, out: Path | None = None,
         t0 = time.perf_counter()
         xml = scenario_xml(driven_scenario(scenario, agents, run), problems)
         run.timings["io"] = time.perf_counter() - t0
-        run.save(out, xml)
+        run.save(out, xml, solution_xml(solution))
+    if request.validate:           # the slow check, once the run is safe on disk
+        clock = time.perf_counter()
+        cached = check_run_solution(run, solution, scenario, problems, request.scenario,
+                                    SolutionCheckCache(request.check_cache))
+        run.timings["validation"] = time.perf_counter() - clock
+        run.settings["solution_check"] = "cached" if cached else "checked"
+        if out is not None:
+            run.save_record(out)
     return run
 
 
