@@ -68,10 +68,13 @@ def box_goal(x: float, lane: int, steps: tuple[int, int], velocity: tuple[float,
     return GoalRegion([CustomState(**fields)])
 
 
-def lanelet_goal(scenario: Scenario, lanelet_id: int, steps: tuple[int, int]) -> GoalRegion:
+def lanelet_goal(scenario: Scenario, lanelet_id: int, steps: tuple[int, int],
+                 velocity: tuple[float, float] | None = None) -> GoalRegion:
     lanelet = scenario.lanelet_network.find_lanelet_by_id(lanelet_id)
-    return GoalRegion([CustomState(time_step=Interval(*steps), position=lanelet.polygon)],
-                      lanelets_of_goal_position={0: [lanelet_id]})
+    fields = {"time_step": Interval(*steps), "position": lanelet.polygon}
+    if velocity is not None:
+        fields["velocity"] = Interval(*velocity)
+    return GoalRegion([CustomState(**fields)], lanelets_of_goal_position={0: [lanelet_id]})
 
 
 def recorded_car(oid: int, x: float, lane: int, v: float, steps: int, shape=None,

@@ -41,6 +41,18 @@ def test_arriving_too_early_slows_down_and_waits():
     assert agent.outcome == "goal_reached" and 15.0 <= agent.time_to_goal_s <= 16.0
 
 
+def test_an_early_arrival_in_a_long_goal_lanelet_keeps_to_its_velocity_window_until_the_time_window():
+    # as in the Frenetix T-junctions: a goal lanelet 300 m long entered at about 10 s, a time window
+    # at 14.6-14.7 s and a velocity window up to 9.76 m/s, below the 10 m/s cruise speed
+    scenario = highway(lanes=1, length=600, segments=2)
+    run = run_ego(scenario, start(200, 0, 4.8), lanelet_goal(scenario, 11, (146, 147), (-3.24, 9.76)))
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached" and 14.6 <= agent.time_to_goal_s <= 14.7
+    driven = run.driven[1]
+    in_lanelet = driven.x >= 300.0
+    assert in_lanelet.any() and driven.v[in_lanelet].max() <= 9.76
+
+
 def test_a_goal_lanelet_two_lanes_over_is_reached_by_changing_lanes():
     scenario = highway(lanes=3, length=300, segments=2)
     run = run_ego(scenario, start(10, 0, 10.0), lanelet_goal(scenario, 31, (0, 400)))

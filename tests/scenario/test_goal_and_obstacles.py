@@ -59,6 +59,19 @@ def test_a_miss_is_explained():
     assert "never inside" in goal.miss_reason([State(0.0, 0.0, 10.0, 0.0, 0.0)])
 
 
+def test_a_miss_is_judged_at_the_time_window_not_at_the_early_arrival():
+    # in the goal box from 7.6 s on, through the time window at 10 m/s: the velocity missed, at the window
+    region = GoalRegion([CustomState(time_step=Interval(146, 147), velocity=Interval(-3.24, 9.76),
+                                     position=Rectangle(100.0, 4.0, np.array([126.0, 0.0])))])
+    driven = [State(t=k * DT, x=10.0 * k * DT, y=0.0, yaw=0.0, v=10.0) for k in range(148)]
+    reason = Goal.of(region, DT).miss_reason(driven)
+    assert reason.startswith("in the time window 14.6-14.7 s at t = 14.6 s inside the goal position but")
+    assert "velocity 10.00 m/s outside -3.24-9.76 m/s" in reason and "time" not in reason.split("but")[1]
+    # never in the box: how far from it, at the window
+    away = [st.replace(y=8.0) for st in driven]
+    assert Goal.of(region, DT).miss_reason(away).startswith("never inside the goal position (6.0 m from it")
+
+
 def test_shapes_become_oriented_boxes():
     assert box_of(Rectangle(4.0, 2.0)) .length == pytest.approx(4.0)
     circle = box_of(Circle(0.5, np.array([1.0, 0.0])))

@@ -6,21 +6,23 @@ the same for every planner and every fidelity: offset from the centre of the lan
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
-from commonroad_route_planner.route_planner import RoutePlanner
 
+from simgap.errors import InputError
 from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.planning.reference_path import lanelet_routes, shortest_route
 
 
 def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[int]:
-    routes = RoutePlanner(network, problem, logging_level=logging.ERROR).plan_routes()
-    if not routes:
+    """The lanelets of the route through the fewest lanelets (the planners' routes, a start off
+    every lanelet included); empty when there is none."""
+    try:
+        routes, _ = lanelet_routes(network, problem)
+    except InputError:
         return []
-    return list(min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
+    return list(shortest_route(routes))
 
 
 def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> ReferencePath | None:

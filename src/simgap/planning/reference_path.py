@@ -58,45 +58,57 @@ class ReferencePath:
 def route_centre_line(lanelet_network: LaneletNetwork,
                       planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
     """The centre line of the shortest route (fewest lane changes) from the initial state to the
-    goal, as commonroad-route-planner computes it, and the route's lanelet ids.
-
-    The route planner changes lanes where the goal lanelet needs it and, for a goal without
-    lanelets (no position, or one off the lanelets), follows the road from the start. An initial
-    state off every lanelet (between lanelets, on the shoulder) starts the route from the nearest
-    lanelet with a matching direction; only where no route exists on the map is the planning
-    problem refused, with the reason."""
-    pid = planning_problem.planning_problem_id
-    try:
-        return _planned_route(lanelet_network, planning_problem)
-    except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
-        first = str(exc) or type(exc).__name__
-    snapped = _snapped_to_lanelet(lanelet_network, planning_problem)
-    if snapped is not None:
-        try:
-            return _planned_route(lanelet_network, snapped)
-        except Exception:  # noqa: BLE001
-            pass
-    raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
-                     field=f"planning problem {pid}",
-                     allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
-
-
-def _planned_route(lanelet_network: LaneletNetwork,
-                   planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
+    goal, as commonroad-route-planner computes it, and the route's lanelet ids (see
+    `lanelet_routes`). Where the route planner's lane-change geometry fails (some real maps), the
+    route's centre lines are joined."""
     # imported here: the route planner pulls in networkx and its own logging at import time
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
-    from commonroad_route_planner.route_planner import RoutePlanner
 
-    routes = RoutePlanner(lanelet_network, planning_problem, logging_level=logging.ERROR).plan_routes()
+    routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
     try:
         route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
                                      logging_level=logging.ERROR).plan_shortest_reference_path()
         centre, ids = np.asarray(route.reference_path, dtype=float), tuple(int(i) for i in route.lanelet_ids)
     except Exception:  # noqa: BLE001 - its lane-change geometry fails on some real maps
-        centre, ids = _joined_centre_lines(lanelet_network, min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
+        centre, ids = np.empty((0, 2)), ()
     if len(centre) < 2:
-        raise ValueError("the route's centre line has fewer than two points")
+        centre, ids = _joined_centre_lines(lanelet_network, shortest_route(routes))
     return centre, ids
+
+
+def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> tuple[list, PlanningProblem]:
+    """commonroad-route-planner's routes from the initial state to the goal, and the planning
+    problem they start from.
+
+    The route planner changes lanes where the goal lanelet needs it and, for a goal without
+    lanelets (no position, or one off the lanelets), follows the road from the start. An initial
+    state off every lanelet (between lanelets, on the shoulder, on an intersection's boundary)
+    starts the route from the nearest lanelet with a matching direction; only where no route
+    exists on the map is the planning problem refused, with the reason."""
+    from commonroad_route_planner.route_planner import RoutePlanner
+
+    pid = planning_problem.planning_problem_id
+    first = ""
+    for candidate in (planning_problem, None):
+        candidate = candidate or _snapped_to_lanelet(lanelet_network, planning_problem)
+        if candidate is None:
+            break
+        try:
+            routes = RoutePlanner(lanelet_network, candidate, logging_level=logging.ERROR).plan_routes()
+        except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
+            first = first or str(exc) or type(exc).__name__
+            continue
+        if routes and any(len(r.lanelet_ids) for r in routes):
+            return [r for r in routes if len(r.lanelet_ids)], candidate
+        first = first or "no route found"
+    raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
+                     field=f"planning problem {pid}",
+                     allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
+
+
+def shortest_route(routes) -> tuple[int, ...]:
+    """The lanelet ids of the route through the fewest lanelets."""
+    return tuple(int(i) for i in min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
 
 
 def _joined_centre_lines(lanelet_network: LaneletNetwork, lanelet_ids) -> tuple[np.ndarray, tuple[int, ...]]:

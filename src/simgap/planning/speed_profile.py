@@ -14,11 +14,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 from commonroad.planning.goal import GoalRegion
 
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.reference_path import ReferencePath
-from simgap.scenario.goal import Goal, Window
+from simgap.scenario.goal import Goal, Window, area_of
 
 # the profile aims at this share of the lateral-acceleration bound, leaving room for plans
 # whose curvature overshoots the reference path's while they converge onto it
@@ -56,11 +57,18 @@ def cruise_speed(goal: GoalRegion | None, default: float, max_speed: float, init
 
 
 class GoalApproach:
-    """A cap on the desired speed that makes the arrival at the goal's centre (on the reference
-    path, arc length ``s_goal``) fall inside its velocity and time windows (see the module docstring)."""
+    """A cap on the desired speed that puts the vehicle inside the goal when its windows are open.
+
+    The goal's position is a stretch of the reference path (``enter`` to ``exit`` arc length: the
+    reference points inside it, or the point nearest a goal centre off the path). The vehicle
+    brakes into the velocity window before it enters the stretch and keeps to it until the stretch
+    ends. Before the time window opens it drives no faster than the average speed that reaches the
+    stretch's middle when the window opens; arrived early, it goes on to `HOLD_MARGIN_M` before the
+    stretch's end at that pace and, where the velocity window allows, stops there and waits.
+    """
 
     def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float):
-        self.s_goal = _goal_arc_length(reference, goal)
+        self.stretch = _goal_stretch(reference, goal)
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
         self.arrival_time = (None if time is None else
@@ -68,33 +76,51 @@ class GoalApproach:
         self.deceleration = deceleration
 
     def distance_to_goal(self, s: float) -> float:
-        """Arc length from ``s`` to the goal's centre (inf: no goal on the path, or passed)."""
-        if self.s_goal is None or s > self.s_goal:
+        """Arc length from ``s`` to the goal's stretch (0 inside it; inf: no goal on the path, or passed)."""
+        if self.stretch is None or s > self.stretch[1]:
             return math.inf
-        return self.s_goal - s
+        return max(self.stretch[0] - s, 0.0)
 
     def speed_cap(self, s: float, t: float, v: float) -> float:
         """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
-        remaining = self.distance_to_goal(s)
-        if math.isinf(remaining):
+        if self.stretch is None or s > self.stretch[1]:
             return math.inf
+        enter, leave = self.stretch
         cap = math.inf
         if self.arrival_speed is not None:
-            braking = max(remaining - v * _RESPONSE_S, 0.0)
+            braking = max(enter - s - v * _RESPONSE_S, 0.0)
             cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
         if self.arrival_time is not None and t < self.arrival_time:
-            cap = min(cap, remaining / (self.arrival_time - t))
+            middle = 0.5 * (enter + leave)
+            target = middle if s < middle else max(middle, leave - HOLD_MARGIN_M)
+            cap = min(cap, max(target - s, 0.0) / (self.arrival_time - t))
         return cap
 
 
-def _goal_arc_length(reference: ReferencePath, goal: Goal) -> float | None:
-    """Arc length of the first goal centre near the reference path (None: no such centre)."""
+# an early arrival waits this far before the end of the goal's stretch of the path [m] (the planner's
+# arc length is the rear axle's; the goal is judged at the vehicle's centre, a metre or two ahead)
+HOLD_MARGIN_M = 4.0
+
+
+def _goal_stretch(reference: ReferencePath, goal: Goal) -> tuple[float, float] | None:
+    """(enter, exit) arc length of the first goal state's position along ``reference``: the first
+    run of reference points inside it (from the route's start on), else the point nearest a goal
+    centre within `_GOAL_ON_PATH_M` (enter = exit); None when no goal position lies on the path."""
+    ahead = reference.s >= reference.route_s[0]
     for state in goal.states:
+        if state.position is None:
+            continue
+        inside = shapely.contains_xy(area_of(state.position), reference.xy[:, 0], reference.xy[:, 1]) & ahead
+        if inside.any():
+            first = int(np.argmax(inside))
+            after = np.flatnonzero(~inside[first:])
+            last = first + (int(after[0]) - 1 if len(after) else len(inside) - first - 1)
+            return float(reference.s[first]), float(reference.s[last])
         for centre in state.centres():
             distance = np.hypot(reference.xy[:, 0] - centre[0], reference.xy[:, 1] - centre[1])
             k = int(distance.argmin())
             if distance[k] <= _GOAL_ON_PATH_M:
-                return float(reference.s[k])
+                return float(reference.s[k]), float(reference.s[k])
     return None
 
 

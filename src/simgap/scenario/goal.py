@@ -13,8 +13,11 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from commonroad.geometry.shape import Shape, ShapeGroup
+import shapely
+from commonroad.geometry.shape import Circle, Shape, ShapeGroup
 from commonroad.planning.goal import GoalRegion
+from shapely.geometry import Point
+from shapely.geometry.base import BaseGeometry
 
 from simgap.trajectory import State
 
@@ -41,6 +44,15 @@ def _window(interval) -> Window | None:
     if hasattr(interval, "start"):
         return Window(float(interval.start), float(interval.end))
     return Window(float(interval), float(interval))      # an exact value
+
+
+def area_of(shape: Shape) -> BaseGeometry:
+    """``shape`` as a shapely geometry (a circle as its disc, a shape group as the union)."""
+    if isinstance(shape, ShapeGroup):
+        return shapely.union_all([area_of(s) for s in shape.shapes])
+    if isinstance(shape, Circle):
+        return Point(*np.asarray(shape.center, dtype=float)).buffer(float(shape.radius))
+    return shape.shapely_object
 
 
 def _heading_in(window: Window, yaw: float) -> bool:
@@ -71,6 +83,24 @@ class GoalState:
         if self.orientation is not None and not _heading_in(self.orientation, state.yaw):
             out.append("orientation")
         return out
+
+    def distance_from_position(self, x: float, y: float) -> float:
+        """How far [m] the point (x, y) lies from the goal position (0 inside, or when it is free)."""
+        if self.position is None:
+            return 0.0
+        return float(area_of(self.position).distance(Point(x, y)))
+
+    def describe_misses(self, state: State, missed: list[str]) -> str:
+        """The windows in ``missed`` with ``state``'s values, in a user's words."""
+        parts = []
+        if "position" in missed:
+            parts.append(f"position {self.distance_from_position(state.x, state.y):.1f} m from the goal area")
+        for name, window, value, unit in (("velocity", self.velocity, state.v, "m/s"),
+                                          ("orientation", self.orientation, state.yaw, "rad"),
+                                          ("time", self.time, state.t, "s")):
+            if name in missed and window is not None:
+                parts.append(f"{name} {value:.2f} {unit} outside {window.describe(unit)}")
+        return ", ".join(parts)
 
     def centres(self) -> list[np.ndarray]:
         """Centre(s) of the position's shape(s) (empty when the position is free)."""
@@ -117,23 +147,46 @@ class Goal:
         return next((gs.time for gs in self.states if gs.time is not None), None)
 
     def miss_reason(self, driven: Sequence[State]) -> str:
-        """Why ``driven`` did not reach the goal, in a user's words: never in the goal's position,
-        or there but outside its time / velocity / orientation window (the closest attempt)."""
-        best: tuple[int, State, list[str]] | None = None
+        """Why ``driven`` did not reach the goal, in a user's words, judged where it counts: for a
+        goal state with a time window, at the window (the state in it that came closest, and the
+        position, velocity or orientation that failed there, with its value); without one, at the
+        closest attempt inside the goal position. Of several goal states, the closest miss."""
+        best: tuple[tuple[int, float], str] | None = None
         for gs in self.states:
-            for st in driven:
-                missed = gs.misses(st)
-                if "position" in missed:
-                    continue
-                if best is None or len(missed) < len(best[2]):
-                    best = (len(missed), st, missed)
-        if best is None:
-            return "never inside the goal position"
-        _, st, missed = best
-        parts = []
-        for gs in self.states:
-            for name, window, value, unit in (("time", gs.time, st.t, "s"), ("velocity", gs.velocity, st.v, "m/s"),
-                                              ("orientation", gs.orientation, st.yaw, "rad")):
-                if name in missed and window is not None and name not in {p.split(" ")[0] for p in parts}:
-                    parts.append(f"{name} {value:.2f} {unit} outside {window.describe(unit)}")
-        return f"inside the goal position at t = {st.t:.1f} s but " + ", ".join(parts)
+            judged = _judged(gs, driven)
+            if judged is not None and (best is None or judged[0] < best[0]):
+                best = judged
+        return best[1] if best is not None else "never inside the goal position"
+
+
+def _judged(gs: GoalState, driven: Sequence[State]) -> tuple[tuple[int, float], str] | None:
+    """(rank, reason) of ``driven``'s closest miss of ``gs`` (lower rank: closer; None: nothing to say)."""
+    def closest(states: Sequence[State], ignore: str) -> tuple[tuple[int, float], State, list[str]]:
+        scored = []
+        for st in states:
+            missed = [m for m in gs.misses(st) if m != ignore]
+            scored.append(((len(missed), gs.distance_from_position(st.x, st.y)), st, missed))
+        return min(scored, key=lambda item: item[0])
+
+    if gs.time is not None:
+        in_window = [st for st in driven if gs.time.contains(st.t)]
+        window = gs.time.describe("s")
+        if not in_window:
+            if not driven or driven[-1].t >= gs.time.lo:
+                return None
+            ended = f"the run ended at t = {driven[-1].t:.1f} s, before the time window {window} opened"
+            inside = next((st for st in driven if "position" not in gs.misses(st)), None)
+            if inside is None:
+                return (9, math.inf), f"never inside the goal position; {ended}"
+            return (1, 0.0), f"inside the goal position at t = {inside.t:.1f} s but {ended}"
+        rank, st, missed = closest(in_window, "time")
+        if "position" in missed and all("position" in gs.misses(other) for other in driven):
+            return rank, (f"never inside the goal position ({rank[1]:.1f} m from it at t = {st.t:.1f} s, "
+                          f"in the time window {window})")
+        where = "outside the goal position:" if "position" in missed else "inside the goal position but"
+        return rank, f"in the time window {window} at t = {st.t:.1f} s {where} {gs.describe_misses(st, missed)}"
+    inside = [st for st in driven if "position" not in gs.misses(st)]
+    if not inside:
+        return None
+    rank, st, missed = closest(inside, "")
+    return rank, f"inside the goal position at t = {st.t:.1f} s but {gs.describe_misses(st, missed)}"
