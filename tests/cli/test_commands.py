@@ -95,6 +95,43 @@ def test_compare_two_fidelities_as_json_and_plots(tmp_path):
     assert 0 < d["rms"] <= d["max"] < 0.5
     assert {"straight", "curve"} <= set(agent["lateral_displacement_by_section"])
     assert (tmp_path / "cmp" / "d_over_s_agent1.png").stat().st_size > 10_000
+    (scores,) = json.loads(proc.stdout)["scores"]
+    assert scores["score_drop"] == pytest.approx(scores["a"]["score"] - scores["b"]["score"])
+    assert len(scores["components"]) == 8 and scores["a"]["solution_cost"] > 0 and scores["b"]["solution_cost"] > 0
+    regained = [c["regained"] for c in scores["components"]]
+    assert regained == sorted(regained, reverse=True)          # the component that lost most first
+
+
+def test_run_mujoco_json_scores_every_agent_and_writes_a_solution_file(tmp_path):
+    from commonroad.common.solution import CommonRoadSolutionReader
+
+    simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview", "--out", str(tmp_path))
+    xml = tmp_path / "curve_radius-20_angle-60.xml"
+    proc = simgap("run", str(xml), "--backend", "mujoco", "--json", "--out", str(tmp_path / "m"))
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    for agent in summary["agents"]:
+        assert 0.0 <= agent["score"] <= 1.0 and len(agent["score_components"]) == 8
+        assert isinstance(agent["solution_valid"], bool) and agent["solution_cost"] > 0
+        assert agent["solution_benchmark"].startswith("KS2:SM1:")
+    assert {"scoring", "validation"} <= set(summary["timings"])
+    solution = CommonRoadSolutionReader.open(str(tmp_path / "m" / "solution.xml"))
+    assert [p.planning_problem_id for p in solution.planning_problem_solutions] == [a["id"] for a in summary["agents"]]
+    quick = json.loads(simgap("run", str(xml), "--no-validate", "--cost-function", "MW1", "--json", "--out",
+                              str(tmp_path / "q")).stdout)
+    assert quick["agents"][0]["solution_valid"] is None and "validation" not in quick["timings"]
+    assert quick["agents"][0]["solution_benchmark"].startswith("KS2:MW1:")
+
+
+def test_a_bad_score_setting_names_the_file_and_the_field(tmp_path):
+    simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview", "--out", str(tmp_path))
+    config = tmp_path / "score.yaml"
+    config.write_text("comfort: {max_abs_yaw_rate: -1}\n")
+    assert_clean_error(simgap("run", str(tmp_path / "curve_radius-20_angle-60.xml"), "--score-config", str(config),
+                              "--out", str(tmp_path / "r")), "score.yaml", "comfort.max_abs_yaw_rate")
+    assert_clean_error(simgap("run", str(tmp_path / "curve_radius-20_angle-60.xml"), "--cost-function", "XX9",
+                              "--out", str(tmp_path / "r")), "XX9", "SM1")
+    assert not (tmp_path / "r").exists()
 
 
 def test_compare_refuses_runs_of_different_scenarios(tmp_path):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from simgap.cosim import Outcome, Run
 from simgap.evaluate.errors import comfort
+from simgap.evaluate.run_scores import run_scores_columns
 from simgap.experiment.records import Job, JobContext, RunRow
 from simgap.experiment.single_run import RunRequest, execute
 
@@ -39,7 +40,8 @@ def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) ->
         peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
         peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
         wall_time_s=run.wall_time_s, fingerprint=run.fingerprint, run_dir=str(run_dir.relative_to(root)),
-        job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions))
+        job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions),
+        **run_scores_columns(run))
 
 
 def _slowest(values) -> float:
@@ -55,6 +57,6 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
     scenario = job.scenario_path or (context.scenarios or {})[job.scenario]
     request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
                          planner_vehicle=context.planner_vehicle, backend_settings=dict(job.backend_settings),
-                         planner=job.planner, cosim=context.cosim_of(job), seed=job.seed)
+                         planner=job.planner, cosim=context.cosim_of(job), seed=job.seed, validate=context.validate)
     run = execute(request, run_dir)
     return run_row(job, run, run_dir, context.root, time.perf_counter() - started)

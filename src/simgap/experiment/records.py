@@ -130,7 +130,12 @@ class RunRow:
     fingerprint: str | None = None
     run_dir: str | None = None                   # relative to the experiment directory
     job_time_s: float | None = None              # the worker's time for the whole job
+    score: float | None = None                   # the worst agent's closed-loop score
+    solution_valid: bool | None = None           # every agent's solution valid (None: not checked)
+    solution_reason: str = ""                    # the first invalid agent's first reason
+    solution_cost: float | None = None           # the solution's cost: the sum over its agents (as CommonRoad's)
     metrics: dict[str, float] = field(default_factory=dict)     # simgap.evaluate.run_metrics.RUN_METRICS
+    score_components: dict[str, float] = field(default_factory=dict)   # the worst agent's -> score_<component>
     timings: dict[str, float] = field(default_factory=dict)     # seconds per phase -> time_<phase>_s
     versions: dict[str, str] = field(default_factory=dict)      # package -> version_<package>
     extra: dict[str, Any] = field(default_factory=dict)         # columns a caller adds (a search's)
@@ -151,6 +156,7 @@ class RunRow:
                 value = getattr(self, f.name)
                 cols[f.name] = value.value if isinstance(value, Outcome) else value
         cols |= dict(self.metrics)
+        cols |= {f"score_{name}": float(v) for name, v in self.score_components.items()}
         cols |= {f"time_{phase}_s": float(v) for phase, v in self.timings.items()}
         cols |= {f"version_{name}": v for name, v in self.versions.items()}
         return cols | self.extra
@@ -162,7 +168,7 @@ class RunRow:
         types = {"key": pa.string(), "scenario": pa.string(), "fidelity": pa.string(), "backend": pa.string(),
                  "vehicle": pa.string(), "controller": pa.string(), "planner": pa.string(),
                  "repeat": pa.int64(), "seed": pa.int64()} | _SCALARS
-        types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_")) or k in self.metrics}
+        types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_", "score_")) or k in self.metrics}
         types |= {k: pa.string() for k in cols if k.startswith("version_")}
         inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra else None
         return pa.schema([pa.field(k, types[k]) if k in types else inferred.field(k) for k in cols])
@@ -172,12 +178,12 @@ def _arrow_type(annotation: str) -> pa.DataType:
     """The Arrow type of a `RunRow` scalar annotation (``float | None``, ``Status``, ...)."""
     base = annotation.replace(" | None", "")
     return {"float": pa.float64(), "int": pa.int64(), "str": pa.string(), "Status": pa.string(),
-            "Outcome": pa.string()}[base]
+            "Outcome": pa.string(), "bool": pa.bool_()}[base]
 
 
 _SCALARS: dict[str, pa.DataType] = {
     f.name: _arrow_type(str(f.type)) for f in fields(RunRow)
-    if f.name not in ("id", "parameters", "vehicle", "metrics", "timings", "versions", "extra")}
+    if f.name not in ("id", "parameters", "vehicle", "metrics", "score_components", "timings", "versions", "extra")}
 
 
 @dataclass(frozen=True)
@@ -189,6 +195,7 @@ class JobContext:
     cosim: CosimSettings
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = PLANNER_VEHICLE        # catalogue name or data file
+    validate: bool = True                         # check each run's solution (slow; --no-validate skips it)
 
     def cosim_of(self, job: Job) -> CosimSettings:
         """The loop settings of ``job``: the shared ones, a section the job sets replaced by its own."""

@@ -106,9 +106,10 @@ def clean_partial_runs(root: Path) -> None:
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   retry_failed: bool = False) -> ExperimentResult:
+                   retry_failed: bool = False, validate: bool = True) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
-    never run again, unless ``retry_failed`` asks to run the failed ones once more."""
+    never run again, unless ``retry_failed`` asks to run the failed ones once more; ``validate``
+    False skips the check of each run's solution."""
     root = Path(root)
     spec, _, path = load_spec(spec_ref)
     for fidelity in spec.fidelities:
@@ -140,7 +141,8 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
             on_progress(progress)
 
     start = time.perf_counter()
-    context = JobContext(root, validated(CosimSettings, spec.cosim), scenarios, vehicle_ref(spec.planner_vehicle, path))
+    context = JobContext(root, validated(CosimSettings, spec.cosim), scenarios, vehicle_ref(spec.planner_vehicle, path),
+                         validate=validate)
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()

@@ -24,6 +24,7 @@ normalised space, same vehicle and planner) to an earlier one is the same failur
 from __future__ import annotations
 
 import json
+import math
 import re
 import time
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ from simgap.errors import InputError, validated
 from simgap.experiment.executors import make_executor
 from simgap.experiment.knobs import apply_knobs
 from simgap.experiment.search_results import META, StrategyResult, summarise
-from simgap.experiment.search_spec import STRATEGIES, SearchSpec, load_search_spec
+from simgap.experiment.search_spec import SCORE_DROP, STRATEGIES, SearchSpec, load_search_spec
 from simgap.experiment.records import Job, JobContext, JobId, RunRow
 from simgap.experiment.runner import clean_partial_runs
 from simgap.experiment.single_run import software_versions
@@ -258,27 +259,48 @@ class StrategyRun:
     def next_job(self) -> Job | None:
         if self.out_of_budget():
             return None
-        while self.queue:
-            index, rung = self.queue.pop(0)
-            if (index, rung) in self.rows or (index, rung) in self.in_flight.values():
-                continue
-            if rung == 0 and self._settle_ideal(index):
-                continue
-            return self._start(index, rung)
+        waiting = []                     # follow-ups whose ideal run (for the score drop) is not in yet
+        try:
+            while self.queue:
+                index, rung = self.queue.pop(0)
+                if (index, rung) in self.rows or (index, rung) in self.in_flight.values():
+                    continue
+                if rung == 0 and self._settle_ideal(index):
+                    continue
+                if rung > 0 and self.spec.needs_ideal_first and (index, 0) not in self.rows:
+                    waiting.append((index, rung))
+                    continue
+                return self._start(index, rung)
+        finally:
+            self.queue[:0] = waiting
         if self.exhausted:
             return None
         if self.missing:
             c = self.strategy.propose(self.missing.pop(0))
             if c is not None:
                 self.candidates[c.index] = c
-                return self._start(c.index, self._first_rung(c))
+                return self._begin(c)
         c = self.strategy.propose(self.next_index)
         if c is None:
             self.exhausted = True
             return None
         self.next_index += 1
         self.candidates[c.index] = c
-        return self._start(c.index, self._first_rung(c))
+        return self._begin(c)
+
+    def _begin(self, c: Candidate) -> Job | None:
+        """The first job of a new candidate: its first rung — after its ideal run when runs are judged
+        by their score drop (None: it waits for a sibling's ideal run in flight)."""
+        first = self._first_rung(c)
+        if first == 0 or not self.spec.needs_ideal_first:
+            return self._start(c.index, first)
+        if not self._settle_ideal(c.index):
+            self.queue.insert(0, (c.index, first))
+            return self._start(c.index, 0)
+        if (c.index, 0) in self.rows:                 # a sibling's ideal run, copied
+            return self._start(c.index, first)
+        self.queue.insert(0, (c.index, first))        # its ideal run is in flight: nothing to do until it is in
+        return None
 
     def _first_rung(self, c: Candidate) -> int:
         return (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
@@ -291,6 +313,7 @@ class StrategyRun:
     def on_result(self, job: Job, result: RunRow) -> None:
         index, rung = self.in_flight.pop(job.key)
         c = self.candidates[index]
+        result = result.with_columns(**score_drop_column(result.score, self.rows.get((index, 0)), rung == 0))
         reason = self.spec.failure.failed(result.columns()) if result.status == "ok" else None
         result = result.with_columns(strategy=self.strategy.name, candidate=index, rung=rung,
                                      rung_backend=job.backend, failed=reason is not None,
@@ -315,6 +338,17 @@ class StrategyRun:
             else:                                           # that run failed: each runs its own
                 self.queue[:0] = [(other, 0) for other in waiting]
         self._save_budget()
+
+
+def score_drop_column(score: float | None, ideal: dict[str, Any] | None, is_ideal: bool) -> dict[str, float]:
+    """``score_drop``: the candidate's ideal score minus this run's (0 for the ideal run itself; none
+    while its ideal run is not in)."""
+    if is_ideal:
+        return {SCORE_DROP: 0.0}
+    ideal_score = None if ideal is None or ideal.get("status") != "ok" else ideal.get("score")
+    if score is None or ideal_score is None or math.isnan(ideal_score):
+        return {}
+    return {SCORE_DROP: float(ideal_score) - float(score)}
 
 
 def _scenario_name(index: int) -> str:
@@ -349,9 +383,13 @@ class SearchProgress:
 
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
-               on_progress: Callable[[SearchProgress], None] | None = None) -> list[StrategyResult]:
-    """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each."""
+               on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = True) -> list[StrategyResult]:
+    """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
+    False skips the check of each run's solution."""
     spec, logical, path = load_search_spec(spec_ref)
+    if not validate and spec.failure.solution_invalid:
+        raise InputError("the failure rule asks whether solutions are valid, which --no-validate skips", file=path,
+                         field="failure.solution_invalid", allowed="false, or validation on")
     for rung in spec.ladder:
         preflight(rung.backend, dict(rung.settings))
     names = strategies or list(spec.strategies)
@@ -370,7 +408,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         sroot.mkdir(parents=True, exist_ok=True)
         run = StrategyRun(spec, space, make_strategy(name, space, spec), sroot, budget, planners)
         run.resume()
-        context = JobContext(sroot, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path))
+        context = JobContext(sroot, cosim, planner_vehicle=vehicle_ref(spec.planner_vehicle, path), validate=validate)
 
         def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)
