@@ -129,3 +129,53 @@ def breakdown_rows(group: ScenarioGroup) -> list[dict]:
                                  None: "not checked"}[a.solution_valid]}
             rows.append(row)
     return rows
+
+
+def _scored(row: dict) -> AgentOutcome:
+    """A store row's scores as an agent outcome (the worst agent's, as the row keeps them)."""
+    return AgentOutcome(0, "", "goal_reached", None, 0.0, None, score=row.get("score"),
+                        score_components={name: row[f"score_{name}"] for name in COMPONENTS
+                                          if row.get(f"score_{name}") is not None})
+
+
+def store_score_rows(rows: list[dict]) -> list[dict]:
+    """Per planner and non-ideal fidelity of an experiment's store: the mean ideal and physical
+    score, the mean and largest drop, the component whose loss explains most of it (summed over
+    the runs), the mean costs, and how many solutions valid in the ideal world are invalid here, by
+    their first reason."""
+    ok = [r for r in rows if r.get("status") == "ok"]
+    ideal = {(r["scenario"], r.get("planner")): r for r in ok if r["fidelity"] == REFERENCE}
+    out = []
+    for planner, fidelity in sorted({(r.get("planner"), r["fidelity"]) for r in ok if r["fidelity"] != REFERENCE}):
+        pairs = [(ideal[(r["scenario"], planner)], r) for r in ok
+                 if r.get("planner") == planner and r["fidelity"] == fidelity and (r["scenario"], planner) in ideal]
+        pairs = [(a, b) for a, b in pairs if a.get("score") is not None and b.get("score") is not None]
+        if not pairs:
+            continue
+        drops, lost = [], Counter()
+        for a, b in pairs:
+            drop, losses = score_drop(_scored(a), _scored(b), CosimSettings().score.weights)
+            drops.append(drop)
+            for c in losses:
+                lost[c.name] += c.regained
+        broken = [b for a, b in pairs if a.get("solution_valid") is True and b.get("solution_valid") is False]
+        reasons = Counter(_reason_kind(b.get("solution_reason") or "") for b in broken)
+        top = [(name, total) for name, total in lost.most_common(2) if total > 1e-9]
+        out.append({"planner": planner, "fidelity": fidelity, "runs": len(pairs),
+                    "ideal score": float(np.mean([a["score"] for a, _ in pairs])),
+                    "score": float(np.mean([b["score"] for _, b in pairs])),
+                    "mean drop": float(np.mean(drops)), "largest drop": float(max(drops)),
+                    "runs that lost": sum(d > 1e-9 for d in drops),
+                    "lost most on": ", ".join(f"{name} ({total / len(pairs):.3f})" for name, total in top) or "—",
+                    "ideal cost": _mean(a.get("solution_cost") for a, _ in pairs),
+                    "cost": _mean(b.get("solution_cost") for _, b in pairs),
+                    "ideal valid": sum(a.get("solution_valid") is True for a, _ in pairs),
+                    "valid": sum(b.get("solution_valid") is True for _, b in pairs),
+                    "ideal-valid now invalid": len(broken),
+                    "because": ", ".join(f"{k} ({n})" for k, n in reasons.most_common()) or "—"})
+    return out
+
+
+def _mean(values) -> float:
+    known = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.mean(known)) if known else math.nan
