@@ -308,3 +308,11 @@ def test_failure_rules_on_scores():
                         "solution_reason": "infeasible for KS2 at t = 3.1 s"}) == \
         "invalid solution (infeasible for KS2 at t = 3.1 s)"
     assert rule.failed({"outcome": "goal_reached", "score": 0.8, "solution_valid": None}) is None   # not checked
+
+
+def test_a_rule_on_solution_validity_needs_the_check(tmp_path):
+    spec = write(tmp_path, failure={"solution_invalid": True}, strategies=["random"])
+    with pytest.raises(InputError, match="--no-validate") as err:
+        run_search(spec, tmp_path / "out", Budget(runs=1), workers=1, validate=False)
+    assert "failure.solution_invalid" in err.value.describe()
+    assert not (tmp_path / "out").exists()

@@ -13,9 +13,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import CosimSettings, Fidelity, Run
+from simgap.cosim import Fidelity, Run
 from simgap.errors import InputError
-from simgap.evaluate.closed_loop_score import score_drop
+from simgap.evaluate.closed_loop_score import score_drop, score_weights_of
 from simgap.evaluate.compare import compare_runs
 from simgap.evaluate.criticality import run_criticality
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -28,7 +28,7 @@ UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error"
 def score_comparison(a: Run, b: Run) -> list[dict]:
     """Per agent of both runs: each world's score, cost and validity, the score's drop and the
     components that lost it (the largest loss first)."""
-    weights = CosimSettings.model_validate(b.settings.get("cosim") or {}).score.weights
+    weights = score_weights_of(b)
     out = []
     for aid in sorted({x.id for x in a.agents} & {x.id for x in b.agents}):
         agent_a = next(x for x in a.agents if x.id == aid)
@@ -58,7 +58,7 @@ def print_scores(console: Console, result: dict) -> None:
 
     for s in rows:
         lost = ", ".join(f"{c['name']} {c['a']:.2g}→{c['b']:.2g} (+{c['regained']:.3f})"
-                         for c in s["components"] if c["regained"] > 1e-9) or "nothing"
+                         for c in s["components"] if c["regained"] > 1e-9 or c["a"] != c["b"]) or "nothing"
         table.add_row(str(s["agent_id"]), fmt(s["a"]["score"]), fmt(s["b"]["score"]), fmt(s["score_drop"]),
                       escape(lost), fmt(s["a"]["solution_cost"], ".0f"), fmt(s["b"]["solution_cost"], ".0f"),
                       *(escape({True: "valid", False: f"invalid: {s[k]['solution_reason']}", None: "—"}

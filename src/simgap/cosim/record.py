@@ -111,7 +111,7 @@ class AgentOutcome:
     # scores (simgap.evaluate: closed_loop_score, solution); None: not scored (a run recorded before scores)
     score: float | None = None                  # closed-loop score in [0, 1], built like nuPlan's CLS
     score_components: dict[str, float] = field(default_factory=dict)   # its multipliers and weighted terms
-    score_measures: dict[str, float] = field(default_factory=dict)     # what they were computed from
+    score_measures: dict[str, float | None] = field(default_factory=dict)   # what they were computed from
     solution_benchmark: str = ""                # the solution's benchmark ID: model+type:cost function:scenario
     solution_cost: float | None = None          # the cost function's total
     solution_partial_costs: dict[str, PartialCost] = field(default_factory=dict)   # by CommonRoad's term id

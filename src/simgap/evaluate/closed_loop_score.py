@@ -275,6 +275,11 @@ class ComponentLoss:
     regained: float          # the other run's score with this component as in the reference, minus its score
 
 
+def score_weights_of(run: Run) -> ScoreWeights:
+    """The weights ``run`` was scored with (as its record keeps them; defaults where it keeps none)."""
+    return ScoreSettings.model_validate(((run.settings.get("cosim") or {}).get("score")) or {}).weights
+
+
 def score_drop(a: AgentOutcome, b: AgentOutcome, weights: ScoreWeights) -> tuple[float, list[ComponentLoss]]:
     """``a``'s score minus ``b``'s, and the components that lost it, the largest loss first: each
     ranked by how much of ``b``'s score would come back if it alone were as in ``a``."""

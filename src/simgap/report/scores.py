@@ -12,8 +12,9 @@ from typing import Sequence
 
 import numpy as np
 
-from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings
-from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop
+from simgap.cosim import REFERENCE, AgentOutcome
+from simgap.cosim.score_settings import ScoreWeights
+from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop, score_weights_of
 from simgap.report.collection import ScenarioGroup
 
 
@@ -25,8 +26,8 @@ SCORES_NOTE = ("<p>score: the closed-loop score (built like nuPlan's CLS: the mu
                "not.</p>")
 
 
-def _weights(entry):
-    return CosimSettings.model_validate(entry.run.settings.get("cosim") or {}).score.weights
+def _weights(entry) -> ScoreWeights:
+    return score_weights_of(entry.run)
 
 
 def agent_drops(group: ScenarioGroup, fidelity: str) -> list[tuple[AgentOutcome, float, list]]:
@@ -154,7 +155,7 @@ def store_score_rows(rows: list[dict]) -> list[dict]:
             continue
         drops, lost = [], Counter()
         for a, b in pairs:
-            drop, losses = score_drop(_scored(a), _scored(b), CosimSettings().score.weights)
+            drop, losses = score_drop(_scored(a), _scored(b), ScoreWeights())
             drops.append(drop)
             for c in losses:
                 lost[c.name] += c.regained
