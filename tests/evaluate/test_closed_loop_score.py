@@ -12,8 +12,9 @@ from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, Tr
 from simgap.cosim.record import AgentOutcome, Outcome
 from simgap.cosim.score_settings import ComfortBounds, ScoreSettings, ScoreWeights
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
-from simgap.evaluate.closed_loop_score import (collision_multiplier, combine, direction_multiplier, progress_ratio,
-                                               score_drop, speed_limit_compliance, worst_wrong_way)
+from simgap.evaluate.closed_loop_score import (collision_multiplier, combine, direction_multiplier,
+                                               drivable_area_multiplier, progress_ratio, score_drop,
+                                               speed_limit_compliance, worst_wrong_way)
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
 from simgap.evaluate.road_users import RoadUser, RoadUserKind
@@ -119,6 +120,14 @@ def test_straddling_lanes_is_judged_by_the_footprint_corners():
     off_road = in_lane - [0, 2.0]
     assert not lanes.straddles_lanes(in_lane) and not lanes.straddles_lanes(across_segments)
     assert lanes.straddles_lanes(across_lanes) and lanes.straddles_lanes(off_road)
+
+
+def test_drivable_area_multiplier():
+    assert drivable_area_multiplier(Outcome.GOAL_REACHED, 0.0, 0.05, SETTINGS) == (1.0, 0.0)
+    assert drivable_area_multiplier(Outcome.OFF_ROAD, 0.01, 0.05, SETTINGS) == (0.0, pytest.approx(0.06))
+    # a loop that tolerates more than the score: 0.2 + 0.5 m beyond the road is past nuPlan's 0.3 m
+    assert drivable_area_multiplier(Outcome.GOAL_REACHED, 0.2, 0.5, SETTINGS)[0] == 0.0
+    assert drivable_area_multiplier(Outcome.GOAL_REACHED, 0.0, 0.5, SETTINGS)[0] == 1.0
 
 
 # ------------------------------------------------------------------------------ direction, progress

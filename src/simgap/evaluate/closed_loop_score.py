@@ -89,6 +89,15 @@ def collision_multiplier(collisions: list[Collision], settings: ScoreSettings) -
                      for kind, n in tolerated.items())
 
 
+def drivable_area_multiplier(outcome: Outcome, loop_excursion_m: float, offroad_tolerance_m: float,
+                             settings: ScoreSettings) -> tuple[float, float]:
+    """(the multiplier, how far [m] the footprint reached beyond the drivable area). The loop
+    measures the excursion beyond its own ``offroad_tolerance`` and ends the run off road when there
+    is one; the score's tolerance is nuPlan's."""
+    beyond = loop_excursion_m + offroad_tolerance_m if loop_excursion_m > 0 else 0.0
+    return float(outcome != Outcome.OFF_ROAD and beyond <= settings.drivable_area_tolerance_m), beyond
+
+
 def direction_multiplier(worst_against_m: float, settings: ScoreSettings) -> float:
     if worst_against_m < settings.direction_compliance_m:
         return 1.0
@@ -191,10 +200,10 @@ class _AgentScorer:
         return [collision]
 
     def _drivable_area(self) -> float:
-        excursion = self.outcome.max_road_excursion_m
-        beyond = excursion + self.cosim.offroad_tolerance if excursion > 0 else 0.0   # the loop measures beyond its tolerance
+        value, beyond = drivable_area_multiplier(self.outcome.outcome, self.outcome.max_road_excursion_m,
+                                                 self.cosim.offroad_tolerance, self.settings)
         self.measures["max_road_excursion_m"] = beyond
-        return float(self.outcome.outcome != Outcome.OFF_ROAD and beyond <= self.settings.drivable_area_tolerance_m)
+        return value
 
     def _driving_direction(self, lane_ids: np.ndarray) -> float:
         progress = self.lanes.progress_along_lanes(self.driven, lane_ids)
