@@ -71,11 +71,10 @@ def score_rows(groups: Sequence[ScenarioGroup], variants: list[tuple[str, str]])
         row = {"planner": planner, "fidelity": fidelity, "agents": len(agents),
                "mean score": float(np.mean(scores)) if scores else "—",
                "lowest score": min(scores) if scores else "—"}
-        if fidelity != REFERENCE:
-            top = lost.most_common(1)
-            row |= {"mean drop": float(np.mean(drops)) if drops else "—",
-                    "largest drop": max(drops) if drops else "—",
-                    "lost most on": top[0][0] if top and top[0][1] > 1e-9 else "—"}
+        top = lost.most_common(1)
+        row |= {"mean drop": float(np.mean(drops)) if drops else "—",
+                "largest drop": max(drops) if drops else "—",
+                "lost most on": top[0][0] if top and top[0][1] > 1e-9 else "—"}
         row |= {"mean cost": float(np.mean(costs)) if costs else "—",
                 "valid solutions": f"{sum(a.solution_valid for a in checked)}/{len(checked)}" if checked else "—",
                 "invalid because": ", ".join(f"{k} ({n})" for k, n in reasons.most_common()) or "—"}
