@@ -29,7 +29,7 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.closed_loop_score import score_drop
 from simgap.evaluate.compare import compare_runs
 from simgap.evaluate.run_scores import check_run_solution, score_run
-from simgap.evaluate.solution_check import SolutionCheckCache
+from simgap.evaluate.validity import SolutionCheckCache
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import load_planner
 from simgap.scenario import build_scenario

@@ -34,7 +34,7 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from simgap.cosim import CosimSettings
 from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.solution import (cost_function_of, run_solution, solution_costs, vehicle_type_of)
-from simgap.evaluate.solution_check import SolutionCheckCache, checked_solution
+from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.files import write_xml

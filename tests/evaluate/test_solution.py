@@ -22,7 +22,8 @@ from cosim.real_like import DT, box_goal, highway, lane_y, recorded_car, start
 from simgap.cosim import AgentOutcome, Outcome, Run
 from simgap.cosim.score_settings import CostFunctionId
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, solution_xml
-from simgap.evaluate.solution_check import SolutionCheckCache, check_solution, checked_solution
+from simgap.evaluate.solution_check import check_solution
+from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
@@ -32,11 +33,14 @@ from simgap.vehicles import load_vehicle
 SEDAN = load_vehicle("sedan")
 
 
+def paper_curve_xml(folder):
+    return write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 90.0}), folder, preview=False)
+
+
 @pytest.fixture(scope="module")
 def paper_curve_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("paper-curve")
-    xml = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 90.0}), folder, preview=False)
-    return execute(RunRequest(xml), folder / "run"), folder / "run"
+    return execute(RunRequest(paper_curve_xml(folder)), folder / "run"), folder / "run"
 
 
 def test_the_ideal_run_of_a_paper_curve_is_a_valid_ks2_sm1_solution(paper_curve_run):
@@ -202,3 +206,16 @@ def test_the_cost_function_comes_from_the_benchmark_id_when_it_names_one(tmp_pat
     xml.write_text('<commonRoad benchmarkID="DEU_A9-1_1_T-1" commonRoadVersion="2020a"></commonRoad>')
     assert cost_function_of(xml, CostFunctionId.SM1) == CostFunctionId.SM1
     assert cost_function_of(None, CostFunctionId.TR1) == CostFunctionId.TR1
+
+
+def test_a_crash_of_the_checker_costs_the_verdict_not_the_run(tmp_path):
+    # the `triangle` library segfaults triangulating this curve's road boundary (commonroad-
+    # drivability-checker 2025.3.1); the check runs in a process of its own
+    xml = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 60.0}), tmp_path, preview=False)
+    run = execute(RunRequest(xml), tmp_path / "run")
+    agent = run.agents[0]
+    assert agent.solution_valid is None
+    assert agent.solution_reason == "the drivability checker crashed (signal 11) in agent 1's road boundary check"
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]["solution_reason"] == agent.solution_reason
+    again = execute(RunRequest(paper_curve_xml(tmp_path)), tmp_path / "after")     # the next check has a new process
+    assert again.agents[0].solution_valid is True

@@ -15,7 +15,7 @@ from simgap.cosim.loop import CosimSettings
 from simgap.cosim.record import Run
 from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, vehicle_type_of
-from simgap.evaluate.solution_check import SolutionCheckCache, checked_solution
+from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.vehicles import Vehicle
 
 NO_TRAJECTORY = "the agent drove no step (no trajectory to check)"

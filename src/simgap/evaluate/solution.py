@@ -11,7 +11,7 @@ function: the one the scenario's benchmark ID names (``KS2:SM1:DEU_…``), else
 
 The cost is commonroad-drivability-checker's `CostFunctionEvaluator`, every partial cost with its
 weight. Whether the solution is valid is `simgap.evaluate.solution_check` (slow: it runs after
-the run is saved).
+the run is saved, in a process of its own, cached: `simgap.evaluate.validity`).
 """
 
 from __future__ import annotations

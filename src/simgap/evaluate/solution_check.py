@@ -9,27 +9,19 @@ inputs reconstructed state by state). The first that fails is the reason; the ch
 not run. Where the library only says *that* something failed, the time (and the obstacle) is
 located with its own collision objects.
 
-The feasibility check is slow (milliseconds per state, most of a run's evaluation), so it runs
-after the run is saved (`simgap.experiment.single_run`), and its verdicts are cached by the hash of
-what it checks (`SolutionCheckCache`): a run that drives the same trajectory again — a rerun, a
-repeated ideal run — is not checked twice.
+The feasibility check is slow (milliseconds per state, most of a run's evaluation); runs are
+checked after they are saved, in a process of their own, with their verdicts cached
+(`simgap.evaluate.validity`).
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib.metadata
-import json
-import os
-from dataclasses import asdict, dataclass
-from pathlib import Path
+from dataclasses import dataclass
+from typing import Callable
 
-import numpy as np
 from commonroad.common.solution import PlanningProblemSolution, Solution
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
-
-from simgap.files import atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -40,42 +32,55 @@ class SolutionCheck:
     reason: str = ""
 
 
-def check_solution(solution: Solution, scenario: Scenario, problems: PlanningProblemSet) -> dict[int, SolutionCheck]:
-    """The verdict on each agent's part of ``solution``."""
-    out = {}
-    for pps in solution.planning_problem_solutions:
-        try:
-            out[pps.planning_problem_id] = _check_agent(pps, solution, scenario, problems)
-        except Exception as exc:     # the library failed on this input: no verdict, the run goes on
-            out[pps.planning_problem_id] = SolutionCheck(None, f"the check raised {type(exc).__name__}: "
-                                                               f"{_first_line(exc)}")
-    return out
+Stage = Callable[[str], None]
+
+
+def check_solution(solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
+                   on_stage: Stage = lambda _: None) -> dict[int, SolutionCheck]:
+    """The verdict on each agent's part of ``solution`` (``on_stage`` is told each check as it starts)."""
+    return {pps.planning_problem_id: check_agent(pps, solution, scenario, problems, on_stage)
+            for pps in solution.planning_problem_solutions}
+
+
+def check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
+                on_stage: Stage = lambda _: None) -> SolutionCheck:
+    """The verdict on one agent's part of ``solution`` (None: the library raised on it)."""
+    try:
+        return _check_agent(pps, solution, scenario, problems,
+                            lambda check: on_stage(f"agent {pps.planning_problem_id}'s {check} check"))
+    except Exception as exc:     # the library failed on this input: no verdict, the run goes on
+        return SolutionCheck(None, f"the check raised {type(exc).__name__}: {_first_line(exc)}")
 
 
 def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Scenario,
-                 problems: PlanningProblemSet) -> SolutionCheck:
+                 problems: PlanningProblemSet, on_stage: Stage) -> SolutionCheck:
     from commonroad_dc.feasibility import solution_checker as checker
 
     pid = pps.planning_problem_id
     alone = Solution(solution.scenario_id, [pps], date=None)
     problem_set = PlanningProblemSet([problems.planning_problem_dict[pid]])
+    on_stage("goal")
     try:
         checker.goal_reached(scenario, problem_set, alone)
     except checker.GoalNotReachedException:
         end = pps.trajectory.state_list[-1].time_step * scenario.dt
         return SolutionCheck(False, f"goal not reached (the trajectory ends at t = {end:.1f} s)")
+    on_stage("initial state")
     try:
         checker.starts_at_correct_state(alone, problem_set)
     except checker.SolutionCheckerException as exc:
         return SolutionCheck(False, "does not start at the planning problem's initial state: " + _first_line(exc))
+    on_stage("obstacle collision")
     try:
         checker.obstacle_collision(scenario, problem_set, alone)
     except checker.CollisionException:
         return SolutionCheck(False, _obstacle_collision(pps, scenario))
+    on_stage("road boundary")
     try:
         checker.boundary_collision(scenario, problem_set, alone)
     except checker.CollisionException:
         return SolutionCheck(False, _boundary_collision(pps, scenario))
+    on_stage("collision between agents")
     others = [o for o in solution.planning_problem_solutions if o.planning_problem_id != pid]
     for other in others:
         pair = Solution(solution.scenario_id, [pps, other], date=None)
@@ -85,6 +90,7 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
             checker.ego_collision(scenario, pair_problems, pair)
         except checker.CollisionException:
             return SolutionCheck(False, _agent_collision(pps, other, scenario.dt))
+    on_stage("feasibility")
     try:
         feasible, inputs, _ = checker.solution_feasible(alone, scenario.dt, problem_set)[pid]
     except checker.SolutionCheckerException as exc:
@@ -159,65 +165,3 @@ def _boundary_collision(pps: PlanningProblemSolution, scenario: Scenario) -> str
 def _agent_collision(pps: PlanningProblemSolution, other: PlanningProblemSolution, dt: float) -> str:
     k = _first_contact(_ego_object(pps), _ego_object(other))
     return f"collision with agent {other.planning_problem_id}" + ("" if k is None else f" at t = {k * dt:.1f} s")
-
-
-# ----------------------------------------------------------------------- the cache
-def default_cache_dir() -> Path:
-    """Where verdicts are cached: ``$SIMGAP_CACHE_DIR``, else ``$XDG_CACHE_HOME/simgap``, else
-    ``~/.cache/simgap`` (each under ``solution-checks/``)."""
-    root = os.environ.get("SIMGAP_CACHE_DIR") or \
-        os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "simgap")
-    return Path(root) / "solution-checks"
-
-
-class SolutionCheckCache:
-    """Verdicts by the hash of what was checked: the drivability checker's version, the scenario
-    file (road, obstacles, planning problems) and every agent's solution (model, type, states)."""
-
-    def __init__(self, folder: Path | None = None):
-        self.folder = Path(folder) if folder is not None else default_cache_dir()
-
-    @staticmethod
-    def key(solution: Solution, scenario_file: str | Path) -> str:
-        h = hashlib.sha256()
-        h.update(importlib.metadata.version("commonroad-drivability-checker").encode())
-        h.update(Path(scenario_file).read_bytes())
-        for pps in sorted(solution.planning_problem_solutions, key=lambda p: p.planning_problem_id):
-            h.update(f"{pps.planning_problem_id}:{pps.vehicle_model.name}:{pps.vehicle_type.value}".encode())
-            states = pps.trajectory.state_list
-            h.update(np.array([[s.time_step, *s.position, s.steering_angle, s.velocity, s.orientation]
-                               for s in states], dtype="<f8").tobytes())
-        return h.hexdigest()
-
-    def _path(self, key: str) -> Path:
-        return self.folder / key[:2] / f"{key}.json"
-
-    def get(self, key: str) -> dict[int, SolutionCheck] | None:
-        try:
-            raw = json.loads(self._path(key).read_text())
-        except (OSError, ValueError):
-            return None
-        return {int(aid): SolutionCheck(**v) for aid, v in raw.items()}
-
-    def put(self, key: str, checks: dict[int, SolutionCheck]) -> None:
-        path = self._path(key)
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_text(path, json.dumps({str(aid): asdict(c) for aid, c in checks.items()}))
-        except OSError:       # a read-only or full cache only costs the next run its check
-            pass
-
-
-def checked_solution(solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
-                     scenario_file: str | Path | None, cache: SolutionCheckCache | None) -> tuple[dict[int, SolutionCheck], bool]:
-    """The verdicts on ``solution`` and whether they came from ``cache``."""
-    key = SolutionCheckCache.key(solution, scenario_file) if cache is not None and scenario_file is not None \
-        and Path(scenario_file).is_file() else None
-    if key is not None:
-        known = cache.get(key)
-        if known is not None and set(known) == {p.planning_problem_id for p in solution.planning_problem_solutions}:
-            return known, True
-    checks = check_solution(solution, scenario, problems)
-    if key is not None and all(c.valid is not None for c in checks.values()):
-        cache.put(key, checks)
-    return checks, False

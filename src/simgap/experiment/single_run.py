@@ -19,7 +19,7 @@ from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.evaluate.run_scores import check_run_solution, score_run
 from simgap.evaluate.solution import solution_xml
-from simgap.evaluate.solution_check import SolutionCheckCache
+from simgap.evaluate.validity import SolutionCheckCache
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.files import read_yaml_mapping
