@@ -106,16 +106,17 @@ class CheckerProcess:
         return cls._shared
 
     def _start(self) -> None:
-        to_child, child_reads = os.pipe()
-        child_writes, from_child = os.pipe()
+        child_reads, parent_writes = os.pipe()
+        parent_reads, child_writes = os.pipe()
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
         self._process = subprocess.Popen(
-            [sys.executable, "-m", "simgap.evaluate.validity", str(to_child), str(from_child)],
-            pass_fds=(to_child, from_child), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            [sys.executable, "-m", "simgap.evaluate.validity", str(child_reads), str(child_writes)],
+            pass_fds=(child_reads, child_writes), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL, env=env)
-        os.close(to_child)
-        os.close(from_child)
-        self._send, self._receive = Connection(child_reads, readable=False), Connection(child_writes, writable=False)
+        os.close(child_reads)
+        os.close(child_writes)
+        self._send = Connection(parent_writes, readable=False)
+        self._receive = Connection(parent_reads, writable=False)
 
     def _stop(self) -> None:
         for conn in (self._send, self._receive):
