@@ -57,15 +57,18 @@ def check_run_solution(run: Run, solution: Solution, scenario: Scenario, problem
 def run_scores_columns(run: Run) -> dict:
     """A run's scores as one row of the results store: the worst agent's score and components, the
     solution valid when every agent's is (None when one was not checked) with the first reason
-    it is not, and the solution's cost summed over its agents (as CommonRoad sums a solution's)."""
+    it is not (or could not be checked), and the solution's cost summed over its agents (as
+    CommonRoad sums a solution's)."""
     scored = [a for a in run.agents if a.score is not None]
     worst = min(scored, key=lambda a: a.score, default=None)
     validity = [a.solution_valid for a in run.agents]
-    invalid = [a for a in run.agents if a.solution_valid is False]
+    # the first reason: of the first invalid agent, else of one that could not be checked (a crash)
+    why = next((a for a in run.agents if a.solution_valid is False), None) or \
+        next((a for a in run.agents if a.solution_valid is None and a.solution_reason), None)
     costs = [a.solution_cost for a in run.agents]
     many = len(run.agents) > 1
     return {"score": None if worst is None else worst.score,
             "score_components": {} if worst is None else dict(worst.score_components),
-            "solution_valid": False if invalid else None if None in validity or not validity else True,
-            "solution_reason": (f"agent {invalid[0].id}: " if many else "") + invalid[0].solution_reason if invalid else "",
+            "solution_valid": False if False in validity else None if None in validity or not validity else True,
+            "solution_reason": "" if why is None else (f"agent {why.id}: " if many else "") + why.solution_reason,
             "solution_cost": None if None in costs or not costs else float(sum(costs))}
