@@ -93,6 +93,7 @@ class Row:
     valid_ideal: int = 0                     # agents with a valid solution
     valid_mujoco: int = 0
     broke: str = ""                          # agents valid in the ideal world, invalid in MuJoCo: the reasons
+    invalid: str = ""                        # every invalid (or unchecked) solution: world, agent, reason
 
 
 def _run(template: str, params: dict, planner: str, backend: str, replan_every: int):
@@ -163,17 +164,20 @@ def _scores(ideal: Run, mujoco: Run) -> dict:
         drops.append(drop)
         for c in losses:
             lost[c.name] = lost.get(c.name, 0.0) + c.regained
-    top = max(lost.items(), key=lambda kv: kv[1], default=("", 0.0))
+    top = max(lost.items(), key=lambda kv: abs(kv[1]), default=("", 0.0))     # lost (or, if negative, gained)
     mean = lambda xs: float(np.mean(xs)) if xs else None                        # noqa: E731
     cost = lambda run: sum(a.solution_cost for a in run.agents) if all(       # noqa: E731
         a.solution_cost is not None for a in run.agents) else None
     return {"score_ideal": mean([a.score for a in ideal.agents]), "score_mujoco": mean([b.score for b in mujoco.agents]),
-            "score_drop": mean(drops), "lost_most_on": top[0] if top[1] > 1e-9 else "-",
+            "score_drop": mean(drops), "lost_most_on": "-" if abs(top[1]) < 1e-9 else
+            f"{top[0]} ({top[1] / len(pairs):+.3f})",
             "cost_ideal": cost(ideal), "cost_mujoco": cost(mujoco),
             "valid_ideal": sum(a.solution_valid is True for a in ideal.agents),
             "valid_mujoco": sum(b.solution_valid is True for b in mujoco.agents),
             "broke": "; ".join(f"agent {b.id}: {b.solution_reason}" for a, b in pairs
-                               if a.solution_valid is True and b.solution_valid is False)}
+                               if a.solution_valid is True and b.solution_valid is False),
+            "invalid": "; ".join(f"{world} agent {x.id}: {x.solution_reason}" for world, run in (("ideal", ideal),
+                                 ("mujoco", mujoco)) for x in run.agents if x.solution_valid is not True)}
 
 
 def _fmt(value: float | None, spec: str) -> str:
@@ -193,15 +197,19 @@ def print_table(rows: list[Row]) -> None:
     missed = [r for r in rows if r.goals_ideal < r.agents or r.goals_mujoco < r.agents]
     for r in missed:
         print(f"{r.scenario} / {r.planner}: ideal {r.outcomes_ideal}; mujoco {r.outcomes_mujoco}")
-    print(f"\n{'scenario':<11} {'planner':<9} {'score ideal':>11} {'score mujoco':>12} {'drop':>6} {'lost most on':<18} "
+    print(f"\n{'scenario':<11} {'planner':<9} {'score ideal':>11} {'score mujoco':>12} {'drop':>6} {'lost most on':<26} "
           f"{'cost ideal':>10} {'cost mujoco':>11} {'valid ideal':>11} {'valid mujoco':>12}")
     for r in rows:
         print(f"{r.scenario:<11} {r.planner:<9} {_fmt(r.score_ideal, '.3f'):>11} {_fmt(r.score_mujoco, '.3f'):>12} "
-              f"{_fmt(r.score_drop, '.3f'):>6} {r.lost_most_on:<18} {_fmt(r.cost_ideal, '.0f'):>10} "
+              f"{_fmt(r.score_drop, '.3f'):>6} {r.lost_most_on:<26} {_fmt(r.cost_ideal, '.0f'):>10} "
               f"{_fmt(r.cost_mujoco, '.0f'):>11} {f'{r.valid_ideal}/{r.agents}':>11} {f'{r.valid_mujoco}/{r.agents}':>12}")
+    print("\nlost most on: the component whose loss explains most of the drop (its mean share; negative: gained)")
     for r in rows:
         if r.broke:
             print(f"{r.scenario} / {r.planner}: valid in the ideal world, invalid in MuJoCo: {r.broke}")
+    for r in rows:
+        if r.invalid:
+            print(f"{r.scenario} / {r.planner}: invalid: {r.invalid}")
 
 
 def main() -> None:
