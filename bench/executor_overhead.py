@@ -20,20 +20,19 @@ import tempfile
 import time
 from pathlib import Path
 
-from simgap.cosim import CosimSettings
-from simgap.errors import validated
 from simgap.experiment.executors import make_executor
-from simgap.experiment.records import JobContext
+from simgap.experiment.job import JobContext
 from simgap.experiment.runner import plan
-from simgap.experiment.spec import spec_path, vehicle_ref
+from simgap.experiment.spec import load_spec
 
 
 def measure(executor: str, spec: str, workers: int, address: str | None) -> dict[str, float]:
     with tempfile.TemporaryDirectory(prefix="simgap-bench-") as tmp:
         root = Path(tmp)
-        spec_model, jobs, scenarios = plan(spec, root)
-        context = JobContext(root, validated(CosimSettings, spec_model.cosim), scenarios,
-                             vehicle_ref(spec_model.planner_vehicle, spec_path(spec)))
+        experiment = load_spec(spec)
+        spec_model = experiment.spec
+        jobs, scenarios = plan(experiment, root)
+        context = JobContext(root, scenarios, experiment.planner_vehicle)
         t0 = time.perf_counter()
         runner = make_executor(executor, workers, spec_model.run_timeout_s, address)
         connect_s = time.perf_counter() - t0
@@ -47,7 +46,7 @@ def measure(executor: str, spec: str, workers: int, address: str | None) -> dict
             return job
 
         def on_result(job, row) -> None:
-            added.append(time.perf_counter() - handed[job.key] - float(row.get("job_time_s") or 0.0))
+            added.append(time.perf_counter() - handed[job.key] - float(row.job_time_s or 0.0))
 
         t0 = time.perf_counter()
         runner.run(next_job, context, on_result)

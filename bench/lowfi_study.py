@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from simgap.cosim import CosimSettings
-from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.scenario.road_frame import PathFrame
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import load_scenario
 
@@ -39,7 +39,7 @@ def generate(logical: str, out: Path, **params) -> list[Path]:
 def lane_centre_deviation(run, scenario_path: Path) -> float:
     """Largest distance of any planned position from the centre line of the lanelets it is on."""
     scenario, _ = load_scenario(scenario_path)
-    centres = [ReferencePath(l.center_vertices) for l in scenario.lanelet_network.lanelets]
+    centres = [PathFrame(l.center_vertices) for l in scenario.lanelet_network.lanelets]
     worst = 0.0
     for plans in run.plans.values():
         pts = np.vstack([np.column_stack([p.x, p.y]) for p in plans])

@@ -25,6 +25,7 @@ import numpy as np
 from simgap.control import controller_names, make_controller, manoeuvres
 from simgap.sim.dynamic import track_plans
 from simgap.sim.mujoco import MujocoBackend
+from simgap.sim.mujoco.settings import MujocoSettings
 from simgap.sim.mujoco.plant import MujocoPlant, proving_ground
 from simgap.sim.protocol import Agent, PhysicsDiverged
 from simgap.vehicles import load_vehicle, vehicle_names
@@ -77,7 +78,7 @@ def realtime(vehicle_name: str, controller: str) -> None:
         for k, (man, (ox, oy)) in enumerate(zip(mans, offsets)):
             s = man.initial_state()
             agents.append(Agent(k + 1, vehicle, s.replace(x=s.x + ox, y=s.y + oy)))
-        backend = MujocoBackend(controller=controller)
+        backend = MujocoBackend(MujocoSettings(controller=controller))
         backend.load(proving_ground(), agents)
         backend.reset()
         steps = int(20.0 / 0.1)

@@ -32,7 +32,7 @@ def main() -> None:
     parser.add_argument("--spec", default="paper-curves")
     args = parser.parse_args()
     start = time.perf_counter()
-    result = run_experiment(args.spec, args.out, args.workers, args.executor)
+    result = run_experiment(args.spec, args.out, args.workers, args.executor, validate=True)
     wall = time.perf_counter() - start
     print(f"{result.total} runs ({result.ran} now, {result.skipped} earlier, {result.failed} failed) with "
           f"{args.workers} {args.executor} workers: {wall:.1f} s wall including the report "
@@ -68,7 +68,7 @@ def print_scores(store: ResultsStore) -> None:
     """Per car: the closed-loop score in the ideal world and in MuJoCo, the drop and the component
     that explains most of it (its mean share of the drop), the CommonRoad cost, and how many
     solutions valid in the ideal world are invalid on the car, and why; the scoring phases' times."""
-    rows = score_table(store.rows())
+    rows = score_table(store.run_rows())
     print("\nScores (closed-loop score; KS2/SM1 solution cost and validity), MuJoCo against ideal per curve")
     print(f"{'fidelity':<14} {'runs':>4} {'ideal':>6} {'mujoco':>6} {'drop':>6} {'max':>6} {'lost':>4}  "
           f"{'cost ideal':>10} {'mujoco':>7} {'valid i/m':>9} {'broke':>5}  lost most on; broke because")

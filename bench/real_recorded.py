@@ -45,6 +45,7 @@ class AgentResult:
     reason: str
     wall_s: float
     excluded: str = ""       # why the agent is not counted (starts in a collision or off the road)
+    human: str = ""          # how the recorded human driver it replaces did ("" when the file has none)
 
 
 def manifest_kinds() -> dict[str, str]:
@@ -60,11 +61,14 @@ def start_conflicts(xml: Path) -> dict[int, str]:
     user, or leaves the road beyond the loop's tolerance); agents that start clear are absent."""
     from simgap.cosim import CosimSettings
     from simgap.cosim.agents import agents_from_problems
-    from simgap.cosim.traffic import DrivableArea, ReplayedTraffic, footprint
+    from simgap.cosim.traffic import ReplayedTraffic
+    from simgap.scenario.road_frame import DrivableArea, footprint
     from simgap.scenario import load_scenario
+    from simgap.scenario.obstacles import without_recorded_egos
     from simgap.vehicles import load_vehicle
 
     scenario, problems = load_scenario(xml)
+    scenario, _ = without_recorded_egos(scenario, problems)     # as a run leaves them out
     dt = float(scenario.dt)
     agents = agents_from_problems(problems, dt, load_vehicle("sedan"))
     road = DrivableArea(scenario.lanelet_network, CosimSettings().offroad_tolerance)
@@ -83,17 +87,37 @@ def start_conflicts(xml: Path) -> dict[int, str]:
     return conflicts
 
 
-def run_one(task: tuple[Path, str, str, str]) -> list[AgentResult]:
+def human_outcomes(xml: Path) -> dict[int, str]:
+    """Per agent whose own recorded vehicle is in the file (the human driver it replaces): when that
+    recording reaches the goal, or why it does not - how feasible the goal is for a human."""
+    from simgap.scenario import load_scenario
+    from simgap.scenario.goal import Goal
+    from simgap.scenario.obstacles import obstacle_trajectory, recorded_egos
+
+    scenario, problems = load_scenario(xml)
+    outcomes = {}
+    for pid, oid in recorded_egos(scenario, problems).items():
+        goal = Goal.of(problems.planning_problem_dict[pid].goal, float(scenario.dt))
+        states = list(obstacle_trajectory(scenario.obstacle_by_id(oid), float(scenario.dt)))
+        reached = next((st for st in states if goal.is_reached(st)), None)
+        outcomes[pid] = (f"goal at {reached.t:.1f} s" if reached is not None
+                         else f"misses: {goal.miss_reason(states)}")
+    return outcomes
+
+
+def run_one(task: tuple[Path, str, str, str, str, Path | None]) -> list[AgentResult]:
     """Every agent's outcome of one scenario in one world (never raises)."""
-    xml, world, kind, traffic = task
+    xml, world, kind, traffic, planner, planner_config = task
     from simgap.cosim import CosimSettings
     from simgap.errors import InputError
-    from simgap.experiment.single_run import RunRequest, execute
+    from simgap.experiment.single_run import RunRequest, execute, parse_planners
 
     clock = time.perf_counter()
     try:
         excluded = start_conflicts(xml)
-        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic)))
+        humans = human_outcomes(xml)
+        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic),
+                                 planner=parse_planners(planner, planner_config)))
     except InputError as exc:
         return [AgentResult(xml.stem, kind, world, None, "refused", str(exc), time.perf_counter() - clock)]
     except Exception as exc:  # noqa: BLE001 - the benchmark reports every crash as an outcome
@@ -107,19 +131,22 @@ def run_one(task: tuple[Path, str, str, str]) -> list[AgentResult]:
         if agent.outcome == "collision" and events:
             reason = f"with {events[-1].other_id} at t = {events[-1].t:.1f} s: {reason}"
         results.append(AgentResult(xml.stem, kind, world, agent.id, str(agent.outcome), reason, wall,
-                                   excluded.get(agent.id, "")))
+                                   excluded.get(agent.id, ""), humans.get(agent.id, "")))
     return results
 
 
 def rates(results: list[AgentResult], world: str) -> tuple[dict[str, tuple[int, int]], int, float]:
-    """Per kind (and 'all'): (goals, counted agents); errors; mean wall time per scenario."""
-    mine = [r for r in results if r.world == world]
+    """Per kind (and 'all'): (goals, counted agents); errors; mean wall time per scenario. ``world``
+    'human': the recorded human drivers the agents replace, where the files have them."""
+    mine = [r for r in results if r.world == world] if world != "human" else \
+        [r for r in {(r.scenario, r.agent): r for r in results if r.human}.values()]
     table: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     for r in mine:
         if r.excluded or r.outcome == "refused":
             continue
+        reached = r.human.startswith("goal") if world == "human" else r.outcome == "goal_reached"
         for key in (r.kind, "all"):
-            table[key][0] += r.outcome == "goal_reached"
+            table[key][0] += reached
             table[key][1] += 1
     walls = {r.scenario: r.wall_s for r in mine}
     errors = sum(r.outcome == "error" for r in mine)
@@ -135,6 +162,8 @@ def main() -> None:
     parser.add_argument("--traffic", default="replay", choices=["replay", "idm"])
     parser.add_argument("--kind", nargs="+", default=None, choices=KINDS, help="only these kinds")
     parser.add_argument("--only", nargs="+", default=None, metavar="NAME", help="only these files (names without .xml)")
+    parser.add_argument("--planner", default="frenet", help="the planner of every agent (as simgap run --planner)")
+    parser.add_argument("--planner-config", type=Path, default=None, help="its settings (YAML)")
     parser.add_argument("--json", type=Path, default=None, help="also write every result to this JSON file")
     args = parser.parse_args()
     if args.files is None or not Path(args.files).is_dir():
@@ -148,9 +177,11 @@ def main() -> None:
     if missing:
         sys.exit(f"--only: no file named {', '.join(missing)} in {args.files} (names without .xml)")
     print(f"{len(files)} recorded scenarios in {args.files} ({dict(Counter(kinds.get(p.stem, 'other') for p in files))}), "
-          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, {args.workers} worker(s)\n")
+          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, planner {args.planner}"
+          f"{' (' + str(args.planner_config) + ')' if args.planner_config else ''}, {args.workers} worker(s)\n")
     print(f"{'scenario':40s} {'kind':10s} {'world':7s} {'agent':>6s} {'outcome':16s} {'time [s]':>8s}  reason")
-    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic) for world in args.worlds for xml in files]
+    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic, args.planner, args.planner_config)
+             for world in args.worlds for xml in files]
     results: list[AgentResult] = []
     clock = time.perf_counter()
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
@@ -159,6 +190,8 @@ def main() -> None:
                 results.append(r)
                 outcome = f"({r.outcome})" if r.excluded else r.outcome
                 reason = r.excluded + ("; " if r.excluded else "") + r.reason
+                if r.outcome != "goal_reached" and r.human:
+                    reason += f" [human: {r.human}]"
                 print(f"{r.scenario:40s} {r.kind:10s} {r.world:7s} {r.agent if r.agent is not None else '-':>6} "
                       f"{outcome:16s} {r.wall_s:8.1f}  {reason[:150]}", flush=True)
     print(f"\n{len(tasks)} runs in {time.perf_counter() - clock:.0f} s\n")
@@ -170,13 +203,14 @@ def main() -> None:
         print()
     header = "world    " + "".join(f"{k:>16s}" for k in (*KINDS, "all")) + "   errors  wall/scenario"
     print(header)
-    for world in args.worlds:
+    for world in [*args.worlds, "human"]:
         table, errors, wall = rates(results, world)
         cells = []
         for k in (*KINDS, "all"):
             goals, counted = table.get(k, (0, 0))
             cells.append(f"{goals}/{counted} {100 * goals / counted:3.0f}%" if counted else "-")
-        print(f"{world:8s} " + "".join(f"{c:>16s}" for c in cells) + f"   {errors:6d}  {wall:8.1f} s")
+        tail = f"   {errors:6d}  {wall:8.1f} s" if world != "human" else "   (the recorded drivers, where a file has them)"
+        print(f"{world:8s} " + "".join(f"{c:>16s}" for c in cells) + tail)
     if args.json is not None:
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
         print(f"\nresults written to {args.json}")

@@ -420,7 +420,7 @@ def lane_change_run(car: TestCar, controller: str) -> LaneChangeRun:
         return LaneChangeRun(controller, False, -math.inf, math.inf, str(exc))
     clearance = min(course.clearance(car.vehicle, s) for s in states)
     peak = max(abs(man.lateral_error(s.x, s.y)) for s in states)
-    return LaneChangeRun(controller, clearance >= 0.0, clearance, peak)
+    return LaneChangeRun(controller, bool(clearance >= 0.0), float(clearance), float(peak))
 
 
 def lane_change(car: TestCar, controllers: list[str]) -> list[LaneChangeRun]:
@@ -584,7 +584,7 @@ def print_summary(results: dict[str, dict]) -> None:
                               f"{r.peak_lateral_error:.2f} m, clearance {r.clearance:+.2f} m)" for r in results[n]["lane_change"]))
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sections", nargs="+", choices=SECTIONS, default=list(SECTIONS))
     parser.add_argument("--vehicles", nargs="+", choices=vehicle_names(), default=vehicle_names())
@@ -592,7 +592,7 @@ def main() -> None:
     parser.add_argument("--no-mb", action="store_true", help="skip the MB reference beside the sedan")
     parser.add_argument("--quick", action="store_true", help="smoke run: fewer and shorter runs")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     cars = [catalogue_car(n) for n in args.vehicles]
     if "sedan" in args.vehicles and not args.no_mb:
         cars.append(mb_car())

@@ -1,13 +1,17 @@
 """The project's file handling in one place: every file is written atomically (a temporary file
-beside it, then a rename, so a reader never sees half of one), and every YAML input is read as a
-mapping and validated by a pydantic model, with errors that name the file and the field."""
+beside it, then a rename, so a reader never sees half of one), so is every directory (built aside,
+then swapped into place), and every YAML input is read as a mapping and validated by a pydantic
+model, with errors that name the file and the field."""
 
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, Iterator, TypeVar
 
 import yaml
 from pydantic import BaseModel
@@ -48,6 +52,53 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_text(text))
 
 
+def replace_directory(path: str | Path, build: Callable[[Path], Any]) -> Path:
+    """Call ``build`` on an empty hidden directory next to ``path``, then swap it into place: the
+    old directory (if any) is renamed aside, the new one renamed in, the old one deleted. A reader
+    never sees half a directory; a process killed between two renames leaves the old directory
+    aside, and the next swap into ``path`` (or `restore_directory`) puts it back first — so
+    ``path`` always ends up holding one whole directory, the old or the new."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    restore_directory(path)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    old = _set_aside(path)
+    try:
+        build(tmp)
+        if path.exists():
+            os.replace(path, old)
+        os.replace(tmp, path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        restore_directory(path)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+    return path
+
+
+def restore_directory(path: str | Path) -> None:
+    """Finish a swap of `replace_directory` that a killed process left half done: the old
+    directory set aside goes back to ``path`` when ``path`` is missing, else it is deleted, and
+    a new one left half-built beside it is deleted (call it where no other writer of ``path`` is
+    at work)."""
+    path = Path(path)
+    old = _set_aside(path)
+    if old.exists():
+        if path.exists():
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(old, path)
+    if path.parent.exists():
+        for stale in path.parent.glob(f".{path.name}.*"):
+            if stale.is_dir():
+                shutil.rmtree(stale, ignore_errors=True)
+
+
+def _set_aside(path: Path) -> Path:
+    """Where `replace_directory` keeps the old directory while the new one moves in."""
+    return path.with_name(f".{path.name}.old")
+
+
 def read_yaml_mapping(path: str | Path, what: str, keys: str | None = None, empty_ok: bool = False
                       ) -> dict[str, Any]:
     """The YAML mapping in ``path`` (an empty file too, if ``empty_ok``), or an `InputError` naming
@@ -72,3 +123,17 @@ def read_model(path: str | Path, model: type[M], what: str, keys: str | None = N
     out); every problem is an `InputError` naming the file, the field and what is allowed."""
     raw = dict(defaults or {}) | read_yaml_mapping(path, what, keys, empty_ok)
     return validated(model, raw, file=path)
+
+
+@contextmanager
+def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]:
+    """A hidden directory in ``parent`` to build several files in before any of them is moved
+    into place (by the caller, each with an `os.replace`); removed afterwards with whatever was
+    left in it, so a failure leaves nothing half-written."""
+    parent = Path(parent)
+    parent.mkdir(parents=True, exist_ok=True)
+    path = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent))
+    try:
+        yield path
+    finally:
+        shutil.rmtree(path, ignore_errors=True)

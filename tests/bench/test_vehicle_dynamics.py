@@ -1,9 +1,11 @@
-"""Smoke test of bench/vehicle_dynamics.py: its quick mode on one MuJoCo car gives figures that
-any tyre model must give (the bench itself reports numbers, not pass/fail)."""
+"""Smoke test of bench/vehicle_dynamics.py: its whole quick run with ``--json`` (every section) on one
+MuJoCo car prints one JSON object with figures that any tyre model must give (the bench itself
+reports numbers, not pass/fail)."""
 
 from __future__ import annotations
 
 import importlib
+import json
 import math
 import sys
 from pathlib import Path
@@ -22,11 +24,10 @@ def vehicle_dynamics():
         sys.path.remove(str(BENCH))
 
 
-def test_quick_benchmark_of_one_car_gives_sane_handling_figures(vehicle_dynamics):
-    vd = vehicle_dynamics
-    car = vd.catalogue_car("city")
-    results = {section: vd.run_section(section, car, True, ["pure_pursuit"]) for section in vd.SECTIONS}
-    figures = vd.benchmark_json({"city": results})["city"]
+def test_quick_json_benchmark_of_one_car_gives_sane_handling_figures(vehicle_dynamics, capsys):
+    vehicle_dynamics.main(["--quick", "--json", "--vehicles", "city", "--controllers", "pure_pursuit"])
+    out = capsys.readouterr().out
+    figures = json.loads(out)["city"]          # every section's figures, as plain JSON
 
     for key in ("understeer_gradient_deg_per_g", "sideslip_gradient_deg_per_g", "max_lateral_acceleration",
                 "yaw_rate_rise_time_s", "braking_distance_100_m"):

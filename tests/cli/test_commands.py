@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -62,7 +63,7 @@ def test_run_json_render_and_identical_fingerprints(tmp_path):
     assert simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview",
                   "--out", str(tmp_path)).returncode == 0
     xml = tmp_path / "curve_radius-20_angle-60.xml"
-    first = simgap("run", str(xml), "--backend", "ideal", "--out", str(tmp_path / "run1"), "--json")
+    first = simgap("run", str(xml), "--no-validate", "--backend", "ideal", "--out", str(tmp_path / "run1"), "--json")
     assert first.returncode == 0, first.stderr
     summary = json.loads(first.stdout)
     assert summary["wall_time_s"] > 0
@@ -70,7 +71,7 @@ def test_run_json_render_and_identical_fingerprints(tmp_path):
     assert agent["id"] == 1 and agent["outcome"] == "goal_reached" and agent["time_to_goal_s"] > 5
     # the goal is 10 m x 3 m, 10 m before the end: 90 m + a 20.9 m arc + 85 m from the start
     assert 190 < agent["distance_m"] < 202
-    second = json.loads(simgap("run", str(xml), "--out", str(tmp_path / "run2"), "--json").stdout)
+    second = json.loads(simgap("run", str(xml), "--no-validate", "--out", str(tmp_path / "run2"), "--json").stdout)
     assert second["fingerprint"] == summary["fingerprint"]
     for name in ("run.json", "trajectories.parquet", "driven.xml"):
         assert (tmp_path / "run1" / name).exists()
@@ -85,7 +86,7 @@ def test_compare_two_fidelities_as_json_and_plots(tmp_path):
                   "--out", str(tmp_path)).returncode == 0
     xml = tmp_path / "curve_radius-10_angle-m90.xml"
     for backend in ("ideal", "dynamic"):
-        proc = simgap("run", str(xml), "--backend", backend, "--replan-every", "3", "--out", str(tmp_path / backend))
+        proc = simgap("run", str(xml), "--no-validate", "--backend", backend, "--replan-every", "3", "--out", str(tmp_path / backend))
         assert proc.returncode == 0, proc.stderr
     proc = simgap("compare", str(tmp_path / "ideal"), str(tmp_path / "dynamic"), "--json", "--out", str(tmp_path / "cmp"))
     assert proc.returncode == 0, proc.stderr
@@ -134,12 +135,52 @@ def test_a_bad_score_setting_names_the_file_and_the_field(tmp_path):
     assert not (tmp_path / "r").exists()
 
 
-def test_compare_refuses_runs_of_different_scenarios(tmp_path):
+@pytest.fixture(scope="module")
+def two_curves(tmp_path_factory) -> Path:
+    """Runs of two scenarios, in ``30/`` and ``60/`` beside their scenario files."""
+    folder = tmp_path_factory.mktemp("two-curves")
     for angle in ("30", "60"):
-        simgap("generate", "curve", "--set", "radius=50", "--set", f"angle={angle}", "--no-preview", "--out", str(tmp_path))
-        simgap("run", str(tmp_path / f"curve_radius-50_angle-{angle}.xml"), "--replan-every", "3",
-               "--out", str(tmp_path / angle))
-    assert_clean_error(simgap("compare", str(tmp_path / "30"), str(tmp_path / "60")), "different scenarios")
+        simgap("generate", "curve", "--set", "radius=50", "--set", f"angle={angle}", "--no-preview", "--out", str(folder))
+        simgap("run", str(folder / f"curve_radius-50_angle-{angle}.xml"), "--no-validate", "--replan-every", "3",
+               "--out", str(folder / angle))
+    return folder
+
+
+def test_compare_refuses_runs_of_different_scenarios(two_curves):
+    assert_clean_error(simgap("compare", str(two_curves / "30"), str(two_curves / "60")), "different scenarios")
+
+
+def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curves, tmp_path):
+    from simgap.cli.outputs import check_run_out
+    from simgap.cosim import Run
+    from simgap.errors import InputError
+    from simgap.experiment.single_run import RunRequest
+
+    out = tmp_path / "x"
+    shutil.copytree(two_curves / "30", out)
+    other = str(two_curves / "curve_radius-50_angle-60.xml")
+    proc = simgap("run", other, "--no-validate", "--replan-every", "3", "--out", str(out))
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+    assert_clean_error(proc, f"{out}: holds a run of curve_radius-50_angle-30 (backend ideal, vehicle sedan, "
+                             "planner frenet); not replaced", "--overwrite")
+    assert Run.load(out).scenario_id == "curve_radius-50_angle-30"         # the first run is kept
+    same = RunRequest(scenario=two_curves / "curve_radius-50_angle-30.xml")
+    check_run_out(out, same, overwrite=False)                               # the very same run may replace it
+    for changed in ({"backend": "dynamic"}, {"vehicles": "suv"}, {"vehicles": {1: "city"}}):
+        with pytest.raises(InputError, match="holds a run of"):
+            check_run_out(out, RunRequest(scenario=same.scenario, **changed), overwrite=False)
+    assert simgap("run", other, "--no-validate", "--replan-every", "3", "--out", str(out), "--overwrite").returncode == 0
+    assert Run.load(out).scenario_id == "curve_radius-50_angle-60"
+
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    (notes / "todo.txt").write_text("mine")
+    assert_clean_error(simgap("run", other, "--out", str(notes)), "holds todo.txt, not a simgap run")
+    (notes / "scene.png").write_bytes(b"mine")
+    assert_clean_error(simgap("render", str(out), "--out", str(notes)), "scene.png, which simgap render did not write")
+    (notes / "index.html").write_text("<html>mine</html>")
+    assert_clean_error(simgap("report", str(two_curves), "--out", str(notes)), "index.html, which simgap report did not write")
+    assert (notes / "index.html").read_text() == "<html>mine</html>" and (notes / "scene.png").read_bytes() == b"mine"
 
 
 def test_unknown_or_missing_backend_and_vehicle_are_refused(tmp_path):
@@ -174,8 +215,8 @@ def test_reality_knobs_on_the_command_line(tmp_path):
     assert_clean_error(simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=2", "--out", str(tmp_path / "r")),
                        "out of range", "0 to 1 s")
     assert not (tmp_path / "r").exists()
-    proc = simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=0.05", "--knob", "position_noise=0.05",
-                  "--json", "--out", str(tmp_path / "r"))
+    proc = simgap("run", xml, "--no-validate", "--backend", "dynamic", "--knob", "steer_delay=0.05", "--knob",
+                  "position_noise=0.05", "--json", "--out", str(tmp_path / "r"))
     assert proc.returncode == 0, proc.stderr
     saved = json.loads((tmp_path / "r" / "run.json").read_text())
     assert saved["settings"]["backend"]["steer_delay"] == 0.05
@@ -190,6 +231,16 @@ def test_reality_knobs_on_the_command_line(tmp_path):
 def test_search_refuses_bad_input_clearly(tmp_path, args, fragments):
     assert_clean_error(simgap(*args, cwd=tmp_path), *fragments)
     assert not (tmp_path / "s" / "search.json").exists()
+
+
+def test_a_bad_key_in_any_rung_of_a_search_is_refused_before_anything_runs(tmp_path):
+    spec = tmp_path / "bad.yaml"
+    spec.write_text("name: t\nlogical: curve\nparameters: {radius: {min: 10, max: 50}}\n"
+                    "ladder: [{backend: ideal}, {backend: dynamic}, {backend: mujoco, cosim: {replan_evry: 3}}]\n")
+    proc = simgap("search", str(spec), "--budget", "4", "--out", str(tmp_path / "s"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, "bad.yaml: field 'ladder.2.cosim.replan_evry'", "replan_every")
+    assert not (tmp_path / "s").exists()
 
 
 def test_vehicles_lists_the_catalogue_and_shows_one():

@@ -9,7 +9,7 @@ import pytest
 
 from simgap.evaluate.errors import (Aggregate, comfort, frenet_tracking_errors, lateral_displacement_by_s,
                                     time_aligned_errors, tracking_errors)
-from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import Trajectory
 
 DT = 0.1
@@ -23,11 +23,11 @@ def straight(n=100, v=10.0, y=0.0, yaw=0.0, t0=0.0, x0=0.0):
 
 def circle_path(r=20.0):
     phi = np.linspace(0, math.pi, 400)
-    return ReferencePath(np.column_stack([r * np.sin(phi), r - r * np.cos(phi)]))
+    return PathFrame(np.column_stack([r * np.sin(phi), r - r * np.cos(phi)]))
 
 
 def test_constant_lateral_offset_gives_that_d():
-    ref = ReferencePath(np.array([[-10.0, 0.0], [200.0, 0.0]]))
+    ref = PathFrame(np.array([[-10.0, 0.0], [200.0, 0.0]]))
     s, d = lateral_displacement_by_s(straight(), straight(y=0.7), ref)
     assert len(s) > 100
     assert np.allclose(d, 0.7)
@@ -42,7 +42,7 @@ def test_offset_on_a_curve_is_signed_left_positive():
 
 
 def test_time_shift_gives_zero_d_when_aligned_by_s():
-    ref = ReferencePath(np.array([[-10.0, 0.0], [300.0, 0.0]]))
+    ref = PathFrame(np.array([[-10.0, 0.0], [300.0, 0.0]]))
     late = straight(x0=-5.0)                    # same path, half a second behind
     s, d = lateral_displacement_by_s(straight(), late, ref)
     assert np.abs(d).max() < 1e-9
@@ -75,7 +75,7 @@ def _plans_along(traj: Trajectory, dx: float = 0.0, dy: float = 0.0, every: int 
 
 
 def test_frenet_tracking_splits_the_error_into_lateral_and_longitudinal():
-    ref = ReferencePath(np.array([[-10.0, 0.0], [200.0, 0.0]]))
+    ref = PathFrame(np.array([[-10.0, 0.0], [200.0, 0.0]]))
     driven = straight()
     # the plans promised 0.3 m further left and 1.5 m further ahead than the car got
     errs = frenet_tracking_errors(driven, _plans_along(driven, dx=1.5, dy=0.3), ref)

@@ -85,7 +85,7 @@ def test_a_planner_that_drives_off_the_road_scores_zero(tmp_path):
     planner = tmp_path / "straight_ahead.py"
     planner.write_text(STRAIGHT_AHEAD)
     curve = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 90.0}), tmp_path, preview=False)
-    run = execute(RunRequest(curve, planner=PlannerChoice(planner=f"{planner}:StraightAhead")), tmp_path / "run")
+    run = execute(RunRequest(curve, planner=PlannerChoice(planner=f"{planner}:StraightAhead"), validate=True), tmp_path / "run")
     agent = run.agents[0]
     assert agent.outcome == Outcome.OFF_ROAD
     assert agent.score == 0.0 and agent.score_components["drivable_area"] == 0.0

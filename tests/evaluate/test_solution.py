@@ -40,7 +40,7 @@ def paper_curve_xml(folder):
 @pytest.fixture(scope="module")
 def paper_curve_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("paper-curve")
-    return execute(RunRequest(paper_curve_xml(folder)), folder / "run"), folder / "run"
+    return execute(RunRequest(paper_curve_xml(folder), validate=True), folder / "run"), folder / "run"
 
 
 def test_the_ideal_run_of_a_paper_curve_is_a_valid_ks2_sm1_solution(paper_curve_run):
@@ -70,7 +70,7 @@ def test_the_ideal_run_of_a_paper_curve_is_a_valid_ks2_sm1_solution(paper_curve_
 
 def test_a_rerun_is_not_checked_again(paper_curve_run, tmp_path):
     run, run_dir = paper_curve_run
-    again = execute(RunRequest(run.scenario_path), tmp_path / "again")
+    again = execute(RunRequest(run.scenario_path, validate=True), tmp_path / "again")
     assert again.fingerprint == run.fingerprint
     assert again.settings["solution_check"] == "cached" and again.agents[0].solution_valid is True
     assert again.timings["validation"] < 0.1 * run.timings["validation"]
@@ -212,10 +212,10 @@ def test_a_crash_of_the_checker_costs_the_verdict_not_the_run(tmp_path):
     # the `triangle` library segfaults triangulating this curve's road boundary (commonroad-
     # drivability-checker 2025.3.1); the check runs in a process of its own
     xml = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 60.0}), tmp_path, preview=False)
-    run = execute(RunRequest(xml), tmp_path / "run")
+    run = execute(RunRequest(xml, validate=True), tmp_path / "run")
     agent = run.agents[0]
     assert agent.solution_valid is None
     assert agent.solution_reason == "the drivability checker crashed (signal 11) in agent 1's road boundary check"
     assert json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]["solution_reason"] == agent.solution_reason
-    again = execute(RunRequest(paper_curve_xml(tmp_path)), tmp_path / "after")     # the next check has a new process
+    again = execute(RunRequest(paper_curve_xml(tmp_path), validate=True), tmp_path / "after")     # the next check has a new process
     assert again.agents[0].solution_valid is True

@@ -14,7 +14,7 @@ from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table, knob_value
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
-from simgap.sim.registry import make_backend
+from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
 
 
@@ -24,7 +24,7 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
     agents = agents_from_problems(problems, scenario.dt, sedan)
     planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
-    run = simulate(scenario, problems, make_backend(backend, **(settings or {})), agents, planners,
+    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
                    CosimSettings(**(cosim or {})), seed=seed)
     return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings or {}))
 

@@ -16,12 +16,13 @@ import yaml
 from simgap.errors import InputError
 from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
 from simgap.experiment.search_results import search_results, summarise
-from simgap.experiment.search_spec import FailureRule, SearchSpec, load_search_spec
+from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.strategies import SearchSpace, make_strategy
+from simgap.experiment.search_space import SearchSpace
+from simgap.experiment.strategies import make_strategy
 from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
@@ -50,6 +51,10 @@ def write(tmp_path: Path, **fields) -> Path:
     ({"ladder": [{"backend": "ideal"}, {"backend": "mujoco"}]}, "ladder", "dynamic"),   # multi_fidelity needs a screen
     ({"distinct_radius": 0}, "distinct_radius", None),
     ({"budget": 3}, "budget", "ladder"),
+    ({"ladder": LADDER[:2] + [{"backend": "mujoco", "cosim": {"replan_evry": 3}}]}, "ladder.2.cosim.replan_evry",
+     "replan_every"),
+    ({"ladder": LADDER[:2] + [{"backend": "mujoco", "settings": {"road_friction": 3}}]}, "ladder.2.settings.road_friction",
+     None),
 ])
 def test_bad_specs_are_refused_naming_the_field(tmp_path, fields, where, allowed):
     with pytest.raises(InputError) as err:
@@ -61,7 +66,8 @@ def test_bad_specs_are_refused_naming_the_field(tmp_path, fields, where, allowed
 
 
 def test_the_builtin_search_loads():
-    spec, logical, _ = load_search_spec("curve-gaps")
+    search = load_search_spec("curve-gaps")
+    spec, logical = search.spec, search.logical
     assert logical.name == "curve" and spec.ladder[-1].backend == "mujoco"
     assert {"road_friction", "steer_delay", "position_noise", "road_bank"} <= set(spec.knobs)
 
@@ -109,8 +115,9 @@ def search_planted(tmp_path, name, seed, runs):
                       knobs={"road_friction": {"min": 0.2, "max": 1.0}}, ladder=LADDER, seed=seed,
                       failure=FailureRule(), objective="max_lateral_offset_m", distinct_radius=0.1)
     space = SearchSpace(spec, load_logical("curve"))
-    run = StrategyRun(spec, space, make_strategy(name, space, spec), tmp_path / f"{name}-{seed}", Budget(runs=runs))
-    run._scenario = lambda c: "unused.xml"
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy(name, space, spec),
+                      tmp_path / f"{name}-{seed}", Budget(runs=runs))
+    run.ladder.scenario = lambda c: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
         run.on_result(job, planted_row(job))
@@ -156,8 +163,9 @@ def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
                                                              "steer_delay": {"min": 0.0, "max": 0.1}},
                       ladder=LADDER, grid_levels=4, strategies=["grid"], distinct_radius=0.1)
     space = SearchSpace(spec, load_logical("curve"))
-    run = StrategyRun(spec, space, make_strategy("grid", space, spec), root, Budget(runs=runs))
-    run._scenario = lambda c: "unused.xml"
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), root,
+                      Budget(runs=runs))
+    run.ladder.scenario = lambda c: "unused.xml"
     run.resume()
     return run
 
@@ -215,7 +223,7 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
-                             "--strategy", "random", "--workers", "2", "--no-report"],
+                             "--strategy", "random", "--workers", "2", "--no-report", "--no-validate"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     rows_dir = out / "random" / "store" / "rows"
     deadline = time.monotonic() + 120
@@ -280,8 +288,9 @@ def test_a_search_for_score_drops_runs_each_ideal_run_first(tmp_path):
                       failure=FailureRule(above={"score_drop": 0.3}))
     assert spec.needs_ideal_first
     space = SearchSpace(spec, load_logical("curve"))
-    run = StrategyRun(spec, space, make_strategy("grid", space, spec), tmp_path / "s", Budget(runs=50))
-    run._scenario = lambda c: "unused.xml"
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), tmp_path / "s",
+                      Budget(runs=50))
+    run.ladder.scenario = lambda c: "unused.xml"
     run.resume()
     first = run.next_job()
     assert first.backend == "ideal"

@@ -54,8 +54,7 @@ def test_a_bad_spec_names_the_file_the_field_and_what_is_allowed(tmp_path, chang
 
 
 def test_the_builtin_paper_study_has_the_papers_counts():
-    spec, logical, path = load_spec("paper-curves")
-    expanded = jobs(spec, logical, path)
+    expanded = jobs(load_spec("paper-curves"))
     assert len(expanded) == 78
     all_jobs = [j for _, runs in expanded for j in runs]
     assert len(all_jobs) == 312 and len({j.key for j in all_jobs}) == 312
@@ -66,14 +65,15 @@ def test_the_builtin_paper_study_has_the_papers_counts():
 def test_random_samplers_give_their_count_in_range_and_repeat_with_the_seed(tmp_path, kind):
     path = write(tmp_path, sampler={"kind": kind, "samples": 16, "seed": 3},
                  parameters={"radius": {"min": 10, "max": 100}, "angle": {"min": -90, "max": 90}})
-    spec, logical, _ = load_spec(path)
+    experiment = load_spec(path)
+    spec, logical = experiment.spec, experiment.logical
     first, again = sample(spec, logical), sample(spec, logical)
     assert len(first) == 16 and first == again
     assert all(10 <= p["radius"] <= 100 and -90 <= p["angle"] <= 90 for p in first)
     assert len({(p["radius"], p["angle"]) for p in first}) == 16
     other = load_spec(write(tmp_path, sampler={"kind": kind, "samples": 16, "seed": 4},
                             parameters={"radius": {"min": 10, "max": 100}, "angle": {"min": -90, "max": 90}}))
-    assert sample(*other[:2]) != first
+    assert sample(other.spec, other.logical) != first
     if kind == "lhs":       # one sample in each of the 16 strata of every dimension
         strata = sorted(int((p["radius"] - 10) / 90 * 16) for p in first)
         assert strata == list(range(16))
@@ -82,8 +82,7 @@ def test_random_samplers_give_their_count_in_range_and_repeat_with_the_seed(tmp_
 def test_grid_over_given_values_and_repeats(tmp_path):
     path = write(tmp_path, parameters={"radius": {"values": [10, 20]}, "angle": {"values": [30, 60, 90]}},
                  repeats=2, fidelities=[{"backend": "ideal"}, {"backend": "mujoco", "vehicles": ["sedan", "suv"]}])
-    spec, logical, path = load_spec(path)
-    expanded = jobs(spec, logical, path)
+    expanded = jobs(load_spec(path))
     assert len(expanded) == 6
     keys = [j.key for _, runs in expanded for j in runs]
     assert len(keys) == 6 * 3 * 2 == len(set(keys))
@@ -91,15 +90,15 @@ def test_grid_over_given_values_and_repeats(tmp_path):
 
 
 def test_planners_are_a_dimension_and_older_specs_keep_their_results(tmp_path):
-    spec, logical, path = load_spec(write(tmp_path, parameters={"radius": {"values": [10]}, "angle": {"values": [90]}},
-                                          planners=["frenet", {"planner": "frenet", "label": "slow",
-                                                               "settings": {"speed": {"cruise_m_s": 6}}}]))
-    (_, runs), = jobs(spec, logical, path)
+    experiment = load_spec(write(tmp_path, parameters={"radius": {"values": [10]}, "angle": {"values": [90]}},
+                                 planners=["frenet", {"planner": "frenet", "label": "slow",
+                                                      "settings": {"speed": {"cruise_m_s": 6}}}]))
+    (_, runs), = jobs(experiment)
     assert [(j.key, j.id.folder, j.planner.settings) for j in runs] == [
         ("curve_radius-10_angle-90/ideal", "curve_radius-10_angle-90/ideal", {}),
         ("curve_radius-10_angle-90/ideal/slow", "curve_radius-10_angle-90/ideal@slow", {"speed": {"cruise_m_s": 6}})]
     # a spec from before planners: its frenet settings, the same results hash as then (so it resumes)
-    old, logical, path = load_spec(write(tmp_path, planner={"speed": {"cruise_m_s": 8}}))
-    assert "planners" not in old.results_relevant()
-    (_, runs), *_ = jobs(old, logical, path)
+    old = load_spec(write(tmp_path, planner={"speed": {"cruise_m_s": 8}}))
+    assert "planners" not in old.spec.results_relevant()
+    (_, runs), *_ = jobs(old)
     assert runs[0].planner.settings == {"speed": {"cruise_m_s": 8}} and runs[0].key.endswith("/ideal")

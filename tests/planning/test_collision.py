@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from simgap.cosim.traffic import DrivableArea, footprint
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.planning.collision import (
     footprint_outline,
     footprints_on_road,
@@ -69,5 +69,8 @@ def test_predictions_are_interpolated_and_extrapolated():
         [State(1.0, 0.0, 0.0, 0.0, 10.0), State(1.1, 1.0, 0.0, 0.0, 10.0)], 0.1))
     times = np.array([0.5, 1.05, 1.1, 1.6])
     pred = predict_traffic([moving], times, lambda x, y: (x, y), 0.0, margin=0.5)
-    assert np.allclose(pred.x[0], [0.0, 0.5, 1.0, 6.0])          # clamp before, constant speed after
+    # absent before its recording starts (it enters the scene at 1.0 s), constant speed after it
+    assert np.isnan(pred.x[0, 0]) and np.allclose(pred.x[0, 1:], [0.5, 1.0, 6.0])
+    ego_where_it_enters = traffic_collisions(np.zeros((1, 4)), np.zeros((1, 4)), np.zeros((1, 4)), 2.25, 0.8, pred)
+    assert ego_where_it_enters.tolist() == [[False, True, True, False]]
     assert pred.half_length[0] == 2.5 and pred.half_width[0] == 1.5

@@ -11,7 +11,7 @@ import pytest
 import shapely
 
 from planner_roads import DT, drive, lateral_offset, two_lane_road
-from simgap.cosim.traffic import DrivableArea, footprint
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.protocol import TrafficParticipant, World

@@ -16,7 +16,7 @@ from simgap.scenario import build_scenario, write_scenario
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "time_gap_planner" / "time_gap_planner" / "planner.py"
 
 FLAKY = '''
-from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.frenet import FrenetPlanner, FrenetSettings
 
 
 class Flaky(FrenetPlanner):
@@ -43,10 +43,44 @@ class NoPlan:
 
 class OneArgument:
     def __init__(self, setup):
+        self.setup = setup
+
+    def plan(self, observed, t, world):
+        return None
+
+
+class ThreeArguments:
+    def __init__(self, setup, settings, extra):
         pass
 
     def plan(self, observed, t, world):
         return None
+
+
+class SettingsNotTaken:
+    Settings = FrenetSettings
+
+    def __init__(self, setup):
+        pass
+
+    def plan(self, observed, t, world):
+        return None
+'''
+
+SMALLEST = '''
+import math
+
+from simgap.trajectory import State, Trajectory
+
+
+class StraightOn:
+    """Drives straight on at 10 m/s: the smallest planner, no constructor and no settings."""
+
+    def plan(self, observed, t, world):
+        c, s = math.cos(observed.yaw), math.sin(observed.yaw)
+        return Trajectory.from_states([State(t + k * world.dt, observed.x + 10.0 * k * world.dt * c,
+                                             observed.y + 10.0 * k * world.dt * s, observed.yaw, 10.0)
+                                       for k in range(31)], world.dt)
 '''
 
 
@@ -91,8 +125,26 @@ def test_bad_references_are_refused_naming_what_is_allowed(ref, fragments):
 def test_classes_not_matching_the_protocol_are_refused(flaky_file):
     with pytest.raises(InputError, match="is not a planner class"):
         load_planner(f"{flaky_file}:NoPlan")
-    with pytest.raises(InputError, match=r"cannot be constructed as cls\(setup, settings\)"):
-        load_planner(f"{flaky_file}:OneArgument")
+    with pytest.raises(InputError, match=r"cannot be constructed as cls\(\), cls\(setup\) or cls\(setup, settings\)"):
+        load_planner(f"{flaky_file}:ThreeArguments")
+    with pytest.raises(InputError, match=r"cannot be constructed as cls\(setup, settings\), as its Settings model"):
+        load_planner(f"{flaky_file}:SettingsNotTaken")
+
+
+def test_a_constructor_takes_what_its_signature_says(flaky_file):
+    setup = object()
+    assert load_planner(f"{flaky_file}:OneArgument").build(setup, None).setup is setup
+    assert load_planner("frenet").arguments == 2
+
+
+def test_the_smallest_planner_has_no_constructor_and_reaches_its_goal(tmp_path):
+    path = tmp_path / "smallest.py"
+    path.write_text(SMALLEST)
+    straight = write_scenario(build_scenario("curve", {"radius": 50.0, "angle": 0.0}), tmp_path, preview=False)
+    planner = load_planner(f"{path}:StraightOn")
+    assert planner.arguments == 0 and planner.settings_model is None
+    run = execute(RunRequest(scenario=straight, planner=PlannerChoice(planner=f"{path}:StraightOn")))
+    assert [a.outcome for a in run.agents] == [Outcome.GOAL_REACHED]
 
 
 def test_a_bad_setting_names_the_file_the_field_and_what_is_allowed(tmp_path):

@@ -29,7 +29,7 @@ def report(tmp_path_factory):
         xml = write_scenario(build_scenario("curve", params), root / "scenarios", preview=False)
         for backend, vehicle in (("ideal", "sedan"), ("mujoco", "city")):
             run_dir = root / "runs" / xml.stem / backend
-            execute(RunRequest(scenario=xml, backend=backend, vehicles=vehicle, cosim=cosim), run_dir)
+            execute(RunRequest(scenario=xml, backend=backend, vehicles=vehicle, cosim=cosim, validate=True), run_dir)
     render_run(root / "runs" / xml.stem / "mujoco", animation=False)
     index = build_report(root / "runs", root / "report")
     return index

@@ -10,13 +10,14 @@ from simgap.experiment.single_run import RunRequest, execute
 from simgap.report.scene3d import ANIMATION, STILL, render_run_3d
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
+from simgap.sim.mujoco.replay import MujocoReplay
 
 
 def test_a_run_renders_in_3d_chase_birdseye_animation_and_side_by_side(tmp_path):
     xml = write_scenario(build_scenario("t-junction", {}), tmp_path, preview=False)
     execute(RunRequest(scenario=xml, backend="ideal", cosim=CosimSettings(replan_every=3, max_time_s=4.0)),
             tmp_path / "run")
-    written = render_run_3d(tmp_path / "run", tmp_path / "pictures", frame_every=5)
+    written = render_run_3d(tmp_path / "run", tmp_path / "pictures", frame_every=5, world=MujocoReplay)
     names = sorted(p.name for p in written)
     assert names == ["scene3d.gif", "scene3d_birdseye.png", "scene3d_chase.png", "side_by_side.png"]
     chase = imageio.imread(tmp_path / "pictures" / "scene3d_chase.png")

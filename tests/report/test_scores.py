@@ -4,16 +4,20 @@ from __future__ import annotations
 
 import pytest
 
+from simgap.cosim import Fidelity
+from simgap.experiment.job import JobId
+from simgap.experiment.run_row import RunRow
 from simgap.report.scores import store_score_rows
 
-ONES = {f"score_{name}": 1.0 for name in ("at_fault_collisions", "drivable_area", "driving_direction",
-                                          "making_progress", "progress", "time_to_collision", "speed_limit",
-                                          "comfort")}
+ONES = {name: 1.0 for name in ("at_fault_collisions", "drivable_area", "driving_direction", "making_progress",
+                               "progress", "time_to_collision", "speed_limit", "comfort")}
 
 
 def row(scenario, fidelity, score, valid, reason="", cost=100.0, **components):
-    return {"scenario": scenario, "fidelity": fidelity, "planner": "frenet", "status": "ok", "score": score,
-            "solution_valid": valid, "solution_reason": reason, "solution_cost": cost} | ONES | components
+    backend, _, vehicle = fidelity.partition("/")
+    return RunRow(JobId(scenario, Fidelity(backend, vehicle or "sedan")), {}, vehicle or "sedan", "ok", score=score,
+                  solution_valid=valid, solution_reason=reason, solution_cost=cost,
+                  score_components=ONES | {k[len("score_"):]: v for k, v in components.items()})
 
 
 def test_drops_the_component_that_explains_them_and_solutions_that_broke():

@@ -13,7 +13,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import Fidelity, Run
+from simgap.cosim import Run
 from simgap.errors import InputError
 from simgap.evaluate.closed_loop_score import score_drop, score_weights_of
 from simgap.evaluate.compare import compare_runs
@@ -67,7 +67,7 @@ def print_scores(console: Console, result: dict) -> None:
 
 
 def _label(run: Run, run_dir: Path) -> str:
-    return f"{Fidelity.of_run(run).label} ({run_dir.name})"
+    return f"{run.fidelity.label} ({run_dir.name})"
 
 
 @app.command()

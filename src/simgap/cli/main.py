@@ -19,8 +19,8 @@ app = typer.Typer(
 
 
 def _register() -> None:
-    from simgap.cli import (compare, demo, experiment, generate, planners, render, report, run, search,  # noqa: F401
-                            vehicles)
+    from simgap.cli import (compare, demo, experiment, export, generate, planners, render, report, run,  # noqa: F401
+                            search, vehicles)
 
 
 def main() -> None:

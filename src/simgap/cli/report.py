@@ -9,12 +9,14 @@ import typer
 from rich.console import Console
 
 from simgap.cli.main import app
+from simgap.cli.outputs import OVERWRITE_HELP, check_report_out
 
 
 @app.command()
 def report(
     runs: Path = typer.Argument(..., help="a directory with run directories below it (an experiment, a demo, runs/)"),
     out: Path = typer.Option(..., "--out", "-o", help="report directory to write (open its index.html)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
 ) -> None:
     """Write the HTML report of every run below RUNS: an overview page and a page per scenario.
 
@@ -22,6 +24,7 @@ def report(
     """
     from simgap.report.site import build_report
 
+    check_report_out(out, overwrite)
     console = Console()
     start = time.perf_counter()
     with console.status("building the report") as status:

@@ -7,21 +7,23 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from pydantic import BaseModel
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.main import app
-from simgap.cosim import AgentOutcome, CosimSettings, Outcome, Run
+from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
+from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
 from simgap.files import read_model, read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
-from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
-from simgap.sim.registry import check_settings
+from simgap.sim.registry import backend_settings
+from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
     f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
@@ -31,13 +33,13 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
-    backend: str = typer.Option("ideal", help="ideal (2D, perfect tracking), dynamic (single-track model), "
+    backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
                                                   "port, home, driver, ...)"),
-    vehicle: str = typer.Option("sedan", help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
+    vehicle: str = typer.Option(DEFAULT_VEHICLE, help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
                                 "names or vehicle data files)"),
-    planner_vehicle: str = typer.Option(PLANNER_VEHICLE, help="the vehicle the planner assumes it drives"),
+    planner_vehicle: str = typer.Option(DEFAULT_VEHICLE, help="the vehicle the planner assumes it drives"),
     controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
     controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
@@ -66,6 +68,8 @@ def run(
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
                                      "part of scoring: feasibility state by state) for quick loops"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
+    overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
+                                   "backend, vehicle or planner)"),
 ) -> None:
     """Run a scenario and print a per-agent summary.
 
@@ -75,8 +79,6 @@ def run(
     """
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
-    backend_settings = _backend_settings(backend, {k: v for k, v in physical.items() if v is not None},
-                                         backend_config)
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
     scoring = {"score": read_model(score_config, ScoreSettings, "score settings file", empty_ok=True)} \
         if score_config else {}
@@ -84,29 +86,31 @@ def run(
         scoring["cost_function"] = cost_function
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_agent_map(vehicle),
                          planner_vehicle=planner_vehicle,
-                         backend_settings=backend_settings | knob_settings,
+                         backend_settings=_settings(backend, {k: v for k, v in physical.items() if v is not None},
+                                                    backend_config, knob_settings),
                          planner=parse_planners(planner, planner_config),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
                          validate=not no_validate)
+    check_run_out(out, request, overwrite)
     _execute(request, out, as_json)
 
 
-def _backend_settings(backend: str, backend_settings: dict, backend_config: Path | None) -> dict:
-    """The options' backend settings over the ``--backend-config`` file's, checked against the backend."""
-    if backend_config is not None and backend == "ideal":
+def _settings(backend: str, options: dict, backend_config: Path | None, knob_settings: dict) -> BaseModel:
+    """The backend's settings model: the options' settings over the ``--backend-config`` file's,
+    the knobs' over both, validated once."""
+    if backend_config is not None and backend == REFERENCE:
         raise InputError("the ideal backend has no settings", file=backend_config, field="backend-config",
                          allowed="dynamic, mujoco, beamng")
-    if backend_settings and backend == "ideal":
-        raise InputError(f"--{next(iter(backend_settings)).replace('_', '-')} applies to physics backends only; "
+    if options and backend == REFERENCE:
+        raise InputError(f"--{next(iter(options)).replace('_', '-')} applies to physics backends only; "
                          "the ideal backend executes every plan exactly", field="backend",
                          allowed="dynamic, mujoco, beamng")
     if backend_config is not None:
-        backend_settings = read_yaml_mapping(backend_config, "backend settings file",
-                                             "setting: value, e.g. host: 10.0.0.5, port: 25252") | backend_settings
-    check_settings(backend, backend_settings, file=backend_config)
-    return backend_settings
+        options = read_yaml_mapping(backend_config, "backend settings file",
+                                    "setting: value, e.g. host: 10.0.0.5, port: 25252") | options
+    return backend_settings(backend, options | knob_settings, file=backend_config)
 
 
 def _execute(request: RunRequest, out: Path, as_json: bool) -> None:

@@ -15,13 +15,14 @@ from simgap.control.longitudinal import (
 from simgap.control.lqr import LqrController, LqrGains
 from simgap.control.protocol import Command, Controller
 from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
-from simgap.control.registry import controller_gains, controller_names, make_controller
+from simgap.control.registry import DEFAULT_CONTROLLER, controller_gains, controller_names, make_controller
 from simgap.control.stanley import StanleyController, StanleyGains
 from simgap.control.tracking import TrackingController, TrackingGains
 
 __all__ = [
     "Command",
     "Controller",
+    "DEFAULT_CONTROLLER",
     "DEFAULT_PHYSICS",
     "LongitudinalMap",
     "LqrController",

@@ -116,10 +116,6 @@ class LongitudinalMap:
                 + 0.5 * AIR_DENSITY * self.drag_coefficient_area * v * v)
 
     @property
-    def max_drive_acceleration(self) -> float:
-        return self.max_drive_torque / (self.wheel_radius * self.mass)
-
-    @property
     def max_brake_deceleration(self) -> float:
         return self.max_brake_torque / (self.wheel_radius * self.mass)
 

@@ -32,7 +32,7 @@ import numpy as np
 from pydantic import Field
 
 from simgap.control.planned_path import PlannedPath, Projection
-from simgap.control.tracking import TrackingController, TrackingGains
+from simgap.control.tracking import CONTROLLER_HZ, TrackingController, TrackingGains
 from simgap.trajectory import State, wrap_angle
 
 _SPEED_GRID = 1.0     # m/s between gain computations
@@ -92,7 +92,7 @@ def lqr_gain(v: float, period: float, wheelbase: float, steer_ff: float, q_lat: 
 class LqrController(TrackingController):
     name = "lqr"
 
-    def __init__(self, vehicle, gains: LqrGains | None = None, rate_hz: float = 100.0):
+    def __init__(self, vehicle, gains: LqrGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or LqrGains(), rate_hz)
         self.reference_offset = -self.rear_axle_to_center
 

@@ -20,7 +20,7 @@ import math
 from pydantic import Field, model_validator
 
 from simgap.control.planned_path import PlannedPath, Projection
-from simgap.control.tracking import TrackingController, TrackingGains
+from simgap.control.tracking import CONTROLLER_HZ, TrackingController, TrackingGains
 from simgap.trajectory import State
 
 
@@ -54,7 +54,7 @@ def _pursuit_curvature(px: float, py: float, yaw: float, tx: float, ty: float) -
 class PurePursuitController(TrackingController):
     name = "pure_pursuit"
 
-    def __init__(self, vehicle, gains: PurePursuitGains | None = None, rate_hz: float = 100.0):
+    def __init__(self, vehicle, gains: PurePursuitGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or PurePursuitGains(), rate_hz)
         self.reference_offset = -self.rear_axle_to_center
         self._plan_curvature = 0.0

@@ -21,14 +21,13 @@ from simgap.control.lqr import LqrController, LqrGains
 from simgap.control.protocol import Controller
 from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
 from simgap.control.stanley import StanleyController, StanleyGains
-from simgap.control.tracking import MIN_RATE_HZ, TrackingController
+from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ, TrackingController
 from simgap.errors import InputError, validation_error
 
 CONTROLLERS: dict[str, tuple[type[TrackingController], type[BaseModel]]] = {
-    "pure_pursuit": (PurePursuitController, PurePursuitGains),
-    "stanley": (StanleyController, StanleyGains),
-    "lqr": (LqrController, LqrGains),
-}
+    cls.name: (cls, gains) for cls, gains in ((PurePursuitController, PurePursuitGains),
+                                              (StanleyController, StanleyGains), (LqrController, LqrGains))}
+DEFAULT_CONTROLLER = PurePursuitController.name     # every physics backend's, unless told otherwise
 
 
 def controller_names() -> list[str]:
@@ -78,7 +77,7 @@ def controller_gains(name: str, vehicle=None, overrides: Mapping[str, Any] | Non
     return model.model_validate(values)
 
 
-def make_controller(name: str, vehicle, rate_hz: float = 100.0,
+def make_controller(name: str, vehicle, rate_hz: float = CONTROLLER_HZ,
                     overrides: Mapping[str, Any] | None = None) -> Controller:
     """A fresh controller ``name`` for ``vehicle``, updating at ``rate_hz`` (>= 50 Hz)."""
     _check_name(name)

@@ -20,7 +20,7 @@ import math
 from pydantic import Field
 
 from simgap.control.planned_path import PlannedPath, Projection
-from simgap.control.tracking import TrackingController, TrackingGains
+from simgap.control.tracking import CONTROLLER_HZ, TrackingController, TrackingGains
 from simgap.trajectory import State, wrap_angle
 
 
@@ -39,7 +39,7 @@ class StanleyGains(TrackingGains):
 class StanleyController(TrackingController):
     name = "stanley"
 
-    def __init__(self, vehicle, gains: StanleyGains | None = None, rate_hz: float = 100.0):
+    def __init__(self, vehicle, gains: StanleyGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or StanleyGains(), rate_hz)
         self.reference_offset = self.front_axle_to_center
 

@@ -22,6 +22,7 @@ from simgap.trajectory import State, Trajectory
 from simgap.vehicles.physics import VehiclePhysics
 
 MIN_RATE_HZ = 50.0
+CONTROLLER_HZ = 100.0    # the controllers' rate unless told otherwise
 _STOP_LOOKAHEAD = 0.5    # s of plan checked for a planned standstill
 
 
@@ -63,7 +64,7 @@ class TrackingController:
     name = "tracking"
     reference_offset = 0.0   # where the tracked reference point sits, ahead of the centre [m]
 
-    def __init__(self, vehicle, gains: TrackingGains, rate_hz: float = 100.0):
+    def __init__(self, vehicle, gains: TrackingGains, rate_hz: float = CONTROLLER_HZ):
         if not rate_hz >= MIN_RATE_HZ:
             raise ValueError(f"rate_hz must be >= {MIN_RATE_HZ}, got {rate_hz}")
         self.vehicle = vehicle

@@ -1,20 +1,23 @@
 """What produced a run — its fidelity: the backend, the vehicle(s) and, for the physics backends,
 the controller. One label names it everywhere (job keys, run directories, the store, reports):
 ``ideal``, ``dynamic/sedan``, ``mujoco/suv``, ``mujoco/sedan/stanley`` (the default controller,
-pure pursuit, is left out; several vehicles are joined by ``+``)."""
+pure pursuit, is left out; several vehicles are joined by ``+``). A run record says its own
+(`simgap.cosim.Run.fidelity`). The names it is made of belong to their owners: the ideal
+backend's (`REFERENCE`) to `simgap.sim`, the default controller to `simgap.control`."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-REFERENCE = "ideal"                  # the world of the planner's assumptions: every other is compared with it
-DEFAULT_CONTROLLER = "pure_pursuit"
+from simgap.control.registry import DEFAULT_CONTROLLER
+from simgap.sim.protocol import REFERENCE
+from simgap.vehicles import DEFAULT_VEHICLE
 
 
 @dataclass(frozen=True)
 class Fidelity:
     backend: str
-    vehicle: str = "sedan"              # the vehicle's name (several: joined by '+')
+    vehicle: str = DEFAULT_VEHICLE      # the vehicle's name (several: joined by '+')
     controller: str | None = None       # None: the backend's default (physics backends: pure pursuit)
 
     @property
@@ -26,19 +29,3 @@ class Fidelity:
 
     def __str__(self) -> str:
         return self.label
-
-    @classmethod
-    def parse(cls, label: str) -> "Fidelity":
-        """The fidelity a `label` names."""
-        backend, _, rest = label.partition("/")
-        if not rest:
-            return cls(backend)
-        vehicle, _, controller = rest.partition("/")
-        return cls(backend, vehicle, controller or None)
-
-    @classmethod
-    def of_run(cls, run) -> "Fidelity":
-        """The fidelity of a recorded `Run`."""
-        vehicles = "+".join(sorted({a.vehicle for a in run.agents}))
-        controller = (run.settings.get("backend") or {}).get("controller")
-        return cls(run.backend, vehicles, controller)

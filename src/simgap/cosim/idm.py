@@ -16,27 +16,23 @@ from typing import Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
+from pydantic import Field
 
-from simgap.cosim.traffic import TrafficMode
-from simgap.planning.idm_planner import desired_gap
+from simgap.planning.car_following import IdmParameters
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.trajectory import State, Trajectory
 
 
-@dataclass(frozen=True)
-class IdmParameters:
-    """The IDM's parameters (Treiber's defaults for city traffic)."""
+class TrafficIdm(IdmParameters):
+    """The IDM's parameters (`IdmParameters`, as the `idm` planner's) and how a recorded vehicle
+    keeps to its recording and is seen by planners."""
 
-    max_acceleration: float = 1.5       # a [m/s^2]
-    comfortable_deceleration: float = 2.0   # b [m/s^2]
-    max_deceleration: float = 9.0
-    time_headway_s: float = 1.2         # T
-    standstill_gap_m: float = 2.0       # s0
-    catch_up_s: float = 2.0             # 1 / gain of the tracking of the recorded position
-    tracking_s: float = 0.5             # time constant of the speed tracking
-    lookahead_m: float = 80.0           # how far ahead on its path a vehicle looks
-    prediction_s: float = 4.0           # how far planners see it ahead (constant speed on its path)
+    catch_up_s: float = Field(2.0, gt=0, description="1 / gain of the tracking of the recorded position [s]")
+    tracking_s: float = Field(0.5, gt=0, description="time constant of the speed tracking [s]")
+    lookahead_m: float = Field(80.0, gt=0, description="how far ahead on its path a vehicle looks [m]")
+    prediction_s: float = Field(4.0, gt=0, description="how far planners see it ahead (constant speed on its "
+                                                       "path) [s]")
 
 
 @dataclass
@@ -82,12 +78,11 @@ def _path_vehicle(obstacle: RecordedObstacle) -> _PathVehicle | None:
 
 
 class IdmTraffic:
-    """Recorded vehicles driven by an IDM along their recorded paths (see the module docstring)."""
+    """Recorded vehicles driven by an IDM along their recorded paths (see the module docstring);
+    a `simgap.cosim.traffic.Traffic`."""
 
-    mode = TrafficMode.IDM
-
-    def __init__(self, scenario: Scenario, parameters: IdmParameters | None = None):
-        self.p = parameters or IdmParameters()
+    def __init__(self, scenario: Scenario, parameters: TrafficIdm | None = None):
+        self.p = parameters or TrafficIdm()
         self.dt = float(scenario.dt)
         self._replayed: list[RecordedObstacle] = []
         self._driven: list[_PathVehicle] = []
@@ -155,9 +150,7 @@ class IdmTraffic:
         if gap is None:
             return a
         p = self.p
-        wanted = desired_gap(pv.v, pv.v - v_lead, p.standstill_gap_m, p.time_headway_s, p.max_acceleration,
-                             p.comfortable_deceleration)
-        interaction = p.max_acceleration * (1.0 - (wanted / max(gap, 0.1)) ** 2)
+        interaction = p.max_acceleration * (1.0 - p.interaction(pv.v, pv.v - v_lead, gap))
         return float(max(min(a, interaction), -p.max_deceleration))
 
     def _obstacles_at(self, t: float, agents: Mapping[int, TrafficParticipant]) -> np.ndarray:

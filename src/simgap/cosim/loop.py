@@ -30,9 +30,10 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
-from simgap.cosim.traffic import DrivableArea, Traffic, TrafficMode, footprint, make_traffic
+from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -211,7 +212,7 @@ class _CoSimulation:
             failure = f"physics diverged: {exc}"
             for p in self.progress_of.values():
                 if p.active:
-                    self._finish(p, Outcome.DIVERGED, p.driven[-1], str(exc))
+                    self._finish(p, Outcome.DIVERGED, p.driven[-1] if p.driven else p.agent.initial_state, str(exc))
         finally:
             backend_timings = dict(self.backend.timings)
             backend_notes = list(self.backend.notes)
@@ -234,8 +235,8 @@ class _CoSimulation:
         t = step * self.dt
         clock = time.perf_counter()
         snapshot = _traffic_snapshot(self.progress_of, states, self.dt)   # every agent plans from it
-        for p in self.progress_of.values():
-            self._plan(p, states[p.agent.id], t, snapshot)
+        for aid, state in states.items():          # agents that have entered the world
+            self._plan(self.progress_of[aid], state, t, snapshot)
         self.timings["planning"] += time.perf_counter() - clock
         clock = time.perf_counter()
         states = self.backend.step({aid: p.plan for aid, p in self.progress_of.items()})
@@ -245,7 +246,7 @@ class _CoSimulation:
         for aid, st in states.items():
             if self.progress_of[aid].active:      # a finished agent's record ends where it finished
                 self.progress_of[aid].driven.append(st)
-        self._monitor(states)
+        self._monitor(states, t + self.dt)
         self.timings["monitoring"] += time.perf_counter() - clock
         return states
 
@@ -308,19 +309,20 @@ class _CoSimulation:
             p.time_to_goal = state.t
         self.events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
 
-    def _monitor(self, states: Mapping[int, State]) -> None:
-        """Collision, road departure, goal and deadline of every agent still in the scene."""
+    def _monitor(self, states: Mapping[int, State], t: float) -> None:
+        """Collision, road departure, goal and deadline of every agent in the scene at ``t``."""
         progress_of = self.progress_of
         shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
                   for aid, st in states.items()}
-        present = [aid for aid, p in progress_of.items() if p.outcome != Outcome.GOAL_REACHED]
-        t = next(iter(states.values())).t
+        present = [aid for aid in states if progress_of[aid].outcome != Outcome.GOAL_REACHED]
         obstacle_shapes = {oid: footprint(st, length, width)
                            for oid, (st, length, width) in self.traffic.poses(t).items()}
         contacts = {}
-        for ev in self.backend.events():
-            if ev.kind == "collision":
+        for ev in self.backend.events():       # a car that reached its goal has left the scenario
+            gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
+            if ev.kind == "collision" and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
+        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in self.traffic.poses(t).items()}
         for aid in present:
             p = progress_of[aid]
             others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
@@ -330,11 +332,13 @@ class _CoSimulation:
             excursion = self.road.excursion(shapes[aid])
             p.max_excursion = max(p.max_excursion, excursion)
             if p.active:
-                self._judge(p, states[aid], hit, excursion)
+                detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
+                                                                 poses.get(hit), hit in progress_of)
+                self._judge(p, states[aid], hit, excursion, detail)
 
-    def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float) -> None:
+    def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float, detail: str = "") -> None:
         if hit is not None:
-            self._finish(p, Outcome.COLLISION, state, "footprints overlap", hit)
+            self._finish(p, Outcome.COLLISION, state, detail, hit)
         elif excursion > 0.0:
             self._finish(p, Outcome.OFF_ROAD, state, f"footprint {excursion:.3f} m beyond the road")
         elif p.goal.is_reached(state):
@@ -347,7 +351,7 @@ class _CoSimulation:
         dt = self.dt
         outcomes = []
         for aid, p in self.progress_of.items():
-            driven = Trajectory.from_states(p.driven, dt)
+            driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
             outcomes.append(AgentOutcome(
                 id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
                 time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
@@ -358,12 +362,31 @@ class _CoSimulation:
         settings = {"cosim": self.settings.model_dump(mode="json")}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
-            driven={aid: Trajectory.from_states(p.driven, dt) for aid, p in self.progress_of.items()},
+            driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
+                    for aid, p in self.progress_of.items()},
             plans={aid: p.plans for aid, p in self.progress_of.items()},
             events=self.events, timings=self.timings, wall_time_s=wall_time,
             settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
             failure=failure, planner_errors=self.planner_errors,
         )
+
+
+def collision_detail(ego: State, ego_length: float, other_id: int, other: State | None, agent: bool) -> str:
+    """A collision in a user's words: who, and whether the other road user ran into the ego from
+    behind (its centre more than half the ego's length behind, heading the ego's way) - with
+    replayed traffic, which does not brake for it, a collision the ego could not prevent - and
+    what the ego was doing then (at rest, braking, driving)."""
+    who = f"{'agent' if agent else 'recorded road user'} {other_id}"
+    if other is None:
+        return f"footprints overlap with {who}"
+    c, s = math.cos(ego.yaw), math.sin(ego.yaw)
+    ahead = (other.x - ego.x) * c + (other.y - ego.y) * s
+    if ahead < -0.5 * ego_length and math.cos(other.yaw - ego.yaw) > 0.5:
+        doing = ("at rest" if abs(ego.v) < 0.1 else
+                 f"braking at {-ego.a:.1f} m/s^2 from {ego.v:.1f} m/s" if ego.a < -0.5 else f"driving at {ego.v:.1f} m/s")
+        return (f"rear-ended by {who} ({other.v:.1f} m/s) while the ego was {doing}"
+                + ("; replayed traffic does not brake for the ego" if not agent else ""))
+    return f"ran into {who} at {ego.v:.1f} m/s (the other at {other.v:.1f} m/s)"
 
 
 def _first_contact(p: _AgentProgress, shape, others) -> int | None:
@@ -385,8 +408,8 @@ def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping
     """
     snapshot = {}
     for aid, p in progress_of.items():
-        if p.outcome == Outcome.GOAL_REACHED:
-            continue
+        if p.outcome == Outcome.GOAL_REACHED or (p.plan is None and aid not in states):
+            continue         # left the scenario, or not entered yet
         prediction = p.plan if p.plan is not None else Trajectory.from_states([states[aid]], dt)
         snapshot[aid] = TrafficParticipant(aid, p.agent.vehicle.length, p.agent.vehicle.width, prediction)
     return snapshot

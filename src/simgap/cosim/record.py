@@ -4,20 +4,18 @@ On disk a run is a directory:
 
 - ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
 - ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
-- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles)
+- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
+                          offset by `AGENT_ID_OFFSET`)
 - ``solution.xml``        every agent's driven trajectory as a CommonRoad solution (`simgap.evaluate.solution`)
 
-The directory is written next to its destination and renamed into place, so a reader never
-sees a half-written run.
+The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
+so a reader never sees a half-written run.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import os
-import shutil
-import tempfile
 import traceback
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
@@ -29,10 +27,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
-from simgap.files import atomic_write_text
+from simgap.files import atomic_write_text, replace_directory
+from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.cosim.fidelity import Fidelity
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
+AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
 
 class Outcome(StrEnum):
     """How an agent's run ended (a string enum: it compares and serialises as its value)."""
@@ -108,6 +109,8 @@ class AgentOutcome:
     planning_p95_s: float | None = None
     planning_max_s: float | None = None
     planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
+    recorded_as: int | None = None              # the recorded road user this agent replaces (its own
+                                                # recording in the file, left out of the traffic)
     # scores (simgap.evaluate: closed_loop_score, solution); None: not scored (a run recorded before scores)
     score: float | None = None                  # closed-loop score in [0, 1], built like nuPlan's CLS
     score_components: dict[str, float] = field(default_factory=dict)   # its multipliers and weighted terms
@@ -156,6 +159,18 @@ class Run:
         return load_vehicle(next(a.vehicle for a in self.agents if a.id == agent_id))
 
     @property
+    def fidelity(self) -> Fidelity:
+        """What produced the run: its backend, its agents' vehicles and its controller."""
+        vehicles = "+".join(sorted({a.vehicle for a in self.agents}))
+        return Fidelity(self.backend, vehicles, (self.settings.get("backend") or {}).get("controller"))
+
+    @property
+    def planner(self) -> str:
+        """The name of the planner (of every agent; per agent ``1=frenet,2=idm``) that drove it
+        (``frenet`` for runs recorded before planners were named)."""
+        return (self.settings.get("planner") or {}).get("name") or DEFAULT_PLANNER
+
+    @property
     def fingerprint(self) -> str:
         """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
         h = hashlib.sha256()
@@ -202,29 +217,16 @@ class Run:
 
     def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None,
              solution_xml: str | None = None) -> Path:
-        """Write the run directory atomically (build aside, then rename into place)."""
-        run_dir = Path(run_dir)
-        run_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{run_dir.name}.", dir=run_dir.parent))
-        try:
+        """Write the run directory atomically (built aside, then swapped into place)."""
+        def write(tmp: Path) -> None:
             (tmp / "run.json").write_text(self._record_json())
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
             if driven_scenario_xml is not None:
                 (tmp / "driven.xml").write_text(driven_scenario_xml)
             if solution_xml is not None:
                 (tmp / "solution.xml").write_text(solution_xml)
-            if run_dir.exists():
-                old = run_dir.with_name(f".{run_dir.name}.old")
-                shutil.rmtree(old, ignore_errors=True)
-                os.replace(run_dir, old)
-                os.replace(tmp, run_dir)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, run_dir)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
-        return run_dir
+
+        return replace_directory(run_dir, write)
 
     def _trajectory_table(self) -> pa.Table:
         cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}

@@ -22,7 +22,7 @@ from enum import StrEnum
 
 from shapely.geometry import LineString
 
-from simgap.cosim.traffic import footprint
+from simgap.scenario.road_frame import footprint
 from simgap.trajectory import State
 
 

@@ -40,12 +40,12 @@ from commonroad.scenario.scenario import Scenario
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.record import AgentOutcome, Outcome, Run
 from simgap.cosim.score_settings import ScoreSettings, ScoreWeights
-from simgap.cosim.traffic import footprint
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
 from simgap.evaluate.road_users import RoadUser, RoadUserKind, road_users
 from simgap.evaluate.route_centre import route_centre
+from simgap.scenario.road_frame import footprint
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.trajectory import Trajectory
 

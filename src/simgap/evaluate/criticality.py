@@ -1,6 +1,6 @@
 """Criticality of a driven scenario, per ordered agent pair, from commonroad-crime.
 
-The driven scenario holds every agent as a dynamic obstacle (see `cosim.driven_scenario`).
+The driven scenario holds every agent as a dynamic obstacle (see `export.driven_scenario`).
 For each pair (ego, other) the measures are evaluated every ``every`` steps and the most
 critical value is kept: the smallest time-to-collision (TTC) and time headway (THW), the
 largest brake threat number (BTN) and steer threat number (STN). A step at which CriMe cannot
@@ -20,7 +20,7 @@ from typing import Iterable
 from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.driven_scenario import AGENT_ID_OFFSET
+from simgap.cosim.record import AGENT_ID_OFFSET
 
 # measure name -> (CriMe class name, True when smaller values are more critical)
 MEASURES = {"ttc": ("TTC", True), "thw": ("THW", True), "btn": ("BTN", False), "stn": ("STN", False)}

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import Trajectory, wrap_angle
 
 
@@ -66,12 +66,12 @@ def time_aligned_errors(a: Trajectory, b: Trajectory) -> TimeAlignedErrors:
     )
 
 
-def lateral_profile(traj: Trajectory, reference: ReferencePath) -> tuple[np.ndarray, np.ndarray]:
+def lateral_profile(traj: Trajectory, reference: PathFrame) -> tuple[np.ndarray, np.ndarray]:
     """(s, d) of a trajectory's positions in the reference path's Frenet frame."""
     return reference.project(np.column_stack([traj.x, traj.y]))
 
 
-def lateral_displacement_by_s(a: Trajectory, b: Trajectory, reference: ReferencePath,
+def lateral_displacement_by_s(a: Trajectory, b: Trajectory, reference: PathFrame,
                               ds: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """d_b(s) - d_a(s) on a common s grid covering the stretch both trajectories drove."""
     sa, da = lateral_profile(a, reference)
@@ -138,7 +138,7 @@ class FrenetTrackingErrors:
 
 
 def frenet_tracking_errors(driven: Trajectory, plans: list[Trajectory],
-                           reference: ReferencePath) -> FrenetTrackingErrors:
+                           reference: PathFrame) -> FrenetTrackingErrors:
     """Planned versus driven, split into the reference path's lateral and longitudinal
     directions."""
     p = promised_states(driven, plans)

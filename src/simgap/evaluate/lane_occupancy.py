@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.evaluate.frenet_frame import ReferencePath
+from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import Trajectory, wrap_angle
 
 NO_LANELET = -1
@@ -26,11 +26,11 @@ class LaneOccupancy:
 
     def __init__(self, network: LaneletNetwork):
         self.network = network
-        self._paths: dict[int, ReferencePath] = {}
+        self._paths: dict[int, PathFrame] = {}
 
-    def centre_line(self, lanelet_id: int) -> ReferencePath:
+    def centre_line(self, lanelet_id: int) -> PathFrame:
         if lanelet_id not in self._paths:
-            self._paths[lanelet_id] = ReferencePath(self.network.find_lanelet_by_id(lanelet_id).center_vertices)
+            self._paths[lanelet_id] = PathFrame(self.network.find_lanelet_by_id(lanelet_id).center_vertices)
         return self._paths[lanelet_id]
 
     def lanelets_at(self, points: np.ndarray) -> list[list[int]]:

@@ -11,27 +11,27 @@ from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
-from simgap.evaluate.frenet_frame import ReferencePath
-from simgap.planning.reference_path import lanelet_routes, shortest_route
+from simgap.planning.reference_path import lanelet_routes, preferred_route
+from simgap.scenario.road_frame import PathFrame
 
 
 def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[int]:
-    """The lanelets of the route through the fewest lanelets (the planners' routes, a start off
-    every lanelet included); empty when there is none."""
+    """The lanelets of the planners' route (`preferred_route`; a start off every lanelet included);
+    empty when there is none."""
     try:
         routes, _ = lanelet_routes(network, problem)
     except InputError:
         return []
-    return list(shortest_route(routes))
+    return list(preferred_route(network, routes))
 
 
-def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> ReferencePath | None:
+def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame | None:
     ids = route_lanelets(network, problem)
     if not ids:
         return None
     parts = [network.find_lanelet_by_id(i).center_vertices for i in ids]
     xy = np.vstack([parts[0]] + [p[1:] for p in parts[1:]])
-    return ReferencePath(xy)
+    return PathFrame(xy)
 
 
 def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: dict[str, str],

@@ -14,9 +14,9 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.traffic import DrivableArea, footprint
 from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.vehicles import Vehicle
 from simgap.vehicles.constants import GRAVITY
 

@@ -5,6 +5,7 @@ and — after the run is saved — whether that solution is valid (slow, cached,
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from commonroad.common.solution import Solution
@@ -54,11 +55,22 @@ def check_run_solution(run: Run, solution: Solution, scenario: Scenario, problem
     return cached
 
 
-def run_scores_columns(run: Run) -> dict:
-    """A run's scores as one row of the results store: the worst agent's score and components, the
-    solution valid when every agent's is (None when one was not checked) with the first reason
-    it is not (or could not be checked), and the solution's cost summed over its agents (as
-    CommonRoad sums a solution's)."""
+@dataclass(frozen=True)
+class RunScores:
+    """A run's scores as one row of the results store holds them."""
+
+    score: float | None                     # the worst agent's closed-loop score (None: not scored)
+    score_components: dict[str, float]      # that agent's components
+    solution_valid: bool | None             # every agent's solution valid (None: one was not checked)
+    solution_reason: str                    # the first invalid agent's first reason (or why it was not checked)
+    solution_cost: float | None             # summed over the agents, as CommonRoad sums a solution's
+
+
+def worst_scores(run: Run) -> RunScores:
+    """A run's scores for its store row: the worst agent's score and components, the solution valid
+    when every agent's is (None when one was not checked) with the first reason it is not (or
+    could not be checked), and the solution's cost summed over its agents (as CommonRoad sums a
+    solution's)."""
     scored = [a for a in run.agents if a.score is not None]
     worst = min(scored, key=lambda a: a.score, default=None)
     validity = [a.solution_valid for a in run.agents]
@@ -67,8 +79,8 @@ def run_scores_columns(run: Run) -> dict:
         next((a for a in run.agents if a.solution_valid is None and a.solution_reason), None)
     costs = [a.solution_cost for a in run.agents]
     many = len(run.agents) > 1
-    return {"score": None if worst is None else worst.score,
-            "score_components": {} if worst is None else dict(worst.score_components),
-            "solution_valid": False if False in validity else None if None in validity or not validity else True,
-            "solution_reason": "" if why is None else (f"agent {why.id}: " if many else "") + why.solution_reason,
-            "solution_cost": None if None in costs or not costs else float(sum(costs))}
+    return RunScores(score=None if worst is None else worst.score,
+                     score_components={} if worst is None else dict(worst.score_components),
+                     solution_valid=False if False in validity else None if None in validity or not validity else True,
+                     solution_reason="" if why is None else (f"agent {why.id}: " if many else "") + why.solution_reason,
+                     solution_cost=None if None in costs or not costs else float(sum(costs)))

@@ -21,7 +21,6 @@ import dataclasses
 import json
 import multiprocessing as mp
 import os
-import shutil
 import tempfile
 import time
 import traceback
@@ -29,8 +28,10 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any, Callable
 
-from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.job import Job, JobContext
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import WORKER_DIED
+from simgap.files import replace_directory
 
 OnResult = Callable[[Job, RunRow], None]
 JobSource = Callable[[], "Job | None"]
@@ -53,7 +54,7 @@ def _crashed_row(job: Job, exc: BaseException) -> RunRow:
 
 
 def _worker(conn) -> None:
-    from simgap.experiment.job import execute_job
+    from simgap.experiment.worker import execute_job
 
     while True:
         try:
@@ -162,7 +163,7 @@ def _scenario_files(job: Job, context: JobContext) -> dict[str, bytes]:
 
 def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple[RunRow, dict[str, bytes]]:
     """On a node: run ``job`` in a scratch directory; its store row and its run directory's files."""
-    from simgap.experiment.job import execute_job, run_dir_of
+    from simgap.experiment.worker import execute_job, run_dir_of
 
     with tempfile.TemporaryDirectory(prefix="simgap-run-") as scratch:
         root = Path(scratch)
@@ -180,31 +181,22 @@ def _ray_job(job: Job, context: JobContext, scenario: dict[str, bytes]) -> tuple
 
 
 def _receive_run(root: Path, job: Job, files: dict[str, bytes], scenario_path: str) -> None:
-    """Write the run directory a node sent back into ``root``, atomically (aside, then renamed);
+    """Write the run directory a node sent back into ``root``, atomically (aside, then swapped in);
     its ``run.json`` names the scenario file on this machine, as a local run's does."""
-    from simgap.experiment.job import run_dir_of
+    from simgap.experiment.worker import run_dir_of
 
     if not files:
         return
-    target = run_dir_of(root, job)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
-    try:
+
+    def write(tmp: Path) -> None:
         for name, data in files.items():
             (tmp / name).parent.mkdir(parents=True, exist_ok=True)
             (tmp / name).write_bytes(data)
         meta = tmp / "run.json"
         if meta.exists():
             meta.write_text(json.dumps(json.loads(meta.read_text()) | {"scenario_path": scenario_path}, indent=2))
-        old = target.with_name(f".{target.name}.old")
-        if target.exists():
-            shutil.rmtree(old, ignore_errors=True)
-            os.replace(target, old)
-        os.replace(tmp, target)
-        shutil.rmtree(old, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+
+    replace_directory(run_dir_of(root, job), write)
 
 
 def _lost(exc: Exception) -> str:

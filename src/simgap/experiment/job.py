@@ -1,62 +1,122 @@
-"""One run of an experiment, as a worker executes it, and the store row it becomes."""
+"""What an experiment or a search runs: a run's identity (`JobId`), the run to execute (`Job`),
+and what every job of a batch shares (`JobContext`).
+
+A job's key — ``scenario/fidelity`` (``/PLANNER`` unless the planner is the default ``frenet``,
+``/rN`` when the experiment repeats runs; a search names its ladder's rungs instead of fidelities:
+``c00012/high``) — is printed only by `JobId.key`; code that needs the parts of a job holds its
+`JobId`, never a key taken apart.
+"""
 
 from __future__ import annotations
 
-import math
-import time
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Mapping
 
-from simgap.cosim import Outcome, Run
-from simgap.evaluate.errors import comfort
-from simgap.evaluate.run_scores import run_scores_columns
-from simgap.experiment.records import Job, JobContext, RunRow
-from simgap.experiment.single_run import RunRequest, execute
+from pydantic import BaseModel
 
-
-def run_dir_of(root: Path, job: Job) -> Path:
-    return Path(root) / "runs" / job.id.folder
+from simgap.cosim import CosimSettings, Fidelity
+from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
+from simgap.vehicles import DEFAULT_VEHICLE
 
 
-def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) -> RunRow:
-    """Every scalar of a finished run: outcome, goals, excursions, comfort, timings, versions."""
-    outcomes = [a.outcome for a in run.agents]
-    times = [a.time_to_goal_s for a in run.agents if a.time_to_goal_s is not None]
-    gaps = [a.min_distance_to_traffic_m for a in run.agents if a.min_distance_to_traffic_m is not None]
-    peaks = [comfort(t) for t in run.driven.values()]
-    return RunRow(
-        job.id, job.parameters, job.vehicle, "failed" if run.failure else "ok", run.failure or "",
-        outcome=Outcome.worst(outcomes), agents=len(run.agents),
-        goals_reached=outcomes.count(Outcome.GOAL_REACHED),
-        time_to_goal_max_s=max(times) if len(times) == len(outcomes) and times else math.nan,
-        distance_m=sum(a.distance_m for a in run.agents),
-        max_road_excursion_m=max((a.max_road_excursion_m for a in run.agents), default=0.0),
-        planner_failures=sum(a.planner_failures for a in run.agents),
-        planner_exceptions=sum(a.planner_exceptions for a in run.agents),
-        planning_mean_s=_slowest(a.planning_mean_s for a in run.agents),
-        planning_p95_s=_slowest(a.planning_p95_s for a in run.agents),
-        planning_max_s=_slowest(a.planning_max_s for a in run.agents),
-        planning_over_budget=sum(a.planning_over_budget for a in run.agents),
-        min_distance_m=min(gaps) if gaps else math.nan,
-        peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
-        peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
-        wall_time_s=run.wall_time_s, fingerprint=run.fingerprint, run_dir=str(run_dir.relative_to(root)),
-        job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions),
-        **run_scores_columns(run))
+@dataclass(frozen=True)
+class JobId:
+    """Which run: a scenario in a fidelity (backend, vehicle, controller), with a planner, a
+    repeat and a seed."""
+
+    scenario: str
+    fidelity: Fidelity
+    repeat: int | None = None        # None: the only run of its scenario and fidelity
+    seed: int = 0
+    planner: str = DEFAULT_PLANNER
+    stage: str | None = None         # what the key names instead of the fidelity (a search's rung)
+
+    @property
+    def key(self) -> str:
+        """Unique and stable within an experiment; names the run's row in the store."""
+        parts = [self.scenario, self.stage or self.fidelity.label]
+        parts += [self.planner] if self.planner != DEFAULT_PLANNER else []
+        return "/".join(parts + ([f"r{self.repeat}"] if self.repeat is not None else []))
+
+    @property
+    def folder(self) -> str:
+        """The run directory's path under ``runs/``: ``scenario/fidelity[@planner][/rN]``."""
+        name = self.fidelity.label.replace("/", "-") + (f"@{self.planner}" if self.planner != DEFAULT_PLANNER else "")
+        return "/".join([self.scenario, name] + ([f"r{self.repeat}"] if self.repeat is not None else []))
+
+    def __str__(self) -> str:
+        return self.key
+
+    def columns(self) -> dict[str, Any]:
+        """The identity columns of a store row."""
+        return {"key": self.key, "scenario": self.scenario, "fidelity": self.fidelity.label,
+                "backend": self.fidelity.backend, "vehicle": self.fidelity.vehicle,
+                "controller": self.fidelity.controller or "", "planner": self.planner,
+                "repeat": self.repeat or 0, "seed": self.seed, "stage": self.stage or ""}
+
+    @classmethod
+    def from_columns(cls, cols: Mapping[str, Any]) -> "JobId":
+        """The identity of a stored row (the inverse of `columns`). Rows written before the
+        ``stage`` column name their stage, and a repeat 0, in their key only: read from it there."""
+        fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None)
+        key = str(cols["key"])
+        repeat = int(cols.get("repeat") or 0)
+        stage = cols.get("stage")
+        if stage is None:                       # a row from before the stage column
+            named = key.split("/")[1] if key.count("/") else ""
+            stage = named if named and named != fidelity.label else None
+        return cls(cols["scenario"], fidelity, repeat if repeat or key.endswith("/r0") else None,
+                   int(cols.get("seed") or 0), cols.get("planner") or DEFAULT_PLANNER, stage or None)
 
 
-def _slowest(values) -> float:
-    """The largest of the agents' planning-time figures (NaN when no agent planned)."""
-    known = [v for v in values if v is not None]
-    return max(known) if known else math.nan
+@dataclass(frozen=True)
+class Job:
+    """One run to execute: its identity, the concrete scenario, and every setting it runs with."""
+
+    id: JobId
+    parameters: dict[str, float]                    # the scenario's parameters
+    vehicle: str                                    # catalogue name or data file the vehicle is loaded from
+    backend_settings: BaseModel | None = None       # the backend's settings model (None: its defaults)
+    cosim: CosimSettings = field(default_factory=CosimSettings)   # the loop's settings
+    scenario_path: str | None = None                          # else the context's scenarios[scenario]
+    planner: PlannerChoice = field(default_factory=PlannerChoice)   # of every agent; its name is id.planner
+
+    @property
+    def key(self) -> str:
+        return self.id.key
+
+    @property
+    def scenario(self) -> str:
+        return self.id.scenario
+
+    @property
+    def backend(self) -> str:
+        return self.id.fidelity.backend
+
+    @property
+    def controller(self) -> str | None:
+        return self.id.fidelity.controller
+
+    @property
+    def fidelity(self) -> str:
+        return self.id.fidelity.label
+
+    @property
+    def repeat(self) -> int:
+        return self.id.repeat or 0
+
+    @property
+    def seed(self) -> int:
+        return self.id.seed
 
 
-def execute_job(job: Job, context: JobContext) -> RunRow:
-    """Run ``job`` into its run directory under ``context.root`` and return its store row."""
-    started = time.perf_counter()
-    run_dir = run_dir_of(context.root, job)
-    scenario = job.scenario_path or (context.scenarios or {})[job.scenario]
-    request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
-                         planner_vehicle=context.planner_vehicle, backend_settings=dict(job.backend_settings),
-                         planner=job.planner, cosim=context.cosim_of(job), seed=job.seed, validate=context.validate)
-    run = execute(request, run_dir)
-    return run_row(job, run, run_dir, context.root, time.perf_counter() - started)
+@dataclass(frozen=True)
+class JobContext:
+    """What every job of an experiment or a search shares: where it writes, the scenario file of
+    each scenario, the vehicle the planner assumes, and whether each run's solution is checked."""
+
+    root: Path
+    scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
+    planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
+    validate: bool = False                        # check each run's solution (slow; the CLI asks unless --no-validate)

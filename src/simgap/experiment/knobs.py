@@ -2,9 +2,10 @@
 can vary in the higher fidelities. Each knob's default is the ideal world's assumption, so a
 knob left out of a search spec changes nothing; the ideal fidelity never takes a knob.
 
-`KNOBS` is the one table of them (name, unit, default, range, the backends that take it, what it
-means): the search spec's validation, ``simgap run --knob`` (its help and its checks) and the
-README's table (`knob_table`, checked by a test) all come from it.
+`KNOBS` is the one table of them (name, unit, the settings field it turns, the backends that take
+it, what it means); a knob's default and range are its field's, bound once in the settings model:
+the search spec's validation, ``simgap run --knob`` (its help and its checks) and the README's
+table (`knob_table`, checked by a test) all come from it.
 """
 
 from __future__ import annotations
@@ -13,36 +14,62 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
+from pydantic import BaseModel
+from pydantic.fields import FieldInfo
+
+from simgap.cosim import CosimSettings
+from simgap.cosim.loop import ObservationNoise
 from simgap.errors import InputError
-from simgap.sim.settings import DRY_ROAD_FRICTION, MAX_ACTUATOR_DELAY_S
+from simgap.sim.mujoco.settings import WorldSettings
+from simgap.sim.settings import RoadSurface, TrackingSettings
 
 
 @dataclass(frozen=True)
 class Knob:
+    """A reality knob: the setting of a settings model it turns (a backend setting, or
+    ``cosim.<section>.<field>``); its default and range are that field's own."""
+
     name: str
     unit: str
-    default: float
-    low: float                  # the widest range a spec may ask for
-    high: float
+    model: type[BaseModel]      # the settings model that holds the knob's field
+    setting: str
     backends: tuple[str, ...]
-    setting: str                # a backend setting, or cosim.<section>.<field>
     meaning: str
+
+    @property
+    def _field(self) -> FieldInfo:
+        return self.model.model_fields[self.setting.rpartition(".")[2]]
+
+    @property
+    def default(self) -> float:
+        return float(self._field.default)
+
+    @property
+    def low(self) -> float:
+        """The widest range a spec may ask for: the field's bounds."""
+        return float(next(m.ge for m in self._field.metadata if hasattr(m, "ge")))
+
+    @property
+    def high(self) -> float:
+        return float(next(m.le for m in self._field.metadata if hasattr(m, "le")))
 
 
 KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("road_friction", "-", DRY_ROAD_FRICTION, 0.1, 1.5, ("dynamic", "mujoco"), "road_friction",
+    Knob("road_friction", "-", RoadSurface, "road_friction", ("dynamic", "mujoco"),
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)"),
-    Knob("steer_delay", "s", 0.0, 0.0, MAX_ACTUATOR_DELAY_S, ("dynamic", "mujoco", "beamng"), "steer_delay", "steering actuator dead time"),
-    Knob("pedal_delay", "s", 0.0, 0.0, MAX_ACTUATOR_DELAY_S, ("dynamic", "mujoco", "beamng"), "pedal_delay", "throttle and brake dead time"),
-    Knob("position_noise", "m", 0.0, 0.0, 5.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.position_m",
+    Knob("steer_delay", "s", TrackingSettings, "steer_delay", ("dynamic", "mujoco", "beamng"),
+         "steering actuator dead time"),
+    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", ("dynamic", "mujoco", "beamng"),
+         "throttle and brake dead time"),
+    Knob("position_noise", "m", ObservationNoise, "cosim.observation_noise.position_m", ("dynamic", "mujoco", "beamng"),
          "std. dev. of the noise on the x and y the planner observes"),
-    Knob("yaw_noise", "deg", 0.0, 0.0, 30.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.yaw_deg",
+    Knob("yaw_noise", "deg", ObservationNoise, "cosim.observation_noise.yaw_deg", ("dynamic", "mujoco", "beamng"),
          "std. dev. of the noise on the heading the planner observes"),
-    Knob("speed_noise", "m/s", 0.0, 0.0, 5.0, ("dynamic", "mujoco", "beamng"), "cosim.observation_noise.speed_mps",
+    Knob("speed_noise", "m/s", ObservationNoise, "cosim.observation_noise.speed_mps", ("dynamic", "mujoco", "beamng"),
          "std. dev. of the noise on the speed the planner observes"),
-    Knob("road_bank", "deg", 0.0, -15.0, 15.0, ("mujoco",), "road_bank",
+    Knob("road_bank", "deg", WorldSettings, "road_bank", ("mujoco",),
          "cross slope; positive: the road falls to the right of the way of travel"),
-    Knob("road_grade", "deg", 0.0, -15.0, 15.0, ("mujoco",), "road_grade", "grade; positive: uphill"),
+    Knob("road_grade", "deg", WorldSettings, "road_grade", ("mujoco",), "grade; positive: uphill"),
 )}
 
 
@@ -66,9 +93,13 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
     return k
 
 
-def knob_value(name: str, values: Mapping[str, Any]) -> float:
-    """The value of knob ``name`` in ``values`` (backend settings or knob values), else its default."""
-    return float(values.get(KNOBS[name].setting, KNOBS[name].default))
+def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float:
+    """The value of knob ``name`` in ``values`` (a backend's settings model, or knob values), else
+    its default."""
+    k = KNOBS[name]
+    if isinstance(values, BaseModel):
+        return float(getattr(values, k.setting, k.default))
+    return float(values.get(k.setting, k.default))
 
 
 def knob_table() -> str:
@@ -93,4 +124,18 @@ def apply_knobs(backend: str, values: Mapping[str, float]) -> tuple[dict[str, An
             cosim.setdefault(section, {})[field] = float(value)
         else:
             settings[knob.setting] = float(value)
+    return settings, cosim
+
+
+def with_knobs(backend: str, settings: BaseModel | None, cosim: CosimSettings,
+               values: Mapping[str, float]) -> tuple[BaseModel | None, CosimSettings]:
+    """``backend``'s settings and the loop's with the knob ``values`` put in (those that apply to
+    it). The values lie in the knobs' ranges, which are the settings models' own bounds, so the
+    models take them as they are."""
+    overrides, sections = apply_knobs(backend, values)
+    if overrides and settings is not None:
+        settings = settings.model_copy(update=overrides)
+    if sections:
+        cosim = cosim.model_copy(update={name: getattr(cosim, name).model_copy(update=fields)
+                                         for name, fields in sections.items()})
     return settings, cosim

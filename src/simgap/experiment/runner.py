@@ -11,14 +11,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from simgap.cosim import CosimSettings
-from simgap.errors import InputError, validated
+from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
-from simgap.experiment.records import Job, JobContext, RunRow
+from simgap.experiment.job import Job, JobContext
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
-from simgap.experiment.spec import ExperimentSpec, jobs, load_spec, vehicle_ref
+from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text
+from simgap.files import atomic_write_text, restore_directory
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -81,45 +81,48 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str, spec_file: Path) 
     atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
 
 
-def plan(spec_ref: str | Path, root: Path) -> tuple[ExperimentSpec, list[Job], dict[str, str]]:
-    """The spec, all its jobs, and the scenario file of each scenario (written if missing)."""
-    spec, logical, path = load_spec(spec_ref)
+def plan(experiment: Experiment, root: Path) -> tuple[list[Job], dict[str, str]]:
+    """All the experiment's jobs, and the scenario file of each scenario (written if missing)."""
     all_jobs, scenarios = [], {}
-    for params, runs in jobs(spec, logical, path):
+    for params, runs in jobs(experiment):
         name = runs[0].scenario
         xml = root / "scenarios" / f"{name}.xml"
         if not xml.exists():
-            xml = write_scenario(logical.build(params), root / "scenarios", preview=False)
+            xml = write_scenario(experiment.logical.build(params), root / "scenarios", preview=False)
         scenarios[name] = str(xml)
         all_jobs += runs
-    return spec, all_jobs, scenarios
+    return all_jobs, scenarios
 
 
 def clean_partial_runs(root: Path) -> None:
-    """Remove run directories a killed worker left half-built (they are never read)."""
+    """Remove run directories a killed writer left half-built (they are never read), and put back
+    a whole one it had set aside (`simgap.files.replace_directory`)."""
     runs = root / "runs"
     if runs.exists():
-        for tmp in runs.rglob(".*"):
-            if tmp.is_dir():
+        for tmp in sorted(runs.rglob(".*")):
+            if tmp.is_dir() and tmp.name.endswith(".old"):
+                restore_directory(tmp.with_name(tmp.name[1:-len(".old")]))
+            elif tmp.is_dir():
                 shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   retry_failed: bool = False, validate: bool = True) -> ExperimentResult:
+                   retry_failed: bool = False, validate: bool = False) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
     never run again, unless ``retry_failed`` asks to run the failed ones once more; ``validate``
-    False skips the check of each run's solution."""
+    checks each run's solution (slow: `simgap experiment run` asks for it unless --no-validate)."""
     root = Path(root)
-    spec, _, path = load_spec(spec_ref)
-    for fidelity in spec.fidelities:
-        preflight(fidelity.backend, dict(fidelity.settings))
+    experiment = load_spec(spec_ref)
+    spec, path = experiment.spec, experiment.file
+    for variants in experiment.variants:
+        preflight(variants[0].fidelity.backend, variants[0].settings)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
         logical_ref = str((path.parent / logical_ref).resolve())
     _claim(root, spec, logical_ref, path)
-    spec, all_jobs, scenarios = plan(spec_ref, root)
+    all_jobs, scenarios = plan(experiment, root)
     store = ResultsStore(root)
     store.prepare()
     clean_partial_runs(root)
@@ -141,8 +144,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
             on_progress(progress)
 
     start = time.perf_counter()
-    context = JobContext(root, validated(CosimSettings, spec.cosim), scenarios, vehicle_ref(spec.planner_vehicle, path),
-                         validate=validate)
+    context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()
@@ -168,7 +170,7 @@ def experiment_status(root: Path) -> Status:
     logical = load_logical(meta.get("logical_ref", spec.logical))
     rows = {r["key"]: r for r in ResultsStore(root).finished_rows()}
     spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
-    keys = [j.key for _, runs in jobs(spec, logical, spec_file) for j in runs]
+    keys = [j.key for _, runs in jobs(checked_experiment(spec, logical, spec_file)) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
     failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]
     left = [k for k in keys if k not in rows]

@@ -1,6 +1,7 @@
 """What a search found, read from its directory alone: per strategy, what it spent, its violated
 assumptions (a high-fidelity failure whose ideal run passes) before and after de-duplication, and
-its high-fidelity runs — computed here, drawn by `simgap.report.search_page`."""
+its high-fidelity runs — computed here from its typed rows (`SearchRow`), drawn by
+`simgap.report.search_page` and exported by ``simgap export --violations``."""
 
 from __future__ import annotations
 
@@ -11,11 +12,66 @@ from pathlib import Path
 from typing import Any
 
 from simgap.errors import InputError
+from simgap.evaluate.run_metrics import RUN_METRICS
+from simgap.experiment.search_rows import SearchRow, read_search_rows
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec
-from simgap.experiment.store import ResultsStore
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory
+
+
+@dataclass(frozen=True)
+class Violation:
+    """A distinct violated assumption: a candidate whose high-fidelity run failed and whose ideal
+    run passed — its search dimensions, both runs' rows (metrics included) and where it lies."""
+
+    strategy: str
+    row: SearchRow                     # the high-fidelity run
+    ideal_row: SearchRow               # ... and the ideal run, which passed
+    run_dir: Path                      # the high-fidelity run's directory
+    scenario_xml: Path | None          # the candidate's CommonRoad scenario
+
+    @property
+    def candidate(self) -> int:
+        return self.row.candidate
+
+    @property
+    def scenario(self) -> str:
+        return self.row.run.id.scenario
+
+    @property
+    def vehicle(self) -> str:
+        return self.row.run.id.fidelity.vehicle
+
+    @property
+    def planner(self) -> str:
+        return self.row.run.id.planner or DEFAULT_PLANNER
+
+    def facts(self, spec: SearchSpec) -> dict[str, Any]:
+        """What made it a violation, as plain data: the search dimensions (value and range), the
+        driver, why the high-fidelity run failed, and both runs' outcome and metrics."""
+        watched = list(RUN_METRICS) + [spec.objective, *spec.failure.above, *spec.failure.below] + [
+            "goals_reached", "max_road_excursion_m", "min_distance_m", "peak_lateral_acceleration", "peak_jerk"]
+
+        def run(row: SearchRow) -> dict[str, Any]:
+            r = row.run
+            return {"fidelity": r.id.fidelity.label, "outcome": None if r.outcome is None else str(r.outcome),
+                    "metrics": {k: _plain(r.metrics[k] if k in r.metrics else getattr(r, k))
+                                for k in dict.fromkeys(watched) if k in r.metrics or hasattr(r, k)}}
+
+        values = {"param": self.row.run.parameters, "knob": self.row.knobs}
+        return {"search": spec.name, "logical": spec.logical, "strategy": self.strategy, "candidate": self.candidate,
+                "dimensions": [{"kind": kind, "name": name, "value": values[kind][name], "range": [low, high]}
+                               for kind, name, low, high in spec.dimensions if name in values[kind]],
+                "vehicle": self.vehicle, "planner": self.planner, "failure": self.row.failure_reason,
+                "high_fidelity": run(self.row), "ideal": run(self.ideal_row)}
+
+
+def _plain(value: Any) -> Any:
+    """A store value as JSON has it (NaN as null)."""
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    return value.item() if hasattr(value, "item") else value
 
 
 @dataclass
@@ -31,6 +87,7 @@ class StrategyResult:
     wall_s: float = 0.0
     cpu_s: float = 0.0
     curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
+    found: list[Violation] = field(default_factory=list)            # the distinct violations, first found first
 
     @property
     def per_cpu_hour(self) -> float:
@@ -39,56 +96,69 @@ class StrategyResult:
 
 def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
     """What a strategy found, from its store alone."""
-    store = ResultsStore(root)
-    rows = sorted(store.rows(), key=lambda r: r.get("elapsed_s", 0.0)) if store.rows_dir.exists() else []
+    rows = read_search_rows(root)
     high, res = ladder_len - 1, StrategyResult(name)
     budget = root / "budget.json"
     res.wall_s = json.loads(budget.read_text()).get("spent_s", 0.0) if budget.exists() else 0.0
-    by_candidate: dict[int, dict[int, dict]] = {}
+    by_candidate: dict[int, dict[int, SearchRow]] = {}
     for r in rows:
-        by_candidate.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-        res.runs += "ideal_of" not in r
-        res.cpu_s += float(r.get("job_time_s") or r.get("wall_time_s") or 0.0)
-        res.errors += r.get("status") != "ok"
-    found: list[tuple[float, tuple[float, ...], str]] = []
+        by_candidate.setdefault(r.candidate, {})[r.rung] = r
+        res.runs += r.ideal_of is None
+        res.cpu_s += float(r.run.job_time_s or r.run.wall_time_s or 0.0)
+        res.errors += not r.ok
+    found: list[tuple[float, tuple[float, ...], str, int]] = []
     scenarios: set[tuple] = set()
     for index, runs in by_candidate.items():
         h = runs.get(high)
-        if h is None or h.get("status") != "ok":
+        if h is None or not h.ok:
             continue
         res.high_runs += 1
-        if not h.get("failed"):
+        if not h.failed:
             continue
         res.high_failures += 1
         ideal = runs.get(0)
-        if ideal is None or ideal.get("status") != "ok" or ideal.get("failed"):
+        if ideal is None or not ideal.ok or ideal.failed:
             continue
         res.violations += 1
-        driver = f"{h['vehicle']}|{h.get('planner') or DEFAULT_PLANNER}"
-        scenarios.add((driver,) + tuple(sorted((k, v) for k, v in h.items() if k.startswith("param_"))))
-        when = max(float(h["elapsed_s"]), float(ideal["elapsed_s"]))
-        unit = tuple(float(h[k]) for k in sorted((k for k in h if k.startswith("unit_")), key=lambda k: int(k[5:])))
-        found.append((when, unit, driver))
+        driver = f"{h.run.id.fidelity.vehicle}|{h.run.id.planner or DEFAULT_PLANNER}"
+        scenarios.add((driver,) + tuple(sorted(h.run.parameters.items())))
+        found.append((max(h.elapsed_s, ideal.elapsed_s), h.unit, driver, index))
     distinct: list[tuple[tuple[float, ...], str]] = []
-    for when, unit, driver in sorted(found):
+    for when, unit, driver, index in sorted(found):
         if all(d != driver or math.dist(unit, u) >= radius for u, d in distinct):
             distinct.append((unit, driver))
             res.curve.append((when, len(distinct)))
+            res.found.append(_violation(root, name, by_candidate[index][high], by_candidate[index][0]))
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)
     return res
 
 
+def _violation(root: Path, strategy: str, high: SearchRow, ideal: SearchRow) -> Violation:
+    scenario = root / "scenarios" / high.run.id.scenario
+    return Violation(strategy, high, ideal, root / str(high.run.run_dir), next(iter(sorted(scenario.glob("*.xml"))), None))
+
+
+@dataclass(frozen=True)
+class HighRun:
+    """A finished high-fidelity run of a search, with its ideal verdict: ``violation`` — it failed
+    and its ideal run passed; ``ideal_failed`` — its ideal run failed too."""
+
+    row: SearchRow
+    violation: bool
+    ideal_failed: bool
+
+
 @dataclass
 class SearchResults:
     """What a search directory holds: its spec, each strategy's summary and, per strategy, its
-    high-fidelity runs (each row with ``violation``: it passed in the ideal world; and
-    ``ideal_failed``: it failed there too)."""
+    high-fidelity runs with their ideal verdicts."""
 
     root: Path
     spec: SearchSpec
     strategies: list[StrategyResult]
-    high_rows: dict[str, list[dict[str, Any]]]
+    high_rows: dict[str, list[HighRun]]
+
 
 def search_results(root: Path) -> SearchResults:
     """The spec, each strategy's summary and its high-fidelity runs, of a search directory."""
@@ -100,17 +170,16 @@ def search_results(root: Path) -> SearchResults:
     names = [n for n in STRATEGIES if (root / n / "store" / "rows").exists()]
     high = len(spec.ladder) - 1
     return SearchResults(root, spec, [summarise(root / n, n, len(spec.ladder), spec.distinct_radius) for n in names],
-                         {n: _high_rows(ResultsStore(root / n).rows(), high) for n in names})
+                         {n: _high_runs(read_search_rows(root / n), high) for n in names})
 
 
-def _high_rows(rows: list[dict[str, Any]], high: int) -> list[dict[str, Any]]:
-    """The finished high-fidelity runs of a strategy, each marked with its ideal verdict."""
-    ideal = {int(r["candidate"]): r for r in rows if int(r["rung"]) == 0}
+def _high_runs(rows: list[SearchRow], high: int) -> list[HighRun]:
+    """The finished high-fidelity runs of a strategy, each with its ideal verdict."""
+    ideal = {r.candidate: r for r in rows if r.rung == 0}
     out = []
     for r in rows:
-        if int(r["rung"]) == high and r.get("status") == "ok":
-            i = ideal.get(int(r["candidate"]))
-            ideal_ok = i is not None and i.get("status") == "ok"
-            out.append(dict(r) | {"violation": bool(r.get("failed")) and ideal_ok and not i.get("failed"),
-                                  "ideal_failed": ideal_ok and bool(i.get("failed"))})
+        if r.rung == high and r.ok:
+            i = ideal.get(r.candidate)
+            ideal_ok = i is not None and i.ok
+            out.append(HighRun(r, r.failed and ideal_ok and not i.failed, ideal_ok and i.failed))
     return out

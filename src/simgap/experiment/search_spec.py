@@ -30,23 +30,25 @@ one. A wrong key, type or range is an `InputError` naming the file, the field an
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.cosim import Outcome
-from simgap.errors import InputError
+from simgap.control import DEFAULT_CONTROLLER
+from simgap.cosim import REFERENCE, CosimSettings, Outcome
+from simgap.errors import InputError, validated
 from simgap.evaluate.closed_loop_score import COMPONENTS
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import check_knob
-from simgap.experiment.spec import (LEGACY_PLANNER_DESCRIPTION, PLANNER_VEHICLE, PLANNERS_DESCRIPTION,
-                                    builtin_or_file, check_backend, check_controller, check_parameter,
+from simgap.experiment.spec import (BatchSpec, builtin_or_file, check_backend, check_controller, check_parameter,
                                     check_vehicles, logical_of, planner_choices, read_spec, results_hash,
-                                    results_relevant)
+                                    results_relevant, settings_of, vehicle_ref)
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
+from simgap.vehicles import DEFAULT_VEHICLE
 
 SCORE_DROP = "score_drop"
 STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
@@ -113,16 +115,11 @@ class FailureRule(BaseModel):
         return None
 
 
-class SearchSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
-    description: str = ""
-    logical: str
+class SearchSpec(BatchSpec):
     parameters: dict[str, Range] = Field(default_factory=dict)
     knobs: dict[str, Range] = Field(default_factory=dict)
-    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
-    controller: str = "pure_pursuit"
+    vehicles: list[str] = Field(default_factory=lambda: [DEFAULT_VEHICLE], min_length=1)
+    controller: str = DEFAULT_CONTROLLER
     ladder: list[Rung] = Field(min_length=2)
     failure: FailureRule = Field(default_factory=FailureRule)
     objective: str = "max_lateral_offset_m"
@@ -135,14 +132,6 @@ class SearchSpec(BaseModel):
         Field(default_factory=lambda: list(STRATEGIES), min_length=1)
     grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")
     lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
-    seed: int = 0
-    planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
-                                          description=PLANNERS_DESCRIPTION)
-    planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
-    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
-                                 "world drives it too")
-    cosim: dict[str, Any] = Field(default_factory=dict)
-    run_timeout_s: float = Field(300.0, gt=0)
 
     def results_hash(self) -> str:
         return results_hash(results_relevant(self, {"name", "description", "run_timeout_s", "strategies"}))
@@ -163,16 +152,50 @@ def _builtin_dir() -> Path:
     return Path(str(resources.files("simgap.experiment") / "builtin" / "search"))
 
 
-def load_search_spec(name_or_path: str | Path) -> tuple[SearchSpec, LogicalScenario, Path]:
-    """The spec, its logical scenario and its file; every problem is an `InputError`."""
+@dataclass(frozen=True)
+class RungSettings:
+    """One rung of the ladder as its runs take it: its backend, the backend's settings (the
+    controller included; None for an optional backend that is not installed) and the loop's
+    (the spec's, a section the rung sets replaced by the rung's), each validated once."""
+
+    backend: str
+    settings: BaseModel | None
+    cosim: CosimSettings
+
+    @property
+    def controller(self) -> str | None:
+        return getattr(self.settings, "controller", None)
+
+
+@dataclass(frozen=True)
+class Search:
+    """A search spec as read and checked where it was read: the spec as the file says it (its
+    results hash), its logical scenario and file, and what its runs take — every rung's settings,
+    the planners (loaded, their settings validated, by name), the vehicles as runs load them and
+    the planner's vehicle."""
+
+    spec: SearchSpec
+    logical: LogicalScenario
+    file: Path
+    rungs: list[RungSettings]
+    planners: dict[str, PlannerChoice]
+    vehicles: list[str]
+    planner_vehicle: str
+
+
+def load_search_spec(name_or_path: str | Path) -> Search:
+    """The search a spec file (or a built-in name) describes; every problem is an `InputError`
+    naming the file and the field."""
     path = builtin_or_file(name_or_path, _builtin_dir(), "search")
     spec = read_spec(path, SearchSpec, "search spec", "name, logical, ladder, ...")
-    logical = logical_of(spec, path)
-    _check(spec, logical, path)
-    return spec, logical, path
+    return checked_search(spec, logical_of(spec, path), path)
 
 
-def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
+def checked_search(spec: SearchSpec, logical: LogicalScenario, path: Path | None = None) -> Search:
+    """``spec`` checked against ``logical`` and the registries, every setting validated into its
+    model; errors name ``path`` and the field (a spec made in code: ``search.yaml``, and files it
+    names are relative to the working directory)."""
+    path = path if path is not None else Path("search.yaml")
     for name, rng in spec.parameters.items():
         check_parameter(logical, name, rng.min, rng.max, path)
     for name, rng in spec.knobs.items():
@@ -180,16 +203,22 @@ def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
     if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2 and len(spec.planners) < 2:
         raise InputError("nothing to search: no parameter, knob, vehicle or planner varies", file=path,
                          field="parameters", allowed=", ".join(logical.parameters))
-    planner_choices(spec, path)
+    planners = {c.name: c for c in planner_choices(spec, path)}
     check_vehicles(spec.vehicles, path, "vehicles")
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     check_controller(spec.controller, path, "controller")
+    cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
+    rungs = []
     for i, rung in enumerate(spec.ladder):
-        check_backend(rung.backend, path, f"ladder.{i}", rung.settings)
-    if spec.ladder[0].backend != "ideal":
+        check_backend(rung.backend, path, f"ladder.{i}")
+        values = dict(rung.settings) if rung.backend == REFERENCE else {"controller": spec.controller} | rung.settings
+        rungs.append(RungSettings(rung.backend, settings_of(rung.backend, values, path, f"ladder.{i}.settings"),
+                                  validated(CosimSettings, cosim.model_dump() | rung.cosim, file=path,
+                                            prefix=f"ladder.{i}.cosim")))
+    if spec.ladder[0].backend != REFERENCE:
         raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
-                         file=path, field="ladder.0.backend", allowed="ideal")
-    if any(r.backend == "ideal" for r in spec.ladder[1:]):
+                         file=path, field="ladder.0.backend", allowed=REFERENCE)
+    if any(r.backend == REFERENCE for r in spec.ladder[1:]):
         raise InputError("only the first rung is ideal", file=path, field="ladder", allowed="dynamic, mujoco")
     for where, names in (("objective", [spec.objective]), ("failure.above", list(spec.failure.above)),
                          ("failure.below", list(spec.failure.below))):
@@ -199,3 +228,5 @@ def _check(spec: SearchSpec, logical: LogicalScenario, path: Path) -> None:
     if "multi_fidelity" in spec.strategies and len(spec.ladder) < 3:
         raise InputError("multi_fidelity needs a screening fidelity between ideal and the high one", file=path,
                          field="ladder", allowed="ideal, dynamic, mujoco")
+    return Search(spec, logical, path, rungs, planners, [vehicle_ref(v, path) for v in spec.vehicles],
+                  vehicle_ref(spec.planner_vehicle, path))

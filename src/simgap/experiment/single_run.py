@@ -12,40 +12,51 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from simgap.cosim import CosimSettings, PlannerError, Run, not_started, simulate
+from pydantic import BaseModel
+
+from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.cosim.driven_scenario import driven_scenario, scenario_xml
+from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.evaluate.run_scores import check_run_solution, score_run
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
-from simgap.experiment.knobs import knob_value
-from simgap.experiment.records import PLANNER_VEHICLE
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.scenario import load_scenario, read_metadata
-from simgap.sim.registry import make_backend
-from simgap.vehicles import load_vehicle
+from simgap.scenario.obstacles import without_recorded_egos
+from simgap.sim.registry import backend_settings, make_backend
+from simgap.sim.settings import road_friction
+from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
 
 VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
 
 
 @dataclass
 class RunRequest:
-    """What to run: a scenario file in a backend, with vehicles, planners and loop settings."""
+    """What to run: a scenario file in a backend, with vehicles, planners and loop settings.
+
+    ``backend_settings`` is the backend's settings model (`simgap.sim.registry.backend_settings`,
+    validated where they were read), which goes to the backend as it is; a mapping given here
+    (by a script) is validated into that model now, None means the backend's defaults."""
 
     scenario: Path
-    backend: str = "ideal"
-    vehicles: str | Mapping[int, str] = "sedan"
-    planner_vehicle: str = PLANNER_VEHICLE      # the vehicle the planner assumes it drives
-    backend_settings: dict[str, Any] = field(default_factory=dict)
+    backend: str = REFERENCE
+    vehicles: str | Mapping[int, str] = DEFAULT_VEHICLE
+    planner_vehicle: str = DEFAULT_VEHICLE      # the vehicle the planner assumes it drives
+    backend_settings: BaseModel | Mapping[str, Any] | None = None
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
     seed: int = 0
-    validate: bool = True                      # check the solution's validity (slow; after the run is saved)
+    validate: bool = False                     # check the solution's validity (slow; after the run is saved;
+                                               # the CLI's commands ask for it unless --no-validate)
     check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.backend_settings, BaseModel):
+            self.backend_settings = backend_settings(self.backend, self.backend_settings)
 
 
 def software_versions() -> dict[str, str]:
@@ -113,6 +124,7 @@ def execute(request: RunRequest, out: Path | None = None,
             progress: Callable[[float], None] | None = None) -> Run:
     """Run ``request``; write the run directory to ``out`` when given."""
     scenario, problems = load_scenario(request.scenario)
+    scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
     if isinstance(request.vehicles, str):
         vehicles: Any = load_vehicle(request.vehicles)
@@ -120,11 +132,11 @@ def execute(request: RunRequest, out: Path | None = None,
         vehicles = {pid: load_vehicle(name) for pid, name in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
-    planners, errors, records = {}, [], {}
+    planners, errors, planner_records = {}, [], {}
     for a in agents:
         choice = planner_of(request.planner, a.id, [b.id for b in agents])
         planner_class, settings = choice.load()
-        records[a.id] = {"name": choice.name, "planner": choice.planner,
+        planner_records[a.id] = {"name": choice.name, "planner": choice.planner,
                          "settings": settings.model_dump(mode="json") if settings is not None else {}}
         setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id], dt)
         try:
@@ -134,10 +146,11 @@ def execute(request: RunRequest, out: Path | None = None,
     if errors:
         run = not_started(scenario, request.backend, agents, errors, request.cosim)
     else:
-        backend = make_backend(request.backend, **request.backend_settings)
+        backend = make_backend(request.backend, request.backend_settings)
         run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
     for outcome in run.agents:
-        outcome.planner = records[outcome.id]["name"]
+        outcome.planner = planner_records[outcome.id]["name"]
+        outcome.recorded_as = recorded_egos.get(outcome.id)
     meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)
@@ -146,12 +159,13 @@ def execute(request: RunRequest, out: Path | None = None,
     run.versions = software_versions()
     run.seed = request.seed
     run.vehicles = {a.id: a.vehicle for a in agents}
-    run.metrics = run_metrics(run, scenario, problems, knob_value("road_friction", request.backend_settings))
+    run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings))
     clock = time.perf_counter()
     solution = score_run(run, scenario, problems, request.cosim, planner_vehicle, request.scenario)
     run.timings["scoring"] = time.perf_counter() - clock
     run.settings |= {"parameter_units": meta.get("units", {}),
-                     "planner": _planner_record(request.planner, records), "backend": request.backend_settings,
+                     "planner": _planner_record(request.planner, planner_records),
+                     "backend": request.backend_settings.model_dump(mode="json"),
                      "planner_vehicle": request.planner_vehicle}
     if out is not None:
         t0 = time.perf_counter()
@@ -169,9 +183,9 @@ def execute(request: RunRequest, out: Path | None = None,
     return run
 
 
-def _planner_record(planners: PlannerAssignment, records: dict[int, dict]) -> dict[str, Any]:
+def _planner_record(planners: PlannerAssignment, planner_records: dict[int, dict]) -> dict[str, Any]:
     """run.json's ``settings.planner``: name, reference and full settings of the planner of every
     agent (``agents`` per agent id when they differ)."""
     if isinstance(planners, PlannerChoice):
-        return next(iter(records.values())) if records else {"name": planners.name, "planner": planners.planner}
-    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in records.items()}}
+        return next(iter(planner_records.values())) if planner_records else {"name": planners.name, "planner": planners.planner}
+    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in planner_records.items()}}

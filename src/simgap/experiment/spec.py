@@ -27,26 +27,27 @@ from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.control import controller_names
+from simgap.control import DEFAULT_CONTROLLER, controller_names
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.errors import InputError, validated
-from simgap.experiment.records import PLANNER_VEHICLE, Job, JobId
+from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import sample
 from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.scenario.logical import LogicalScenario, load_logical
-from simgap.sim.registry import BACKENDS, backend_available, check_settings
-from simgap.vehicles import load_vehicle, vehicle_names
+from simgap.sim.registry import BACKENDS, backend_available, backend_settings
+from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehicle_names
 
 
 # spec fields newer than stored results, and their defaults
-ADDED_FIELDS = {"planner_vehicle": PLANNER_VEHICLE, "planners": [PlannerChoice().model_dump()]}
+ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [PlannerChoice().model_dump()]}
 PLANNERS_DESCRIPTION = ("the planners every run is made with (each a dimension value): a name, module:Class, "
                         "path/to/file.py:Class (relative to the spec), or {planner, settings, label}")
 LEGACY_PLANNER_DESCRIPTION = "the frenet planner's settings (older specs; now: planners: [{planner: frenet, settings: ...}])"
@@ -92,29 +93,36 @@ class FidelitySpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     backend: str
-    vehicles: list[str] = Field(default_factory=lambda: ["sedan"], min_length=1)
-    controllers: list[str] = Field(default_factory=lambda: ["pure_pursuit"], min_length=1)
+    vehicles: list[str] = Field(default_factory=lambda: [DEFAULT_VEHICLE], min_length=1)
+    controllers: list[str] = Field(default_factory=lambda: [DEFAULT_CONTROLLER], min_length=1)
     settings: dict[str, Any] = Field(default_factory=dict, description="backend settings (physics_hz, ...)")
 
 
-class ExperimentSpec(BaseModel):
+class BatchSpec(BaseModel):
+    """What experiment and search specs share, each default written once: the name, the logical
+    scenario, the seed, the planners, the vehicle the planner assumes, the loop settings and the
+    per-run timeout."""
+
     model_config = ConfigDict(extra="forbid")
 
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
     description: str = ""
     logical: str
-    parameters: dict[str, ParameterRange] = Field(default_factory=dict)
-    sampler: SamplerSpec = Field(default_factory=SamplerSpec)
-    fidelities: list[FidelitySpec] = Field(min_length=1)
-    repeats: int = Field(1, ge=1, le=1000)
     seed: int = 0
     planners: list[PlannerChoice] = Field(default_factory=lambda: [PlannerChoice()], min_length=1,
                                           description=PLANNERS_DESCRIPTION)
     planner: dict[str, Any] = Field(default_factory=dict, description=LEGACY_PLANNER_DESCRIPTION)
-    planner_vehicle: str = Field(PLANNER_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
+    planner_vehicle: str = Field(DEFAULT_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
                                  "world drives it too (a catalogue name or a data file beside the spec)")
     cosim: dict[str, Any] = Field(default_factory=dict)
     run_timeout_s: float = Field(600.0, gt=0, description="a run taking longer is stopped and recorded as failed")
+
+
+class ExperimentSpec(BatchSpec):
+    parameters: dict[str, ParameterRange] = Field(default_factory=dict)
+    sampler: SamplerSpec = Field(default_factory=SamplerSpec)
+    fidelities: list[FidelitySpec] = Field(min_length=1)
+    repeats: int = Field(1, ge=1, le=1000)
 
     def results_relevant(self) -> dict[str, Any]:
         return results_relevant(self, {"name", "description", "run_timeout_s"})
@@ -171,27 +179,65 @@ def logical_of(spec: Any, path: Path) -> LogicalScenario:
     return load_logical(ref)
 
 
-def load_spec(name_or_path: str | Path) -> tuple[ExperimentSpec, LogicalScenario, Path]:
-    """The spec, its logical scenario, and the spec file; every problem is an `InputError`."""
+@dataclass(frozen=True)
+class FidelityVariant:
+    """One fidelity of a spec as its runs take it: the fidelity, the vehicle a run loads (a
+    catalogue name or a data file's absolute path) and the backend's settings, validated once
+    (None for an optional backend that is not installed: refused when the batch starts)."""
+
+    fidelity: Fidelity
+    vehicle: str
+    settings: BaseModel | None
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """An experiment spec as read and checked where it was read: the spec as the file says it
+    (its results hash), its logical scenario and file, and what its runs take — every fidelity's
+    variants with their settings models, the planners (loaded, their settings validated), the
+    loop settings and the planner's vehicle."""
+
+    spec: ExperimentSpec
+    logical: LogicalScenario
+    file: Path
+    variants: list[list[FidelityVariant]]      # per fidelity of the spec: its vehicles x controllers
+    planners: list[PlannerChoice]
+    cosim: CosimSettings
+    planner_vehicle: str
+
+
+def load_spec(name_or_path: str | Path) -> Experiment:
+    """The experiment a spec file (or a built-in name) describes; every problem is an `InputError`
+    naming the file and the field."""
     path = spec_path(name_or_path)
     spec = read_spec(path, ExperimentSpec, "experiment spec", "name, logical, fidelities, ...")
-    logical = logical_of(spec, path)
-    _check_against(spec, logical, path)
-    return spec, logical, path
+    return checked_experiment(spec, logical_of(spec, path), path)
 
 
-def _check_against(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -> None:
+def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Path) -> Experiment:
+    """``spec`` checked against ``logical`` and the registries, every setting validated into its
+    model; errors name ``path`` and the field."""
     for name, rng in spec.parameters.items():
         values = (rng.values or []) + [x for x in (rng.min, rng.max) if x is not None]
         check_parameter(logical, name, min(values), max(values), path)
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
+    planner_vehicle = vehicle_ref(spec.planner_vehicle, path)
+    variants = []
     for i, fid in enumerate(spec.fidelities):
-        check_backend(fid.backend, path, f"fidelities.{i}", fid.settings)
+        check_backend(fid.backend, path, f"fidelities.{i}")
         check_vehicles(fid.vehicles, path, f"fidelities.{i}.vehicles")
         for c in fid.controllers:
             check_controller(c, path, f"fidelities.{i}.controllers")
-    planner_choices(spec, path)
-    validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
+        combos = [(planner_vehicle, None)] if fid.backend == REFERENCE else \
+            [(vehicle_ref(v, path), c) for v in fid.vehicles for c in fid.controllers]
+        variants.append([FidelityVariant(Fidelity(fid.backend, load_vehicle(vehicle).name, controller), vehicle,
+                                         settings_of(fid.backend, dict(fid.settings) | (
+                                             {"controller": controller} if controller is not None else {}),
+                                             path, f"fidelities.{i}.settings"))
+                         for vehicle, controller in combos])
+    planners = planner_choices(spec, path)
+    cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
+    return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle)
 
 
 def planner_choices(spec: Any, spec_file: Path) -> list[PlannerChoice]:
@@ -229,14 +275,17 @@ def check_parameter(logical: LogicalScenario, name: str, low: float, high: float
         raise InputError(what, file=path, field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
 
 
-def check_backend(name: str, path: Path, where: str, settings: dict[str, Any] | None = None) -> None:
-    """``name`` (the field ``where``.backend) is a backend, and ``settings`` (``where``.settings)
-    are its settings, checked as it will when a run builds it (an optional backend that is not
-    installed is refused when the batch starts)."""
+def check_backend(name: str, path: Path, where: str) -> None:
+    """``name`` (the field ``where``.backend) is a backend."""
     if name not in BACKENDS:
         raise InputError(f"unknown backend '{name}'", file=path, field=f"{where}.backend", allowed=", ".join(BACKENDS))
-    if settings is not None and backend_available(name):
-        check_settings(name, settings, file=path, where=f"{where}.settings")
+
+
+def settings_of(backend: str, values: dict[str, Any], path: Path, where: str) -> BaseModel | None:
+    """``values`` (the field ``where``) validated into the settings model of ``backend``, as its
+    runs take them (None for an optional backend that is not installed: refused when the batch
+    starts)."""
+    return backend_settings(backend, values, file=path, where=where) if backend_available(backend) else None
 
 
 def check_controller(name: str, path: Path, where: str) -> None:
@@ -247,7 +296,7 @@ def check_controller(name: str, path: Path, where: str) -> None:
 def vehicle_ref(name_or_file: str, spec_file: Path) -> str:
     """How a run loads a vehicle a spec names: a catalogue name, or a data file's absolute path
     (relative paths are relative to the spec)."""
-    if not name_or_file.endswith((".yaml", ".yml")):
+    if not is_vehicle_file(name_or_file):
         return name_or_file
     return str((spec_file.parent / name_or_file).resolve())
 
@@ -255,30 +304,24 @@ def vehicle_ref(name_or_file: str, spec_file: Path) -> str:
 def check_vehicles(names: list[str], path: Path, where: str) -> None:
     """Every vehicle a spec names loads: a catalogue name, or a valid data file."""
     for v in names:
-        if v.endswith((".yaml", ".yml")):
+        if is_vehicle_file(v):
             load_vehicle(vehicle_ref(v, path))
         elif v not in vehicle_names():
             raise InputError(f"unknown vehicle '{v}'", file=path, field=where, allowed=", ".join(vehicle_names()))
 
 
-def jobs(spec: ExperimentSpec, logical: LogicalScenario, spec_file: Path
-         ) -> list[tuple[dict[str, Any], list[Job]]]:
-    """Every concrete parameter set of the spec with the runs it takes, in a stable order."""
+def jobs(experiment: Experiment) -> list[tuple[dict[str, Any], list[Job]]]:
+    """Every concrete parameter set of the experiment with the runs it takes, in a stable order."""
+    spec = experiment.spec
     out = []
-    planner_vehicle = vehicle_ref(spec.planner_vehicle, spec_file)
-    planners = planner_choices(spec, spec_file)
-    for params in sample(spec, logical):
-        name = logical.scenario_name(params)
+    for params in sample(spec, experiment.logical):
+        name = experiment.logical.scenario_name(params)
         runs = []
-        for fid in spec.fidelities:
-            combos = [(planner_vehicle, None)] if fid.backend == REFERENCE else \
-                [(vehicle_ref(v, spec_file), c) for v in fid.vehicles for c in fid.controllers]
-            for vehicle, controller in combos:
-                settings = dict(fid.settings) | ({"controller": controller} if controller is not None else {})
-                fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller)
-                for planner in planners:
-                    for r in range(spec.repeats):
-                        job_id = JobId(name, fidelity, r if spec.repeats > 1 else None, spec.seed + r, planner.name)
-                        runs.append(Job(job_id, params, vehicle, settings, planner=planner))
+        for variant in (v for variants in experiment.variants for v in variants):
+            for planner in experiment.planners:
+                for r in range(spec.repeats):
+                    job_id = JobId(name, variant.fidelity, r if spec.repeats > 1 else None, spec.seed + r, planner.name)
+                    runs.append(Job(job_id, params, variant.vehicle, variant.settings, experiment.cosim,
+                                    planner=planner))
         out.append((params, runs))
     return out

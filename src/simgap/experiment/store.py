@@ -25,7 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
-from simgap.experiment.records import RunRow
+from simgap.experiment.run_row import RunRow
 from simgap.files import atomic_write, remove_stale_temporaries
 
 
@@ -53,10 +53,6 @@ class ResultsStore:
         """Write ``row`` (atomically) with the schema its type gives."""
         return self._write(pa.Table.from_pylist([row.columns()], schema=row.schema()))
 
-    def write_columns(self, columns: dict[str, Any]) -> Path:
-        """Write a row given as its columns (one read back from the store, changed)."""
-        return self._write(pa.Table.from_pylist([columns]))
-
     def _write(self, table: pa.Table) -> Path:
         key = table.column("key")[0].as_py()
         return atomic_write(self.rows_dir / row_file_name(key), lambda tmp: pq.write_table(table, tmp))
@@ -65,10 +61,15 @@ class ResultsStore:
         return sorted(p for p in self.rows_dir.glob("*.parquet") if not p.name.startswith("."))
 
     def rows(self) -> list[dict[str, Any]]:
+        """Every row as stored: column -> value (for queries and tools; `run_rows` types them)."""
         out = []
         for path in self.row_files():
             out.extend(pq.read_table(path).to_pylist())
         return out
+
+    def run_rows(self) -> list[RunRow]:
+        """Every row, typed (`RunRow.from_columns`)."""
+        return [RunRow.from_columns(r) for r in self.rows()]
 
     def finished_rows(self) -> list[dict[str, Any]]:
         """The rows of the finished runs. A run whose worker died under it is not finished: it has

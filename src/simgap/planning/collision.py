@@ -164,7 +164,7 @@ class TrafficPrediction:
 def predict_traffic(traffic: Sequence[TrafficParticipant], times: np.ndarray, to_local_xy,
                     rotation: float, margin: float) -> TrafficPrediction:
     """Each participant's prediction sampled at ``times``: linear interpolation inside the
-    prediction, its first state before it, and constant speed along its last heading after it.
+    prediction, absent (NaN) before it, and constant speed along its last heading after it.
     Footprints are grown by ``margin`` on every side."""
     rows = []
     for tp in traffic:
@@ -174,6 +174,9 @@ def predict_traffic(traffic: Sequence[TrafficParticipant], times: np.ndarray, to
         tt = np.clip(times, t[0], t[-1])
         x = np.interp(tt, t, pred.x)
         y = np.interp(tt, t, pred.y)
+        absent = times < t[0] - 1e-9          # not in the scene yet (a recording that starts later)
+        if absent.any():
+            x, y = np.where(absent, np.nan, x), np.where(absent, np.nan, y)
         yaw = np.interp(tt, t, yaw_u)
         beyond = np.maximum(times - t[-1], 0.0)
         v_last = float(pred.v[-1])
@@ -192,8 +195,16 @@ def predict_traffic(traffic: Sequence[TrafficParticipant], times: np.ndarray, to
 def traffic_collisions(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_length: float,
                        half_width: float, traffic: TrafficPrediction) -> np.ndarray:
     """(plans, steps) booleans: does the ego box overlap any participant's box at that step."""
+    overlaps = traffic_overlaps(cx, cy, yaw, half_length, half_width, traffic)
+    return overlaps.any(axis=-1) if overlaps is not None else np.zeros(cx.shape, dtype=bool)
+
+
+def traffic_overlaps(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_length: float,
+                     half_width: float, traffic: TrafficPrediction) -> np.ndarray | None:
+    """(plans, steps, participants) booleans: does the ego box overlap that participant's box at that
+    step (None: nothing comes near). A participant not in the scene at a step (NaN pose) overlaps nothing."""
     if traffic.empty:
-        return np.zeros(cx.shape, dtype=bool)
+        return None
     # (plans, steps, participants)
     dx = traffic.x.T[None] - cx[..., None]
     dy = traffic.y.T[None] - cy[..., None]
@@ -201,7 +212,7 @@ def traffic_collisions(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_len
     reach = math.hypot(half_length, half_width) + np.hypot(hl2, hw2)
     near = dx * dx + dy * dy <= reach * reach
     if not near.any():
-        return np.zeros(cx.shape, dtype=bool)
+        return None
     c1, s1 = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
     yaw2 = traffic.yaw.T[None]
     c2, s2 = np.cos(yaw2), np.sin(yaw2)
@@ -219,4 +230,18 @@ def traffic_collisions(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_len
     d_v2 = np.abs(-dx * s2 + dy * c2)
     separated |= d_u2 > hl2 + half_length * cos_rel + half_width * sin_rel
     separated |= d_v2 > hw2 + half_length * sin_rel + half_width * cos_rel
-    return (near & ~separated).any(axis=-1)
+    return near & ~separated
+
+
+def struck_from_behind(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_length: float,
+                       traffic: TrafficPrediction) -> np.ndarray:
+    """(plans, steps, participants) booleans: the participant is behind the ego (its centre more than
+    half the ego's length behind the ego's centre, along the ego's heading) and heads its way (within
+    60 degrees): an overlap with it is that participant running into the ego, not the ego's doing."""
+    dx = traffic.x.T[None] - cx[..., None]
+    dy = traffic.y.T[None] - cy[..., None]
+    c1, s1 = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
+    yaw2 = traffic.yaw.T[None]
+    ahead = dx * c1 + dy * s1
+    aligned = c1 * np.cos(yaw2) + s1 * np.sin(yaw2)
+    return (ahead < -half_length) & (aligned > 0.5)

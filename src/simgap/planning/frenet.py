@@ -46,7 +46,9 @@ from simgap.planning.collision import (
     footprint_outline,
     footprints_on_road,
     predict_traffic,
+    struck_from_behind,
     traffic_collisions,
+    traffic_overlaps,
 )
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
 from simgap.planning.protocol import PlannerSetup, World
@@ -63,7 +65,7 @@ from simgap.planning.sampling import (
     steps_in_horizon,
 )
 from simgap.planning.settings import FrenetSettings
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed
+from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -134,7 +136,9 @@ class PlanningCycle:
     low_velocity: bool = False
     relaxed: bool = False
     desired_speed: float = 0.0
-    outcome: str = ""          # "planned", "no_feasible_sample", "all_colliding", "projection_failed"
+    outcome: str = ""          # "planned", "struck_from_behind" (every plan meets traffic, this one only what
+                               # runs into it: FrenetPlanner._struck_from_behind), "no_feasible_sample",
+                               # "all_colliding", "projection_failed"
     timings: dict[str, float] = field(default_factory=lambda: {p: 0.0 for p in PHASES})
 
 
@@ -224,7 +228,7 @@ class FrenetPlanner:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
             self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
-                                          self.settings.speed.comfortable_deceleration)
+                                          self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------
@@ -267,7 +271,7 @@ class FrenetPlanner:
         clock = time.perf_counter()
         plan = self._to_trajectory(chosen, origin, times, dt)
         cycle.timings["conversion"] += time.perf_counter() - clock
-        cycle.outcome = "planned"
+        cycle.outcome = cycle.outcome or "planned"
         self._last_plan = plan
         return plan
 
@@ -319,7 +323,7 @@ class FrenetPlanner:
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
         approach = self._approach_for(dt)
-        desired = min(self.speed_profile.desired_speed(s_ref, lookahead), approach.speed_cap(s_ref, t, v))
+        desired = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
         cycle.desired_speed = desired
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
         return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
@@ -440,8 +444,37 @@ class FrenetPlanner:
         if chosen is None and fallback is None and leeway.steps == 0 and cycle.rejected_road \
                 and self._at_road_edge(start):
             chosen = self._first_recovering(checked, start, traffic)
+        if chosen is None and fallback is None and cycle.rejected_traffic:
+            chosen = self._struck_from_behind(checked, start, traffic, leeway, cycle)
         _lap(cycle, "collision", clock)
         return chosen or fallback
+
+    def _struck_from_behind(self, checked: list[CartesianBatch], start: _Start, traffic: TrafficPrediction,
+                            leeway: _RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
+        """When every plan within the limits and on the road meets traffic: the cheapest whose every
+        encounter within the horizon is another road user running into the ego from behind
+        (replayed traffic does not brake for it, and braking would only bring it sooner; what the
+        stopping distance beyond the horizon would meet is not counted here), ``cycle.outcome``
+        saying so; None when every plan runs into someone (the planner fails, and says so)."""
+        veh = self.vehicle
+        r, hl, hw = veh.rear_axle_to_center, veh.length / 2, veh.width / 2
+        no_traffic = TrafficPrediction(*(np.zeros((0, 1)),) * 3, np.zeros(0), np.zeros(0), np.zeros(0))
+        for batch in checked:
+            cx, cy = batch.x + r * np.cos(batch.yaw), batch.y + r * np.sin(batch.yaw)
+            overlaps = traffic_overlaps(cx, cy, batch.yaw, hl, hw, traffic)
+            if overlaps is None:      # met only beyond the horizon (braking to a stop): nobody the ego hits
+                at_fault = np.zeros(len(cx), dtype=bool)
+            else:        # judged where each participant is met first (replayed, it drives on through the ego)
+                met, struck = overlaps[:, 1:], struck_from_behind(cx, cy, batch.yaw, hl, traffic)[:, 1:]
+                first = met.argmax(axis=1)                                  # (plans, participants)
+                struck_first = np.take_along_axis(struck, first[:, None, :], axis=1)[:, 0, :]
+                at_fault = (met.any(axis=1) & ~struck_first).any(axis=1)
+            _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt)
+            innocent = np.flatnonzero(self._feasible(batch) & on_road & ~at_fault)
+            if len(innocent):
+                cycle.outcome = "struck_from_behind"
+                return _row(batch, int(innocent[0]))
+        return None
 
     def _at_road_edge(self, start: _Start) -> bool:
         """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""

@@ -71,9 +71,6 @@ class FrenetFrame:
     def points_to_local(self, xy: np.ndarray) -> np.ndarray:
         return (np.asarray(xy, dtype=float) - self.origin) @ self._r_world_to_local.T
 
-    def points_to_world(self, xy: np.ndarray) -> np.ndarray:
-        return np.asarray(xy, dtype=float) @ self._r_world_to_local + self.origin
-
     def xy_to_local(self, x, y):
         dx, dy = np.asarray(x, dtype=float) - self.origin[0], np.asarray(y, dtype=float) - self.origin[1]
         c, s = math.cos(self.rotation), math.sin(self.rotation)

@@ -30,16 +30,17 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
-from simgap.evaluate.frenet_frame import ReferencePath as Projection
+from simgap.planning.car_following import IdmParameters
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
-from simgap.planning.speed_profile import route_speeds
+from simgap.planning.speed_profile import desired_speed, route_speeds
+from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import State, Trajectory, wrap_angle
 
-__all__ = ["IdmPlanner", "IdmSettings", "desired_gap"]
+__all__ = ["IdmPlanner", "IdmSettings"]
 
 # the heading error the lateral quartic starts from is clipped to this [rad]
 _MAX_HEADING_ERROR = math.radians(60.0)
@@ -51,20 +52,12 @@ _PROJECTION_STRIDE = 5
 _SUBSTEPS = 5
 
 
-class IdmSettings(BaseModel):
-    """Settings of the IDM lane follower (a, b, T and s0 as the recorded traffic's IDM,
-    `simgap.cosim.idm.IdmParameters`)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class IdmSettings(IdmParameters):
+    """Settings of the IDM lane follower: the IDM's parameters (`IdmParameters`, as the recorded
+    traffic's IDM) and how it follows its lane."""
 
     horizon_s: float = Field(3.0, gt=0, le=20, description="length of every plan [s]")
     cruise_m_s: float = Field(10.0, gt=0, description="desired speed on a free, straight road [m/s]")
-    max_acceleration: float = Field(1.5, gt=0, description="IDM a: acceleration [m/s^2]")
-    comfortable_deceleration: float = Field(2.0, gt=0, description="IDM b: comfortable deceleration [m/s^2]")
-    max_deceleration: float = Field(8.0, gt=0, description="the IDM's braking is clipped to this [m/s^2]")
-    time_headway_s: float = Field(1.2, ge=0, description="IDM T: time gap to the leader [s]")
-    standstill_gap_m: float = Field(2.0, ge=0, description="IDM s0: gap to the leader at standstill [m]")
-    exponent: float = Field(4.0, gt=0, description="IDM delta: acceleration exponent")
     max_lateral_acceleration: float = Field(
         3.0, gt=0, description="the desired speed is lowered where curvature would exceed this [m/s^2]")
     lookahead_s: float = Field(2.0, ge=0, description="the desired speed is the lowest of the speed profile "
@@ -106,7 +99,7 @@ class IdmPlanner:
                                                   spacing=_PATH_SPACING_M, extension_back=reach,
                                                   extension_forward=reach)
         # projections need no fine spacing (1 m chords are within 2 cm of a 10 m radius)
-        self._projection = Projection(self.reference_path.xy[::_PROJECTION_STRIDE])
+        self._frame = PathFrame(self.reference_path.xy[::_PROJECTION_STRIDE])
         self.speed_profile, self.approach = route_speeds(self.reference_path, setup, s.cruise_m_s,
                                                          s.max_lateral_acceleration, s.comfortable_deceleration)
         self.stop_s = self.reference_path.route_s[1] if s.stop_at_route_end else math.inf
@@ -122,7 +115,7 @@ class IdmPlanner:
         dt = float(world.dt)
         n = max(1, int(round(self.settings.horizon_s / dt)))
         times = t + dt * np.arange(n + 1)
-        (s0,), (d0,) = self._projection.project(np.array([[observed.x, observed.y]]))
+        (s0,), (d0,) = self._frame.project(np.array([[observed.x, observed.y]]))
         s, v, a = self._longitudinal(float(s0), max(float(observed.v), 0.0), times, world, cycle)
         plan = self._trajectory(observed, float(d0), s, v, a, times, dt)
         cycle.seconds = time.perf_counter() - clock
@@ -156,17 +149,13 @@ class IdmPlanner:
 
     def _desired_speed(self, s: float, t: float, v: float) -> float:
         lookahead = max(v, 1.0) * self.settings.lookahead_s
-        return min(self.speed_profile.desired_speed(s, lookahead), self.approach.speed_cap(s, t, v))
+        return desired_speed(self.speed_profile, self.approach, s, t, v, lookahead)
 
     def _acceleration(self, v: float, desired: float, gap: float, v_lead: float) -> float:
         """The IDM: a [1 - (v / v0)^delta - (s* / s)^2], s* = s0 + max(0, v T + v dv / (2 sqrt(a b)))."""
         p = self.settings
         free = 1.0 - (v / max(desired, 0.1)) ** p.exponent if desired > 0.05 else -1.0
-        interaction = 0.0
-        if math.isfinite(gap):
-            wanted = desired_gap(v, v - v_lead, p.standstill_gap_m, p.time_headway_s, p.max_acceleration,
-                                 p.comfortable_deceleration)
-            interaction = (wanted / max(gap, 0.1)) ** 2
+        interaction = p.interaction(v, v - v_lead, gap) if math.isfinite(gap) else 0.0
         acc = p.max_acceleration * (free - interaction)
         return float(np.clip(acc, -p.max_deceleration, min(p.max_acceleration, self.vehicle.limits.max_accel)))
 
@@ -178,7 +167,7 @@ class IdmPlanner:
         pred = predict_traffic(world.traffic, times, lambda x, y: (x, y), 0.0, 0.0)
         m = len(times)
         pts = np.column_stack([pred.x.ravel(), pred.y.ravel()])
-        s, d = self._projection.project(pts)
+        s, d = self._frame.project(pts)
         s, d = s.reshape(-1, m), d.reshape(-1, m)
         theta = np.interp(s, self.reference_path.s, self.reference_path.theta)
         rel = pred.yaw - theta
@@ -229,12 +218,6 @@ class IdmPlanner:
     def _sideslip(self, curvature):
         """Kinematic sideslip angle of the centre on a path of ``curvature`` (the rear axle has none)."""
         return np.arctan(self.vehicle.rear_axle_to_center * np.asarray(curvature, dtype=float))
-
-
-def desired_gap(v: float, dv: float, standstill_gap: float, headway: float, a: float, b: float) -> float:
-    """The IDM's desired gap s* = s0 + max(0, v T + v dv / (2 sqrt(a b))) at speed ``v``,
-    closing on the leader at ``dv`` [m]."""
-    return standstill_gap + max(0.0, v * headway + v * dv / (2.0 * math.sqrt(a * b)))
 
 
 def _quartic_to_zero(d0: float, slope0: float, u: np.ndarray, length: float):

@@ -54,10 +54,10 @@ class Planner(Protocol):
 class PlannerSetup:
     """What a planner is built from, once per agent, before the first cycle.
 
-    A planner class is constructed as ``cls(setup, settings)``: ``settings`` is an instance of
-    the class's ``Settings`` pydantic model when it declares one (``None`` otherwise; the
-    registry validates the user's settings through that model, so a bad field is refused before
-    any run starts). ``vehicle`` is the model the planner assumes it drives (not necessarily the
+    A planner class is constructed as ``cls(setup, settings)``, ``cls(setup)`` or ``cls()``, as
+    its constructor takes them: ``settings`` is an instance of the class's ``Settings`` pydantic
+    model when it declares one (``None`` otherwise; the registry validates the user's settings
+    through that model, so a bad field is refused before any run starts). ``vehicle`` is the model the planner assumes it drives (not necessarily the
     simulated car). ``agent_id`` is the planning problem's id; ``dt`` the scenario's time step,
     the grid every returned trajectory must lie on. A constructor that raises fails that run
     (recorded with the traceback), not the batch.

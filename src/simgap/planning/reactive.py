@@ -55,7 +55,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from simgap.planning.collision import predict_traffic
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
-from simgap.planning.speed_profile import route_speeds
+from simgap.planning.speed_profile import desired_speed, route_speeds
 from simgap.trajectory import State, Trajectory
 
 __all__ = ["ReactivePlanner", "ReactiveSettings"]
@@ -229,7 +229,7 @@ class ReactivePlanner:
             return None
         s_ref = float(up.x_0_cl[0][0])
         lookahead = max(v, 1.0) * self.settings.lookahead_s
-        desired = min(self.speed_profile.desired_speed(s_ref, lookahead), self.approach.speed_cap(s_ref, t, v))
+        desired = desired_speed(self.speed_profile, self.approach, s_ref, t, v, lookahead)
         cycle.desired_speed = desired
         up.set_desired_velocity(desired_velocity=desired, current_speed=max(v, _MIN_REFERENCE_SPEED))
         result = up.plan()

@@ -12,12 +12,21 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
 
 _FINE_STEP_M = 0.1
+# a route's lane change takes this long at the vehicle's initial speed, and at least so far [s], [m]
+LANE_CHANGE_S = 4.0
+LANE_CHANGE_MIN_M = 30.0
+# the path is smoothed more widely (these multiples of the smoothing) where that keeps it within
+# DEVIATION_TOLERANCE_M of the route's centre line (`_widened_smoothing`)
+WIDER_SMOOTHING = (1.0, 2.0, 4.0, 8.0, 16.0)
+DEVIATION_TOLERANCE_M = 0.1
+LEVEL_BLEND_M = 4.0
 # tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
 KINK_CURVATURE = 0.25
 KINK_SMOOTHING_M = 3.0
@@ -57,23 +66,50 @@ class ReferencePath:
 
 def route_centre_line(lanelet_network: LaneletNetwork,
                       planning_problem: PlanningProblem) -> tuple[np.ndarray, tuple[int, ...]]:
-    """The centre line of the shortest route (fewest lane changes) from the initial state to the
-    goal, as commonroad-route-planner computes it, and the route's lanelet ids (see
-    `lanelet_routes`). Where the route planner's lane-change geometry fails (some real maps), the
-    route's centre lines are joined."""
+    """The centre line of the route from the initial state to the goal (commonroad-route-planner's
+    routes, `preferred_route`; see `lanelet_routes`) and its lanelet ids.
+
+    Without a lane change it is the route planner's reference path. With one, the route's centre
+    lines are joined and the lane change blends from one lane's centre line into its neighbour's
+    over `lane_change_length` (a smoothstep, from where the vehicle is or where the two lanes
+    begin): on recorded maps the route planner squeezes some lane changes into the last metres
+    before the goal (a sharp S the speed profile must crawl through), and its lane-change geometry
+    fails outright on others."""
     # imported here: the route planner pulls in networkx and its own logging at import time
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
 
     routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
-    try:
-        route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
-                                     logging_level=logging.ERROR).plan_shortest_reference_path()
-        centre, ids = np.asarray(route.reference_path, dtype=float), tuple(int(i) for i in route.lanelet_ids)
-    except Exception:  # noqa: BLE001 - its lane-change geometry fails on some real maps
-        centre, ids = np.empty((0, 2)), ()
-    if len(centre) < 2:
-        centre, ids = _joined_centre_lines(lanelet_network, shortest_route(routes))
-    return centre, ids
+    ids = preferred_route(lanelet_network, routes)
+    if not _lane_changes(lanelet_network, ids):
+        try:
+            route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
+                                         logging_level=logging.ERROR).plan_shortest_reference_path()
+            if tuple(int(i) for i in route.lanelet_ids) == ids and len(route.reference_path) >= 2:
+                return np.asarray(route.reference_path, dtype=float), ids
+        except Exception:  # noqa: BLE001 - its geometry fails on some real maps: the centre lines are joined
+            pass
+    initial = planning_problem.initial_state
+    speed = float(getattr(initial, "velocity", 0.0) or 0.0)
+    return _joined_centre_lines(lanelet_network, ids, np.asarray(initial.position, dtype=float),
+                                lane_change_length(speed)), ids
+
+
+def lane_change_length(speed: float) -> float:
+    """How long [m] a route's lane change is: `LANE_CHANGE_S` at ``speed``, at least `LANE_CHANGE_MIN_M`."""
+    return max(LANE_CHANGE_MIN_M, LANE_CHANGE_S * speed)
+
+
+def _adjacent(network: LaneletNetwork, a: int, b: int) -> bool:
+    lanelet = network.find_lanelet_by_id(a)
+    return b in (lanelet.adj_left, lanelet.adj_right)
+
+
+def _lane_changes(network: LaneletNetwork, route: tuple[int, ...]) -> int:
+    return sum(_adjacent(network, a, b) for a, b in zip(route, route[1:]))
+
+
+def _route_length(network: LaneletNetwork, route: tuple[int, ...]) -> float:
+    return sum(float(network.find_lanelet_by_id(i).distance[-1]) for i in route)
 
 
 def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> tuple[list, PlanningProblem]:
@@ -106,23 +142,48 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
                      allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
 
 
-def shortest_route(routes) -> tuple[int, ...]:
-    """The lanelet ids of the route through the fewest lanelets."""
-    return tuple(int(i) for i in min(routes, key=lambda r: len(r.lanelet_ids)).lanelet_ids)
+def preferred_route(network: LaneletNetwork, routes) -> tuple[int, ...]:
+    """The lanelet ids of the route with the fewest lane changes, then the shortest."""
+    return min((tuple(int(i) for i in r.lanelet_ids) for r in routes),
+               key=lambda route: (_lane_changes(network, route), _route_length(network, route)))
 
 
-def _joined_centre_lines(lanelet_network: LaneletNetwork, lanelet_ids) -> tuple[np.ndarray, tuple[int, ...]]:
-    """The route's centre lines joined end to end (a lane change becomes a short lateral shift,
-    which the smoothing rounds off) - used where the route planner's own geometry fails."""
-    parts = []
-    for lanelet_id in lanelet_ids:
-        centre = np.asarray(lanelet_network.find_lanelet_by_id(lanelet_id).center_vertices, dtype=float)
-        if parts:
-            # after a lane change, continue the neighbour from the point beside where we are
-            k = int(np.hypot(*(centre - parts[-1][-1]).T).argmin())
-            centre = centre[min(k + 1, len(centre) - 1):] if k else centre[1:]
-        parts.append(centre)
-    return np.vstack(parts), tuple(int(i) for i in lanelet_ids)
+def _joined_centre_lines(network: LaneletNetwork, lanelet_ids: tuple[int, ...], start: np.ndarray,
+                         change_m: float) -> np.ndarray:
+    """The route's centre lines joined end to end; a lane change (the next lanelet is a neighbour,
+    not a successor) blends into the neighbour's centre line over ``change_m`` metres from where
+    ``start`` lies beside the two lanes (or where they begin; a second change in the same stretch
+    follows the first)."""
+    done: list[np.ndarray] = []         # the path before the lanelet we are on
+    current: np.ndarray | None = None   # the path along the lanelet we are on
+    changed_at = None                   # where along it the last lane change ended (fraction)
+    for k, lanelet_id in enumerate(lanelet_ids):
+        centre = _without_duplicates(np.asarray(network.find_lanelet_by_id(lanelet_id).center_vertices, dtype=float))
+        if current is None:
+            current = centre
+        elif _adjacent(network, lanelet_ids[k - 1], lanelet_id):
+            current, changed_at = _lane_change(current, centre, start, change_m, changed_at)
+        else:
+            done.append(current)
+            current, changed_at = centre[1:] if np.allclose(centre[0], current[-1], atol=0.05) else centre, None
+    return np.vstack([*done, current])
+
+
+def _lane_change(from_lane: np.ndarray, to_lane: np.ndarray, start: np.ndarray, change_m: float,
+                 after: float | None) -> tuple[np.ndarray, float]:
+    """A path along two side-by-side lines, blended from ``from_lane`` into ``to_lane`` by a
+    smoothstep over ``change_m`` metres, from beside ``start`` (or where the lanes begin), or from
+    the fraction ``after`` of their length (a change that follows another); and where it ends."""
+    s_from, s_to = _arc_length(from_lane), _arc_length(to_lane)
+    n = max(len(from_lane), len(to_lane), int(np.ceil(max(s_from[-1], s_to[-1]) / 0.5)) + 1)
+    u = np.linspace(0.0, 1.0, n)
+    a = np.stack([np.interp(u * s_from[-1], s_from, from_lane[:, j]) for j in range(2)], 1)
+    b = np.stack([np.interp(u * s_to[-1], s_to, to_lane[:, j]) for j in range(2)], 1)
+    u0 = after if after is not None else float(u[np.hypot(*(a - start).T).argmin()])
+    u1 = min(1.0, u0 + change_m / max(s_from[-1], 1e-6))
+    x = np.clip((u - u0) / max(u1 - u0, 1e-6), 0.0, 1.0)
+    w = (x ** 3 * (10.0 - 15.0 * x + 6.0 * x * x))[:, None]
+    return (1.0 - w) * a + w * b, u1
 
 
 def _snapped_to_lanelet(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> PlanningProblem | None:
@@ -206,6 +267,40 @@ def _gaussian_smooth(xy: np.ndarray, sigma_samples: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(2)], axis=1)
 
 
+def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float) -> np.ndarray:
+    """``xy`` (a polyline `_FINE_STEP_M` apart) Gaussian-smoothed with ``sigma_m``, and more widely
+    (`WIDER_SMOOTHING`) wherever the wider smoothing stays within ``tolerance_m`` of the polyline.
+
+    Lanelets of recorded maps meet at small angles (a degree or two where two centre lines join);
+    smoothed over a metre such a kink asks for a steering rate that only a slow car has, and the
+    speed profile would brake for it on a straight highway. A driver rounds it off over tens of
+    metres within a hand's breadth of the lane centre, as this does; a curve's real shape keeps
+    the narrow smoothing (a wide one would cut it by more than the tolerance)."""
+    sigmas = [sigma_m * factor for factor in WIDER_SMOOTHING]
+    levels = [_gaussian_smooth(xy, s / _FINE_STEP_M) for s in sigmas]
+    allowed = np.zeros(len(xy))
+    ok = np.ones(len(xy), dtype=bool)
+    for j in range(1, len(sigmas)):
+        deviation = np.hypot(*(levels[j] - xy).T)
+        reach = 2 * int(np.ceil(2 * sigmas[j] / _FINE_STEP_M)) + 1
+        ok &= maximum_filter1d(deviation, size=reach, mode="nearest") <= tolerance_m
+        allowed[ok] = j
+    if not allowed.any():
+        return levels[0]
+    # the level changes gradually along the path (over `LEVEL_BLEND_M`), never above what is allowed:
+    # narrowed first by the blend's reach, then smoothed
+    reach = int(np.ceil(3 * LEVEL_BLEND_M / _FINE_STEP_M))
+    narrowed = minimum_filter1d(allowed, size=2 * reach + 1, mode="nearest")
+    blend = _gaussian_smooth(np.stack([narrowed, np.zeros_like(narrowed)], 1), LEVEL_BLEND_M / _FINE_STEP_M)[:, 0]
+    blend = np.clip(np.minimum(blend, allowed), 0.0, len(sigmas) - 1)
+    low = np.floor(blend).astype(int)
+    high = np.minimum(low + 1, len(sigmas) - 1)
+    share = (blend - low)[:, None]
+    stack = np.stack(levels)
+    rows = np.arange(len(xy))
+    return (1.0 - share) * stack[low, rows] + share * stack[high, rows]
+
+
 def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: float = 1.0,
                           extension_back: float = 20.0, extension_forward: float = 100.0,
                           lanelet_ids: tuple[int, ...] = ()) -> ReferencePath:
@@ -220,7 +315,7 @@ def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: f
     fine = _resample(centre, _FINE_STEP_M)
     route_length = _arc_length(fine)[-1]
     fine = _extend(fine, extension_back, extension_forward, _FINE_STEP_M)
-    fine = _gaussian_smooth(fine, smoothing / _FINE_STEP_M)
+    fine = _widened_smoothing(fine, smoothing, DEVIATION_TOLERANCE_M) if smoothing > 0 else fine
     s_fine = _arc_length(fine)
     dx = np.gradient(fine[:, 0], s_fine)
     dy = np.gradient(fine[:, 1], s_fine)

@@ -10,9 +10,11 @@ A planner is named in one of three ways:
   ``path/to/file.py:MyPlanner`` (a Python file, imported by its path).
 
 A built-in name wins over an installed planner of the same name. A class qualifies when it has a
-``plan`` method and is constructed as ``cls(setup, settings)`` (`PlannerSetup`); the pydantic
-model in its optional ``Settings`` attribute validates what the user passes. Every problem is an
-`InputError` naming the reference (or the file and field) and what is allowed.
+``plan`` method and a constructor that takes ``()``, ``(setup)`` or ``(setup, settings)``
+(`PlannerSetup`; by its signature, settings only when it takes them); the pydantic model in its
+optional ``Settings`` attribute validates what the user passes, and a class that declares one
+must take ``(setup, settings)``. Every problem is an `InputError` naming the reference (or the
+file and field) and what is allowed.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ class PlannerClass:
     ref: str            # the name or reference it was loaded by
     origin: str         # "built-in", "installed (DIST)", "module" or "file"
     cls: type
+    arguments: int = 2  # what its constructor takes: 0 (), 1 (setup) or 2 (setup, settings)
 
     @property
     def settings_model(self) -> type[BaseModel] | None:
@@ -75,7 +78,8 @@ class PlannerClass:
         return validated(model, values, file=file, prefix=prefix)
 
     def build(self, setup: PlannerSetup, settings: BaseModel | None) -> Planner:
-        return self.cls(setup, settings)
+        """One planner: ``cls(setup, settings)``, ``cls(setup)`` or ``cls()``, as it is constructed."""
+        return self.cls(*(setup, settings)[:self.arguments])
 
 
 def installed_planners() -> dict[str, EntryPoint]:
@@ -156,22 +160,39 @@ def _module_of_file(path_text: str) -> Any:
 
 
 def _checked(ref: str, origin: str, cls: Any, file: str | Path | None, field: str) -> PlannerClass:
-    """``cls`` as a `PlannerClass`, if it is one: a class with ``plan``, built from (setup, settings)."""
+    """``cls`` as a `PlannerClass`, if it is one: a class with ``plan``, built from (setup, settings),
+    (setup) or () — settings only when it takes them; a class with a ``Settings`` model must."""
     if not inspect.isclass(cls) or not callable(getattr(cls, "plan", None)):
         raise InputError(f"'{ref}' is not a planner class (a class with a plan(observed, t, world) method)",
                          file=file, field=field, allowed=allowed_planners())
-    try:
-        inspect.signature(cls).bind(None, None)
-    except TypeError:
-        raise InputError(f"planner class '{ref}' cannot be constructed as cls(setup, settings)", file=file,
-                         field=field, allowed="__init__(self, setup: PlannerSetup, settings)") from None
-    except ValueError:
-        pass                    # no signature to inspect (a class implemented in C)
     settings = getattr(cls, "Settings", None)
     if settings is not None and not (isinstance(settings, type) and issubclass(settings, BaseModel)):
         raise InputError(f"planner class '{ref}' has a Settings attribute that is not a pydantic model",
                          file=file, field=field, allowed="a pydantic BaseModel subclass, or no Settings")
-    return PlannerClass(ref, origin, cls)
+    arguments = _constructor_arguments(cls, 2 if settings is not None else 0)
+    if arguments is None:
+        takes = "cls(setup, settings), as its Settings model asks" if settings is not None else \
+            "cls(), cls(setup) or cls(setup, settings)"
+        raise InputError(f"planner class '{ref}' cannot be constructed as {takes}", file=file, field=field,
+                         allowed="__init__(self, setup: PlannerSetup, settings)" if settings is not None else
+                         "no __init__, __init__(self, setup: PlannerSetup) or __init__(self, setup, settings)")
+    return PlannerClass(ref, origin, cls, arguments)
+
+
+def _constructor_arguments(cls: type, fewest: int) -> int | None:
+    """How many of (setup, settings) ``cls``'s constructor takes — the most it accepts, and at
+    least ``fewest`` — or None when it takes none of those counts."""
+    try:
+        signature = inspect.signature(cls)
+    except ValueError:
+        return 2                # no signature to inspect (a class implemented in C)
+    for count in range(2, fewest - 1, -1):
+        try:
+            signature.bind(*[None] * count)
+        except TypeError:
+            continue
+        return count
+    return None
 
 
 def default_label(ref: str) -> str:

@@ -37,12 +37,19 @@ def end_times(settings: SamplingSettings, dt: float) -> np.ndarray:
     return np.unique(steps) * dt
 
 
+# at speed the end speeds reach further down: this share of the current (or desired) speed, when
+# more than speed_below_m_s (to fall in behind a vehicle in the next lane at 30 m/s, not only 4 m/s slower)
+SPEED_BELOW_SHARE = 0.25
+
+
 def end_speeds(settings: SamplingSettings, current: float, desired: float, max_speed: float) -> np.ndarray:
-    """End speeds: standstill, the desired speed, and evenly between a little below the lower
-    and a little above the higher of the current and the desired speed; with four or more, one
-    of them halfway down to standstill (to fall in behind slower traffic from a high speed)."""
+    """End speeds: standstill, the desired speed, and evenly between below the lower (by
+    ``speed_below_m_s``, or `SPEED_BELOW_SHARE` of the speed when more) and a little above the higher
+    of the current and the desired speed; with four or more, one of them halfway down to standstill
+    (to fall in behind slower traffic from a high speed)."""
     current = max(current, 0.0)
-    lo = max(0.0, min(current, desired) - settings.speed_below_m_s)
+    below = max(settings.speed_below_m_s, SPEED_BELOW_SHARE * max(current, desired))
+    lo = max(0.0, min(current, desired) - below)
     hi = min(max_speed, max(current, desired) + settings.speed_above_m_s)
     n = settings.speed_samples
     if n == 1:

@@ -30,8 +30,9 @@ _STEERING_SPEED_FLOOR = 1.0
 
 # a target inside a window keeps this share of the window's width from its bounds
 _WINDOW_INSET = 0.1
-# the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``)
-_TIME_AIM_SHARE = 0.5
+# the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``), from either
+# end: a planned speed lags the desired one, and a late or early arrival still falls inside
+_TIME_AIM_SHARE = 0.25
 _TIME_AIM_MAX_S = 1.0
 # the planned speed follows the desired one with a lag: the velocity window is aimed this long ahead
 _RESPONSE_S = 1.0
@@ -63,23 +64,39 @@ class GoalApproach:
     reference points inside it, or the point nearest a goal centre off the path). The vehicle
     brakes into the velocity window before it enters the stretch and keeps to it until the stretch
     ends. Before the time window opens it drives no faster than the average speed that reaches the
-    stretch's middle when the window opens; arrived early, it goes on to `HOLD_MARGIN_M` before the
-    stretch's end at that pace and, where the velocity window allows, stops there and waits.
+    hold point (`HOLD_MARGIN_M` before the stretch's end, or its middle when it is shorter) when the
+    window opens: arrived early, it stops there and waits. Late, it drives at least as fast as
+    entering the stretch before the window closes needs (`speed_floor`).
     """
 
-    def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float):
+    def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float,
+                 top_speed: float = math.inf):
         self.stretch = _goal_stretch(reference, goal)
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
+        # the slowest speed the vehicle may arrive at (the velocity window's lower bound, inset)
+        self.slowest_arrival = target_in(velocity, 0.0) if velocity is not None and velocity.lo > 0 else 0.0
         self.arrival_time = (None if time is None else
                              time.lo + min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
+        self.latest_arrival = (None if time is None else
+                               time.hi - min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
         self.deceleration = deceleration
+        self.top_speed = top_speed
 
     def distance_to_goal(self, s: float) -> float:
         """Arc length from ``s`` to the goal's stretch (0 inside it; inf: no goal on the path, or passed)."""
         if self.stretch is None or s > self.stretch[1]:
             return math.inf
         return max(self.stretch[0] - s, 0.0)
+
+    def speed_floor(self, s: float, t: float) -> float:
+        """The lowest cruise speed that still enters the goal's stretch (`ENTRY_DEPTH_M` into it)
+        before its time window closes (0: no time window, or already in the stretch)."""
+        if self.stretch is None or self.latest_arrival is None or s >= self.stretch[0] or t >= self.latest_arrival:
+            return 0.0
+        enter, leave = self.stretch
+        target = enter + min(ENTRY_DEPTH_M, 0.5 * (leave - enter))
+        return min((target - s) / (self.latest_arrival - t), self.top_speed)
 
     def speed_cap(self, s: float, t: float, v: float) -> float:
         """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
@@ -91,12 +108,26 @@ class GoalApproach:
             braking = max(enter - s - v * _RESPONSE_S, 0.0)
             cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
         if self.arrival_time is not None and t < self.arrival_time:
-            middle = 0.5 * (enter + leave)
-            target = middle if s < middle else max(middle, leave - HOLD_MARGIN_M)
-            cap = min(cap, max(target - s, 0.0) / (self.arrival_time - t))
+            hold = max(0.5 * (enter + leave), leave - HOLD_MARGIN_M)
+            cap = min(cap, self._pace(max(hold - s, 0.0), self.arrival_time - t))
         return cap
 
+    def _pace(self, distance: float, duration: float) -> float:
+        """The speed to drive at now so as to cover ``distance`` in ``duration``: the average speed,
+        or, when that is slower than the slowest arrival the velocity window allows, a speed held
+        first and then raised (at the comfortable rate) to that slowest arrival speed."""
+        average = distance / duration
+        w, a = self.slowest_arrival, self.deceleration
+        if average >= w:
+            return average
+        # v held, then raised to w at a: v (duration - (w - v) / a) + (w^2 - v^2) / (2 a) = distance
+        b = a * duration - w
+        root = b * b - w * w + 2.0 * a * distance
+        return max(-b + math.sqrt(root), 0.0) if root >= 0.0 else 0.0
 
+
+# a late vehicle aims this far into the goal's stretch of the path when its time window is closing [m]
+ENTRY_DEPTH_M = 3.0
 # an early arrival waits this far before the end of the goal's stretch of the path [m] (the planner's
 # arc length is the rear axle's; the goal is judged at the vehicle's centre, a metre or two ahead)
 HOLD_MARGIN_M = 4.0
@@ -125,7 +156,9 @@ def _goal_stretch(reference: ReferencePath, goal: Goal) -> tuple[float, float] |
 
 
 class SpeedProfile:
-    """Desired speed at every reference point (array ``v`` over ``reference.s``)."""
+    """Desired speed at every reference point (array ``v`` over ``reference.s``): the cruise speed,
+    lowered by the limits of the path (array ``limit``: curvature, steering rate, and braking
+    ahead of both)."""
 
     def __init__(self, reference: ReferencePath, cruise: float, max_lateral_acceleration: float,
                  comfortable_deceleration: float, steering: tuple[float, float] | None = None):
@@ -135,26 +168,41 @@ class SpeedProfile:
         self.reference = reference
         self.cruise = cruise
         kappa = np.maximum(np.abs(reference.kappa), 1e-9)
-        v = np.minimum(cruise, np.sqrt(_LATERAL_ACCELERATION_SHARE * max_lateral_acceleration / kappa))
+        limit = np.sqrt(_LATERAL_ACCELERATION_SHARE * max_lateral_acceleration / kappa)
         if steering is not None and len(reference.s) > 2:
             wheelbase, steer_rate = steering
             change = np.abs(np.gradient(reference.kappa, reference.s)) * wheelbase
-            v = np.minimum(v, np.maximum(steer_rate * (1.0 + (wheelbase * kappa) ** 2) / np.maximum(change, 1e-9),
-                                         _STEERING_SPEED_FLOOR))
+            limit = np.minimum(limit, np.maximum(steer_rate * (1.0 + (wheelbase * kappa) ** 2) / np.maximum(change, 1e-9),
+                                                 _STEERING_SPEED_FLOOR))
         ds = np.diff(reference.s)
-        for i in range(len(v) - 2, -1, -1):
-            v[i] = min(v[i], np.sqrt(v[i + 1] ** 2 + 2.0 * comfortable_deceleration * ds[i]))
-        self.v = v
+        for i in range(len(limit) - 2, -1, -1):
+            limit[i] = min(limit[i], np.sqrt(limit[i + 1] ** 2 + 2.0 * comfortable_deceleration * ds[i]))
+        # braking ahead of a constant cruise speed changes nothing: min(cruise, limit) is the profile
+        self.limit = limit
+        self.v = np.minimum(limit, cruise)
+        self.limit.flags.writeable = False
         self.v.flags.writeable = False
 
-    def desired_speed(self, s: float, distance: float) -> float:
-        """The lowest desired speed between ``s`` and ``s + distance`` (reference arc length)."""
+    def desired_speed(self, s: float, distance: float, cruise: float | None = None) -> float:
+        """The lowest desired speed between ``s`` and ``s + distance`` (reference arc length); with
+        ``cruise``, as if the profile had been built for that cruise speed."""
         ref_s = self.reference.s
         lo = int(np.searchsorted(ref_s, s, side="right")) - 1
         hi = int(np.searchsorted(ref_s, s + max(distance, 0.0), side="right"))
         lo, hi = max(lo, 0), min(max(hi, lo + 1), len(ref_s))
-        here = float(np.interp(s, ref_s, self.v))
-        return float(min(here, self.v[lo:hi].min()))
+        limits = self.v if cruise is None else self.limit
+        here = float(np.interp(s, ref_s, limits))
+        speed = float(min(here, limits[lo:hi].min()))
+        return speed if cruise is None else min(speed, cruise)
+
+
+def desired_speed(profile: SpeedProfile, approach: GoalApproach, s: float, t: float, v: float,
+                  lookahead: float) -> float:
+    """The speed a planner aims at, at arc length ``s``, time ``t`` and speed ``v``: the profile's
+    lowest within ``lookahead`` metres, its cruise speed raised as far as the goal's time window
+    needs (`GoalApproach.speed_floor`), capped by the goal's approach (`GoalApproach.speed_cap`)."""
+    cruise = max(profile.cruise, approach.speed_floor(s, t))
+    return min(profile.desired_speed(s, lookahead, cruise), approach.speed_cap(s, t, v))
 
 
 def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: float, max_lateral_acceleration: float,
@@ -165,4 +213,5 @@ def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: floa
     initial_speed = float(getattr(problem.initial_state, "velocity", 0.0) or 0.0)
     cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
     return (SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration),
-            GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration))
+            GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration,
+                         setup.vehicle.limits.max_speed))

@@ -15,7 +15,7 @@ from pathlib import Path
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim import REFERENCE, Fidelity, Outcome, Run
+from simgap.cosim import REFERENCE, Outcome, Run
 from simgap.errors import InputError
 from simgap.evaluate.compare import AgentComparison, compare_runs
 from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
@@ -114,19 +114,13 @@ def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet, dict | 
     return scenario, problems, run.sections or None
 
 
-def planner_of(run: Run) -> str:
-    """The name of the planner of a run (per agent: ``1=frenet,2=idm``)."""
-    recorded = run.settings.get("planner") or {}
-    return str(recorded.get("name") or DEFAULT_PLANNER)
-
-
 def collect(root: Path) -> list[ScenarioGroup]:
     """Every run below ``root``, grouped by scenario and planner, with tracking errors and comparisons."""
     groups: dict[tuple[str, str], ScenarioGroup] = {}
     for run_dir in find_run_dirs(root):
         run = Run.load(run_dir)
-        entry = RunEntry(run_dir, run, Fidelity.of_run(run).label)
-        planner = planner_of(run)
+        entry = RunEntry(run_dir, run, run.fidelity.label)
+        planner = run.planner
         group = groups.get((run.scenario_id, planner))
         if group is None:
             scenario, problems, sections = _scenario_of(entry)

@@ -23,9 +23,11 @@ from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 # colour-blind-safe (Okabe–Ito), distinguishable in grayscale by line style as well
 AGENT_COLOURS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9"]
 LINE_STYLES = ["-", "--", "-.", ":"]
+PICTURES = ("scene.png", "run.gif")          # what `render_run` writes (the GIF with its animation)
 
 
-def _load(run_dir: Path):
+def load_driven(run_dir: Path):
+    """The driven scenario of a run (``driven.xml``), its planning problems, and the run."""
     xml = run_dir / "driven.xml"
     if not xml.exists():
         raise InputError("run has no driven.xml to draw", file=run_dir)
@@ -33,7 +35,7 @@ def _load(run_dir: Path):
     return scenario, problems, Run.load(run_dir)
 
 
-def _draw(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: str) -> None:
+def draw_scene(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: str) -> None:
     params = MPDrawParams()
     params.time_begin = step
     params.dynamic_obstacle.draw_icon = True
@@ -62,25 +64,25 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     run_dir = Path(run_dir)
     out_dir = Path(out_dir or run_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    scenario, problems, run = _load(run_dir)
+    scenario, problems, run = load_driven(run_dir)
     limits = plot_limits(scenario, margin=10.0)
     size = figure_size(limits, width=10.0)
     last = max(len(t) for t in run.driven.values()) - 1
 
     rnd = MPRenderer(plot_limits=limits, figsize=size)
-    _draw(rnd, scenario, problems, run, last,
+    draw_scene(rnd, scenario, problems, run, last,
           f"{run.scenario_id} — {run.backend}: driven paths, t = {last * run.dt:.1f} s")
-    png = out_dir / "scene.png"
+    png = out_dir / PICTURES[0]
     rnd.f.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(rnd.f)
     if not animation:
         return [png]
 
-    gif = out_dir / "run.gif"
+    gif = out_dir / PICTURES[1]
     frames = []
     for step in list(range(0, last, frame_every)) + [last]:
         rnd = MPRenderer(plot_limits=limits, figsize=(size[0] * 0.7, size[1] * 0.7))
-        _draw(rnd, scenario, problems, run, step, f"{run.scenario_id} — {run.backend}, t = {step * run.dt:.1f} s")
+        draw_scene(rnd, scenario, problems, run, step, f"{run.scenario_id} — {run.backend}, t = {step * run.dt:.1f} s")
         rnd.f.canvas.draw()
         frames.append(np.asarray(rnd.f.canvas.buffer_rgba())[..., :3].copy())
         plt.close(rnd.f)

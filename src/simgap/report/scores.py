@@ -15,6 +15,7 @@ import numpy as np
 from simgap.cosim import REFERENCE, AgentOutcome
 from simgap.cosim.score_settings import ScoreWeights
 from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop, score_weights_of
+from simgap.experiment.run_row import RunRow
 from simgap.report.collection import ScenarioGroup
 
 
@@ -131,25 +132,26 @@ def breakdown_rows(group: ScenarioGroup) -> list[dict]:
     return rows
 
 
-def _scored(row: dict) -> AgentOutcome:
+def _scored(row: RunRow) -> AgentOutcome:
     """A store row's scores as an agent outcome (the worst agent's, as the row keeps them)."""
-    return AgentOutcome(0, "", "goal_reached", None, 0.0, None, score=row.get("score"),
-                        score_components={name: row[f"score_{name}"] for name in COMPONENTS
-                                          if row.get(f"score_{name}") is not None})
+    return AgentOutcome(0, "", "goal_reached", None, 0.0, None, score=row.score,
+                        score_components={name: v for name, v in row.score_components.items()
+                                          if v is not None and not math.isnan(v)})
 
 
-def store_score_rows(rows: list[dict]) -> list[dict]:
+def store_score_rows(rows: list[RunRow]) -> list[dict]:
     """Per planner and non-ideal fidelity of an experiment's store: the mean ideal and physical
     score, the mean and largest drop, the component whose loss explains most of it (summed over
     the runs), the mean costs, and how many solutions valid in the ideal world are invalid here, by
     their first reason."""
-    ok = [r for r in rows if r.get("status") == "ok"]
-    ideal = {(r["scenario"], r.get("planner")): r for r in ok if r["fidelity"] == REFERENCE}
+    ok = [r for r in rows if r.status == "ok"]
+    ideal = {(r.id.scenario, r.id.planner): r for r in ok if r.id.fidelity.backend == REFERENCE}
     out = []
-    for planner, fidelity in sorted({(r.get("planner"), r["fidelity"]) for r in ok if r["fidelity"] != REFERENCE}):
-        pairs = [(ideal[(r["scenario"], planner)], r) for r in ok
-                 if r.get("planner") == planner and r["fidelity"] == fidelity and (r["scenario"], planner) in ideal]
-        pairs = [(a, b) for a, b in pairs if a.get("score") is not None and b.get("score") is not None]
+    for planner, fidelity in sorted({(r.id.planner, r.id.fidelity.label) for r in ok
+                                     if r.id.fidelity.backend != REFERENCE}):
+        pairs = [(ideal[(r.id.scenario, planner)], r) for r in ok
+                 if r.id.planner == planner and r.id.fidelity.label == fidelity and (r.id.scenario, planner) in ideal]
+        pairs = [(a, b) for a, b in pairs if _known(a.score) and _known(b.score)]
         if not pairs:
             continue
         drops, lost = [], Counter()
@@ -158,22 +160,26 @@ def store_score_rows(rows: list[dict]) -> list[dict]:
             drops.append(drop)
             for c in losses:
                 lost[c.name] += c.regained
-        broken = [b for a, b in pairs if a.get("solution_valid") is True and b.get("solution_valid") is False]
-        reasons = Counter(_reason_kind(b.get("solution_reason") or "") for b in broken)
+        broken = [b for a, b in pairs if a.solution_valid is True and b.solution_valid is False]
+        reasons = Counter(_reason_kind(b.solution_reason or "") for b in broken)
         top = [(name, total) for name, total in lost.most_common(2) if total > 1e-9]
         out.append({"planner": planner, "fidelity": fidelity, "runs": len(pairs),
-                    "ideal score": float(np.mean([a["score"] for a, _ in pairs])),
-                    "score": float(np.mean([b["score"] for _, b in pairs])),
+                    "ideal score": float(np.mean([a.score for a, _ in pairs])),
+                    "score": float(np.mean([b.score for _, b in pairs])),
                     "mean drop": float(np.mean(drops)), "largest drop": float(max(drops)),
                     "runs that lost": sum(d > 1e-9 for d in drops),
                     "lost most on": ", ".join(f"{name} ({total / len(pairs):.3f})" for name, total in top) or "—",
-                    "ideal cost": _mean(a.get("solution_cost") for a, _ in pairs),
-                    "cost": _mean(b.get("solution_cost") for _, b in pairs),
-                    "ideal valid": sum(a.get("solution_valid") is True for a, _ in pairs),
-                    "valid": sum(b.get("solution_valid") is True for _, b in pairs),
+                    "ideal cost": _mean(a.solution_cost for a, _ in pairs),
+                    "cost": _mean(b.solution_cost for _, b in pairs),
+                    "ideal valid": sum(a.solution_valid is True for a, _ in pairs),
+                    "valid": sum(b.solution_valid is True for _, b in pairs),
                     "ideal-valid now invalid": len(broken),
                     "because": ", ".join(f"{k} ({n})" for k, n in reasons.most_common()) or "—"})
     return out
+
+
+def _known(value: float | None) -> bool:
+    return value is not None and not math.isnan(value)
 
 
 def _mean(values) -> float:

@@ -15,22 +15,22 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from simgap.experiment.search_results import SearchResults  # noqa: E402
+from simgap.experiment.search_results import HighRun, SearchResults  # noqa: E402
 from simgap.planning.registry import DEFAULT_PLANNER  # noqa: E402
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402
 
 
-def _violations(per_strategy: dict[str, list[dict]], dims, limit: int = 15) -> list[dict]:
+def _violations(per_strategy: dict[str, list[HighRun]], dims, limit: int = 15) -> list[dict]:
     out = []
-    for name, rows in per_strategy.items():
-        found = sorted((r for r in rows if r["violation"]), key=lambda r: r["elapsed_s"])[:limit]
+    for name, runs in per_strategy.items():
+        found = sorted((h.row for h in runs if h.violation), key=lambda r: r.elapsed_s)[:limit]
         for r in found:
-            entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r['run_dir'])}/run.json'>"
-                                                 f"c{int(r['candidate']):05d}</a>"), "vehicle": r["vehicle"],
-                     "planner": r.get("planner") or DEFAULT_PLANNER}
-            entry |= {n: r.get(f"{'param' if k == 'param' else 'knob'}_{n}", math.nan) for k, n, _, _ in dims}
-            entry["why"] = r.get("failure_reason", "")
+            entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r.run.run_dir or '')}"
+                                                 f"/run.json'>c{r.candidate:05d}</a>"), "vehicle": r.run.id.fidelity.vehicle,
+                     "planner": r.run.id.planner or DEFAULT_PLANNER}
+            entry |= {n: (r.run.parameters if k == "param" else r.knobs).get(n, math.nan) for k, n, _, _ in dims}
+            entry["why"] = r.failure_reason
             out.append(entry)
     return out
 
@@ -52,33 +52,33 @@ def _plot_curves(results, path: Path) -> Path:
     return path
 
 
-def _map_axes(rows: list[dict], dims) -> tuple[int, int]:
+def _map_axes(runs: list[HighRun], dims) -> tuple[int, int]:
     """The two dimensions that separate violations from passes best (difference of means)."""
     if len(dims) < 2:
         return 0, 0
-    fail = [r for r in rows if r["violation"]]
-    ok = [r for r in rows if not r["failed"]]
+    fail = [h.row for h in runs if h.violation]
+    ok = [h.row for h in runs if not h.row.failed]
     if not fail or not ok:
         return 0, 1
-    gaps = [abs(np.mean([r[f"unit_{i}"] for r in fail]) - np.mean([r[f"unit_{i}"] for r in ok])) for i in range(len(dims))]
+    gaps = [abs(np.mean([r.unit[i] for r in fail]) - np.mean([r.unit[i] for r in ok])) for i in range(len(dims))]
     order = np.argsort(gaps)[::-1]
     return int(order[0]), int(order[1])
 
 
-def _plot_map(per_strategy: dict[str, list[dict]], dims, path: Path) -> Path:
+def _plot_map(per_strategy: dict[str, list[HighRun]], dims, path: Path) -> Path:
     every = [r for rows in per_strategy.values() for r in rows]
     a, b = _map_axes(every, dims)
     n = len(per_strategy)
     fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.4), dpi=110, squeeze=False, sharey=True)
     (_, na, loa, hia), (_, nb, lob, hib) = dims[a], dims[b]
     for ax, (name, rows) in zip(axes[0], per_strategy.items()):
-        for group, style in ((lambda r: not r["failed"], dict(c="#bbbbbb", marker="o", s=10, label="passes")),
-                             (lambda r: r["failed"] and not r["violation"], dict(c=COLOURS[1], marker="x", s=18, label="fails (ideal unchecked or fails too)")),
-                             (lambda r: r["violation"], dict(c=COLOURS[2], marker="^", s=24, label="violated assumption"))):
-            pts = [r for r in rows if group(r)]
+        for group, style in ((lambda h: not h.row.failed, dict(c="#bbbbbb", marker="o", s=10, label="passes")),
+                             (lambda h: h.row.failed and not h.violation, dict(c=COLOURS[1], marker="x", s=18, label="fails (ideal unchecked or fails too)")),
+                             (lambda h: h.violation, dict(c=COLOURS[2], marker="^", s=24, label="violated assumption"))):
+            pts = [h.row for h in rows if group(h)]
             if pts:
-                ax.scatter([loa + r[f"unit_{a}"] * (hia - loa) for r in pts],
-                           [lob + r[f"unit_{b}"] * (hib - lob) for r in pts], **style)
+                ax.scatter([loa + r.unit[a] * (hia - loa) for r in pts],
+                           [lob + r.unit[b] * (hib - lob) for r in pts], **style)
         ax.set_title(f"{name} ({len(rows)} high runs)", fontsize=9)
         ax.set_xlabel(na)
         ax.grid(alpha=0.3)
@@ -107,7 +107,7 @@ def build_search_report(found: SearchResults) -> Path:
     summary = []
     for res in results:
         rows = per_strategy[res.name]
-        ideal_passes = len(rows) - sum(1 for r in rows if r["ideal_failed"])
+        ideal_passes = len(rows) - sum(1 for h in rows if h.ideal_failed)
         summary.append({
             "strategy": res.name, "wall clock [min]": res.wall_s / 60.0, "runs": res.runs,
             "high-fidelity runs": res.high_runs, "high-fidelity failures": res.high_failures,

@@ -24,6 +24,7 @@ from simgap.evaluate.criticality import run_criticality
 from simgap.evaluate.errors import lateral_profile
 from simgap.files import atomic_write_text
 from simgap.evaluate.route_centre import route_centre
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import ResultsStore
 from simgap.cosim import REFERENCE, Outcome
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -114,8 +115,11 @@ def figure(src: str, caption: str, zoom: bool = False, half: bool = False) -> st
     return f"<figure{cls}>{img}<figcaption>{html.escape(caption)}</figcaption></figure>"
 
 
+GENERATOR = "<meta name='generator' content='simgap'>"       # marks every page simgap writes
+
+
 def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
-    text = ("<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+    text = (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>{GENERATOR}"
             "<link rel='icon' href='data:,'>"
             f"<title>{html.escape(title)}</title><link rel='stylesheet' href='{root}report.css'></head><body>"
             f"<nav><a href='{root}index.html'>overview</a></nav><h1>{html.escape(title)}</h1>"
@@ -293,15 +297,15 @@ def _pictures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
     return pictures
 
 
-def _store_section(rows: list[dict]) -> list[str]:
+def _store_section(rows: list[RunRow]) -> list[str]:
     """What the experiment's results store holds, including runs that left no run directory."""
     by_variant: dict[tuple[str, str], Counter] = {}
     for r in rows:
-        variant = (r.get("planner") or DEFAULT_PLANNER, r.get("fidelity", "?"))
-        by_variant.setdefault(variant, Counter())[r.get("status", "?")] += 1
+        variant = (r.id.planner or DEFAULT_PLANNER, r.id.fidelity.label)
+        by_variant.setdefault(variant, Counter())[r.status] += 1
     table_rows = [{"planner": p, "fidelity": f, "ok": c.get("ok", 0), "failed": c.get("failed", 0)}
                   for (p, f), c in sorted(by_variant.items())]
-    failed = [{"run": r["key"], "reason": r.get("failure", "")} for r in rows if r.get("status") != "ok"]
+    failed = [{"run": r.id.key, "reason": r.failure} for r in rows if r.status != "ok"]
     body = ["<h2>Results store</h2>",
             f"<p>{len(rows)} rows in the experiment's store (one per finished run; "
             "<code>simgap experiment query</code> runs SQL over them).</p>", table(table_rows)]
@@ -311,7 +315,7 @@ def _store_section(rows: list[dict]) -> list[str]:
 
 
 def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None,
-                 store_rows: list[dict] | None = None) -> Path:
+                 store_rows: list[RunRow] | None = None) -> Path:
     """Write the report of every run below ``root`` into ``out``; returns ``out/index.html``.
     ``store_rows`` (an experiment's results store) adds what the store holds, failures included."""
     root, out = Path(root), Path(out)
@@ -494,4 +498,4 @@ def build_experiment_report(root: Path, say: Callable[[str], None] = lambda _: N
     root = Path(root)
     if not any((root / "runs").rglob("run.json")):
         return None
-    return build_report(root / "runs", root / "report", say, store_rows=ResultsStore(root).rows())
+    return build_report(root / "runs", root / "report", say, store_rows=ResultsStore(root).run_rows())

@@ -43,8 +43,9 @@ def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: boo
     return xml
 
 
-def load_scenario(path: str | Path) -> tuple[Scenario, PlanningProblemSet]:
-    """Read a CommonRoad XML scenario that has at least one planning problem."""
+def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenario, PlanningProblemSet]:
+    """Read a CommonRoad XML scenario that has at least one planning problem (or, without
+    ``needs_problems``, any: a road network alone)."""
     path = Path(path)
     if not path.is_file():
         raise InputError("no such scenario file", file=path, allowed="a CommonRoad XML file")
@@ -55,7 +56,7 @@ def load_scenario(path: str | Path) -> tuple[Scenario, PlanningProblemSet]:
     except Exception as exc:  # the reader raises many kinds on malformed input
         raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
                          file=path, allowed="CommonRoad XML (2020a format)") from None
-    if problems is None or not problems.planning_problem_dict:
+    if needs_problems and (problems is None or not problems.planning_problem_dict):
         raise InputError("the scenario has no planning problems, so there is no agent to run",
                          file=path, field="planningProblem", allowed="one or more planning problems")
     return scenario, problems

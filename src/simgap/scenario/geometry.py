@@ -67,8 +67,9 @@ class CentreLine:
 
 
 
-def _pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float, float]]:
-    """(kind, length, curvature at start, curvature at end) for each constant/linear piece."""
+def curvature_pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float, float]]:
+    """(kind, length, curvature at start, curvature at end) of each piece of constant or linear
+    curvature: a straight, an arc or a clothoid."""
     pieces = []
     for seg in segments:
         if isinstance(seg, Straight):
@@ -97,7 +98,7 @@ def _pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float
 def centre_line(segments: Sequence[Segment], start=(0.0, 0.0), heading: float = 0.0,
                 max_step: float = 1.0) -> CentreLine:
     """Integrate the segments from ``start`` at ``heading`` into a sampled centre line."""
-    pieces = _pieces(segments)
+    pieces = curvature_pieces(segments)
     xs, ys, hs, ss = [start[0]], [start[1]], [heading], [0.0]
     ks = [pieces[0][2] if pieces else 0.0]
     sections: list[Section] = []

@@ -12,14 +12,17 @@ Every CommonRoad obstacle becomes an oriented box moving on the scenario's time 
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from commonroad.geometry.shape import Circle, Polygon, Rectangle, Shape, ShapeGroup
+from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.prediction.prediction import SetBasedPrediction, TrajectoryPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, Obstacle, ObstacleType
 from commonroad.scenario.scenario import Scenario
+from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from shapely.geometry import MultiPoint
 
 from simgap.trajectory import State, Trajectory
@@ -112,11 +115,6 @@ def _centre_state(st, box: Box, dt: float) -> State:
         yaw_rate=float(exact(getattr(st, "yaw_rate", None))))
 
 
-def obstacle_trajectory(obstacle: DynamicObstacle, dt: float) -> Trajectory:
-    """A dynamic obstacle's recorded motion (initial state + trajectory prediction), box centres."""
-    return _trajectory_motion(obstacle, box_of(obstacle.obstacle_shape), dt)
-
-
 def _trajectory_motion(obstacle: Obstacle, box: Box, dt: float) -> Trajectory:
     states = [obstacle.initial_state]
     if isinstance(obstacle.prediction, TrajectoryPrediction):
@@ -179,3 +177,54 @@ def recorded_obstacles(scenario: Scenario) -> list[RecordedObstacle]:
         out.append(RecordedObstacle(obs.obstacle_id, box.length, box.width, motion,
                                     vehicle=obs.obstacle_type in _VEHICLE_TYPES))
     return out
+
+
+# a dynamic obstacle this close to a planning problem's initial state (at its time step) is that
+# problem's own recorded vehicle: converted datasets keep the human driver beside the problem
+_SAME_POSITION_M, _SAME_HEADING_RAD = 0.05, 0.05
+
+
+def recorded_egos(scenario: Scenario, problems: PlanningProblemSet) -> dict[int, int]:
+    """Planning problem id -> the dynamic obstacle that is its own recording (the human driver it
+    replaces): the obstacle standing exactly on the problem's initial state (position within
+    `_SAME_POSITION_M`, heading within `_SAME_HEADING_RAD`, at the initial time step).
+
+    Recorded datasets converted to CommonRoad (inD, MONA, highD, exiD with the ego kept) carry the
+    ego's recorded vehicle as an obstacle; left in the traffic it would overlap the agent from t = 0."""
+    found = {}
+    for pid, problem in problems.planning_problem_dict.items():
+        initial = problem.initial_state
+        position = np.asarray(exact(initial.position), dtype=float)
+        heading = float(exact(getattr(initial, "orientation", None)))
+        step = int(exact(initial.time_step))
+        for obstacle in scenario.dynamic_obstacles:
+            state = obstacle.state_at_time(step)
+            if state is None or obstacle.obstacle_id in found.values():
+                continue
+            offset = np.asarray(exact(state.position), dtype=float) - position
+            turn = math.remainder(float(exact(getattr(state, "orientation", None))) - heading, 2 * math.pi)
+            if math.hypot(*offset) <= _SAME_POSITION_M and abs(turn) <= _SAME_HEADING_RAD:
+                found[pid] = obstacle.obstacle_id
+                break
+    return found
+
+
+def without_recorded_egos(scenario: Scenario, problems: PlanningProblemSet) -> tuple[Scenario, dict[int, int]]:
+    """``scenario`` in which every planning problem's agent takes over from its own recorded
+    vehicle (a copy when there is any), and which obstacle each agent replaces (see
+    `recorded_egos`). The recording drives on until the agent's initial time step (an agent that
+    starts later than the scenario takes over a vehicle already on the road) and ends there."""
+    egos = recorded_egos(scenario, problems)
+    if not egos:
+        return scenario, egos
+    scenario = copy.deepcopy(scenario)
+    for pid, oid in egos.items():
+        obstacle = scenario.obstacle_by_id(oid)
+        start = int(exact(problems.planning_problem_dict[pid].initial_state.time_step))
+        if obstacle.initial_state.time_step >= start or not isinstance(obstacle.prediction, TrajectoryPrediction):
+            scenario.remove_obstacle(obstacle)
+            continue
+        before = [st for st in obstacle.prediction.trajectory.state_list if st.time_step < start]
+        obstacle.prediction = (TrajectoryPrediction(CrTrajectory(before[0].time_step, before), obstacle.obstacle_shape)
+                               if before else None)
+    return scenario, egos

@@ -44,10 +44,7 @@ class Road:
     def lanelets(self) -> list[Lanelet]:
         return [l for lane in self.forward + self.backward for l in lane]
 
-    def section_of(self, lanelet_id: int) -> str:
-        return self._section_by_id[lanelet_id]
-
-    _section_by_id: dict[int, str] = field(default_factory=dict)
+    section_by_id: dict[int, str] = field(default_factory=dict)    # lanelet id -> road section kind
 
 
 def _split_indices(centre: CentreLine) -> list[tuple[int, int, str]]:
@@ -106,7 +103,7 @@ def build_road(centre: CentreLine, layout: LaneLayout, first_id: int) -> Road:
                     adjacent_right=adj_right, adjacent_right_same_direction=same_right,
                     line_marking_left_vertices=mark_left, line_marking_right_vertices=mark_right,
                     lanelet_type={LaneletType.URBAN}))
-                road._section_by_id[own[k]] = kind
+                road.section_by_id[own[k]] = kind
             lanes.append(lanelets)
         return lanes
 

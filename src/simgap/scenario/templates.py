@@ -18,8 +18,8 @@ from commonroad.scenario.scenario import Scenario, ScenarioID
 from pydantic import TypeAdapter, ValidationError
 
 from simgap.errors import InputError, validation_error
+from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import Arc, Segment, Straight, centre_line, self_intersects
-from simgap.scenario.junction import build_junction
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road import LaneLayout, build_road
 
@@ -37,10 +37,12 @@ class ConcreteScenario:
     problems: PlanningProblemSet
     sections: dict[int, str] = field(default_factory=dict)   # lanelet id -> straight|curve|clothoid|junction
     units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
+    blueprint: RoadBlueprint | JunctionBlueprint | None = None   # what the road network was built from
 
     def metadata(self) -> dict[str, Any]:
         return {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
-                "sections": {str(k): v for k, v in sorted(self.sections.items())}}
+                "sections": {str(k): v for k, v in sorted(self.sections.items())},
+                "blueprint": self.blueprint.model_dump(mode="json") if self.blueprint else None}
 
 
 def _scenario(name: str, dt: float, network: LaneletNetwork) -> Scenario:
@@ -94,8 +96,11 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
         1, (lane[0], start_s), (lane[-1], float(lane[-1].distance[-1]) - goal_before_end),
         initial_speed=float(params.get("initial_speed", 0.0)), dt=dt,
         time_limit_s=float(params.get("time_limit", 60.0)))
+    blueprint = RoadBlueprint(segments=list(segments), lanes_per_direction=layout.lanes_per_direction,
+                              lane_width=layout.lane_width, two_way=layout.two_way,
+                              centre_marking=layout.centre_marking, first_id=LANELET_ID_START)
     return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
-                            dict(road._section_by_id))
+                            dict(road.section_by_id), blueprint=blueprint)
 
 
 def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
@@ -143,8 +148,9 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
     if not 2 <= agents <= max_agents:
         raise InputError(f"{agents} agents", field="agents", allowed=f"2 to {max_agents}")
     approach = float(p.get("approach_length", 50.0))
-    junction = build_junction(arms, approach, float(p.get("lane_width", 3.0)), LANELET_ID_START,
-                              str(p.get("centre_marking", "solid")))
+    blueprint = JunctionBlueprint(arm_angles=arms, approach_length=approach, lane_width=float(p.get("lane_width", 3.0)),
+                                  centre_marking=str(p.get("centre_marking", "solid")), first_id=LANELET_ID_START)
+    junction = blueprint.rebuild()
     dt = float(p.get("dt", 0.1))
     scenario = _scenario(name, dt, LaneletNetwork.create_from_lanelet_list(junction.lanelets))
     network = scenario.lanelet_network
@@ -163,7 +169,8 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
             (goal, float(goal.distance[-1]) - 10.0),
             initial_speed=float(p.get("initial_speed", 0.0)), dt=dt,
             time_limit_s=float(p.get("time_limit", 40.0))))
-    return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), dict(junction.section_by_id))
+    return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), dict(junction.section_by_id),
+                            blueprint=blueprint)
 
 
 def t_junction(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:

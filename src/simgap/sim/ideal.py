@@ -10,14 +10,15 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.sim.protocol import Agent, BackendEvent
+from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, enters_at
 from simgap.trajectory import State, Trajectory
 
 
 class IdealBackend:
-    name = "ideal"
+    name = REFERENCE
 
-    def __init__(self) -> None:
+    def __init__(self, settings: object = None) -> None:
+        """``settings``: the registry's `NoSettings` (the ideal world takes none)."""
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
         self._dt = 0.1
@@ -27,23 +28,25 @@ class IdealBackend:
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
-        self._agent_t0 = {a.id: a.initial_state.t for a in agents}
         self._dt = float(scenario.dt)
 
     def reset(self) -> dict[int, State]:
-        self._states = {a.id: a.initial_state for a in self._agents}
+        self._states = {a.id: a.initial_state for a in self._agents if enters_at(a, 0.0, self._dt)}
         self._step = 0
         return dict(self._states)
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
         self._step += 1
+        t_next = self._step * self._dt          # no drift from summing dt
         for aid, state in self._states.items():
-            t_next = self._agent_t0[aid] + self._step * self._dt   # no drift from summing dt
             plan = plans.get(aid)
             if plan is None:
                 self._states[aid] = state.replace(t=t_next, v=0.0, a=0.0, yaw_rate=0.0)
             else:
                 self._states[aid] = plan.at(t_next).replace(t=t_next)
+        for a in self._agents:
+            if a.id not in self._states and enters_at(a, t_next, self._dt):
+                self._states[a.id] = a.initial_state.replace(t=t_next)
         return dict(self._states)
 
     def events(self) -> list[BackendEvent]:

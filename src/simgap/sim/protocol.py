@@ -10,6 +10,8 @@ from commonroad.scenario.scenario import Scenario
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import Vehicle
 
+REFERENCE = "ideal"     # the ideal backend's name: the world of the planner's assumptions, which every other is compared with
+
 
 @dataclass(frozen=True)
 class Agent:
@@ -18,6 +20,11 @@ class Agent:
     id: int
     vehicle: Vehicle
     initial_state: State
+
+
+def enters_at(agent: Agent, t: float, dt: float) -> bool:
+    """``agent`` enters the world at time ``t`` (its initial state's time, on the dt grid)."""
+    return abs(agent.initial_state.t - t) < 0.5 * dt
 
 
 @dataclass(frozen=True)
@@ -39,9 +46,13 @@ class Backend(Protocol):
     """A world that advances exactly one scenario dt per `step`.
 
     ``load`` is given the scenario (lanelets, non-agent obstacles), the agents and the
-    vehicle each agent drives. ``reset`` puts every agent at its initial state and
-    returns the observed states. ``step`` executes the plans (each starting at the current
-    time) for one dt and returns each agent's observed state afterwards.
+    vehicle each agent drives. The run's clock starts at 0 (the scenario's first time step).
+    ``reset`` puts every agent whose initial state is at 0 there and returns the observed
+    states. ``step`` executes the plans (each starting at the current time) for one dt and
+    returns each present agent's observed state afterwards. An agent whose initial state lies
+    later (a planning problem of a recorded scenario that starts when its vehicle enters the
+    road) is out of the world until then: no state of it is returned, and at the step that
+    reaches its initial time it is put at its initial state (`enters_at`).
 
     The loop reads ``timings`` (wall seconds spent per phase inside the backend, e.g. control
     and physics; added to the run's timings) and ``notes`` (what the backend did that the run

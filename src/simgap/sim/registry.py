@@ -1,8 +1,12 @@
-"""Backends by name. A new backend registers here: a name, a constructor taking settings, a
-check of those settings (run where they are read: the CLI, a spec file), the module it needs
-installed (and the pip extra that installs it, for an optional one), and, for a backend that can
-be unable to run at all (a server that does not answer), a check that batches make once before
-their first run. Each is named ``module:attr`` and imported on first use."""
+"""Backends by name. A new backend registers here: a name, a constructor taking its settings model,
+the function that validates a mapping into that model (with the backend's own checks, and errors
+that name the field), the module it needs installed (and the pip extra that installs it, for an
+optional one), and, for a backend that can be unable to run at all (a server that does not
+answer), a check that batches make once before their first run. Each is named ``module:attr`` and
+imported on first use.
+
+Settings are validated once, where they are read (`backend_settings`: the CLI, a spec file), into
+the backend's model, which then flows unchanged to `make_backend` and the backend's plant."""
 
 from __future__ import annotations
 
@@ -11,8 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from pydantic import BaseModel, ConfigDict
+
 from simgap.errors import InputError
-from simgap.sim.protocol import Backend
+from simgap.sim.protocol import REFERENCE, Backend
 
 
 def _lazy(target: str) -> Callable[..., Any]:
@@ -26,27 +32,34 @@ def _lazy(target: str) -> Callable[..., Any]:
     return call
 
 
-def _no_settings(settings: dict[str, Any]) -> None:
+class NoSettings(BaseModel):
+    """The settings of a backend that takes none (the ideal world executes every plan exactly)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _no_settings(settings: Mapping[str, Any]) -> NoSettings:
     if settings:
         raise InputError("the ideal backend has no settings: it executes every plan exactly",
                          field=f"backend_settings.{next(iter(settings))}", allowed="none")
+    return NoSettings()
 
 
 @dataclass(frozen=True)
 class BackendEntry:
-    make: Callable[..., Backend]
-    settings: Callable[[dict[str, Any]], Any]              # validates settings as the backend will
-    module: str                                            # must be importable
-    extra: str | None = None                               # pip extra that installs it (optional backends)
-    check: Callable[[dict[str, Any]], None] | None = None  # raises when it cannot run with these settings
+    make: Callable[[BaseModel], Backend]                    # the backend, from its settings model
+    settings: Callable[[dict[str, Any]], BaseModel]         # a mapping validated into that model
+    module: str                                             # must be importable
+    extra: str | None = None                                # pip extra that installs it (optional backends)
+    check: Callable[[BaseModel], None] | None = None        # raises when it cannot run with these settings
 
 
 BACKENDS: dict[str, BackendEntry] = {
-    "ideal": BackendEntry(_lazy("simgap.sim.ideal:IdealBackend"), _no_settings, "simgap.sim.ideal"),
+    REFERENCE: BackendEntry(_lazy("simgap.sim.ideal:IdealBackend"), _no_settings, "simgap.sim.ideal"),
     "dynamic": BackendEntry(_lazy("simgap.sim.dynamic.backend:DynamicBackend"),
-                            _lazy("simgap.sim.dynamic.backend:dynamic_settings"), "simgap.sim.dynamic.backend"),
+                            _lazy("simgap.sim.dynamic.settings:dynamic_settings"), "simgap.sim.dynamic.backend"),
     "mujoco": BackendEntry(_lazy("simgap.sim.mujoco.backend:MujocoBackend"),
-                           _lazy("simgap.sim.mujoco.backend:mujoco_settings"), "simgap.sim.mujoco"),
+                           _lazy("simgap.sim.mujoco.settings:mujoco_settings"), "mujoco"),
     "beamng": BackendEntry(_lazy("simgap.sim.beamng.backend:BeamngBackend"),
                            _lazy("simgap.sim.beamng.settings:load_settings"), "beamngpy", extra="beamng",
                            check=_lazy("simgap.sim.beamng.session:check_server")),
@@ -73,24 +86,26 @@ def _entry(name: str) -> BackendEntry:
     return entry
 
 
-def make_backend(name: str, **settings: Any) -> Backend:
-    return _entry(name).make(**settings)
+def make_backend(name: str, settings: BaseModel | None = None) -> Backend:
+    """Backend ``name`` with its ``settings`` model (`backend_settings`; None: its defaults)."""
+    entry = _entry(name)
+    return entry.make(settings if settings is not None else entry.settings({}))
 
 
-def check_settings(name: str, settings: Mapping[str, Any], *, file: str | Path | None = None,
-                   where: str = "backend_settings") -> None:
-    """Validate ``settings`` of backend ``name`` now, where they were read, as the backend will
-    when it is built; the error names ``file`` and the field under ``where``."""
+def backend_settings(name: str, values: Mapping[str, Any] | None = None, *, file: str | Path | None = None,
+                     where: str = "backend_settings") -> BaseModel:
+    """``values`` validated, where they were read, into the settings model of backend ``name``;
+    an error names ``file`` and the field under ``where``."""
     entry = _entry(name)
     try:
-        entry.settings(dict(settings))
+        return entry.settings(dict(values or {}))
     except InputError as exc:
         field = exc.field.replace("backend_settings", where, 1) if exc.field else where
         raise InputError(exc.reason, file=file if file is not None else exc.file, field=field,
                          allowed=exc.allowed) from None
 
 
-def preflight(name: str, settings: dict[str, Any]) -> None:
+def preflight(name: str, settings: BaseModel) -> None:
     """Fail now, with the reason, when ``name`` cannot run with ``settings`` at all, rather than
     once per run of a batch."""
     entry = _entry(name)

@@ -1,13 +1,16 @@
-"""Physics backends as a tracker and a plant (nuPlan's ``TwoStageController``: tracker + motion
-model). A physics backend supplies only its `Plant` — the world that measures, actuates and
-advances its cars; `TrackedBackend` owns what every such backend shares: a tracking controller
-per agent (with its actuator delays), the controller rate, and the inner loop that runs, for
-each scenario dt,
+"""Physics backends as a tracker and their physics (nuPlan's ``TwoStageController``: tracker +
+motion model). A physics backend supplies only its `Physics` — the world that measures, actuates
+and advances its cars; `TrackedBackend` owns what every such backend shares: a tracking
+controller per agent (with its actuator delays), the controller rate, and the inner loop that
+runs, for each scenario dt,
 
     for every controller period k:   measure each car -> its controller's command -> actuate it;
-                                     then the plant advances one period (its own sub-steps)
+                                     then the physics advances one period (its own sub-steps)
 
-and times the phases (``control`` here; ``physics`` and anything finer in the plant).
+and times the phases (``control`` here; ``physics`` and anything finer in the physics).
+
+(A *plant* is one car alone — ``reset(state)``, ``step(command, period)`` — see
+`simgap.sim.dynamic.closed_loop.Plant`.)
 """
 
 from __future__ import annotations
@@ -21,20 +24,26 @@ from simgap.control import make_controller
 from simgap.control.delay import with_actuator_delay
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
-from simgap.sim.protocol import Agent, BackendEvent
+from simgap.sim.protocol import Agent, BackendEvent, enters_at
 from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import State, Trajectory
 
-class Plant(Protocol):
-    """The physical world of a physics backend, driven one controller period at a time."""
+class Physics(Protocol):
+    """The physical world of a physics backend with all its cars, driven one controller period at
+    a time."""
 
-    timings: dict[str, float]       # seconds per phase this plant spent (``physics``, ...)
-    notes: list[str]                # what the plant did that the run record should say
+    timings: dict[str, float]       # seconds per phase it spent (``physics``, ...)
+    notes: list[str]                # what it did that the run record should say
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
 
     def reset(self, t0: float) -> None:
-        """Put every agent at its initial state; the clock starts at ``t0``."""
+        """Put every agent that is present at ``t0`` at its initial state and keep the others out of
+        the world until they `enter`; the clock starts at ``t0``."""
+        ...
+
+    def enter(self, agent_id: int, t: float) -> None:
+        """Put an agent that was out of the world at its initial state (its time ``t`` has come)."""
         ...
 
     def begin_step(self, t: float) -> None:
@@ -57,19 +66,19 @@ class Plant(Protocol):
 
 
 class TrackedBackend:
-    """A `Backend`: a `Plant` whose cars each follow their plan under a tracking controller."""
+    """A `Backend`: a `Physics` whose cars each follow their plan under a tracking controller."""
 
-    def __init__(self, name: str, plant: Plant, tracking: TrackingSettings):
+    def __init__(self, name: str, physics: Physics, tracking: TrackingSettings):
         self.name = name
-        self.plant = plant
+        self.physics = physics
         self.tracking = tracking
-        self.timings = plant.timings
+        self.timings = physics.timings
         self.timings.setdefault("control", 0.0)
-        self.notes = plant.notes
+        self.notes = physics.notes
         self._agents: list[Agent] = []
         self._dt = 0.1
-        self._t0 = 0.0
         self._step = 0
+        self._present: list[Agent] = []
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
@@ -81,7 +90,7 @@ class TrackedBackend:
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
         self._ticks = int(round(periods))
         self._agents = list(agents)
-        self.plant.load(scenario, agents)
+        self.physics.load(scenario, agents)
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
 
     def make_controller(self, agent: Agent) -> Controller | None:
@@ -93,33 +102,45 @@ class TrackedBackend:
                                    t.steer_delay, t.pedal_delay)
 
     def reset(self) -> dict[int, State]:
-        self._t0 = min(a.initial_state.t for a in self._agents) if self._agents else 0.0
         self._step = 0
-        self.plant.reset(self._t0)
-        states = {a.id: self.plant.measure(a.id, self._t0) for a in self._agents}
-        for aid, controller in self._controllers.items():
-            controller.reset(states[aid])
+        self.physics.reset(0.0)
+        self._present = [a for a in self._agents if enters_at(a, 0.0, self._dt)]
+        states = {a.id: self.physics.measure(a.id, 0.0) for a in self._present}
+        for aid, state in states.items():
+            if aid in self._controllers:
+                self._controllers[aid].reset(state)
         return states
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
-        plant, timings = self.plant, self.timings
+        physics, timings = self.physics, self.timings
         ticks = self._ticks
         period = self._dt / ticks
-        t0 = self._t0 + self._step * self._dt
-        plant.begin_step(t0)
+        t0 = self._step * self._dt
+        physics.begin_step(t0)
+        driving = [(a.id, self._controllers[a.id]) for a in self._present if a.id in self._controllers]
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for aid, controller in self._controllers.items():
-                plant.actuate(aid, controller.command(plant.measure(aid, t), plans[aid], t), period)
+            for aid, controller in driving:
+                physics.actuate(aid, controller.command(physics.measure(aid, t), plans[aid], t), period)
             timings["control"] += time.perf_counter() - start
-            plant.advance(t, period)
+            physics.advance(t, period)
         self._step += 1
-        t_end = t0 + self._dt
-        return {a.id: plant.measure(a.id, t_end) for a in self._agents}
+        t_end = self._step * self._dt
+        self._enter_at(t_end)
+        return {a.id: physics.measure(a.id, t_end) for a in self._present}
+
+    def _enter_at(self, t: float) -> None:
+        """Agents whose initial time is ``t`` enter the world now."""
+        for a in self._agents:
+            if a not in self._present and enters_at(a, t, self._dt):
+                self.physics.enter(a.id, t)
+                self._present.append(a)
+                if a.id in self._controllers:
+                    self._controllers[a.id].reset(self.physics.measure(a.id, t))
 
     def events(self) -> list[BackendEvent]:
-        return self.plant.events()
+        return self.physics.events()
 
     def close(self) -> None:
-        self.plant.close()
+        self.physics.close()

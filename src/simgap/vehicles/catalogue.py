@@ -18,6 +18,8 @@ from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.vehicles.physics import VehiclePhysics
 
+DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
+
 
 class VehicleLimits(BaseModel):
     """Kinematic limits as CommonRoad's vehicle models state them (SI units)."""
@@ -69,10 +71,15 @@ def load_vehicle_file(path: str | Path) -> Vehicle:
     return read_model(path, Vehicle, "vehicle file", defaults={"name": path.stem})
 
 
+def is_vehicle_file(name_or_path: str) -> bool:
+    """Whether a vehicle reference names a data file (else a catalogue name)."""
+    return name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path
+
+
 @lru_cache(maxsize=None)
 def load_vehicle(name_or_path: str) -> Vehicle:
     """A vehicle by catalogue name (``sedan``) or by the path of a data file."""
-    if name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path:
+    if is_vehicle_file(name_or_path):
         return load_vehicle_file(name_or_path)
     path = _data_dir() / f"{name_or_path}.yaml"
     if not path.exists():

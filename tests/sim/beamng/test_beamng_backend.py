@@ -181,7 +181,7 @@ def _closed_port() -> int:
 def test_unreachable_server_is_a_clear_error():
     concrete = build_scenario("curve", {"radius": 30, "angle": 90})
     agents = agents_from_problems(concrete.problems, concrete.scenario.dt, load_vehicle("sedan"))
-    backend = BeamngBackend(host="127.0.0.1", port=_closed_port(), connect_timeout=1.0)
+    backend = BeamngBackend(load_settings({"host": "127.0.0.1", "port": _closed_port(), "connect_timeout": 1.0}))
     with pytest.raises(ServerUnreachable, match=r"no BeamNG.tech server answers at 127.0.0.1:\d+") as err:
         backend.load(concrete.scenario, agents)
     assert "SIMGAP_BEAMNG_HOST" in str(err.value)
@@ -213,7 +213,7 @@ def _run(concrete, servers, **settings):
         servers.append(FakeServer(cfg))
         return servers[-1]
 
-    backend = BeamngBackend(session_factory=connect, **settings)
+    backend = BeamngBackend(load_settings(settings), session_factory=connect)
     return simulate(scenario, problems, backend, agents, planners, CosimSettings(replan_every=3)), agents
 
 

@@ -10,7 +10,7 @@ from simgap.evaluate.compare import compare_runs
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
-from simgap.sim.registry import make_backend
+from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
 
 
@@ -27,7 +27,7 @@ def run(concrete, backend):
 def test_sharp_curve_is_driven_close_to_the_ideal_run(controller):
     concrete = build_scenario("curve", {"radius": 10, "angle": 90})
     ideal = run(concrete, make_backend("ideal"))
-    dynamic = run(concrete, make_backend("dynamic", controller=controller))
+    dynamic = run(concrete, make_backend("dynamic", backend_settings("dynamic", {"controller": controller})))
     assert dynamic.agents[0].outcome == "goal_reached"
     assert dynamic.timings["physics"] > 0 and dynamic.timings["control"] > 0
     (cmp,) = compare_runs(ideal, dynamic, concrete.scenario, concrete.problems, concrete_sections(concrete))

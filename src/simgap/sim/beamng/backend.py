@@ -6,7 +6,7 @@ agent (`catalogue` maps simgap vehicles to BeamNG models) and one per recorded o
 physics to deterministic mode at ``physics_hz`` and pauses. `reset` moves each car so that its
 body's centre, not BeamNG's reference node, sits on the agent's initial state. Each scenario dt
 is then ``physics_hz × dt`` physics steps, taken while the simulation is otherwise paused.
-`BeamngWorld` is the `Plant` and the loop is `simgap.sim.tracked`'s, as for the other physics
+`BeamngWorld` is the `Physics` and the loop is `simgap.sim.tracked`'s, as for the other physics
 backends:
 
 - ``driver: controller`` (default): every controller period simgap's tracking controller (the
@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Callable, Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -41,7 +41,7 @@ from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State, Trajectory
@@ -50,7 +50,7 @@ MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
 
 
 class BeamngWorld:
-    """A running BeamNG.tech as the `Plant` of a tracked backend (see the module doc)."""
+    """A running BeamNG.tech as the `Physics` of a tracked backend (see the module doc)."""
 
     def __init__(self, settings: BeamngSettings, session_factory: Callable[[BeamngSettings], Session]):
         self.settings = settings
@@ -60,7 +60,7 @@ class BeamngWorld:
         self._events: list[BackendEvent] = []
         self.session: Session | None = None
 
-    # --- Plant protocol -----------------------------------------------------------------------
+    # --- Physics protocol -----------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._dt = float(scenario.dt)
@@ -71,6 +71,11 @@ class BeamngWorld:
                              f"{cfg.physics_hz} Hz", field="backend_settings.physics_hz",
                              allowed=f"a multiple of {1 / self._dt:g} Hz")
         self._steps_per_tick = steps_per_tick(cfg.physics_hz, cfg.controller_hz, "backend_settings.controller_hz")
+        late = [a for a in agents if not enters_at(a, 0.0, self._dt)]
+        if late:
+            raise InputError(f"agent {late[0].id} enters at t = {late[0].initial_state.t:g} s; the beamng backend "
+                             "spawns every car at the start", field="planning problem initial time step",
+                             allowed="0 for every planning problem (mujoco, dynamic and ideal take later ones)")
         self._models = {a.id: model_for(a.vehicle.name, cfg.vehicle_models, cfg.steer_locks) for a in agents}
         self._traffic = recorded_obstacles(scenario)
         traffic_model = model_for("traffic", {"traffic": "etk800"} | cfg.vehicle_models, cfg.steer_locks)
@@ -229,14 +234,15 @@ class BeamngBackend(TrackedBackend):
     """The ``beamng`` backend: `BeamngWorld` under simgap's tracking controllers, or with each car
     driven by BeamNG's script AI on its plan's waypoints (``driver: script_ai``)."""
 
-    def __init__(self, session_factory: Callable[[BeamngSettings], Session] | None = None, **settings: Any):
-        self.settings = load_settings(settings)
+    def __init__(self, settings: BeamngSettings | None = None,
+                 session_factory: Callable[[BeamngSettings], Session] | None = None):
+        self.settings = settings or load_settings({})
         super().__init__("beamng", BeamngWorld(self.settings, session_factory or BeamngSession), self.settings)
         self._scripted: dict[int, Trajectory] = {}
 
     @property
     def session(self) -> Session | None:
-        return self.plant.session
+        return self.physics.session
 
     def make_controller(self, agent: Agent) -> Controller | None:
         return super().make_controller(agent) if self.settings.driver == "controller" else None
@@ -247,10 +253,10 @@ class BeamngBackend(TrackedBackend):
 
     def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
         if self.settings.driver == "script_ai":        # a replanned plan goes to the script AI at once
-            now = self._t0 + self._step * self._dt
+            now = self._step * self._dt
             for a in self._agents:
                 if self._scripted.get(a.id) is not plans[a.id]:
-                    self.plant.follow(a.id, plans[a.id], now)
+                    self.physics.follow(a.id, plans[a.id], now)
                     self._scripted[a.id] = plans[a.id]
         return super().step(plans)
 

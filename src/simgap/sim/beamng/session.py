@@ -15,7 +15,7 @@ from typing import Any, Protocol, Sequence
 
 from simgap.errors import InputError
 from simgap.sim.beamng.roads import DecalRoad
-from simgap.sim.beamng.settings import ENV, BeamngSettings, load_settings
+from simgap.sim.beamng.settings import ENV, BeamngSettings
 
 
 @dataclass(frozen=True)
@@ -98,10 +98,9 @@ def scenario_objects(level: str, name: str, roads: Sequence[DecalRoad], spawns: 
     return scenario, vehicles
 
 
-def check_server(settings: dict[str, Any]) -> None:
+def check_server(settings: BeamngSettings) -> None:
     """Raise `ServerUnreachable` unless the server the backend ``settings`` name answers."""
-    cfg = load_settings(settings)
-    probe(cfg.host, cfg.port, cfg.connect_timeout)
+    probe(settings.host, settings.port, settings.connect_timeout)
 
 
 class BeamngSession:

@@ -14,31 +14,20 @@ knobs ``road_friction`` (1.0 = dry), ``steer_delay`` and ``pedal_delay`` [s].
 from __future__ import annotations
 
 import time
-from typing import Any, Sequence
+from typing import Sequence
 
 from commonroad.scenario.scenario import Scenario
-from pydantic import Field
 
 from simgap.control.protocol import Command
-from simgap.errors import InputError, validated_settings
-from simgap.sim.dynamic.plant import PLANTS, make_plant
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
-from simgap.sim.settings import DRY_ROAD_FRICTION, RoadFriction, TrackingSettings
+from simgap.sim.dynamic.plant import PLANTS
+from simgap.sim.dynamic.settings import DynamicSettings
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
 
-class DynamicSettings(TrackingSettings):
-    """Settings of the ``dynamic`` world (``backend_settings`` of a run)."""
-
-    params_id: int = Field(2, ge=1, le=3, description="CommonRoad vehicle parameter set")
-    model: str = Field("st", description=f"vehicle model: {', '.join(PLANTS)}")
-    integration_step: float = Field(0.001, gt=0, le=0.01, description="RK4 sub-step of the vehicle model [s]")
-    road_friction: RoadFriction = DRY_ROAD_FRICTION
-
-
 class SingleTrackWorld:
-    """The `Plant` of the ``dynamic`` backend: one CommonRoad vehicle model per agent, each
+    """The `Physics` of the ``dynamic`` backend: one CommonRoad vehicle model per agent, each
     integrated on its own (the cars of this world do not touch)."""
 
     def __init__(self, settings: DynamicSettings):
@@ -50,12 +39,19 @@ class SingleTrackWorld:
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         cfg = self.settings
         self._agents = list(agents)
-        self._plants = {a.id: make_plant(cfg.model, a.vehicle, cfg.params_id, cfg.road_friction, cfg.integration_step)
-                        for a in agents}
+        self._dt = float(scenario.dt)
+        self._plants = {a.id: PLANTS[cfg.model](a.vehicle, cfg.params_id, road_friction=cfg.road_friction,
+                                                integration_step=cfg.integration_step) for a in agents}
         self._commands: dict[int, Command] = {}
 
     def reset(self, t0: float) -> None:
-        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents}
+        self._states = {a.id: self._plants[a.id].reset(a.initial_state) for a in self._agents
+                        if enters_at(a, t0, self._dt)}
+        self._commands = {}
+
+    def enter(self, agent_id: int, t: float) -> None:
+        agent = next(a for a in self._agents if a.id == agent_id)
+        self._states[agent_id] = self._plants[agent_id].reset(agent.initial_state.replace(t=t))
 
     def begin_step(self, t: float) -> None:
         pass
@@ -68,11 +64,11 @@ class SingleTrackWorld:
 
     def advance(self, t: float, period: float) -> None:
         start = time.perf_counter()
-        for a in self._agents:
+        for aid, command in self._commands.items():
             try:
-                self._states[a.id] = self._plants[a.id].step(self._commands[a.id], period)
+                self._states[aid] = self._plants[aid].step(command, period)
             except FloatingPointError as exc:
-                raise PhysicsDiverged(f"agent {a.id}: {exc}") from None
+                raise PhysicsDiverged(f"agent {aid}: {exc}") from None
         self.timings["physics"] += time.perf_counter() - start
 
     def events(self) -> list[BackendEvent]:
@@ -82,19 +78,9 @@ class SingleTrackWorld:
         pass
 
 
-def dynamic_settings(values: dict[str, Any]) -> DynamicSettings:
-    """``values`` validated as the backend's settings."""
-    cfg = validated_settings(DynamicSettings, values)
-    if cfg.model not in PLANTS:
-        raise InputError(f"unknown vehicle model '{cfg.model}'", field="backend_settings.model",
-                         allowed=", ".join(PLANTS))
-    return cfg
-
-
 class DynamicBackend(TrackedBackend):
     """The ``dynamic`` backend: `SingleTrackWorld` under a tracking controller per car."""
 
-    def __init__(self, **settings):
-        cfg = dynamic_settings(settings)
-        self.settings = cfg
+    def __init__(self, settings: DynamicSettings | None = None):
+        cfg = self.settings = settings or DynamicSettings()
         super().__init__("dynamic", SingleTrackWorld(cfg), cfg)

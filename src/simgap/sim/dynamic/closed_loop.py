@@ -8,13 +8,26 @@ controller period.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Callable, Protocol
 
-from simgap.control.protocol import Controller
+from simgap.control.protocol import Command, Controller
 from simgap.trajectory import State, Trajectory
 
 
-def track_plans(plant, controller: Controller, plan_at: Callable[[float, State], Trajectory],
+class Plant(Protocol):
+    """One car alone, driven by commands: the single-track (`SingleTrackPlant`) and multi-body
+    models, the MuJoCo car on a proving ground (`simgap.sim.mujoco.plant.MujocoPlant`)."""
+
+    def reset(self, state: State) -> State:
+        """Place the car at ``state``; the state it is measured in then."""
+        ...
+
+    def step(self, command: Command, period: float) -> State:
+        """Hold ``command`` for ``period`` seconds; the state afterwards."""
+        ...
+
+
+def track_plans(plant: Plant, controller: Controller, plan_at: Callable[[float, State], Trajectory],
                 initial: State, duration: float, *, plan_period: float = 0.1) -> list[State]:
     """Drive from ``initial`` for ``duration`` seconds; return the state after every controller
     period (the first entry is ``initial`` as the plant holds it).

@@ -43,6 +43,7 @@ from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_pa
 from simgap.control.longitudinal import LongitudinalMap
 from simgap.control.protocol import Command
 from simgap.errors import InputError
+from simgap.sim.dynamic.settings import VEHICLE_MODELS
 from simgap.sim.settings import DRY_ROAD_FRICTION
 from simgap.trajectory import State, wrap_angle
 from simgap.vehicles.constants import GRAVITY
@@ -80,16 +81,20 @@ def single_track_parameters(vehicle, params_id: int = 2) -> VehicleParameters:
     return p
 
 
+# CommonRoad's single-track model is kinematic below 0.1 m/s and has slip dynamics above, whose
+# rates grow as 1/v: RK4 stays stable with a sub-step up to about this many seconds per m/s of
+# speed (measured: 1 ms at 0.11 m/s, 2 ms at 0.2, 8 ms at 0.5; 4 ms at 0.2 m/s spun the car at
+# 2000 rad/s), so at walking pace the sub-step shrinks below integration_step
+STABLE_STEP_PER_SPEED = 0.008
+KINEMATIC_BELOW_M_S = 0.1
+
+
 class SingleTrackPlant:
     """One vehicle on CommonRoad's single-track model, driven by steering/throttle/brake."""
 
     def __init__(self, vehicle, params_id: int = 2, *, integration_step: float = 1e-3,
                  steer_time_constant: float = 0.05, accel_time_constant: float = 0.1,
                  road_friction: float = DRY_ROAD_FRICTION):
-        if integration_step <= 0:
-            raise ValueError("integration_step must be > 0")
-        if road_friction <= 0:
-            raise ValueError("road_friction must be > 0")
         self.vehicle = vehicle
         self.params_id = params_id
         self.p = single_track_parameters(vehicle, params_id)
@@ -127,34 +132,52 @@ class SingleTrackPlant:
         n = max(1, math.ceil(dt / self.integration_step - 1e-9))
         h = dt / n
         target = min(max(command.steer, self.p.steering.min), self.p.steering.max)
-        tau = self.accel_time_constant
-        # first-order lag, exact over a sub-step: its value at the end and its mean over it
-        decay = math.exp(-h / tau) if tau > 0 else 0.0
-        mean_weight = tau / h * (1.0 - decay) if tau > 0 else 0.0
+        lag = self._lag(h)
         x = self._x
         for _ in range(n):
-            v = x[3]
-            demanded = self.pedal_map.acceleration(command.throttle, command.brake, v)
-            a = demanded + (self._accel - demanded) * mean_weight
-            self._accel = demanded + (self._accel - demanded) * decay
-            if v <= 0.0 and a < 0.0:
-                a = 0.0                      # brakes hold, they do not reverse
-            elif v > 0.0 and v + a * h < 0.0:
-                a = -v / h                   # come to rest exactly at the end of the sub-step
-            a = acceleration_constraints(v, a, self.p.longitudinal)
-            lateral = v * x[5]
-            cap = math.sqrt(max(self.grip * self.grip - lateral * lateral, 0.0))
-            a = min(max(a, -cap), cap)
-            x = self._rk4(x, target, a, h)
-            if x[3] < 0.0:
-                x[3] = 0.0
-            self._applied = a
+            if x[3] < KINEMATIC_BELOW_M_S or x[3] * STABLE_STEP_PER_SPEED >= h:
+                x = self._advance(x, command, target, h, *lag)
+            else:            # walking pace: the slip dynamics are stiff, the sub-step shrinks with the speed
+                m = math.ceil(h / (STABLE_STEP_PER_SPEED * x[3]))
+                short = self._lag(h / m)
+                for _ in range(m):
+                    x = self._advance(x, command, target, h / m, *short)
         self._x = x
         self._t += dt
         self.state = self._observe()
         if not all(math.isfinite(c) for c in x):
             raise FloatingPointError(f"single-track plant diverged at t={self._t:.3f}: {x}")
         return self.state
+
+    def _lag(self, h: float) -> tuple[float, float]:
+        """The powertrain's first-order lag over a sub-step of ``h`` seconds, exact: the share of
+        the old acceleration left at its end and the weight of the old one in its mean."""
+        tau = self.accel_time_constant
+        if tau <= 0:
+            return 0.0, 0.0
+        decay = math.exp(-h / tau)
+        return decay, tau / h * (1.0 - decay)
+
+    def _advance(self, x: list[float], command: Command, target: float, h: float,
+                 decay: float, mean_weight: float) -> list[float]:
+        """One sub-step: the pedals through the lag and the model's limits, then RK4."""
+        v = x[3]
+        demanded = self.pedal_map.acceleration(command.throttle, command.brake, v)
+        a = demanded + (self._accel - demanded) * mean_weight
+        self._accel = demanded + (self._accel - demanded) * decay
+        if v <= 0.0 and a < 0.0:
+            a = 0.0                      # brakes hold, they do not reverse
+        elif v > 0.0 and v + a * h < 0.0:
+            a = -v / h                   # come to rest exactly at the end of the sub-step
+        a = acceleration_constraints(v, a, self.p.longitudinal)
+        lateral = v * x[5]
+        cap = math.sqrt(max(self.grip * self.grip - lateral * lateral, 0.0))
+        a = min(max(a, -cap), cap)
+        x = self._rk4(x, target, a, h)
+        if x[3] < 0.0:
+            x[3] = 0.0
+        self._applied = a
+        return x
 
     # ------------------------------------------------------------------------------------
     def _rhs(self, x: list[float], target: float, a: float) -> list[float]:
@@ -212,13 +235,4 @@ class MultiBodyPlant(SingleTrackPlant):
                      a=self._applied, yaw_rate=x[5], steer=x[2])
 
 
-PLANTS = {"st": SingleTrackPlant, "mb": MultiBodyPlant}
-
-
-def make_plant(model: str, vehicle, params_id: int = 2, road_friction: float = DRY_ROAD_FRICTION,
-               integration_step: float = 1e-3) -> SingleTrackPlant:
-    """The plant of vehicle model ``model``: ``st`` (single-track) or ``mb`` (multi-body)."""
-    if model not in PLANTS:
-        raise InputError(f"unknown vehicle model '{model}'", field="backend_settings.model",
-                         allowed=", ".join(PLANTS))
-    return PLANTS[model](vehicle, params_id, road_friction=road_friction, integration_step=integration_step)
+PLANTS = dict(zip(VEHICLE_MODELS, (SingleTrackPlant, MultiBodyPlant)))    # by DynamicSettings.model

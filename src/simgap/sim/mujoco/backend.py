@@ -9,7 +9,7 @@ system's rate and within its angle; drive torque (capped by the powertrain's pow
 drag and the friction of the surface under each tyre are set; then physics runs at its own rate
 (default 500 Hz) until the next controller update, with slip-based tyre forces computed every
 physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). The controllers
-and that loop are `simgap.sim.tracked`'s; this module is the plant, `MujocoPhysics`. Physical
+and that loop are `simgap.sim.tracked`'s; this module is the physics, `MujocoPhysics`. Physical
 contacts with other cars or with traffic are reported as collision events; a state that is no longer finite, a solver warning,
 or a chassis on its side is `PhysicsDiverged`.
 
@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any, Sequence
+from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -32,33 +32,34 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
-from simgap.errors import validated_settings
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
-from simgap.sim.mujoco.world import World, WorldSettings, build_world
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged
-from simgap.sim.rates import SpeedRate, steps_per_tick
-from simgap.sim.settings import TrackingSettings, fields_of
+from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
+from simgap.sim.mujoco.world import World, build_world
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
+from simgap.sim.rates import SpeedRate
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
+PARKING_M = 100.0           # a car that has not entered the world yet waits this far beyond the road [m]
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
 
 class MujocoPhysics:
-    """The MuJoCo world as the `Plant` of a tracked backend: it measures, actuates and advances
+    """The MuJoCo world as the `Physics` of a tracked backend: it measures, actuates and advances
     every car of a scenario (see the module doc)."""
 
-    def __init__(self, **world: Any):
-        self.settings = validated_settings(WorldSettings, world)
+    def __init__(self, settings: WorldSettings):
+        self.settings = settings
         self.timings = {"physics": 0.0, "tyres": 0.0}
         self.notes: list[str] = []
         self.world: World | None = None
         self._events: list[BackendEvent] = []
         self._seen: set[tuple[int, int | None]] = set()
 
-    # --- Plant protocol ------------------------------------------------------------------------
+    # --- Physics protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
+        self._dt = float(scenario.dt)
         self.world = build_world(scenario, agents, self.settings)
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
@@ -77,8 +78,8 @@ class MujocoPhysics:
     def reset(self, t0: float) -> None:
         w = self.world
         mujoco.mj_resetData(w.model, w.data)
-        for a in self._agents:
-            w.place(a.id, a.initial_state)
+        for k, a in enumerate(self._agents):
+            w.place(a.id, a.initial_state if enters_at(a, t0, self._dt) else self._parked(k, t0))
         self._steer_target = {a.id: a.initial_state.steer for a in self._agents}
         w.tyres.reset()
         w.move_traffic(t0)
@@ -86,6 +87,23 @@ class MujocoPhysics:
         w.tyres.apply(settle=True)
         self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._events = []
+
+    def enter(self, agent_id: int, t: float) -> None:
+        """Bring a parked car (`_parked`) to its initial state, its tyres settled to its motion."""
+        w = self.world
+        k, agent = next((k, a) for k, a in enumerate(self._agents) if a.id == agent_id)
+        initial = agent.initial_state.replace(t=t)
+        w.place(agent_id, initial)
+        mujoco.mj_forward(w.model, w.data)
+        w.tyres.settle(slice(4 * k, 4 * k + 4))
+        self._steer_target[agent_id] = initial.steer
+        self._accel[agent_id] = SpeedRate(t, initial.v, initial.a)
+
+    def _parked(self, k: int, t: float) -> State:
+        """Where the ``k``-th car waits until it enters the world: at rest on the ground plane,
+        `PARKING_M` beyond the road's corner, one car length apart from the next."""
+        x0, y0, x1, _ = self.world.road_bounds
+        return State(t=t, x=x1 + PARKING_M + 8.0 * k, y=y0 - PARKING_M, yaw=0.0, v=0.0)
 
     def begin_step(self, t: float) -> None:
         self._events = []
@@ -229,24 +247,13 @@ class MujocoPhysics:
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))
 
 
-class MujocoSettings(TrackingSettings, WorldSettings):
-    """Settings of the ``mujoco`` backend (``backend_settings`` of a run): the tracking and the world."""
-
-
-def mujoco_settings(values: dict[str, Any]) -> MujocoSettings:
-    """``values`` validated as the backend's settings (the physics rate a multiple of the controller's)."""
-    cfg = validated_settings(MujocoSettings, values)
-    steps_per_tick(cfg.physics_hz, cfg.controller_hz)
-    return cfg
-
-
 class MujocoBackend(TrackedBackend):
     """The ``mujoco`` backend: `MujocoPhysics` under a tracking controller per car."""
 
-    def __init__(self, **settings: Any):
-        cfg = self.settings = mujoco_settings(settings)
-        super().__init__("mujoco", MujocoPhysics(**fields_of(WorldSettings, cfg.model_dump())), cfg)
+    def __init__(self, settings: MujocoSettings | None = None):
+        cfg = self.settings = settings or MujocoSettings()
+        super().__init__("mujoco", MujocoPhysics(cfg), cfg)
 
     @property
     def world(self) -> World | None:
-        return self.plant.world
+        return self.physics.world

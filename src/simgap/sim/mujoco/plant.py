@@ -9,9 +9,10 @@ from typing import Any
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
+from simgap.errors import validated_settings
 from simgap.sim.mujoco.backend import MujocoPhysics
+from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Agent
-from simgap.sim.settings import DRY_ROAD_FRICTION
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle
 
@@ -29,9 +30,9 @@ class MujocoPlant:
     (``road_friction``, ``road_grade``, ...); on the proving ground a slope runs along the car's
     heading."""
 
-    def __init__(self, vehicle: Vehicle, physics_hz: float = 500.0, road_friction: float = DRY_ROAD_FRICTION, **world: Any):
+    def __init__(self, vehicle: Vehicle, **world: Any):
         self.vehicle = vehicle
-        self.physics = MujocoPhysics(physics_hz=physics_hz, road_friction=road_friction, **world)
+        self.physics = MujocoPhysics(validated_settings(WorldSettings, world))
         self._scenario = proving_ground()
         self._t = 0.0
 

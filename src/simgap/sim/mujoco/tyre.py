@@ -255,23 +255,19 @@ class SlipTyres:
                     self.travel, self.params, self.mu, self.u, self.v, self._dt, settle, self.out)
         self.seconds += time.perf_counter() - start
 
+    def settle(self, wheels: slice) -> None:
+        """Set the deflections of the ``wheels`` (a car's four) to the steady values of their present
+        motion and apply their forces; the other tyres keep their state (a car entering the world)."""
+        xipos, xmat, cvel, com, qpos, qvel, xfrc = self._views
+        tyre_forces(xipos, xmat, cvel, com, qpos, qvel, xfrc, self.wheel[wheels], self.upright[wheels],
+                    self.root[wheels], self.spin[wheels], self.travel[wheels], self.params[wheels], self.mu[wheels],
+                    self.u[wheels], self.v[wheels], self._dt, True, self.out[wheels])
+
     # --- what the tyres do now, per wheel (for monitors, tests and benchmarks) -----------------
     @property
     def load(self) -> np.ndarray:
         return self.out[:, OUT_FZ]
 
     @property
-    def slip_ratio(self) -> np.ndarray:
-        return self.out[:, OUT_KAPPA]
-
-    @property
     def slip_angle(self) -> np.ndarray:
         return self.out[:, OUT_ALPHA]
-
-    @property
-    def longitudinal_force(self) -> np.ndarray:
-        return self.out[:, OUT_FX]
-
-    @property
-    def lateral_force(self) -> np.ndarray:
-        return self.out[:, OUT_FY]

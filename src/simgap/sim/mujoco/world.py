@@ -2,7 +2,7 @@
 
 `build_world` compiles it; `World` holds the model, the data, where each car and obstacle lives,
 and the surface map. The backend (`simgap.sim.mujoco.backend`) drives it; the 3D renderer
-(`simgap.report.scene3d`) poses it from a finished run.
+(`simgap.sim.mujoco.replay`) poses it from a finished run.
 """
 
 from __future__ import annotations
@@ -14,14 +14,13 @@ from typing import Sequence
 import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
-from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
 from simgap.sim.mujoco.road import SurfaceMap, add_road
 from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
-from simgap.sim.settings import DRY_ROAD_FRICTION, RoadFriction
+from simgap.sim.mujoco.settings import WorldSettings
 from simgap.trajectory import State
 from simgap.vehicles.constants import GRAVITY
 
@@ -32,19 +31,6 @@ TRAFFIC_HEIGHT = 1.5    # m, height of a recorded obstacle's box
 SETTLED_MIN_SPEED = 0.5  # m/s: a car placed slower than this starts without sideslip or roll
 MAX_PLACED_ROLL = 0.1    # rad: bound on the body roll of a car placed in a turn
 NOSLIP_ITERATIONS = 2    # MuJoCo's post-pass on friction constraints (the brakes)
-
-
-class WorldSettings(BaseModel):
-    """Settings of the physics world (``backend_settings`` of a run)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    physics_hz: float = Field(500.0, ge=200.0, le=5000.0, description="physics rate [Hz]")
-    road_friction: RoadFriction = DRY_ROAD_FRICTION
-    offroad_friction: RoadFriction = Field(0.6, description="off-road (verge) friction, scales each tyre's [-]")
-    road_bank: float = Field(0.0, ge=-15.0, le=15.0,
-                             description="cross slope [deg]; positive: the road falls to the right of the way of travel")
-    road_grade: float = Field(0.0, ge=-15.0, le=15.0, description="grade [deg]; positive: uphill in the way of travel")
 
 
 @dataclass

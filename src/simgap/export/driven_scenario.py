@@ -15,11 +15,9 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 
-from simgap.cosim.record import Run
+from simgap.cosim.record import AGENT_ID_OFFSET, Run
 from simgap.scenario.files import write_xml
 from simgap.sim.protocol import Agent
-
-AGENT_ID_OFFSET = 100_000
 
 
 def driven_scenario(scenario: Scenario, agents: list[Agent], run: Run) -> Scenario:

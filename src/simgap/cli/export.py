@@ -1,0 +1,129 @@
+"""`simgap export`: runs, scenarios and search findings as OpenSCENARIO and OpenDRIVE files."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from enum import StrEnum
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+
+from simgap.cli.main import app
+from simgap.errors import InputError
+
+
+class Format(StrEnum):
+    OPENSCENARIO = "openscenario"
+    OPENDRIVE = "opendrive"
+
+
+@app.command("export")
+def export_cmd(
+    source: Path = typer.Argument(..., help="a run directory, a CommonRoad scenario (.xml), or with --violations "
+                                            "a search directory"),
+    out: Path = typer.Option(..., "--out", "-o", help="directory to write into"),
+    format: Optional[str] = typer.Option(None, "--format", "-f",
+                                         help="openscenario (a run: .xosc + .xodr) or opendrive (a scenario's "
+                                              "road: .xodr); default: by SOURCE"),
+    violations: bool = typer.Option(False, "--violations", help="SOURCE is a search: a folder per distinct violation"),
+    version: str = typer.Option("1.0", "--version", help="OpenSCENARIO version: 1.0 (CARLA's ScenarioRunner), "
+                                                         "1.1, 1.2 or 1.3"),
+) -> None:
+    """Write a run, a scenario's road or a search's findings in the formats other simulators read.
+
+    Every file is checked before it is moved into place: it validates against the schema of the
+    version it declares, trajectories parse back to within 1 cm, and the road's lane centres lie
+    where the lanelets are. Examples:
+    simgap export runs/c10 --format openscenario --out exported;
+    simgap export scenarios/curve_radius-10_angle-90.xml --format opendrive --out exported;
+    simgap export studies/gaps --violations --out findings
+    """
+    from simgap.export.openscenario import OpenScenarioVersion
+
+    osc_version = OpenScenarioVersion.parse(version)
+    chosen = None
+    if format is not None:
+        try:
+            chosen = Format(format)
+        except ValueError:
+            raise InputError(f"unknown format '{format}'", field="--format",
+                             allowed=", ".join(f.value for f in Format)) from None
+    console = Console()
+    if not source.exists():
+        raise InputError("no such file or directory", file=source,
+                         allowed="a run directory, a .xml scenario, or a search directory with --violations")
+    if violations:
+        if chosen is Format.OPENDRIVE:
+            raise InputError("a search's findings are runs: they export as openscenario", field="--format",
+                             allowed="openscenario")
+        _violations(console, source, out, osc_version)
+        return
+    if (source / "run.json").is_file():
+        if chosen is Format.OPENDRIVE:
+            raise InputError("a run exports as openscenario (its .xosc with its road's .xodr beside it)",
+                             file=source, field="--format", allowed="openscenario")
+        from simgap.export.write import export_run
+
+        _show(console, [export_run(source, out, osc_version)])
+    elif source.is_file() and source.suffix == ".xml":
+        if chosen is Format.OPENSCENARIO:
+            raise InputError("a scenario file exports its road; OpenSCENARIO needs a run of it", file=source,
+                             field="--format", allowed="opendrive (or give a run directory)")
+        from simgap.export.write import export_road
+
+        _show(console, [export_road(source, out)])
+    else:
+        raise InputError("not a run directory (no run.json) nor a CommonRoad scenario file", file=source,
+                         allowed="a run directory, a .xml scenario, or a search directory with --violations")
+
+
+def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
+    """One folder per distinct violation: its high-fidelity run as .xosc + .xodr, the CommonRoad
+    scenario and violation.json (what made it one); each folder built aside, then moved in."""
+    from simgap.experiment.search_results import search_results
+    from simgap.export.write import export_run
+    from simgap.files import replace_directory
+
+    results = search_results(search_dir)
+    found = [v for strategy in results.strategies for v in strategy.found]
+    exports = []
+    for v in found:
+        folder = f"{v.strategy}_{v.scenario}"
+
+        def write(staged: Path, v=v, folder=folder) -> None:
+            exports.append(export_run(v.run_dir, staged, version, scenario_xml=v.scenario_xml, name=folder))
+            if v.scenario_xml is not None:
+                shutil.copyfile(v.scenario_xml, staged / f"{folder}.xml")
+            facts = v.facts(results.spec) | {"run_dir": str(v.run_dir), "files": sorted(p.name for p in staged.iterdir())
+                                             + ["violation.json"]}
+            (staged / "violation.json").write_text(json.dumps(facts, indent=2))
+
+        replace_directory(out / folder, write)
+        exports[-1].files = [out / folder / p.name for p in exports[-1].files]
+    console.print(f"{len(found)} distinct violation{'s' if len(found) != 1 else ''} in {search_dir}")
+    if exports:
+        _show(console, exports)
+
+
+def _show(console: Console, exports) -> None:
+    """Each export: the files, what their checks measured, and its time."""
+    for e in exports:
+        roads = len(e.lane_deviation_m)
+        what = f"{e.method.value} road network, {roads} road{'s' if roads != 1 else ''}"
+        if e.entities:
+            what += f", {e.entities} entit{'ies' if e.entities != 1 else 'y'}"
+        console.print(f"[bold]{e.name}[/bold]: {what} ({e.seconds:.2f} s)")
+        for path in e.files:
+            line = f"  {path}  valid against {e.schemas[path.name]}"
+            if path.suffix == ".xodr":
+                line += f"; lane centres within {e.largest_deviation_m:.4f} m of the lanelets' centres"
+                if e.fit_deviation_m:
+                    line += f"; fit within {max(e.fit_deviation_m.values()):.3f} m of the lanelet bounds"
+            elif e.trajectory_error_m is not None:
+                line += f"; every trajectory vertex parses back within {e.trajectory_error_m:.1e} m"
+            console.print(line, soft_wrap=True)
+    for note in dict.fromkeys(n for e in exports for n in e.notes):
+        console.print(f"note: {note}", soft_wrap=True)

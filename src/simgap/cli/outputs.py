@@ -1,0 +1,109 @@
+"""What a command may write over. A command writes into a folder that is new, or that holds what
+the same command wrote (a run of the very same scenario, backend, vehicles and planners; a
+report; pictures); anything else it would replace is refused before any work, naming what is
+there, unless ``--overwrite`` is given."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from simgap.errors import InputError
+from simgap.experiment.single_run import RunRequest
+from simgap.files import atomic_write_text
+from simgap.planning.registry import planner_of
+from simgap.vehicles import load_vehicle
+
+OVERWRITE_HELP = "replace what the output folder holds even when this command did not write it"
+REPORT_FILES = ("index.html", "report.css", "report.js")
+PICTURES = "pictures.json"                                     # what `simgap render` drew into a folder
+
+
+def refuse(out: Path, what: str) -> None:
+    raise InputError(f"holds {what}; not replaced", file=out,
+                     allowed="another --out, or --overwrite to replace it")
+
+
+def check_run_out(out: Path, request: RunRequest, overwrite: bool) -> None:
+    """``out`` is new, empty, or holds a run of the very same configuration as ``request``."""
+    if overwrite or not out.exists():
+        return
+    if not out.is_dir():
+        refuse(out, "a file")
+    meta = out / "run.json"
+    if not meta.exists():
+        others = sorted(p.name for p in out.iterdir())
+        if others:
+            more = f" (and {len(others) - 1} more)" if len(others) > 1 else ""
+            refuse(out, f"{others[0]}{more}, not a simgap run")
+        return
+    try:
+        held = json.loads(meta.read_text())
+        agents = {int(a["id"]): (a["vehicle"], a.get("planner", "")) for a in held["agents"]}
+        there = (f"a run of {held['scenario_id']} (backend {held['backend']}, vehicle "
+                 f"{'+'.join(sorted({v for v, _ in agents.values()}))}, planner "
+                 f"{'+'.join(sorted({p for _, p in agents.values()}))})")
+    except (OSError, ValueError, KeyError, TypeError):
+        refuse(out, "a run.json that cannot be read")
+    if not (_same_scenario(held, request.scenario) and held["backend"] == request.backend
+            and agents == _requested_agents(request, list(agents))):
+        refuse(out, there)
+
+
+def _same_scenario(held: dict, scenario: Path) -> bool:
+    path = held.get("scenario_path")
+    return path is not None and Path(path).resolve() == Path(scenario).resolve()
+
+
+def _requested_agents(request: RunRequest, ids: list[int]) -> dict[int, tuple[str, str]] | None:
+    """(vehicle name, planner name) of each agent as ``request`` would run it (None: it cannot)."""
+    out = {}
+    try:
+        for aid in ids:
+            ref = request.vehicles if isinstance(request.vehicles, str) else request.vehicles[aid]
+            out[aid] = (load_vehicle(ref).name, planner_of(request.planner, aid, ids).name)
+    except (KeyError, InputError):
+        return None
+    return out
+
+
+def check_report_out(out: Path, overwrite: bool) -> None:
+    """``out`` holds none of the report's files, or a report simgap wrote."""
+    existing = [name for name in REPORT_FILES if (out / name).exists()]
+    if overwrite or not existing:
+        return
+    from simgap.report.site import GENERATOR
+
+    index = out / "index.html"
+    if not (index.is_file() and GENERATOR in index.read_text(errors="replace")):
+        refuse(out, f"{existing[0]}, which simgap report did not write")
+
+
+def check_pictures_out(out: Path, names: list[str], overwrite: bool) -> None:
+    """``out`` holds none of the pictures ``names``, or is a run directory or a folder that
+    `simgap render` drew into (their pictures are its own)."""
+    existing = [name for name in names if (out / name).exists()]
+    if overwrite or not existing or (out / "run.json").exists() or _drawn(out, existing):
+        return
+    refuse(out, f"{existing[0]}, which simgap render did not write")
+
+
+def _drawn(out: Path, names: list[str]) -> bool:
+    try:
+        drawn = set(json.loads((out / PICTURES).read_text())["pictures"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return set(names) <= drawn
+
+
+def record_pictures(out: Path, run_dir: Path, written: list[Path]) -> None:
+    """Say in ``out`` which pictures `simgap render` drew there, and of which run (not needed in
+    the run directory itself)."""
+    if (out / "run.json").exists():
+        return
+    try:
+        earlier = set(json.loads((out / PICTURES).read_text())["pictures"])
+    except (OSError, ValueError, KeyError, TypeError):
+        earlier = set()
+    atomic_write_text(out / PICTURES, json.dumps({"run": str(run_dir),
+                                                   "pictures": sorted(earlier | {p.name for p in written})}, indent=2))

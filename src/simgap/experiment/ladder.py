@@ -1,0 +1,111 @@
+"""A candidate's runs up the ladder of a search: the job of a candidate in a rung (its scenario
+file, the rung's settings with the candidate's reality knobs, its identity), and the ideal runs
+that candidates share (`SharedIdealRuns`): the ideal world takes no reality knob, so candidates
+that differ only in their knobs share one ideal run, and the later ones get a copy of its row."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+from pydantic import BaseModel
+
+from simgap.cosim import REFERENCE, CosimSettings, Fidelity
+from simgap.experiment.knobs import with_knobs
+from simgap.experiment.job import Job, JobId
+from simgap.experiment.search_rows import SearchRow
+from simgap.experiment.search_spec import Search
+from simgap.experiment.search_space import Candidate
+from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.scenario import write_scenario
+from simgap.vehicles import load_vehicle
+
+
+def scenario_name(index: int) -> str:
+    return f"c{index:05d}"
+
+
+def rung_name(rung: int, ladder_len: int) -> str:
+    return REFERENCE if rung == 0 else "high" if rung == ladder_len - 1 else f"screen{rung}"
+
+
+class Ladder:
+    """The jobs of candidates in the rungs of a search's ladder, written under ``root``."""
+
+    def __init__(self, search: Search, root: Path):
+        self.search, self.root = search, Path(root)
+        self.high = len(search.rungs) - 1
+
+    def scenario(self, c: Candidate) -> str:
+        """``c``'s CommonRoad scenario file (written on first use)."""
+        folder = self.root / "scenarios" / scenario_name(c.index)
+        existing = sorted(folder.glob("*.xml"))
+        if existing:
+            return str(existing[0])
+        return str(write_scenario(self.search.logical.build(c.params), folder, preview=False))
+
+    def settings(self, c: Candidate, rung: int) -> tuple[BaseModel | None, CosimSettings]:
+        """(backend settings, loop settings) of ``c`` in ``rung``: the rung's with ``c``'s knobs."""
+        r = self.search.rungs[rung]
+        return with_knobs(r.backend, r.settings, r.cosim, c.knobs)
+
+    def job(self, c: Candidate, rung: int) -> Job:
+        settings, cosim = self.settings(c, rung)
+        r = self.search.rungs[rung]
+        return Job(self._id(c, rung, Fidelity(r.backend, load_vehicle(c.vehicle).name, r.controller),
+                            self.search.spec.seed + c.index),
+                   c.params, c.vehicle, settings, cosim, self.scenario(c), self.search.planners[c.planner])
+
+    def _id(self, c: Candidate, rung: int, fidelity: Fidelity, seed: int) -> JobId:
+        return JobId(scenario_name(c.index), fidelity, seed=seed, planner=c.planner,
+                     stage=rung_name(rung, len(self.search.rungs)))
+
+    def ideal_key(self, c: Candidate) -> str:
+        """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
+        planner, the rung's settings, and the seed only if that rung observes with noise."""
+        settings, cosim = self.settings(c, 0)
+        driver = [c.vehicle] if c.planner == DEFAULT_PLANNER else [c.vehicle, c.planner]
+        return json.dumps([c.params, *driver, settings.model_dump(mode="json") if settings is not None else None,
+                           cosim.model_dump(mode="json"),
+                           self.search.spec.seed + c.index if cosim.observation_noise.active else None],
+                          sort_keys=True, default=str)
+
+    def copied_ideal(self, c: Candidate, source: SearchRow, elapsed_s: float) -> SearchRow:
+        """The row of ``c``'s ideal run as a copy of ``source``'s: the same run, under ``c``'s key and
+        point, at no cost (zero times), marked as ``source``'s."""
+        run = source.run
+        copied = replace(run, id=self._id(c, 0, Fidelity(REFERENCE, load_vehicle(c.vehicle).name), run.id.seed),
+                         job_time_s=0.0, wall_time_s=0.0, timings={k: 0.0 for k in run.timings})
+        return replace(source, run=copied, candidate=c.index, elapsed_s=elapsed_s, unit=tuple(c.unit),
+                       knobs=dict(c.knobs), promote=False, ideal_of=source.candidate)
+
+
+class SharedIdealRuns:
+    """The ideal runs candidates share, keyed by what an ideal run depends on (`Ladder.ideal_key`):
+    the verdicts known (the candidate that ran it), the runs in flight, and the candidates waiting
+    for them."""
+
+    def __init__(self) -> None:
+        self.verdicts: dict[str, int] = {}
+        self.running: dict[str, int] = {}
+        self.waiting: dict[str, list[int]] = {}
+
+    def known(self, key: str, index: int) -> None:
+        """``index`` ran the ideal run ``key`` depends on, and it finished."""
+        self.verdicts.setdefault(key, index)
+
+    def join(self, key: str, index: int) -> bool:
+        """True if ``index`` waits for a run already in flight; else it runs one itself."""
+        if key in self.running:
+            self.waiting.setdefault(key, []).append(index)
+            return True
+        self.running[key] = index
+        return False
+
+    def finished(self, key: str, index: int, ok: bool) -> list[int]:
+        """``index``'s ideal run finished: the candidates that waited for it."""
+        self.running.pop(key, None)
+        if ok:
+            self.known(key, index)
+        return self.waiting.pop(key, [])

@@ -1,0 +1,277 @@
+"""The ``multi_fidelity`` strategy: the cheap fidelities screen, the expensive one confirms (see
+`simgap.experiment.strategies` for the whole story). Its parts: the promotion threshold, which
+learns from what promotions found (`PromotionThreshold`); the map of confirmed failures and open
+proposals, which says how new a candidate is and where to look (`FailureMap`); and the allocation
+of proposals to moves and parents by Thompson sampling on what they found per CPU second
+(`MoveAllocation`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simgap.experiment.run_row import RunRow
+from simgap.experiment.search_space import Candidate, SearchSpace, Strategy, uniform_candidate
+
+EXPLORE_EVERY = 10          # one candidate in this many is promoted whatever its risk
+# --- multi_fidelity's numbers ---------------------------------------------------------------
+SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen (above any other)
+MOVES = ("global", "knobs", "scenario")
+COST_PRIOR_S = 20.0           # a move's yield starts as one failure per this many CPU seconds
+PROPOSAL_TRIES = 30           # neighbours drawn before a move gives up and proposes a global candidate
+NEIGHBOUR_DISTANCE = (1.0, 1.5)   # a neighbour's distance from its parent, in distinct radii: new, yet close
+SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
+# The promotion threshold (a risk) starts where the screen's grip use reaches the road's limit or the
+# objective reaches risk_scale, and follows the precision of the recent promotions:
+START_THRESHOLD = 1.0
+PRECISION_WINDOW = 10         # the promotions the precision is measured over ...
+PRECISION_MIN = 4             # ... once there are this many
+TRUSTED_PRECISION = 0.6       # above: most promoted candidates fail in high fidelity, cast a wider net ...
+WIDEN = 0.9                   # ... by lowering the threshold by this factor
+POOR_PRECISION = 0.3          # below: few do, promote fewer ...
+NARROW = 1.1                  # ... by raising it by this factor
+LOWEST_THRESHOLD = 0.2        # never below: a candidate this safe in the screen is not worth the high fidelity
+
+
+@dataclass
+class PromotionThreshold:
+    """The risk a screened candidate needs to go up the ladder, learned from what promotions found."""
+
+    value: float = START_THRESHOLD
+    promoted: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
+
+    def missed(self, risk: float) -> None:
+        """A candidate promoted regardless of its ``risk`` failed in high fidelity: the screen missed it."""
+        self.value = min(self.value, risk)
+
+    def judged(self, risk: float, failed: bool) -> None:
+        """The high-fidelity verdict on a candidate the threshold promoted."""
+        self.promoted.append((risk, failed))
+        recent = self.promoted[-PRECISION_WINDOW:]
+        if len(recent) < PRECISION_MIN:
+            return
+        precision = sum(f for _, f in recent) / len(recent)
+        if precision > TRUSTED_PRECISION:
+            self.value *= WIDEN
+        elif precision < POOR_PRECISION:
+            self.value *= NARROW
+        # never above a screen failure's risk: what fails in the screen always goes up
+        self.value = min(max(self.value, LOWEST_THRESHOLD), SCREEN_FAILURE_RISK)
+
+
+@dataclass
+class _Yield:
+    """What one kind of proposal (or one parent) has cost and found."""
+    cost_s: float = 0.0
+    found: float = 0.0
+    tried: int = 0
+
+
+class FailureMap:
+    """The high-fidelity failures confirmed so far and the proposals still open: how far a
+    candidate is from them, which failures are worth searching around (parents), and how crowded
+    each scenario is."""
+
+    def __init__(self, radius: float):
+        self.radius = radius
+        self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
+        self.scenario_of: dict[int, tuple] = {}      # ... their scenarios
+        self._points: dict[tuple[str, str], np.ndarray] = {}     # ... their points, per driver
+        self.live: dict[int, Candidate] = {}         # proposed, verdict still open
+        self.ideal_fails: set[tuple] = set()         # scenarios that already fail in the ideal world
+        self.on_scenario: dict[tuple, int] = {}      # high-fidelity failures per scenario
+
+    def add(self, candidate: Candidate) -> None:
+        """``candidate`` failed in the high fidelity."""
+        self.failures[candidate.index] = candidate
+        self.scenario_of[candidate.index] = _scenario_key(candidate)
+        points = self._points.get(candidate.driver, np.empty((0, len(candidate.unit))))
+        self._points[candidate.driver] = np.vstack([points, candidate.unit])
+
+    def found_on(self, candidate: Candidate) -> int:
+        """Count a failure on ``candidate``'s scenario; how many it has now."""
+        key = _scenario_key(candidate)
+        self.on_scenario[key] = self.on_scenario.get(key, 0) + 1
+        return self.on_scenario[key]
+
+    def parents(self) -> list[int]:
+        """The failures to search around: those whose scenario passes in the ideal world."""
+        return [i for i, key in self.scenario_of.items() if key not in self.ideal_fails]
+
+    def crowd(self, parent: int) -> int:
+        return self.on_scenario[self.scenario_of[parent]]
+
+    def novelty(self, c: Candidate, include_live: bool = False) -> float:
+        """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
+        points = self._points.get(c.driver)
+        nearest = math.inf if points is None else float(np.sqrt(((points - c.unit) ** 2).sum(axis=1)).min())
+        if include_live:
+            nearest = min([nearest] + [c.distance(o) for o in self.live.values() if o.index != c.index])
+        return min(1.0, nearest / self.radius)
+
+
+class MoveAllocation:
+    """Which kind of move proposes the next candidate, and around which failure: Thompson sampling
+    on each move's failures per CPU second, and on each parent's share of failing neighbours
+    (discounted by the failures its scenario already has)."""
+
+    def __init__(self, spread: float):
+        self.spread = spread
+        self.move_of: dict[int, tuple[str, int | None]] = {}    # candidate -> (move, parent)
+        self.moves = {m: _Yield() for m in MOVES}
+        self.parents: dict[int, _Yield] = {}         # failure index -> what its neighbours found
+
+    def choose(self, rng: np.random.Generator, index: int, failures: FailureMap) -> tuple[str, int | None]:
+        parents = failures.parents()
+        if not parents or index % EXPLORE_EVERY == 0:
+            return "global", None
+        # Thompson sampling on each move's failures per CPU second (a gamma posterior)
+        rate = {m: rng.gamma(y.found + 1.0, 1.0 / (y.cost_s + COST_PRIOR_S)) for m, y in self.moves.items()}
+        move = max(rate, key=rate.get)
+        if move == "global":
+            return move, None
+        # ... and on each parent's share of neighbours that failed (a beta posterior), discounted by
+        # the failures its road and start already have: a new scenario is worth more than another knob
+        found = np.array([self.parents[p].found for p in parents])
+        tried = np.array([self.parents[p].tried for p in parents])
+        crowd = np.array([failures.crowd(p) for p in parents], dtype=float)
+        draws = rng.beta(found + 1.0, tried - found + 1.0) / crowd ** self.spread
+        return move, parents[int(np.argmax(draws))]
+
+    def proposed(self, index: int, move: str, parent: int | None) -> None:
+        self.move_of[index] = (move, parent)
+        self.moves[move].tried += 1
+        if parent is not None:
+            self.parents[parent].tried += 1
+
+    def fail_share(self, parent: int) -> float:
+        """The share of ``parent``'s neighbours that failed (Laplace's rule: 1/2 before any)."""
+        y = self.parents[parent]
+        return (y.found + 1.0) / (y.tried + 2.0)
+
+    def charge(self, index: int, cost_s: float) -> None:
+        move, _ = self.move_of.get(index, ("global", None))
+        self.moves[move].cost_s += cost_s if math.isfinite(cost_s) else 0.0
+
+    def found(self, index: int, nth_on_scenario: int) -> None:
+        """The candidate ``index`` failed, the ``nth_on_scenario`` failure on its scenario (it
+        counts 1/n^spread for its move)."""
+        move, parent = self.move_of.get(index, ("global", None))
+        self.moves[move].found += nth_on_scenario ** -self.spread
+        if parent is not None and parent in self.parents:
+            self.parents[parent].found += 1
+
+
+class MultiFidelityStrategy(Strategy):
+    name = "multi_fidelity"
+    first_rung = 1
+
+    def __init__(self, space: SearchSpace, seed: int, objective: str, risk_scale: float,
+                 distinct_radius: float, scenario_spread: float = 0.5):
+        super().__init__(space, seed)
+        self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
+        self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]
+        self.threshold = PromotionThreshold()
+        self.map = FailureMap(distinct_radius)
+        self.allocation = MoveAllocation(scenario_spread)
+        self.risk: dict[int, float] = {}
+        self.explored: set[int] = set()
+
+    # --- proposing ----------------------------------------------------------------------------
+    def propose(self, index: int) -> Candidate | None:
+        rng = np.random.default_rng([self.seed, index])
+        move, parent = self.allocation.choose(rng, index, self.map)
+        c = None
+        if move != "global":
+            c = self._neighbour(index, self.map.failures[parent], move, rng)
+            if c is None:
+                move, parent = "global", None
+        if c is None:
+            c = uniform_candidate(self.space, index, rng)
+        elif self.allocation.fail_share(parent) >= SKIP_SCREEN_AT:
+            c.start_rung = self.high        # the screen would only add its cost
+        self.allocation.proposed(index, move, parent)
+        self.map.live[index] = c
+        return c
+
+    def _neighbour(self, index: int, parent: Candidate, move: str, rng: np.random.Generator) -> Candidate | None:
+        """A point one to one and a half distinct radii from ``parent`` — in the knobs only (the same
+        road and start, so its ideal verdict is known) or in every dimension — and at least a
+        distinct radius from every failure and open proposal."""
+        dims = self.knob_dims if move == "knobs" else list(range(len(self.space.dims)))
+        if not dims:
+            return None
+        for _ in range(PROPOSAL_TRIES):
+            direction = rng.normal(size=len(dims))
+            direction /= np.linalg.norm(direction)
+            unit = np.array(parent.unit)
+            unit[dims] = np.clip(unit[dims] + rng.uniform(*NEIGHBOUR_DISTANCE) * self.radius * direction, 0.0, 1.0)
+            c = self.space.candidate(index, unit, parent.vehicle, planner=parent.planner)
+            if move == "scenario" and _scenario_key(c) == _scenario_key(parent):
+                continue
+            if self.map.novelty(c, include_live=True) >= 1.0:
+                return c
+        return None
+
+    # --- learning -----------------------------------------------------------------------------
+    def risk_of(self, row: RunRow, failed: bool) -> float | None:
+        if row.status != "ok":
+            return None
+        parts = [SCREEN_FAILURE_RISK if failed else 0.0, row.value("peak_grip_use"),
+                 row.value(self.objective) / self.risk_scale]
+        return max(p for p in parts if math.isfinite(p))
+
+    def _close(self, candidate: Candidate, found: bool) -> None:
+        self.map.live.pop(candidate.index, None)
+        if found:
+            self.allocation.found(candidate.index, self.map.found_on(candidate))
+
+    def observe(self, candidate, rung, row, failed):
+        self.allocation.charge(candidate.index, row.value("job_time_s"))
+        if rung == 0:
+            if row.status == "ok" and failed:
+                self.map.ideal_fails.add(_scenario_key(candidate))
+            return []
+        if rung == self.high:
+            if row.status != "ok":
+                self._close(candidate, False)
+            return []
+        risk = self.risk_of(row, failed)
+        if risk is None:
+            self._close(candidate, False)
+            return []
+        self.risk[candidate.index] = risk
+        explore = candidate.index % EXPLORE_EVERY == EXPLORE_EVERY - 1
+        if self.map.novelty(candidate) >= 1.0 and (risk >= self.threshold.value or explore):
+            if risk < self.threshold.value:
+                self.explored.add(candidate.index)
+            return [rung + 1]
+        self._close(candidate, False)      # not promoted: a failure already this close, or too safe
+        return []
+
+    def restore(self, candidate, rung, row, failed):
+        self.allocation.move_of.setdefault(candidate.index, ("global", None))
+        self.observe(candidate, rung, row, failed)
+
+    def confirmed(self, candidate: Candidate, failed: bool) -> None:
+        self._close(candidate, failed)
+        if failed:
+            self.map.add(candidate)
+            self.allocation.parents[candidate.index] = _Yield()
+        risk = self.risk.get(candidate.index)
+        if risk is None:
+            return
+        if candidate.index in self.explored:        # not the screen's judgement: no evidence on it ...
+            if failed:
+                self.threshold.missed(risk)         # ... unless the screen missed a failure
+            return
+        self.threshold.judged(risk, failed)
+
+
+def _scenario_key(c: Candidate) -> tuple:
+    """What the ideal world sees of a candidate: its road and start, its vehicle and its planner."""
+    return (c.driver, tuple(sorted(c.params.items())))
+
+

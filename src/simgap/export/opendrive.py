@@ -1,0 +1,321 @@
+"""Road networks as OpenDRIVE 1.7, built with scenariogeneration's ``xodr``.
+
+Two ways, chosen per scenario:
+
+* **exact** — a road network simgap generated (its sidecar holds the blueprint,
+  `simgap.scenario.blueprint`, and rebuilding the blueprint gives the scenario's lanelets). A road
+  is one OpenDRIVE road whose reference line is the generated centre line, its straights, arcs
+  and clothoids written as line, arc and spiral geometry; its lanes keep their count, width and
+  direction (right of the reference line along it, left against it) and the lanelets' markings. A
+  junction is a road per arm (lane -1 leaving the junction, lane +1 arriving), a connecting road
+  per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
+  and the junction that joins them.
+* **fitted** — any other lanelet network (recorded maps): a road per lanelet, fitted by
+  `simgap.export.lanelet_fit` (reference line on the lanelet's centre, lane offset and width to
+  its bounds); roads are linked where a lanelet has one successor whose one predecessor it is.
+  Each road's largest deviation from its lanelet is reported.
+
+Every driving lane carries the road friction as its material friction; a bank is every road's
+superelevation (positive: the road falls to the right of its reference line); a grade is the
+elevation of a network of one road (on a network whose roads meet, a grade along each vehicle's
+way of travel has no single elevation profile: the caller notes it instead).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking
+from scenariogeneration import xodr
+
+from simgap.export.lanelet_fit import Cubic, LaneletFit, Piece, fit_lanelet
+from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
+from simgap.scenario.geometry import curvature_pieces
+from simgap.scenario.markings import MARKING_STYLE
+
+OPENDRIVE_VERSION = (1, 7)          # the version written (its schema ships with scenariogeneration)
+
+_MARK_TYPE = {
+    LineMarking.SOLID: xodr.RoadMarkType.solid, LineMarking.DASHED: xodr.RoadMarkType.broken,
+    LineMarking.BROAD_SOLID: xodr.RoadMarkType.solid, LineMarking.BROAD_DASHED: xodr.RoadMarkType.broken,
+    LineMarking.SOLID_SOLID: xodr.RoadMarkType.solid_solid, LineMarking.DASHED_DASHED: xodr.RoadMarkType.broken_broken,
+    LineMarking.SOLID_DASHED: xodr.RoadMarkType.solid_broken, LineMarking.DASHED_SOLID: xodr.RoadMarkType.broken_solid,
+    LineMarking.CURB: xodr.RoadMarkType.curb, LineMarking.LOWERED_CURB: xodr.RoadMarkType.curb,
+}
+
+
+Geometry = xodr.Line | xodr.Arc | xodr.Spiral | xodr.ParamPoly3
+
+
+class Method(StrEnum):
+    EXACT = "exact"
+    FITTED = "fitted"
+
+
+@dataclass(frozen=True)
+class Surface:
+    """What the road is made of and how it lies: friction (1 = dry), bank and grade [deg]."""
+
+    friction: float = 1.0
+    bank_deg: float = 0.0
+    grade_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class LaneOfLanelets:
+    """An OpenDRIVE lane and the lanelets it stands for, in driving order."""
+
+    road: int
+    lane: int
+    lanelets: tuple[int, ...]
+
+
+@dataclass
+class RoadNetwork:
+    """An OpenDRIVE road network and how it relates to the lanelets it came from."""
+
+    opendrive: xodr.OpenDrive
+    method: Method
+    lanes: list[LaneOfLanelets]
+    fit_deviation_m: dict[int, float] = field(default_factory=dict)   # fitted: road id -> largest deviation
+    notes: list[str] = field(default_factory=list)
+
+
+def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | JunctionBlueprint | None,
+                 surface: Surface = Surface()) -> RoadNetwork:
+    """``network`` as OpenDRIVE: exact when ``blueprint`` rebuilds it, fitted otherwise."""
+    notes = []
+    if blueprint is not None:
+        if _rebuilds(blueprint, network):
+            build = _exact_road if isinstance(blueprint, RoadBlueprint) else _exact_junction
+            result = build(blueprint, name, surface)
+            result.notes += _surface_notes(result, surface)
+            return result
+        notes.append("the scenario's lanelets differ from its recorded blueprint: the road network is fitted")
+    result = _fitted(network, name, surface)
+    result.notes = notes + _surface_notes(result, surface)
+    return result
+
+
+def _surface_notes(result: RoadNetwork, surface: Surface) -> list[str]:
+    notes = []
+    if surface.bank_deg:
+        notes.append(f"road_bank {surface.bank_deg:g} deg is every road's superelevation, falling to the right of its "
+                     "reference line (the MuJoCo world tilts the road to each vehicle's own right)")
+    if surface.grade_deg and len(result.opendrive.roads) > 1:
+        notes.append(f"road_grade {surface.grade_deg:g} deg is not written as elevation (the network has "
+                     f"{len(result.opendrive.roads)} roads; a grade along each vehicle's way of travel has no single "
+                     "elevation profile there)")
+    return notes
+
+
+def _rebuilds(blueprint: RoadBlueprint | JunctionBlueprint, network: LaneletNetwork) -> bool:
+    rebuilt = blueprint.rebuild().lanelets
+    if len(rebuilt) != len(network.lanelets):
+        return False
+    for lanelet in rebuilt:
+        own = network.find_lanelet_by_id(lanelet.lanelet_id)
+        if own is None or own.center_vertices.shape != lanelet.center_vertices.shape or \
+                not np.allclose(own.center_vertices, lanelet.center_vertices, atol=1e-6):
+            return False
+    return True
+
+
+# ------------------------------------------------------------------------------ lanes
+def _mark(marking: LineMarking) -> xodr.RoadMark:
+    if marking not in _MARK_TYPE:
+        return xodr.RoadMark(xodr.RoadMarkType.none)
+    width = MARKING_STYLE[marking][0] if marking in MARKING_STYLE else 0.3
+    return xodr.RoadMark(_MARK_TYPE[marking], width)
+
+
+def _lane(width: float | tuple[Cubic, ...], marking: LineMarking, surface: Surface) -> xodr.Lane:
+    """A driving lane of constant ``width`` or of width polynomials, its outer mark and friction."""
+    if isinstance(width, tuple):
+        lane = xodr.Lane(xodr.LaneType.driving, width[0].a, width[0].b, width[0].c, width[0].d, width[0].s)
+        for w in width[1:]:
+            lane.add_lane_width(w.a, w.b, w.c, w.d, w.s)
+    else:
+        lane = xodr.Lane(xodr.LaneType.driving, a=width)
+    lane.add_roadmark(_mark(marking))
+    lane.add_lane_material(surface.friction)
+    return lane
+
+
+def _centre_lane(marking: LineMarking) -> xodr.Lane:
+    lane = xodr.Lane(xodr.LaneType.none)
+    lane.add_roadmark(_mark(marking))
+    return lane
+
+
+def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lanes: xodr.Lanes,
+          surface: Surface, junction: int = -1, grade: bool = False) -> xodr.Road:
+    """A road from geometries placed at (x, y, heading), laid end to end."""
+    planview = xodr.PlanView()
+    s = 0.0
+    for geometry, x, y, hdg in pieces:
+        planview.add_fixed_geometry(geometry, float(x), float(y), float(hdg), s)
+        s += geometry.length
+    planview.adjust_geometries()
+    road = xodr.Road(road_id, planview, lanes, road_type=junction)
+    if surface.bank_deg:
+        road.add_superelevation(0.0, math.radians(surface.bank_deg), 0.0, 0.0, 0.0)
+    if grade and surface.grade_deg:
+        road.add_elevation(0.0, 0.0, math.tan(math.radians(surface.grade_deg)), 0.0, 0.0)
+    return road
+
+
+def _opendrive(name: str) -> xodr.OpenDrive:
+    major, minor = OPENDRIVE_VERSION
+    return xodr.OpenDrive(name, revMajor=str(major), revMinor=str(minor))
+
+
+# ------------------------------------------------------------------------------ exact
+def _exact_road(blueprint: RoadBlueprint, name: str, surface: Surface) -> RoadNetwork:
+    centre, built = blueprint.centre(), blueprint.rebuild()
+    pieces, s = [], 0.0
+    for kind, length, k0, k1 in curvature_pieces(blueprint.segments):
+        i = int(np.argmin(np.abs(centre.s - s)))
+        geometry = (xodr.Line(length) if kind == "straight" else xodr.Arc(k0, length=length) if kind == "curve"
+                    else xodr.Spiral(k0, k1, length=length))
+        pieces.append((geometry, centre.xy[i, 0], centre.xy[i, 1], centre.heading[i]))
+        s += length
+    w = blueprint.lane_width
+    section = xodr.LaneSection(0, _centre_lane(built.forward[0][0].line_marking_left_vertices))
+    lanes = []
+    for k, lane in enumerate(built.forward):
+        section.add_right_lane(_lane(w, lane[0].line_marking_right_vertices, surface))
+        lanes.append(LaneOfLanelets(1, -(k + 1), tuple(l.lanelet_id for l in lane)))
+    for k, lane in enumerate(built.backward):
+        section.add_left_lane(_lane(w, lane[0].line_marking_right_vertices, surface))
+        lanes.append(LaneOfLanelets(1, k + 1, tuple(l.lanelet_id for l in lane)))
+    odr_lanes = xodr.Lanes()
+    odr_lanes.add_lanesection(section)
+    odr = _opendrive(name)
+    odr.add_road(_road(1, pieces, odr_lanes, surface, grade=True))
+    return RoadNetwork(odr, Method.EXACT, lanes)
+
+
+def _hermite_poly3(centre: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> xodr.ParamPoly3:
+    """The junction's cubic Hermite turn (`simgap.scenario.junction`) as a normalised paramPoly3 in
+    the frame of its start."""
+    p0, p1 = centre[0], centre[-1]
+    scale = float(np.linalg.norm(p1 - p0))
+    b, c, d = scale * t0, -3 * p0 - 2 * scale * t0 + 3 * p1 - scale * t1, 2 * p0 + scale * t0 - 2 * p1 + scale * t1
+    cos, sin = float(t0[0]), float(t0[1])
+    u = lambda v: cos * v[0] + sin * v[1]          # noqa: E731 - into the start frame
+    v = lambda v: -sin * v[0] + cos * v[1]         # noqa: E731
+    length = _poly3_length(b, c, d)
+    return xodr.ParamPoly3(0.0, u(b), u(c), u(d), 0.0, v(b), v(c), v(d), "normalized", length)
+
+
+def _poly3_length(b: np.ndarray, c: np.ndarray, d: np.ndarray, n: int = 2000) -> float:
+    p = np.linspace(0.0, 1.0, n + 1)
+    speed = np.linalg.norm(b[None, :] + 2 * p[:, None] * c[None, :] + 3 * p[:, None] ** 2 * d[None, :], axis=1)
+    return float(np.sum(0.5 * (speed[1:] + speed[:-1])) / n)
+
+
+def _exact_junction(blueprint: JunctionBlueprint, name: str, surface: Surface) -> RoadNetwork:
+    built = blueprint.rebuild()
+    by_id = {l.lanelet_id: l for l in built.lanelets}
+    w = blueprint.lane_width
+    odr, lanes = _opendrive(name), []
+    junction_id = 1
+    junction = xodr.Junction(name, junction_id)
+    for index, arm in enumerate(built.arms):
+        out, inc = by_id[arm.outgoing], by_id[arm.incoming]
+        a = math.radians(arm.angle_deg)
+        left = np.array([-math.sin(a), math.cos(a)])
+        start = out.center_vertices[0] + 0.5 * w * left           # the arm's axis at the junction
+        length = float(np.linalg.norm(out.center_vertices[-1] - out.center_vertices[0]))
+        section = xodr.LaneSection(0, _centre_lane(out.line_marking_left_vertices))
+        section.add_right_lane(_lane(w, out.line_marking_right_vertices, surface))
+        section.add_left_lane(_lane(w, inc.line_marking_right_vertices, surface))
+        odr_lanes = xodr.Lanes()
+        odr_lanes.add_lanesection(section)
+        road = _road(index + 1, [(xodr.Line(length), start[0], start[1], a)], odr_lanes, surface)
+        road.add_predecessor(xodr.ElementType.junction, junction_id)
+        odr.add_road(road)
+        lanes += [LaneOfLanelets(index + 1, -1, (arm.outgoing,)), LaneOfLanelets(index + 1, 1, (arm.incoming,))]
+    for n, ((i, j), lanelet_id) in enumerate(sorted(built.connectors.items())):
+        lanelet = by_id[lanelet_id]
+        centre = lanelet.center_vertices
+        ai, aj = (math.radians(built.arms[k].angle_deg) for k in (i, j))
+        t0, t1 = -np.array([math.cos(ai), math.sin(ai)]), np.array([math.cos(aj), math.sin(aj)])
+        if abs(float(np.dot(t0, t1)) - 1.0) < 1e-6:
+            geometry = xodr.Line(float(np.linalg.norm(centre[-1] - centre[0])))
+        else:
+            geometry = _hermite_poly3(centre, t0, t1)
+        section = xodr.LaneSection(0, _centre_lane(lanelet.line_marking_left_vertices))
+        lane = _lane(w, lanelet.line_marking_right_vertices, surface)
+        lane.add_link("predecessor", 1)
+        lane.add_link("successor", -1)
+        section.add_right_lane(lane)
+        odr_lanes = xodr.Lanes()
+        odr_lanes.add_laneoffset(xodr.LaneOffset(0.0, 0.5 * w, 0.0, 0.0, 0.0))
+        odr_lanes.add_lanesection(section)
+        road_id = 100 + n
+        road = _road(road_id, [(geometry, centre[0, 0], centre[0, 1], math.atan2(t0[1], t0[0]))], odr_lanes,
+                     surface, junction=junction_id)
+        road.add_predecessor(xodr.ElementType.road, i + 1, xodr.ContactPoint.start)
+        road.add_successor(xodr.ElementType.road, j + 1, xodr.ContactPoint.start)
+        odr.add_road(road)
+        connection = xodr.Connection(i + 1, road_id, xodr.ContactPoint.start)
+        connection.add_lanelink(1, -1)
+        junction.add_connection(connection)
+        lanes.append(LaneOfLanelets(road_id, -1, (lanelet_id,)))
+    odr.add_junction(junction)
+    return RoadNetwork(odr, Method.EXACT, lanes)
+
+
+# ------------------------------------------------------------------------------ fitted
+def _geometry(piece: Piece) -> Geometry:
+    if piece.kind == "spiral":
+        return xodr.Spiral(piece.k_start, piece.k_end, length=piece.length)
+    if piece.kind == "arc":
+        return xodr.Arc(piece.k_start, length=piece.length)
+    return xodr.Line(piece.length)
+
+
+def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork:
+    odr = _opendrive(name)
+    result = RoadNetwork(odr, Method.FITTED, [])
+    fits: dict[int, LaneletFit] = {}
+    lanelets = sorted(network.lanelets, key=lambda l: l.lanelet_id)
+    road_of = {l.lanelet_id: k + 1 for k, l in enumerate(lanelets)}
+    for lanelet in lanelets:
+        fit = fit_lanelet(lanelet.center_vertices, lanelet.left_vertices, lanelet.right_vertices)
+        fits[lanelet.lanelet_id] = fit
+        road_id = road_of[lanelet.lanelet_id]
+        section = xodr.LaneSection(0, _centre_lane(lanelet.line_marking_left_vertices))
+        section.add_right_lane(_lane(fit.width, lanelet.line_marking_right_vertices, surface))
+        odr_lanes = xodr.Lanes()
+        for offset in fit.offset:
+            odr_lanes.add_laneoffset(xodr.LaneOffset(offset.s, offset.a, offset.b, offset.c, offset.d))
+        odr_lanes.add_lanesection(section)
+        road = _road(road_id, [(_geometry(p), p.x, p.y, p.hdg) for p in fit.pieces], odr_lanes, surface,
+                     grade=len(lanelets) == 1)
+        odr.add_road(road)
+        result.lanes.append(LaneOfLanelets(road_id, -1, (lanelet.lanelet_id,)))
+        result.fit_deviation_m[road_id] = fit.deviation_m
+    for lanelet in lanelets:
+        _link(odr, network, lanelet, road_of)
+    return result
+
+
+def _link(odr: xodr.OpenDrive, network: LaneletNetwork, lanelet: Lanelet, road_of: dict[int, int]) -> None:
+    """Road links where the lanelets continue one another without a choice (a fork or a merge
+    would need a junction, which recorded maps do not mark)."""
+    road = odr.roads[str(road_of[lanelet.lanelet_id])]
+    for way, back, contact, add in (("successor", "predecessor", xodr.ContactPoint.start, road.add_successor),
+                                    ("predecessor", "successor", xodr.ContactPoint.end, road.add_predecessor)):
+        ids = getattr(lanelet, way) or []
+        if len(ids) != 1 or ids[0] not in road_of:
+            continue
+        other = network.find_lanelet_by_id(ids[0])
+        if len(getattr(other, back) or []) == 1:
+            add(xodr.ElementType.road, road_of[other.lanelet_id], contact)
+            road.lanes.lanesections[0].rightlanes[0].add_link(way, -1)

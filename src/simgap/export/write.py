@@ -1,0 +1,149 @@
+"""One export: a run as ``NAME.xodr`` + ``NAME.xosc``, or a scenario's road as ``NAME.xodr``.
+
+The files are built in a hidden directory beside their destination, checked there
+(`simgap.export.checks`: schema, round trip, lane centres) and only then moved into place: an
+export that fails leaves nothing behind. A check that fails is simgap's bug (`CheckFailed`), not
+the user's input.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from commonroad.scenario.lanelet import LaneletNetwork
+
+from simgap.cosim.record import Run
+from simgap.errors import InputError
+from simgap.export import checks
+from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
+from simgap.export.openscenario import OpenScenarioVersion, description, openscenario, road_users
+from simgap.files import staged_directory
+from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.blueprint import blueprint_of
+from simgap.sim.settings import DRY_ROAD_FRICTION
+
+EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
+TRAJECTORY_TOLERANCE_M = 0.01    # a trajectory vertex, parsed back
+
+
+@dataclass
+class Export:
+    """What one export wrote and what its checks measured."""
+
+    name: str
+    files: list[Path]
+    method: Method
+    lane_deviation_m: dict[int, float]            # per road: lane centres (file, every metre) to lanelet centres
+    fit_deviation_m: dict[int, float] = field(default_factory=dict)   # fitted: per road, from the lanelet bounds
+    trajectory_error_m: float | None = None       # largest parsed-back vertex error
+    entities: int = 0
+    schemas: dict[str, str] = field(default_factory=dict)             # file name -> schema it validates against
+    seconds: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def largest_deviation_m(self) -> float:
+        return max(self.lane_deviation_m.values(), default=0.0)
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "export"
+
+
+def _blueprint(scenario_xml: Path | None):
+    if scenario_xml is None or not Path(scenario_xml).exists():
+        return None
+    return blueprint_of(read_metadata(scenario_xml))
+
+
+def _write_road(network: LaneletNetwork, name: str, blueprint, surface: Surface, staged: Path
+                ) -> tuple[RoadNetwork, Path]:
+    roads = road_network(network, name, blueprint, surface)
+    path = staged / f"{name}.xodr"
+    roads.opendrive.write_xml(str(path))
+    return roads, path
+
+
+def _check_road(roads: RoadNetwork, path: Path, network: LaneletNetwork, result: Export) -> None:
+    result.schemas[path.name], errors = checks.schema_errors(path)
+    if errors:
+        raise checks.CheckFailed(f"{path.name} does not validate against {result.schemas[path.name]}: {errors[0]}")
+    result.lane_deviation_m = checks.lane_centre_deviation(path, roads, network)
+    for road, deviation in result.lane_deviation_m.items():
+        bound = EXACT_TOLERANCE_M if roads.method is Method.EXACT else roads.fit_deviation_m[road] + 1e-3
+        if deviation > bound:
+            raise checks.CheckFailed(f"{path.name}: road {road}'s lane centres lie {deviation:.3f} m from their "
+                                     f"lanelets (at most {bound:.3f} m allowed)")
+
+
+def _publish(staged: Path, out: Path, names: list[str]) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        os.replace(staged / name, out / name)
+    return [out / name for name in names]
+
+
+def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = None) -> Export:
+    """The road network of a CommonRoad scenario as ``NAME.xodr`` in ``out``."""
+    started = time.perf_counter()
+    scenario_xml, out = Path(scenario_xml), Path(out)
+    scenario, _ = load_scenario(scenario_xml, needs_problems=False)
+    name = _safe(name or scenario_xml.stem)
+    with staged_directory(out, name) as staged:
+        roads, path = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
+        result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
+        _check_road(roads, path, scenario.lanelet_network, result)
+        result.files = _publish(staged, out, [path.name])
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = OpenScenarioVersion.V1_0,
+               scenario_xml: str | Path | None = None, name: str | None = None) -> Export:
+    """A run directory as ``NAME.xodr`` and ``NAME.xosc`` in ``out`` (NAME: the scenario and the
+    world that ran it). ``scenario_xml``: the scenario file whose sidecar holds the road's
+    blueprint (default: the one the run names)."""
+    started = time.perf_counter()
+    run_dir, out = Path(run_dir), Path(out)
+    run = Run.load(run_dir)
+    source = run_dir / "driven.xml"
+    if not source.exists():
+        if not run.scenario_path or not Path(run.scenario_path).exists():
+            raise InputError("the run has no driven.xml and its scenario file is gone", file=run_dir,
+                             allowed="a run directory written by simgap run, an experiment or a search")
+        source = Path(run.scenario_path)
+    scenario, problems = load_scenario(source)
+    backend = run.settings.get("backend") or {}
+    surface = Surface(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
+                      float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
+    name = _safe(name or f"{run.scenario_id}_{run.backend}")
+    blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
+                           (Path(run.scenario_path) if run.scenario_path else None))
+    with staged_directory(out, name) as staged:
+        roads, road_path = _write_road(scenario.lanelet_network, name, blueprint, surface, staged)
+        result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
+        if blueprint is None:
+            result.notes.append("no blueprint beside the scenario: the road network is fitted")
+        _check_road(roads, road_path, scenario.lanelet_network, result)
+        users = road_users(run, scenario)
+        osc = openscenario(run, users, problems, road_path.name, version, description(run, users, result.notes),
+                           surface.friction)
+        osc_path = staged / f"{name}.xosc"
+        osc.write_xml(str(osc_path))
+        result.schemas[osc_path.name], errors = checks.schema_errors(osc_path)
+        if errors:
+            raise checks.CheckFailed(f"{osc_path.name} does not validate against {result.schemas[osc_path.name]}: "
+                                     f"{errors[0]}")
+        result.entities = len(users)
+        result.trajectory_error_m = checks.trajectory_error(
+            osc_path, {u.name: u.trajectory for u in users if not u.standing and len(u.trajectory) > 1})
+        if result.trajectory_error_m > TRAJECTORY_TOLERANCE_M:
+            raise checks.CheckFailed(f"{osc_path.name}: a trajectory vertex parses back "
+                                     f"{result.trajectory_error_m:.4f} m from the run's")
+        result.files = _publish(staged, out, [road_path.name, osc_path.name])
+    result.seconds = time.perf_counter() - started
+    return result

@@ -1,0 +1,76 @@
+"""What a generated road network was built from, kept beside the scenario so that other formats
+(OpenDRIVE) can write the exact geometry instead of fitting the sampled lanelets.
+
+A template records its blueprint in the scenario's sidecar (``blueprint``): a road is its segments
+and lane layout, a junction its arms, approach length, lane width and centre marking. Lanelet ids
+are allocated from ``first_id`` exactly as the template did, so rebuilding a blueprint gives the
+same lanelets (`rebuild`).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Mapping, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from simgap.scenario.geometry import Arc, CentreLine, Straight, centre_line
+from simgap.scenario.junction import Junction, build_junction
+from simgap.scenario.road import LaneLayout, Road, build_road
+
+
+class RoadBlueprint(BaseModel):
+    """One road: segments laid end to end from the origin heading +x, lanes along them."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    kind: Literal["road"] = "road"
+    segments: list[Union[Straight, Arc]]
+    lanes_per_direction: int = 1
+    lane_width: float = 3.0
+    two_way: bool = True
+    centre_marking: str = "solid"      # as `LaneLayout` and `build_junction` take it
+    first_id: int
+
+    @property
+    def layout(self) -> LaneLayout:
+        return LaneLayout(self.lanes_per_direction, self.lane_width, self.two_way, self.centre_marking)
+
+    def centre(self) -> CentreLine:
+        return centre_line(self.segments)
+
+    def rebuild(self) -> Road:
+        return build_road(self.centre(), self.layout, self.first_id)
+
+
+class JunctionBlueprint(BaseModel):
+    """Straight arms meeting at the origin, one lane per direction, turning lanelets between them."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    kind: Literal["junction"] = "junction"
+    arm_angles: list[float]
+    approach_length: float
+    lane_width: float
+    centre_marking: str = "solid"      # as `LaneLayout` and `build_junction` take it
+    first_id: int
+
+    def rebuild(self) -> Junction:
+        return build_junction(self.arm_angles, self.approach_length, self.lane_width, self.first_id,
+                              self.centre_marking)
+
+
+Blueprint = Annotated[Union[RoadBlueprint, JunctionBlueprint], Field(discriminator="kind")]
+
+
+class _Holder(BaseModel):
+    blueprint: Blueprint
+
+
+def blueprint_of(metadata: Mapping[str, Any]) -> RoadBlueprint | JunctionBlueprint | None:
+    """The blueprint in a scenario's sidecar (None: not a generated scenario, or written before
+    blueprints were recorded, or not readable as one)."""
+    raw = metadata.get("blueprint")
+    if raw is None:
+        return None
+    try:
+        return _Holder.model_validate({"blueprint": raw}).blueprint
+    except ValidationError:
+        return None

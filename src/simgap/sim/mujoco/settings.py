@@ -1,0 +1,35 @@
+"""Settings of the ``mujoco`` backend: the physics world (`WorldSettings`: rates, surface friction,
+slope) and, on top, the tracking (`MujocoSettings`). Plain models, importable without MuJoCo."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import Field
+
+from simgap.errors import validated_settings
+from simgap.sim.rates import steps_per_tick
+from simgap.sim.settings import RoadFriction, RoadSurface, TrackingSettings
+
+PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
+
+
+class WorldSettings(RoadSurface):
+    """Settings of the physics world (``backend_settings`` of a run)."""
+
+    physics_hz: float = Field(PHYSICS_HZ, ge=200.0, le=5000.0, description="physics rate [Hz]")
+    offroad_friction: RoadFriction = Field(0.6, description="off-road (verge) friction, scales each tyre's [-]")
+    road_bank: float = Field(0.0, ge=-15.0, le=15.0,
+                             description="cross slope [deg]; positive: the road falls to the right of the way of travel")
+    road_grade: float = Field(0.0, ge=-15.0, le=15.0, description="grade [deg]; positive: uphill in the way of travel")
+
+
+class MujocoSettings(TrackingSettings, WorldSettings):
+    """Settings of the ``mujoco`` backend (``backend_settings`` of a run): the tracking and the world."""
+
+
+def mujoco_settings(values: dict[str, Any]) -> MujocoSettings:
+    """``values`` validated as the backend's settings (the physics rate a multiple of the controller's)."""
+    cfg = validated_settings(MujocoSettings, values)
+    steps_per_tick(cfg.physics_hz, cfg.controller_hz)
+    return cfg

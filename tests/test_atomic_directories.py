@@ -1,0 +1,66 @@
+"""The project's file handling: a directory swapped into place survives a kill between its steps."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from simgap.files import replace_directory, restore_directory
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+# swap a new directory into argv[1], the process killed (SIGKILL: no cleanup runs) right after
+# rename number argv[2] (1: the old directory set aside; 2: the new one moved in)
+KILLED_SWAP = """
+import os, signal, sys
+import simgap.files as files
+
+renames, real = [0], os.replace
+
+def replace_then_die(a, b):
+    real(a, b)
+    renames[0] += 1
+    if renames[0] == int(sys.argv[2]):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+files.os.replace = replace_then_die
+files.replace_directory(sys.argv[1], lambda d: (d / "run.json").write_text("new"))
+"""
+
+
+def _old_run(tmp_path: Path) -> Path:
+    target = tmp_path / "runs" / "x"
+    target.mkdir(parents=True)
+    (target / "run.json").write_text("old")
+    return target
+
+
+@pytest.mark.parametrize("killed_after, holds", [(1, "old"), (2, "new")])
+def test_a_swap_killed_between_its_renames_leaves_one_whole_directory(tmp_path, killed_after, holds):
+    target = _old_run(tmp_path)
+    proc = subprocess.run([sys.executable, "-c", KILLED_SWAP, str(target), str(killed_after)],
+                          env=os.environ | {"PYTHONPATH": str(SRC)}, capture_output=True)
+    assert proc.returncode == -9, proc.stderr           # killed, as planned
+    restore_directory(target)
+    assert (target / "run.json").read_text() == holds
+    assert sorted(p.name for p in target.parent.iterdir()) == ["x"]        # nothing left beside it
+    # the next swap goes through as usual
+    replace_directory(target, lambda d: (d / "run.json").write_text("newer"))
+    assert (target / "run.json").read_text() == "newer"
+
+
+def test_a_failed_build_keeps_the_old_directory(tmp_path):
+    target = _old_run(tmp_path)
+
+    def broken(d: Path) -> None:
+        (d / "half.json").write_text("{")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError, match="disk full"):
+        replace_directory(target, broken)
+    assert (target / "run.json").read_text() == "old"
+    assert sorted(p.name for p in target.parent.iterdir()) == ["x"]       # nothing left beside it
