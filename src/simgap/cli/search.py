@@ -26,6 +26,8 @@ def search_cmd(
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
+    no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
+                                     "slow part of scoring) for quick loops"),
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
 
@@ -53,7 +55,8 @@ def search_cmd(
                    counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
     try:
-        results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show)
+        results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
+                             validate=not no_validate)
     finally:
         if bar.live.is_started:
             bar.stop()

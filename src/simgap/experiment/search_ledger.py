@@ -4,10 +4,12 @@ wall-clock seconds it has spent, and all of it read back from its directory to r
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import Any
 
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
 from simgap.experiment.search_rows import SearchRow, read_search_rows
 from simgap.experiment.store import ResultsStore
@@ -39,6 +41,17 @@ class SearchLedger:
         """Write ``row`` to the store (atomically) and keep it."""
         self.store.write_row(row.as_run_row())
         self.rows[(row.candidate, row.rung)] = row
+
+    def score_drop(self, index: int, rung: int, run: RunRow) -> float | None:
+        """The candidate's ideal score minus ``run``'s: 0 for its ideal run, None while the ideal
+        run is not in (or failed, or either has no score)."""
+        if rung == 0:
+            return 0.0
+        ideal = self.rows.get((index, 0))
+        if ideal is None or not ideal.ok or ideal.run.score is None or run.score is None \
+                or math.isnan(ideal.run.score) or math.isnan(run.score):
+            return None
+        return ideal.run.score - run.score
 
     def save_budget(self, budget: Any) -> None:
         atomic_write_text(self.root / "budget.json",
