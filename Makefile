@@ -36,7 +36,7 @@ browser:
 
 # on every core (2 on CI), a test file per worker so that module fixtures are built once
 test: $(STAMP) $(MAPS) browser
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:
 	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e '.[test,beamng]' \

@@ -92,13 +92,14 @@ def human_outcomes(xml: Path) -> dict[int, str]:
     recording reaches the goal, or why it does not - how feasible the goal is for a human."""
     from simgap.scenario import load_scenario
     from simgap.scenario.goal import Goal
-    from simgap.scenario.obstacles import obstacle_trajectory, recorded_egos
+    from simgap.scenario.obstacles import recorded_egos, recorded_obstacles
 
     scenario, problems = load_scenario(xml)
     outcomes = {}
+    motions = {o.id: o.motion for o in recorded_obstacles(scenario)}
     for pid, oid in recorded_egos(scenario, problems).items():
         goal = Goal.of(problems.planning_problem_dict[pid].goal, float(scenario.dt))
-        states = list(obstacle_trajectory(scenario.obstacle_by_id(oid), float(scenario.dt)))
+        states = list(motions[oid])
         reached = next((st for st in states if goal.is_reached(st)), None)
         outcomes[pid] = (f"goal at {reached.t:.1f} s" if reached is not None
                          else f"misses: {goal.miss_reason(states)}")
