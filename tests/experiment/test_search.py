@@ -3,6 +3,7 @@ failure region, and resuming a real search."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -117,7 +118,7 @@ def search_planted(tmp_path, name, seed, runs):
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy(name, space, spec),
                       tmp_path / f"{name}-{seed}", Budget(runs=runs))
-    run.ladder.scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
         run.on_result(job, planted_row(job))
@@ -165,7 +166,7 @@ def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), root,
                       Budget(runs=runs))
-    run.ladder.scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     return run
 
@@ -253,8 +254,13 @@ def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     assert [r.name for r in first] == ["random", "multi_fidelity"]
     before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
     assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2)
+    run_search(spec, out, Budget(runs=6), workers=2, probe_runs=1)
     build_search_report(search_results(out))
+    findings = json.loads((out / "search.json").read_text())["findings"]      # what each found, beside the spec
+    assert set(findings) == {"random", "multi_fidelity"} and findings["random"]["runs"] == 6
+    assert all(isinstance(f["modes"], list) for f in findings.values())
+    probes = [r for s in ("random", "multi_fidelity") for r in ResultsStore(out / s / "probes").rows()]
+    assert len(probes) <= 2 and all(r["status"] == "ok" for r in probes)      # through the executor
     rows = ResultsStore(out / "multi_fidelity").rows()
     keys = [r["key"] for r in rows]
     assert len(keys) == len(set(keys)) == 6
