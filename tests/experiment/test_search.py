@@ -275,3 +275,49 @@ def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
     with pytest.raises(InputError, match="different spec"):
         run_search(other, out, Budget(runs=1), workers=1)
+
+
+# --- diversity: several planted regions -----------------------------------------------------
+
+REGIONS = [((0.8, 1.0), (0.0, 0.25), (0.0, 1.0)), ((0.0, 0.25), (0.75, 1.0), (0.75, 1.0)),
+           ((0.4, 0.6), (0.4, 0.6), (0.0, 0.25)), ((0.0, 0.3), (0.0, 0.3), (0.0, 0.3)),
+           ((0.7, 1.0), (0.7, 1.0), (0.0, 0.3))]       # boxes in (initial_speed, radius, angle), normalised
+SCENARIO = {"initial_speed": (0, 25), "radius": (10, 100), "angle": (-180, 180)}
+
+
+def regions_row(job):
+    """Fails in high fidelity in any of five regions of the road and start under friction below
+    0.5; the screen's grip use rises towards the regions."""
+    u = [(job.parameters[n] - lo) / (hi - lo) for n, (lo, hi) in SCENARIO.items()]
+    gap = min(sum(max(lo - x, 0.0, x - hi) ** 2 for x, (lo, hi) in zip(u, box)) ** 0.5 for box in REGIONS)
+    mu = knob_value("road_friction", job.backend_settings)
+    failed = job.backend == "mujoco" and gap == 0.0 and mu < 0.5
+    grip = (1.2 - 2 * gap) * 0.5 / mu
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s={"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend],
+                  metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0,
+                           "peak_grip_use": grip if job.backend != "ideal" else 0.3})
+
+
+def search_regions(root: Path, seed: int, spread: float):
+    spec = SearchSpec(name="regions", logical="curve",
+                      parameters={n: {"min": lo, "max": hi} for n, (lo, hi) in SCENARIO.items()},
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}, "steer_delay": {"min": 0.0, "max": 0.1}},
+                      ladder=LADDER, seed=seed, scenario_spread=spread, distinct_radius=0.1)
+    space = SearchSpace(spec, load_logical("curve"))
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("multi_fidelity", space, spec), root,
+                      Budget(runs=120))
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
+    run.resume()
+    while (job := run.next_job()) is not None:
+        run.on_result(job, regions_row(job))
+    return summarise(root, "multi_fidelity", 3, spec.distinct_radius)
+
+
+def test_weighing_new_scenarios_finds_more_failing_scenarios_at_equal_budget(tmp_path):
+    plain = [search_regions(tmp_path / f"plain{s}", s, spread=0.0) for s in range(2)]
+    spread = [search_regions(tmp_path / f"spread{s}", s, spread=1.0) for s in range(2)]
+    scenarios = (sum(r.scenarios for r in plain), sum(r.scenarios for r in spread))
+    distinct = (sum(r.distinct for r in plain), sum(r.distinct for r in spread))
+    assert scenarios[1] >= 2 * scenarios[0] > 0, scenarios           # many more roads and starts ...
+    assert distinct[1] >= distinct[0], distinct                      # ... and no fewer distinct violations
