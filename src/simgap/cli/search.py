@@ -69,7 +69,7 @@ def search_cmd(
 def _print(console: Console, results) -> None:
     t = Table(title="what each strategy found")
     for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "scenarios",
-                "modes", "per CPU-h"):
+                "modes (+unprobed)", "per CPU-h"):
         t.add_column(col, justify="left" if col == "strategy" else "right")
     for r in results:
         t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
@@ -80,7 +80,7 @@ def _print(console: Console, results) -> None:
 def _modes(r) -> str:
     """Probed failure modes, and the unprobed groups beside them."""
     rest = len(r.modes) - r.probed_modes
-    return f"{r.probed_modes}" + (f" (+{rest} not probed)" if rest else "")
+    return f"{r.probed_modes}" + (f" (+{rest})" if rest else "")
 
 
 @app.command("search-status")
