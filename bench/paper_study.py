@@ -16,6 +16,7 @@ from pathlib import Path
 
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.store import ResultsStore
+from simgap.report.scores import store_score_rows as score_table
 
 # MultiDrive's Table I (seconds per run): low fidelity (CommonRoad + Frenetix) and high
 # fidelity (BeamNG.tech), 78 scenarios each (high fidelity: per vehicle model).
@@ -31,7 +32,7 @@ def main() -> None:
     parser.add_argument("--spec", default="paper-curves")
     args = parser.parse_args()
     start = time.perf_counter()
-    result = run_experiment(args.spec, args.out, args.workers, args.executor)
+    result = run_experiment(args.spec, args.out, args.workers, args.executor, validate=True)
     wall = time.perf_counter() - start
     print(f"{result.total} runs ({result.ran} now, {result.skipped} earlier, {result.failed} failed) with "
           f"{args.workers} {args.executor} workers: {wall:.1f} s wall including the report "
@@ -57,9 +58,31 @@ def main() -> None:
               f"high fidelity {PAPER['high']['mean'] / means['high']:.1f}x; high/low cost ratio "
               f"{means['high'] / means['low']:.2f} (paper {PAPER['high']['mean'] / PAPER['low']['mean']:.1f})")
         print(f"whole study: {PAPER_SEQUENTIAL_H * 3600 / wall:.0f}x faster than the paper's sequential runs")
+    print_scores(ResultsStore(args.out))
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"peak resident memory of the largest worker: {usage.ru_maxrss / 1024:.0f} MB; "
           f"of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+
+
+def print_scores(store: ResultsStore) -> None:
+    """Per car: the closed-loop score in the ideal world and in MuJoCo, the drop and the component
+    that explains most of it (its mean share of the drop), the CommonRoad cost, and how many
+    solutions valid in the ideal world are invalid on the car, and why; the scoring phases' times."""
+    rows = score_table(store.run_rows())
+    print("\nScores (closed-loop score; KS2/SM1 solution cost and validity), MuJoCo against ideal per curve")
+    print(f"{'fidelity':<14} {'runs':>4} {'ideal':>6} {'mujoco':>6} {'drop':>6} {'max':>6} {'lost':>4}  "
+          f"{'cost ideal':>10} {'mujoco':>7} {'valid i/m':>9} {'broke':>5}  lost most on; broke because")
+    for r in rows:
+        print(f"{r['fidelity']:<14} {r['runs']:>4} {r['ideal score']:>6.3f} {r['score']:>6.3f} {r['mean drop']:>6.3f} "
+              f"{r['largest drop']:>6.3f} {r['runs that lost']:>4}  {r['ideal cost']:>10.0f} {r['cost']:>7.0f} "
+              f"{r['ideal valid']:>4}/{r['valid']:<4} {r['ideal-valid now invalid']:>5}  {r['lost most on']}; "
+              f"{r['because']}")
+    columns, phases = store.query("SELECT fidelity, avg(time_scoring_s / wall_time_s), avg(time_scoring_s), "
+                                  "avg(time_validation_s), max(time_validation_s) FROM runs WHERE status = 'ok' "
+                                  "GROUP BY 1 ORDER BY 1")
+    for fid, share, scoring, validation, slowest in phases:
+        print(f"  {fid}: scoring {scoring:.3f} s per run ({100 * share:.1f} % of its wall time), "
+              f"validation {validation:.2f} s (longest {slowest:.2f} s)")
 
 
 if __name__ == "__main__":

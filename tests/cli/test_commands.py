@@ -63,7 +63,7 @@ def test_run_json_render_and_identical_fingerprints(tmp_path):
     assert simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview",
                   "--out", str(tmp_path)).returncode == 0
     xml = tmp_path / "curve_radius-20_angle-60.xml"
-    first = simgap("run", str(xml), "--backend", "ideal", "--out", str(tmp_path / "run1"), "--json")
+    first = simgap("run", str(xml), "--no-validate", "--backend", "ideal", "--out", str(tmp_path / "run1"), "--json")
     assert first.returncode == 0, first.stderr
     summary = json.loads(first.stdout)
     assert summary["wall_time_s"] > 0
@@ -71,7 +71,7 @@ def test_run_json_render_and_identical_fingerprints(tmp_path):
     assert agent["id"] == 1 and agent["outcome"] == "goal_reached" and agent["time_to_goal_s"] > 5
     # the goal is 10 m x 3 m, 10 m before the end: 90 m + a 20.9 m arc + 85 m from the start
     assert 190 < agent["distance_m"] < 202
-    second = json.loads(simgap("run", str(xml), "--out", str(tmp_path / "run2"), "--json").stdout)
+    second = json.loads(simgap("run", str(xml), "--no-validate", "--out", str(tmp_path / "run2"), "--json").stdout)
     assert second["fingerprint"] == summary["fingerprint"]
     for name in ("run.json", "trajectories.parquet", "driven.xml"):
         assert (tmp_path / "run1" / name).exists()
@@ -86,7 +86,7 @@ def test_compare_two_fidelities_as_json_and_plots(tmp_path):
                   "--out", str(tmp_path)).returncode == 0
     xml = tmp_path / "curve_radius-10_angle-m90.xml"
     for backend in ("ideal", "dynamic"):
-        proc = simgap("run", str(xml), "--backend", backend, "--replan-every", "3", "--out", str(tmp_path / backend))
+        proc = simgap("run", str(xml), "--no-validate", "--backend", backend, "--replan-every", "3", "--out", str(tmp_path / backend))
         assert proc.returncode == 0, proc.stderr
     proc = simgap("compare", str(tmp_path / "ideal"), str(tmp_path / "dynamic"), "--json", "--out", str(tmp_path / "cmp"))
     assert proc.returncode == 0, proc.stderr
@@ -96,6 +96,43 @@ def test_compare_two_fidelities_as_json_and_plots(tmp_path):
     assert 0 < d["rms"] <= d["max"] < 0.5
     assert {"straight", "curve"} <= set(agent["lateral_displacement_by_section"])
     assert (tmp_path / "cmp" / "d_over_s_agent1.png").stat().st_size > 10_000
+    (scores,) = json.loads(proc.stdout)["scores"]
+    assert scores["score_drop"] == pytest.approx(scores["a"]["score"] - scores["b"]["score"])
+    assert len(scores["components"]) == 8 and scores["a"]["solution_cost"] > 0 and scores["b"]["solution_cost"] > 0
+    regained = [c["regained"] for c in scores["components"]]
+    assert regained == sorted(regained, reverse=True)          # the component that lost most first
+
+
+def test_run_mujoco_json_scores_every_agent_and_writes_a_solution_file(tmp_path):
+    from commonroad.common.solution import CommonRoadSolutionReader
+
+    simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview", "--out", str(tmp_path))
+    xml = tmp_path / "curve_radius-20_angle-60.xml"
+    proc = simgap("run", str(xml), "--backend", "mujoco", "--json", "--out", str(tmp_path / "m"))
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    for agent in summary["agents"]:
+        assert 0.0 <= agent["score"] <= 1.0 and len(agent["score_components"]) == 8
+        assert isinstance(agent["solution_valid"], bool) and agent["solution_cost"] > 0
+        assert agent["solution_benchmark"].startswith("KS2:SM1:")
+    assert {"scoring", "validation"} <= set(summary["timings"])
+    solution = CommonRoadSolutionReader.open(str(tmp_path / "m" / "solution.xml"))
+    assert [p.planning_problem_id for p in solution.planning_problem_solutions] == [a["id"] for a in summary["agents"]]
+    quick = json.loads(simgap("run", str(xml), "--no-validate", "--cost-function", "MW1", "--json", "--out",
+                              str(tmp_path / "q")).stdout)
+    assert quick["agents"][0]["solution_valid"] is None and "validation" not in quick["timings"]
+    assert quick["agents"][0]["solution_benchmark"].startswith("KS2:MW1:")
+
+
+def test_a_bad_score_setting_names_the_file_and_the_field(tmp_path):
+    simgap("generate", "curve", "--set", "radius=20", "--set", "angle=60", "--no-preview", "--out", str(tmp_path))
+    config = tmp_path / "score.yaml"
+    config.write_text("comfort: {max_abs_yaw_rate: -1}\n")
+    assert_clean_error(simgap("run", str(tmp_path / "curve_radius-20_angle-60.xml"), "--score-config", str(config),
+                              "--out", str(tmp_path / "r")), "score.yaml", "comfort.max_abs_yaw_rate")
+    assert_clean_error(simgap("run", str(tmp_path / "curve_radius-20_angle-60.xml"), "--cost-function", "XX9",
+                              "--out", str(tmp_path / "r")), "XX9", "SM1")
+    assert not (tmp_path / "r").exists()
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +141,7 @@ def two_curves(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("two-curves")
     for angle in ("30", "60"):
         simgap("generate", "curve", "--set", "radius=50", "--set", f"angle={angle}", "--no-preview", "--out", str(folder))
-        simgap("run", str(folder / f"curve_radius-50_angle-{angle}.xml"), "--replan-every", "3",
+        simgap("run", str(folder / f"curve_radius-50_angle-{angle}.xml"), "--no-validate", "--replan-every", "3",
                "--out", str(folder / angle))
     return folder
 
@@ -122,7 +159,7 @@ def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curv
     out = tmp_path / "x"
     shutil.copytree(two_curves / "30", out)
     other = str(two_curves / "curve_radius-50_angle-60.xml")
-    proc = simgap("run", other, "--replan-every", "3", "--out", str(out))
+    proc = simgap("run", other, "--no-validate", "--replan-every", "3", "--out", str(out))
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert_clean_error(proc, f"{out}: holds a run of curve_radius-50_angle-30 (backend ideal, vehicle sedan, "
                              "planner frenet); not replaced", "--overwrite")
@@ -132,7 +169,7 @@ def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curv
     for changed in ({"backend": "dynamic"}, {"vehicles": "suv"}, {"vehicles": {1: "city"}}):
         with pytest.raises(InputError, match="holds a run of"):
             check_run_out(out, RunRequest(scenario=same.scenario, **changed), overwrite=False)
-    assert simgap("run", other, "--replan-every", "3", "--out", str(out), "--overwrite").returncode == 0
+    assert simgap("run", other, "--no-validate", "--replan-every", "3", "--out", str(out), "--overwrite").returncode == 0
     assert Run.load(out).scenario_id == "curve_radius-50_angle-60"
 
     notes = tmp_path / "notes"
@@ -178,8 +215,8 @@ def test_reality_knobs_on_the_command_line(tmp_path):
     assert_clean_error(simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=2", "--out", str(tmp_path / "r")),
                        "out of range", "0 to 1 s")
     assert not (tmp_path / "r").exists()
-    proc = simgap("run", xml, "--backend", "dynamic", "--knob", "steer_delay=0.05", "--knob", "position_noise=0.05",
-                  "--json", "--out", str(tmp_path / "r"))
+    proc = simgap("run", xml, "--no-validate", "--backend", "dynamic", "--knob", "steer_delay=0.05", "--knob",
+                  "position_noise=0.05", "--json", "--out", str(tmp_path / "r"))
     assert proc.returncode == 0, proc.stderr
     saved = json.loads((tmp_path / "r" / "run.json").read_text())
     assert saved["settings"]["backend"]["steer_delay"] == 0.05

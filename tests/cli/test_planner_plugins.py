@@ -71,7 +71,7 @@ def test_planners_lists_the_installed_planner_with_its_settings(installed):
     ("time_gap", "time_gap", "mujoco"),
 ])
 def test_run_reaches_the_goal_with_the_external_planner(installed, curve_xml, tmp_path, planner, name, backend):
-    proc = simgap(installed, "run", str(curve_xml), "--backend", backend, "--planner", planner, "--out",
+    proc = simgap(installed, "run", str(curve_xml), "--no-validate", "--backend", backend, "--planner", planner, "--out",
                   str(tmp_path / "run"))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert outcome(tmp_path / "run") == (name, "goal_reached")
@@ -82,13 +82,13 @@ def test_bad_planner_input_is_refused_with_file_field_and_allowed(installed, cur
             (["--planner", "nope"], ["field 'planner'", "unknown planner 'nope'", "frenet, reactive, idm, time_gap"]),
             (["--planner", f"{PLANNER_FILE}:Nope"], ["has no class 'Nope'", "TimeGapPlanner"]),
             (["--planner", "1=frenet,x=time_gap"], ["'x=time_gap' is not AGENT_ID=PLANNER"])):
-        proc = simgap(installed, "run", str(curve_xml), "--out", str(tmp_path / "r"), *args)
+        proc = simgap(installed, "run", str(curve_xml), "--no-validate", "--out", str(tmp_path / "r"), *args)
         assert proc.returncode != 0 and "Traceback" not in proc.stderr
         for fragment in fragments:
             assert fragment in proc.stderr, proc.stderr
     config = tmp_path / "gap.yaml"
     config.write_text("time_gap_s: 0\n")
-    proc = simgap(installed, "run", str(curve_xml), "--out", str(tmp_path / "r"), "--planner", "time_gap",
+    proc = simgap(installed, "run", str(curve_xml), "--no-validate", "--out", str(tmp_path / "r"), "--planner", "time_gap",
                   "--planner-config", str(config))
     assert proc.returncode != 0 and "gap.yaml: field 'time_gap_s': Input should be greater than 0" in proc.stderr
     assert not (tmp_path / "r").exists()
@@ -122,7 +122,7 @@ def test_experiment_compares_planners_and_survives_one_that_raises(installed, tm
     spec = tmp_path / "plugins.yaml"
     spec.write_text(SPEC.format(by_file=BY_FILE))
     out = tmp_path / "exp"
-    proc = simgap(installed, "experiment", "run", str(spec), "--out", str(out), "--workers", "2")
+    proc = simgap(installed, "experiment", "run", str(spec), "--no-validate", "--out", str(out), "--workers", "2")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "3 runs: 3 ran now (1 failed)" in proc.stdout
     index = (out / "report" / "index.html").read_text()          # the report too, the failed run in it
@@ -137,18 +137,18 @@ def test_experiment_compares_planners_and_survives_one_that_raises(installed, tm
     broken = json.loads(next(out.glob("runs/*/*@Broken/run.json")).read_text())
     assert "raise RuntimeError" in broken["planner_errors"][0]["traceback"]
     assert broken["settings"]["planner"]["name"] == "Broken"
-    again = simgap(installed, "experiment", "run", str(spec), "--out", str(out), "--no-report")
+    again = simgap(installed, "experiment", "run", str(spec), "--no-validate", "--out", str(out), "--no-report")
     assert again.returncode == 0 and "3 runs: 0 ran now (0 failed), 3 finished earlier" in again.stdout
 
 
 def test_experiment_spec_with_a_bad_planner_is_refused(installed, tmp_path):
     spec = tmp_path / "bad.yaml"
     spec.write_text(SPEC.format(by_file=BY_FILE).replace("broken.py:Broken", "idmm"))
-    proc = simgap(installed, "experiment", "run", str(spec), "--out", str(tmp_path / "exp"))
+    proc = simgap(installed, "experiment", "run", str(spec), "--no-validate", "--out", str(tmp_path / "exp"))
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
     assert "bad.yaml: field 'planners.2': unknown planner 'idmm' (allowed: frenet, reactive, idm, time_gap" in proc.stderr
     spec.write_text(SPEC.format(by_file=BY_FILE).replace("desired_speed_m_s: 6", "desired_speed: 6"))
-    proc = simgap(installed, "experiment", "run", str(spec), "--out", str(tmp_path / "exp"))
+    proc = simgap(installed, "experiment", "run", str(spec), "--no-validate", "--out", str(tmp_path / "exp"))
     assert "field 'planners.1.settings.desired_speed'" in proc.stderr and "desired_speed_m_s" in proc.stderr
     assert not (tmp_path / "exp").exists()
 
@@ -168,7 +168,7 @@ def test_search_runs_external_planners_as_a_dimension(installed, tmp_path):
     spec = tmp_path / "search.yaml"
     spec.write_text(SEARCH.format(by_file=BY_FILE))
     out = tmp_path / "search"
-    proc = simgap(installed, "search", str(spec), "--budget", "4", "--out", str(out), "--workers", "2", "--no-report")
+    proc = simgap(installed, "search", str(spec), "--no-validate", "--budget", "4", "--out", str(out), "--workers", "2", "--no-report")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     import pyarrow.parquet as pq
 

@@ -38,7 +38,7 @@ def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path)
     spec = spec_file(tmp_path)
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                             "--workers", "2", "--no-report"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             "--workers", "2", "--no-report", "--no-validate"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)
     rows_dir = out / "store" / "rows"
     deadline = time.monotonic() + 120

@@ -144,7 +144,7 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     out = tmp_path / "cluster"
     env = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.Popen([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                             "--workers", "1", "--executor", "ray", "--address", cluster.address, "--no-report"],
+                             "--workers", "1", "--executor", "ray", "--address", cluster.address, "--no-report", "--no-validate"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, start_new_session=True)
     rows_dir = out / "store" / "rows"
     deadline = time.monotonic() + 120

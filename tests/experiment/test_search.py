@@ -224,7 +224,7 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
-                             "--strategy", "random", "--workers", "2", "--no-report"],
+                             "--strategy", "random", "--workers", "2", "--no-report", "--no-validate"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
     rows_dir = out / "random" / "store" / "rows"
     deadline = time.monotonic() + 120
@@ -321,3 +321,59 @@ def test_weighing_new_scenarios_finds_more_failing_scenarios_at_equal_budget(tmp
     distinct = (sum(r.distinct for r in plain), sum(r.distinct for r in spread))
     assert scenarios[1] >= 2 * scenarios[0] > 0, scenarios           # many more roads and starts ...
     assert distinct[1] >= distinct[0], distinct                      # ... and no fewer distinct violations
+
+
+# --- searching for score drops (rows made up: the ideal world scores 0.9, MuJoCo loses score on
+# low friction) ---------------------------------------------------------------------------------
+
+def score_row(job):
+    mu = knob_value("road_friction", job.backend_settings)
+    score = 0.9 if job.backend == "ideal" else 0.9 - 0.5 * (1.0 - mu)
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.GOAL_REACHED, job_time_s=1.0,
+                  score=score, solution_valid=mu > 0.3, solution_reason="" if mu > 0.3 else "infeasible for KS2",
+                  metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0})
+
+
+def test_a_search_for_score_drops_runs_each_ideal_run_first(tmp_path):
+    spec = SearchSpec(name="drops", logical="curve", knobs={"road_friction": {"min": 0.1, "max": 1.0}},
+                      ladder=LADDER, grid_levels=4, strategies=["grid"], objective="score_drop",
+                      failure=FailureRule(above={"score_drop": 0.3}))
+    assert spec.needs_ideal_first
+    space = SearchSpace(spec, load_logical("curve"))
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), tmp_path / "s",
+                      Budget(runs=50))
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
+    run.resume()
+    first = run.next_job()
+    assert first.backend == "ideal"
+    assert run.next_job() is None            # the other candidates wait for that ideal run (knobs only: shared)
+    run.on_result(first, score_row(first))
+    while (job := run.next_job()) is not None:
+        assert job.backend == "mujoco"       # grid strategies start at the high rung, after the ideal one
+        run.on_result(job, score_row(job))
+    rows = ResultsStore(tmp_path / "s").rows()
+    high = {round(r["knob_road_friction"], 3): r for r in rows if int(r["rung"]) == 2}
+    assert sorted(high) == [0.1, 0.4, 0.7, 1.0]
+    for mu, r in high.items():
+        assert r["score_drop"] == pytest.approx(0.5 * (1.0 - mu))
+        assert r["failed"] == (0.5 * (1.0 - mu) > 0.3)
+    assert [r["score_drop"] for r in rows if int(r["rung"]) == 0] == [0.0] * 4
+    assert sum("ideal_of" not in r for r in rows if int(r["rung"]) == 0) == 1
+
+
+def test_failure_rules_on_scores():
+    rule = FailureRule(below={"score": 0.5}, solution_invalid=True)
+    assert rule.failed({"outcome": "goal_reached", "score": 0.8, "solution_valid": True}) is None
+    assert rule.failed({"outcome": "goal_reached", "score": 0.4, "solution_valid": True}) == "score 0.4 < 0.5"
+    assert rule.failed({"outcome": "goal_reached", "score": 0.8, "solution_valid": False,
+                        "solution_reason": "infeasible for KS2 at t = 3.1 s"}) == \
+        "invalid solution (infeasible for KS2 at t = 3.1 s)"
+    assert rule.failed({"outcome": "goal_reached", "score": 0.8, "solution_valid": None}) is None   # not checked
+
+
+def test_a_rule_on_solution_validity_needs_the_check(tmp_path):
+    spec = write(tmp_path, failure={"solution_invalid": True}, strategies=["random"])
+    with pytest.raises(InputError, match="--no-validate") as err:
+        run_search(spec, tmp_path / "out", Budget(runs=1), workers=1, validate=False)
+    assert "failure.solution_invalid" in err.value.describe()
+    assert not (tmp_path / "out").exists()

@@ -29,7 +29,7 @@ def report(tmp_path_factory):
         xml = write_scenario(build_scenario("curve", params), root / "scenarios", preview=False)
         for backend, vehicle in (("ideal", "sedan"), ("mujoco", "city")):
             run_dir = root / "runs" / xml.stem / backend
-            execute(RunRequest(scenario=xml, backend=backend, vehicles=vehicle, cosim=cosim), run_dir)
+            execute(RunRequest(scenario=xml, backend=backend, vehicles=vehicle, cosim=cosim, validate=True), run_dir)
     render_run(root / "runs" / xml.stem / "mujoco", animation=False)
     index = build_report(root / "runs", root / "report")
     return index
@@ -50,10 +50,18 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
     assert len(pages) == 1 + len(CURVES)
     text = report.read_text()
     for fragment in ("Headline numbers", "Where the gap is largest", "class='heatmap'", "Run times per fidelity",
-                     "Scenarios, largest gap first", "mujoco/city", "median [s]", "std [s]"):
+                     "Scenarios, largest gap first", "mujoco/city", "median [s]", "std [s]",
+                     "Scores per planner and fidelity", "mean score", "valid solutions", "Where the score drops"):
         assert fragment in text
-    # the heatmap covers radius x angle: four cells with hover text, each linking to its page
+    # the heatmaps cover radius x angle: four cells with hover text, each linking to its page
     assert len(re.findall(r"title='angle \[deg\] = \d+, radius \[m\] = \d+: [\d.]+ m'", text)) == len(CURVES)
+    assert len(re.findall(r"title='angle \[deg\] = \d+, radius \[m\] = \d+: -?[\d.]+'", text)) == len(CURVES)
+    # every run's breakdown on its scenario's page: both worlds, every component, the cost, the verdict
+    scenario_page = (out / "scenarios" / f"{sorted(p.stem for p in (out / 'scenarios').glob('*.html'))[0]}.html")
+    page = scenario_page.read_text()
+    for fragment in ("<h2>Scores</h2>", "at_fault_collisions", "time_to_collision", "comfort", "partial costs",
+                     "invalid: goal not reached"):
+        assert fragment in page
     for ref in re.findall(r"(?:src|href)='([^']+)'", text):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref

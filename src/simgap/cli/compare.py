@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from pathlib import Path
 from typing import Optional
 
@@ -14,6 +15,7 @@ from rich.table import Table
 from simgap.cli.main import app
 from simgap.cosim import Run
 from simgap.errors import InputError
+from simgap.evaluate.closed_loop_score import score_drop, score_weights_of
 from simgap.evaluate.compare import compare_runs
 from simgap.evaluate.criticality import run_criticality
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -21,6 +23,47 @@ from simgap.scenario import load_scenario, read_metadata
 
 METRICS = ("lateral_displacement", "position_error", "orientation_error", "velocity_error")
 UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error": "rad", "velocity_error": "m/s"}
+
+
+def score_comparison(a: Run, b: Run) -> list[dict]:
+    """Per agent of both runs: each world's score, cost and validity, the score's drop and the
+    components that lost it (the largest loss first)."""
+    weights = score_weights_of(b)
+    out = []
+    for aid in sorted({x.id for x in a.agents} & {x.id for x in b.agents}):
+        agent_a = next(x for x in a.agents if x.id == aid)
+        agent_b = next(x for x in b.agents if x.id == aid)
+        drop, losses = score_drop(agent_a, agent_b, weights)
+        out.append({"agent_id": aid,
+                    **{side: {"score": x.score, "solution_cost": x.solution_cost, "solution_valid": x.solution_valid,
+                              "solution_reason": x.solution_reason}
+                       for side, x in (("a", agent_a), ("b", agent_b))},
+                    "score_drop": drop, "solution_cost_change": None if agent_a.solution_cost is None or
+                    agent_b.solution_cost is None else agent_b.solution_cost - agent_a.solution_cost,
+                    "components": [asdict(c) for c in losses]})
+    return out
+
+
+def print_scores(console: Console, result: dict) -> None:
+    rows = [s for s in result["scores"] if s["a"]["score"] is not None and s["b"]["score"] is not None]
+    if not rows:
+        return
+    table = Table(title="scores (closed-loop score, CommonRoad solution)")
+    for col in ("agent", "score A", "score B", "drop", "lost on (score regained if as in A)", "cost A", "cost B",
+                "valid A", "valid B"):
+        table.add_column(col, justify="left" if col.startswith(("lost", "valid")) else "right", no_wrap=False)
+
+    def fmt(value, spec=".3f"):
+        return "—" if value is None else format(value, spec)
+
+    for s in rows:
+        lost = ", ".join(f"{c['name']} {c['a']:.2g}→{c['b']:.2g} (+{c['regained']:.3f})"
+                         for c in s["components"] if c["regained"] > 1e-9 or c["a"] != c["b"]) or "nothing"
+        table.add_row(str(s["agent_id"]), fmt(s["a"]["score"]), fmt(s["b"]["score"]), fmt(s["score_drop"]),
+                      escape(lost), fmt(s["a"]["solution_cost"], ".0f"), fmt(s["b"]["solution_cost"], ".0f"),
+                      *(escape({True: "valid", False: f"invalid: {s[k]['solution_reason']}", None: "—"}
+                               [s[k]["solution_valid"]]) for k in ("a", "b")))
+    console.print(table)
 
 
 def _label(run: Run, run_dir: Path) -> str:
@@ -47,7 +90,7 @@ def compare(
     sections = a.sections or read_metadata(xml).get("sections")
     comparisons = compare_runs(a, b, scenario, problems, sections)
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
-              "agents": [c.as_dict() for c in comparisons],
+              "agents": [c.as_dict() for c in comparisons], "scores": score_comparison(a, b),
               "criticality": {"a": run_criticality(run_a, a.driven), "b": run_criticality(run_b, b.driven)}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
@@ -85,6 +128,7 @@ def compare(
     console.print("lateral displacement: |d_b - d_a| at equal arc length along the route's lane centre; "
                   "position, orientation and velocity errors at equal time; tracking error: where a run's "
                   "vehicle was against where its plan in force said it would be", style="dim")
+    print_scores(console, result)
     if result["criticality"]["a"]:
         crit = Table(title="criticality per agent pair (commonroad-crime; most critical value over the run)")
         for col in ("ego", "other", "measure", "A", "B"):

@@ -31,6 +31,8 @@ def run_cmd(
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
+    no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
+                                     "slow part of scoring) for quick loops"),
 ) -> None:
     """Generate the scenarios, run every combination, store the results, build the report.
 
@@ -51,7 +53,8 @@ def run_cmd(
                    counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
 
     try:
-        result = run_experiment(spec, out, workers, executor, address, on_progress=show, retry_failed=retry_failed)
+        result = run_experiment(spec, out, workers, executor, address, on_progress=show, retry_failed=retry_failed,
+                                validate=not no_validate)
     finally:
         if bar.live.is_started:
             bar.stop()
@@ -92,7 +95,7 @@ def query_cmd(
 ) -> None:
     """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,
     controller, planner, param_*, status, failure, outcome, planning_mean_s, wall_time_s, time_*_s,
-    version_*, ...
+    score, score_* (its components), solution_valid, solution_reason, solution_cost, version_*, ...
 
     Example: simgap experiment query studies/paper "SELECT fidelity, median(wall_time_s) FROM runs GROUP BY 1"
     """

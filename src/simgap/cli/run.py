@@ -15,9 +15,10 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
-from simgap.cosim import REFERENCE, CosimSettings, Outcome, Run
+from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
+from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
-from simgap.files import read_yaml_mapping
+from simgap.files import read_model, read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -59,6 +60,13 @@ def run(
                    "(60 s when the goal has none)"),
     traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
                                                "its recorded path by an IDM towards the vehicle ahead)"),
+    cost_function: Optional[CostFunctionId] = typer.Option(
+        None, help="CommonRoad cost function of the solutions when the scenario's benchmark ID names none "
+                   "(default SM1)"),
+    score_config: Optional[Path] = typer.Option(None, help="YAML file of the closed-loop score's thresholds and "
+                                                "weights (cosim.score; defaults: nuPlan's)"),
+    no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
+                                     "part of scoring: feasibility state by state) for quick loops"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
                                    "backend, vehicle or planner)"),
@@ -72,6 +80,10 @@ def run(
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
+    scoring = {"score": read_model(score_config, ScoreSettings, "score settings file", empty_ok=True)} \
+        if score_config else {}
+    if cost_function is not None:
+        scoring["cost_function"] = cost_function
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_agent_map(vehicle),
                          planner_vehicle=planner_vehicle,
                          backend_settings=_settings(backend, {k: v for k, v in physical.items() if v is not None},
@@ -79,7 +91,8 @@ def run(
                          planner=parse_planners(planner, planner_config),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
-                                                             **knob_cosim)))
+                                                             **knob_cosim, **scoring)),
+                         validate=not no_validate)
     check_run_out(out, request, overwrite)
     _execute(request, out, as_json)
 
@@ -139,9 +152,9 @@ def print_summary(console: Console, result: Run) -> None:
     table = Table(title=f"{result.scenario_id} — {result.backend}")
     budget = result.settings.get("cosim", {}).get("planning_budget_s")
     columns = ["agent", "planner", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed",
-               "plan [ms]"] + (["> budget"] if budget else [])
+               "plan [ms]"] + (["> budget"] if budget else []) + ["score", "solution", "cost"]
     for col in columns:
-        table.add_column(escape(col), justify="left" if col in ("planner", "vehicle", "outcome") else "right",
+        table.add_column(escape(col), justify="left" if col in ("planner", "vehicle", "outcome", "solution") else "right",
                          no_wrap=True)
     for a in result.agents:
         colour = "green" if a.outcome == Outcome.GOAL_REACHED else "red"
@@ -153,11 +166,19 @@ def print_summary(console: Console, result: Run) -> None:
                       "—" if a.min_distance_to_traffic_m is None else f"{a.min_distance_to_traffic_m:.2f}",
                       f"{a.planner_failures}" + (f" ({a.planner_exceptions} raised)" if a.planner_exceptions else ""),
                       times,
-                      *([str(a.planning_over_budget)] if budget else []))
+                      *([str(a.planning_over_budget)] if budget else []),
+                      "—" if a.score is None else f"{a.score:.3f}", _validity(a.solution_valid),
+                      "—" if a.solution_cost is None else f"{a.solution_cost:.0f}")
     console.print(table)
     console.print("gap: smallest distance to any other road user; failed: planning cycles without a plan "
                   "(none feasible, or the planner raised); plan: wall time per planning call, mean/p95/max"
-                  + (f"; > budget: calls longer than {budget:g} s" if budget else ""), style="dim")
+                  + (f"; > budget: calls longer than {budget:g} s" if budget else "")
+                  + "; score: closed-loop score (nuPlan's CLS); solution: the driven trajectory as a CommonRoad "
+                  "solution (solution.xml), valid by commonroad-drivability-checker; cost: its cost function's "
+                  "total", style="dim")
+    for a in result.agents:
+        for line in score_lines(a):
+            console.print(escape(line))
     for error in result.planner_errors[:1]:
         console.print(f"[red]agent {error.agent_id}'s planner raised {escape(error.exception)}"
                       f"{'' if error.t is None else f' at t = {error.t:.1f} s'}: {escape(error.message)}[/red] "
@@ -167,3 +188,25 @@ def print_summary(console: Console, result: Run) -> None:
     if result.failure:
         console.print(f"[red]run failed: {result.failure}[/red]")
 
+
+def _validity(valid: bool | None) -> str:
+    return "[green]valid[/green]" if valid else "[red]invalid[/red]" if valid is False else "—"
+
+
+def score_lines(a: AgentOutcome) -> list[str]:
+    """What an agent's score and cost are made of, in a line each."""
+    if a.score is None:
+        return []
+    outside = [k.removesuffix("_within") for k, v in a.score_measures.items() if k.endswith("_within") and not v]
+    lost = [f"{name} {value:.3g}" + (f" ({', '.join(outside)} beyond bounds)" if name == "comfort" and outside else "")
+            for name, value in a.score_components.items() if value < 1.0]
+    lines = [f"agent {a.id}: score {a.score:.3f}" + (f", lost on {', '.join(lost)}" if lost else ", nothing lost")]
+    if a.solution_partial_costs:
+        terms = ", ".join(f"{name} {c.weighted:.0f} ({c.cost:.3g} x {c.weight:g})"
+                          for name, c in a.solution_partial_costs.items())
+        lines.append(f"agent {a.id}: {a.solution_benchmark} cost {a.solution_cost:.0f} = {terms}")
+    if a.solution_cost_error:
+        lines.append(f"agent {a.id}: {a.solution_benchmark} cost not evaluated: {a.solution_cost_error}")
+    if a.solution_valid is False:
+        lines.append(f"agent {a.id}: solution invalid: {a.solution_reason}")
+    return lines

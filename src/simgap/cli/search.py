@@ -29,6 +29,8 @@ def search_cmd(
                                    help="per strategy, high-fidelity runs that probe which dimensions its "
                                         "violations need (their failure modes; 0: none)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
+    no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
+                                     "slow part of scoring) for quick loops"),
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
 
@@ -57,7 +59,7 @@ def search_cmd(
 
     try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             probe_runs=probe_runs)
+                             validate=not no_validate, probe_runs=probe_runs)
     finally:
         if bar.live.is_started:
             bar.stop()

@@ -29,6 +29,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
+from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
@@ -83,6 +84,9 @@ class CosimSettings(BaseModel):
     planning_budget_s: float | None = Field(
         None, gt=0, description="wall time a planning call may take [s]; longer calls are counted per agent "
                                 "(over budget), the run goes on; default: no budget")
+    cost_function: CostFunctionId = Field(DEFAULT_COST_FUNCTION, description=COST_FUNCTION_DESCRIPTION)
+    score: ScoreSettings = Field(default_factory=ScoreSettings,
+                                 description="thresholds and weights of the closed-loop score (nuPlan's defaults)")
 
 
 @dataclass

@@ -6,6 +6,7 @@ On disk a run is a directory:
 - ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
 - ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
                           offset by `AGENT_ID_OFFSET`)
+- ``solution.xml``        every agent's driven trajectory as a CommonRoad solution (`simgap.evaluate.solution`)
 
 The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
 so a reader never sees a half-written run.
@@ -26,14 +27,13 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from simgap.errors import InputError
-from simgap.files import replace_directory
+from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.cosim.fidelity import Fidelity
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
 AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
-
 
 class Outcome(StrEnum):
     """How an agent's run ended (a string enum: it compares and serialises as its value)."""
@@ -80,6 +80,18 @@ class PlannerError:
                    "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
 
 
+@dataclass(frozen=True)
+class PartialCost:
+    """One term of a CommonRoad cost function: its value (unweighted) and its weight."""
+
+    cost: float
+    weight: float
+
+    @property
+    def weighted(self) -> float:
+        return self.cost * self.weight
+
+
 @dataclass
 class AgentOutcome:
     id: int
@@ -99,9 +111,21 @@ class AgentOutcome:
     planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
     recorded_as: int | None = None              # the recorded road user this agent replaces (its own
                                                 # recording in the file, left out of the traffic)
+    # scores (simgap.evaluate: closed_loop_score, solution); None: not scored (a run recorded before scores)
+    score: float | None = None                  # closed-loop score in [0, 1], built like nuPlan's CLS
+    score_components: dict[str, float] = field(default_factory=dict)   # its multipliers and weighted terms
+    score_measures: dict[str, float | None] = field(default_factory=dict)   # what they were computed from
+    solution_benchmark: str = ""                # the solution's benchmark ID: model+type:cost function:scenario
+    solution_cost: float | None = None          # the cost function's total
+    solution_partial_costs: dict[str, PartialCost] = field(default_factory=dict)   # by CommonRoad's term id
+    solution_cost_error: str = ""               # why the cost could not be evaluated
+    solution_valid: bool | None = None          # by commonroad-drivability-checker; None: not checked
+    solution_reason: str = ""                   # the first reason it is invalid
 
     def __post_init__(self) -> None:
         self.outcome = Outcome(self.outcome)          # as read back from run.json
+        self.solution_partial_costs = {k: v if isinstance(v, PartialCost) else PartialCost(**v)
+                                       for k, v in self.solution_partial_costs.items()}
 
 
 @dataclass
@@ -169,26 +193,38 @@ class Run:
         }
 
     # ------------------------------------------------------------------ writing
-    def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None) -> Path:
+    def _record_json(self) -> str:
+        """``run.json``: everything but the trajectories."""
+        meta = self.summary() | {
+            "dt": self.dt,
+            "events": [asdict(e) for e in self.events],
+            "settings": self.settings,
+            "scenario_path": self.scenario_path,
+            "parameters": self.parameters,
+            "sections": self.sections,
+            "versions": self.versions,
+            "seed": self.seed,
+            "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
+            "metrics": self.metrics,
+            "planner_errors": [asdict(e) for e in self.planner_errors],
+        }
+        return json.dumps(meta, indent=2, default=_json_default)
+
+    def save_record(self, run_dir: str | Path) -> Path:
+        """Rewrite the ``run.json`` of a saved run directory (atomically), e.g. once its solution
+        has been checked."""
+        return atomic_write_text(Path(run_dir) / "run.json", self._record_json())
+
+    def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None,
+             solution_xml: str | None = None) -> Path:
         """Write the run directory atomically (built aside, then swapped into place)."""
         def write(tmp: Path) -> None:
-            meta = self.summary() | {
-                "dt": self.dt,
-                "events": [asdict(e) for e in self.events],
-                "settings": self.settings,
-                "scenario_path": self.scenario_path,
-                "parameters": self.parameters,
-                "sections": self.sections,
-                "versions": self.versions,
-                "seed": self.seed,
-                "vehicles": {str(aid): v.model_dump() for aid, v in self.vehicles.items()},
-                "metrics": self.metrics,
-                "planner_errors": [asdict(e) for e in self.planner_errors],
-            }
-            (tmp / "run.json").write_text(json.dumps(meta, indent=2, default=_json_default))
+            (tmp / "run.json").write_text(self._record_json())
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
             if driven_scenario_xml is not None:
                 (tmp / "driven.xml").write_text(driven_scenario_xml)
+            if solution_xml is not None:
+                (tmp / "solution.xml").write_text(solution_xml)
 
         return replace_directory(run_dir, write)
 

@@ -114,8 +114,9 @@ class Job:
 @dataclass(frozen=True)
 class JobContext:
     """What every job of an experiment or a search shares: where it writes, the scenario file of
-    each scenario, and the vehicle the planner assumes."""
+    each scenario, the vehicle the planner assumes, and whether each run's solution is checked."""
 
     root: Path
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
+    validate: bool = False                        # check each run's solution (slow; the CLI asks unless --no-validate)

@@ -19,9 +19,10 @@ from simgap.experiment.knobs import KNOBS
 from simgap.experiment.ladder import Ladder, scenario_name
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
+from simgap.experiment.search_ledger import score_drop
 from simgap.experiment.search_rows import SearchRow
 from simgap.experiment.search_space import SearchSpace
-from simgap.experiment.search_spec import Search
+from simgap.experiment.search_spec import SCORE_DROP, Search
 from simgap.experiment.store import ResultsStore
 from simgap.planning.registry import DEFAULT_PLANNER
 
@@ -41,11 +42,14 @@ def probe_name(candidate: int, dim: str) -> str:
 
 class ModeProbes:
     """The probes of one strategy's violations (``violations``: their high-fidelity rows, in the
-    order found), ``budget`` runs at most (those an earlier invocation made included): a job
-    source for an executor, and what to do with each result."""
+    order found; ``ideal``: their ideal runs, by candidate), ``budget`` runs at most (those an
+    earlier invocation made included): a job source for an executor, and what to do with each
+    result. A probe is judged like its violation, its score drop measured against the violation's
+    ideal run (for a parameter moved back, that is another road's: an approximation)."""
 
-    def __init__(self, search: Search, space: SearchSpace, root: Path, violations: list[SearchRow], budget: int):
-        self.spec, self.space, self.budget = search.spec, space, budget
+    def __init__(self, search: Search, space: SearchSpace, root: Path, violations: list[SearchRow], budget: int,
+                 ideal: dict[int, SearchRow] | None = None):
+        self.spec, self.space, self.budget, self.ideal = search.spec, space, budget, ideal or {}
         self.root = Path(root) / PROBES
         self.ladder = Ladder(search, self.root)
         self.plan = probe_plan(search)
@@ -78,7 +82,9 @@ class ModeProbes:
 
     def on_result(self, job: Job, result: RunRow) -> None:
         candidate, dim = self.in_flight.pop(job.key)
-        reason = self.spec.failure.failed(result.columns()) if result.status == "ok" else None
+        drop = score_drop(self.ideal.get(candidate), result)
+        judged = result if drop is None else result.with_columns(**{SCORE_DROP: drop})
+        reason = self.spec.failure.failed(judged.columns()) if result.status == "ok" else None
         self.store.write_row(ProbeRow(result, candidate, dim, reason is not None, reason or "").as_run_row())
         self.done.add(job.key)
 

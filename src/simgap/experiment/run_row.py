@@ -1,6 +1,7 @@
 """A run's row in the results store (`RunRow`): its identity (`simgap.experiment.job.JobId`), the
-scenario's parameters, the scalars of the finished run (summed or taken worst over its agents),
-its metrics, timings and versions, and the columns a caller adds. Its columns and Parquet schema
+scenario's parameters, the scalars of the finished run (summed or taken worst over its agents; its
+scores among them), its metrics, the worst agent's score components (``score_<component>``),
+timings and versions, and the columns a caller adds. Its columns and Parquet schema
 come from this one definition (adding a column is adding a field), and a stored row reads back
 into one (`RunRow.from_columns`).
 
@@ -17,6 +18,7 @@ from typing import Any, Literal, Mapping
 import pyarrow as pa
 
 from simgap.cosim import Outcome
+from simgap.evaluate.closed_loop_score import COMPONENTS
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.job import Job, JobId
 from simgap.vehicles import is_vehicle_file
@@ -53,7 +55,12 @@ class RunRow:
     fingerprint: str | None = None
     run_dir: str | None = None                   # relative to the experiment directory
     job_time_s: float | None = None              # the worker's time for the whole job
+    score: float | None = None                   # the worst agent's closed-loop score
+    solution_valid: bool | None = None           # every agent's solution valid (None: not checked)
+    solution_reason: str = ""                    # the first invalid agent's first reason
+    solution_cost: float | None = None           # the solution's cost: the sum over its agents (as CommonRoad's)
     metrics: dict[str, float] = field(default_factory=dict)     # simgap.evaluate.run_metrics.RUN_METRICS
+    score_components: dict[str, float] = field(default_factory=dict)   # the worst agent's -> score_<component>
     timings: dict[str, float] = field(default_factory=dict)     # seconds per phase -> time_<phase>_s
     versions: dict[str, str] = field(default_factory=dict)      # package -> version_<package>
     extra: dict[str, Any] = field(default_factory=dict)         # columns a caller adds (a search's)
@@ -71,10 +78,12 @@ class RunRow:
         return replace(self, extra=self.extra | extra)
 
     def value(self, name: str) -> float:
-        """A scalar or a run metric by name (what failure rules and objectives name); NaN when the
-        run has none."""
+        """A scalar, a run metric or a score component (``score_<component>``) by name (what failure
+        rules and objectives name); NaN when the run has none."""
         if name in self.metrics:
             v = self.metrics[name]
+        elif name.startswith("score_") and name[len("score_"):] in self.score_components:
+            v = self.score_components[name[len("score_"):]]
         else:
             v = getattr(self, name) if name in _SCALARS else self.extra.get(name)
         return math.nan if v is None else float(v)
@@ -86,6 +95,7 @@ class RunRow:
         rest = {k: v for k, v in cols.items() if k not in _ID_COLUMNS}
         parameters = {k[len("param_"):]: rest.pop(k) for k in list(rest) if k.startswith("param_")}
         metrics = {k: rest.pop(k) for k in list(rest) if k in RUN_METRICS}
+        components = {name: rest.pop(f"score_{name}") for name in COMPONENTS if f"score_{name}" in rest}
         timings = {k[len("time_"):-len("_s")]: rest.pop(k) for k in list(rest)
                    if k.startswith("time_") and k.endswith("_s")}
         versions = {k[len("version_"):]: rest.pop(k) for k in list(rest) if k.startswith("version_")}
@@ -93,7 +103,7 @@ class RunRow:
         if scalars.get("outcome"):
             scalars["outcome"] = Outcome(scalars["outcome"])
         return cls(JobId.from_columns(cols), parameters, cols.get("vehicle_file") or cols["vehicle"], metrics=metrics,
-                   timings=timings, versions=versions, extra=rest, **scalars)
+                   score_components=components, timings=timings, versions=versions, extra=rest, **scalars)
 
     def columns(self) -> dict[str, Any]:
         """The row as the store writes it (one flat mapping of column to value)."""
@@ -104,6 +114,7 @@ class RunRow:
                 value = getattr(self, f.name)
                 cols[f.name] = value.value if isinstance(value, Outcome) else value
         cols |= dict(self.metrics)
+        cols |= {f"score_{name}": float(v) for name, v in self.score_components.items()}
         cols |= {f"time_{phase}_s": float(v) for phase, v in self.timings.items()}
         cols |= {f"version_{name}": v for name, v in self.versions.items()}
         return cols | self.extra
@@ -116,6 +127,7 @@ class RunRow:
                  "vehicle": pa.string(), "controller": pa.string(), "planner": pa.string(),
                  "repeat": pa.int64(), "seed": pa.int64(), "stage": pa.string(), "vehicle_file": pa.string()} | _SCALARS
         types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_")) or k in self.metrics}
+        types |= {f"score_{name}": pa.float64() for name in self.score_components}
         types |= {k: pa.string() for k in cols if k.startswith("version_")}
         inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra else None
         return pa.schema([pa.field(k, types[k]) if k in types else inferred.field(k) for k in cols])
@@ -125,11 +137,11 @@ def _arrow_type(annotation: str) -> pa.DataType:
     """The Arrow type of a `RunRow` scalar annotation (``float | None``, ``Status``, ...)."""
     base = annotation.replace(" | None", "")
     return {"float": pa.float64(), "int": pa.int64(), "str": pa.string(), "Status": pa.string(),
-            "Outcome": pa.string()}[base]
+            "Outcome": pa.string(), "bool": pa.bool_()}[base]
 
 
 _SCALARS: dict[str, pa.DataType] = {
     f.name: _arrow_type(str(f.type)) for f in fields(RunRow)
-    if f.name not in ("id", "parameters", "vehicle_ref", "metrics", "timings", "versions", "extra")}
+    if f.name not in ("id", "parameters", "vehicle_ref", "metrics", "score_components", "timings", "versions", "extra")}
 _ID_COLUMNS = ("key", "scenario", "fidelity", "backend", "vehicle", "controller", "planner", "repeat", "seed", "stage",
                "vehicle_file")

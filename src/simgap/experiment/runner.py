@@ -108,9 +108,10 @@ def clean_partial_runs(root: Path) -> None:
 
 def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, executor: str = "local",
                    address: str | None = None, on_progress: Callable[[Progress], None] | None = None,
-                   retry_failed: bool = False) -> ExperimentResult:
+                   retry_failed: bool = False, validate: bool = False) -> ExperimentResult:
     """Run (or resume) the experiment ``spec_ref`` in ``root``. A finished run — ok or failed — is
-    never run again, unless ``retry_failed`` asks to run the failed ones once more."""
+    never run again, unless ``retry_failed`` asks to run the failed ones once more; ``validate``
+    checks each run's solution (slow: `simgap experiment run` asks for it unless --no-validate)."""
     root = Path(root)
     experiment = load_spec(spec_ref)
     spec, path = experiment.spec, experiment.file
@@ -143,7 +144,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
             on_progress(progress)
 
     start = time.perf_counter()
-    context = JobContext(root, scenarios, experiment.planner_vehicle)
+    context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
     if todo:
         runner.run(todo, context, on_result)
     store.consolidate()

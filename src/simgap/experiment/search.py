@@ -111,7 +111,7 @@ class StrategyRun:
             c = self.ledger.candidates[r.candidate]
             if r.rung == 0 and r.ok:
                 self.ideal.known(self.ladder.ideal_key(c), r.candidate)
-            self.strategy.restore(c, r.rung, r.run, r.failed)
+            self.strategy.restore(c, r.rung, r.judged, r.failed)
             if r.rung == self.high and r.ok:
                 self.strategy.confirmed(c, r.failed)
         self.queue += self.ledger.unfinished(self.high)
@@ -122,13 +122,20 @@ class StrategyRun:
     def next_job(self) -> Job | None:
         if self.out_of_budget():
             return None
-        while self.queue:
-            index, rung = self.queue.pop(0)
-            if (index, rung) in self.ledger.rows or (index, rung) in self.in_flight.values():
-                continue
-            if rung == 0 and self._settle_ideal(index):
-                continue
-            return self._start(index, rung)
+        waiting = []                     # follow-ups whose ideal run (for the score drop) is not in yet
+        try:
+            while self.queue:
+                index, rung = self.queue.pop(0)
+                if (index, rung) in self.ledger.rows or (index, rung) in self.in_flight.values():
+                    continue
+                if rung == 0 and self._settle_ideal(index):
+                    continue
+                if rung > 0 and self.spec.needs_ideal_first and (index, 0) not in self.ledger.rows:
+                    waiting.append((index, rung))
+                    continue
+                return self._start(index, rung)
+        finally:
+            self.queue[:0] = waiting
         if self.exhausted:
             return None
         if self.missing:
@@ -142,10 +149,20 @@ class StrategyRun:
         self.next_index += 1
         return self._start_new(c)
 
-    def _start_new(self, c: Candidate) -> Job:
+    def _start_new(self, c: Candidate) -> Job | None:
+        """The first job of a new candidate: its first rung — after its ideal run when runs are judged
+        by their score drop (None: it waits for a sibling's ideal run in flight)."""
         self.ledger.candidates[c.index] = c
-        first = self.strategy.first_rung if c.start_rung is None else c.start_rung
-        return self._start(c.index, first % len(self.spec.ladder))
+        first = (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
+        if first == 0 or not self.spec.needs_ideal_first:
+            return self._start(c.index, first)
+        if not self._settle_ideal(c.index):
+            self.queue.insert(0, (c.index, first))
+            return self._start(c.index, 0)
+        if (c.index, 0) in self.ledger.rows:          # a sibling's ideal run, copied
+            return self._start(c.index, first)
+        self.queue.insert(0, (c.index, first))        # its ideal run is in flight: nothing to do until it is in
+        return None
 
     def _start(self, index: int, rung: int) -> Job:
         job = self.ladder.job(self.ledger.candidates[index], rung)
@@ -164,16 +181,17 @@ class StrategyRun:
     def _copy_ideal(self, index: int, source: int) -> None:
         c = self.ledger.candidates[index]
         row = self.ladder.copied_ideal(c, self.ledger.rows[(source, 0)], self.ledger.elapsed())
-        self.strategy.observe(c, 0, row.run, row.failed)
+        self.strategy.observe(c, 0, row.judged, row.failed)
         self.ledger.record(row)
 
     def on_result(self, job: Job, result: RunRow) -> None:
         index, rung = self.in_flight.pop(job.key)
         c = self.ledger.candidates[index]
-        reason = self.spec.failure.failed(result.columns()) if result.status == "ok" else None
-        row = SearchRow(result, self.strategy.name, index, rung, job.backend, reason is not None, reason or "",
-                        self.ledger.elapsed(), tuple(c.unit), dict(c.knobs))
-        follow = self.strategy.observe(c, rung, result, row.failed)
+        row = SearchRow(result, self.strategy.name, index, rung, job.backend, False, "", self.ledger.elapsed(),
+                        tuple(c.unit), dict(c.knobs), score_drop=self.ledger.score_drop(index, rung, result))
+        reason = self.spec.failure.failed(row.judged.columns()) if row.ok else None
+        row = replace(row, failed=reason is not None, failure_reason=reason or "")
+        follow = self.strategy.observe(c, rung, row.judged, row.failed)
         row = replace(row, promote=bool(follow))
         self.ledger.record(row)
         if rung == self.high and row.ok:
@@ -215,13 +233,18 @@ class SearchProgress:
 
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
-               on_progress: Callable[[SearchProgress], None] | None = None, probe_runs: int = 0
-               ) -> list[StrategyResult]:
-    """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; then
-    probe each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
+               on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
+               probe_runs: int = 0) -> list[StrategyResult]:
+    """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
+    checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
+    each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
     (`simgap.experiment.mode_probes`), and record what each found in ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
+    if not validate and spec.failure.solution_invalid:
+        raise InputError("the failure rule asks whether solutions are valid: that needs the validity check, which "
+                         "--no-validate skips",
+                         file=search.file, field="failure.solution_invalid", allowed="false, or validation on")
     for rung in search.rungs:
         preflight(rung.backend, rung.settings)
     names = strategies or list(spec.strategies)
@@ -238,7 +261,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         sroot.mkdir(parents=True, exist_ok=True)
         run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, budget)
         run.resume()
-        context = JobContext(sroot, planner_vehicle=search.planner_vehicle)
+        context = JobContext(sroot, planner_vehicle=search.planner_vehicle, validate=validate)
 
         def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)
@@ -249,10 +272,11 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         runner.run(run.next_job, context, on_result)
         run.ledger.save_budget(budget)
         found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
-        probes = ModeProbes(search, space, sroot, [v.row for v in found.found], probe_runs)
+        probes = ModeProbes(search, space, sroot, [v.row for v in found.found], probe_runs,
+                            {v.candidate: v.ideal_row for v in found.found})
         if probes.pending and probe_runs > 0:
-            runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle),
-                       probes.on_result)
+            runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle,
+                                                   validate=validate), probes.on_result)
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
         _record_findings(root, results[-1])
     return results

@@ -4,10 +4,12 @@ wall-clock seconds it has spent, and all of it read back from its directory to r
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 from typing import Any
 
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
 from simgap.experiment.search_rows import SearchRow, read_search_rows
 from simgap.experiment.store import ResultsStore
@@ -39,6 +41,11 @@ class SearchLedger:
         """Write ``row`` to the store (atomically) and keep it."""
         self.store.write_row(row.as_run_row())
         self.rows[(row.candidate, row.rung)] = row
+
+    def score_drop(self, index: int, rung: int, run: RunRow) -> float | None:
+        """The candidate's ideal score minus ``run``'s: 0 for its ideal run, None while the ideal
+        run is not in (or failed, or either has no score)."""
+        return 0.0 if rung == 0 else score_drop(self.rows.get((index, 0)), run)
 
     def save_budget(self, budget: Any) -> None:
         atomic_write_text(self.root / "budget.json",
@@ -79,3 +86,11 @@ class SearchLedger:
 
     def high_failures(self, high: int) -> int:
         return sum(1 for (_, k), r in self.rows.items() if k == high and r.failed)
+
+
+def score_drop(ideal: SearchRow | None, run: RunRow) -> float | None:
+    """``ideal``'s score minus ``run``'s; None if the ideal run is not in, failed, or either has no score."""
+    if ideal is None or not ideal.ok or ideal.run.score is None or run.score is None \
+            or math.isnan(ideal.run.score) or math.isnan(run.score):
+        return None
+    return ideal.run.score - run.score

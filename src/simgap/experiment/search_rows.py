@@ -3,15 +3,17 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from simgap.experiment.run_row import RunRow
+from simgap.experiment.search_spec import SCORE_DROP
 from simgap.experiment.store import ResultsStore
 
 _COLUMNS = ("strategy", "candidate", "rung", "rung_backend", "failed", "failure_reason", "elapsed_s", "promote",
-            "ideal_of")
+            "ideal_of", SCORE_DROP)
 
 
 @dataclass(frozen=True)
@@ -19,7 +21,9 @@ class SearchRow:
     """A run of a search: its store row, and where it stands in the search — the candidate, its
     rung of the ladder (0 = ideal, last = high), whether it failed by the spec's rule and why, the
     strategy's clock when it finished, the candidate's point (``unit_*``, ``knob_*`` columns),
-    whether it went up a rung, and, for a copied ideal run, the candidate that ran it."""
+    whether it went up a rung, for a copied ideal run, the candidate that ran it, and what the
+    search measures against the candidate's ideal run (``score_drop``: its ideal score minus this
+    run's; 0 for the ideal run; None while that run is not in, or either has no score)."""
 
     run: RunRow
     strategy: str
@@ -33,6 +37,13 @@ class SearchRow:
     knobs: dict[str, float] = field(default_factory=dict)
     promote: bool = False
     ideal_of: int | None = None          # a copy of the ideal run of this candidate (no cost, no run)
+    score_drop: float | None = None
+
+    @property
+    def judged(self) -> RunRow:
+        """The run as the spec's failure rule and the strategy judge it: its row with what the search
+        measures (``score_drop``), by name like any metric."""
+        return self.run if self.score_drop is None else self.run.with_columns(**{SCORE_DROP: self.score_drop})
 
     @property
     def ok(self) -> bool:
@@ -45,7 +56,8 @@ class SearchRow:
                                    "failure_reason": self.failure_reason, "elapsed_s": self.elapsed_s}
         columns |= {f"unit_{i}": float(u) for i, u in enumerate(self.unit)}
         columns |= {f"knob_{k}": float(v) for k, v in self.knobs.items()} | {"promote": self.promote}
-        return self.run.with_columns(**columns, **({} if self.ideal_of is None else {"ideal_of": self.ideal_of}))
+        columns |= {} if self.ideal_of is None else {"ideal_of": self.ideal_of}
+        return self.run.with_columns(**columns, **({} if self.score_drop is None else {SCORE_DROP: self.score_drop}))
 
     @classmethod
     def of(cls, row: RunRow) -> "SearchRow":
@@ -55,11 +67,12 @@ class SearchRow:
         unit = tuple(float(extra.pop(k)) for k in sorted((k for k in list(extra) if k.startswith("unit_")),
                                                          key=lambda k: int(k[len("unit_"):])))
         knobs = {k[len("knob_"):]: float(extra.pop(k)) for k in list(extra) if k.startswith("knob_")}
-        ideal_of = own.get("ideal_of")
+        ideal_of, drop = own.get("ideal_of"), own.get(SCORE_DROP)
         return cls(replace(row, extra=extra), own.get("strategy") or "", int(own["candidate"]), int(own["rung"]),
                    own.get("rung_backend") or row.id.fidelity.backend, bool(own.get("failed")),
                    own.get("failure_reason") or "", float(own.get("elapsed_s") or 0.0), unit, knobs,
-                   bool(own.get("promote")), None if ideal_of is None else int(ideal_of))
+                   bool(own.get("promote")), None if ideal_of is None else int(ideal_of),
+                   None if drop is None or math.isnan(drop) else float(drop))
 
 
 def read_search_rows(root: Path) -> list[SearchRow]:

@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from simgap.control import DEFAULT_CONTROLLER
 from simgap.cosim import REFERENCE, CosimSettings, Outcome
 from simgap.errors import InputError, validated
+from simgap.evaluate.closed_loop_score import COMPONENTS
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import check_knob
 from simgap.experiment.spec import (BatchSpec, builtin_or_file, check_backend, check_controller, check_parameter,
@@ -49,10 +50,14 @@ from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
 from simgap.vehicles import DEFAULT_VEHICLE
 
+SCORE_DROP = "score_drop"
 STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
-#: metrics a failure rule or an objective may name: the per-run metrics and the store's scalars
+#: metrics a failure rule or an objective may name: the per-run metrics, the store's scalars, the
+#: scores (score_drop: the ideal run's score minus this run's; a search that names it runs each
+#: candidate's ideal run first)
 METRICS = tuple(RUN_METRICS) + ("max_road_excursion_m", "peak_lateral_acceleration", "peak_jerk",
-                                "min_distance_m", "planner_failures")
+                                "min_distance_m", "planner_failures", "score", SCORE_DROP, "solution_cost") \
+    + tuple(f"score_{name}" for name in COMPONENTS)
 
 
 class Range(BaseModel):
@@ -85,6 +90,8 @@ class FailureRule(BaseModel):
 
     goal_missed: bool = Field(True, description="any outcome but reaching the goal (collision, off road, ...)")
     collision: bool = Field(True, description="a collision")
+    solution_invalid: bool = Field(False, description="the driven trajectory is not a valid CommonRoad solution "
+                                   "for the planner's vehicle model (commonroad-drivability-checker)")
     above: dict[str, float] = Field(default_factory=dict, description="metric -> bound it must not exceed")
     below: dict[str, float] = Field(default_factory=dict, description="metric -> bound it must not fall under")
 
@@ -95,6 +102,8 @@ class FailureRule(BaseModel):
             return "collision"
         if self.goal_missed and outcome not in (None, Outcome.GOAL_REACHED):
             return f"goal missed ({outcome})"
+        if self.solution_invalid and row.get("solution_valid") is False:
+            return f"invalid solution ({row.get('solution_reason') or 'no reason given'})"
         for name, bound in self.above.items():
             v = row.get(name)
             if v is not None and not math.isnan(v) and v > bound:
@@ -126,6 +135,11 @@ class SearchSpec(BatchSpec):
 
     def results_hash(self) -> str:
         return results_hash(results_relevant(self, {"name", "description", "run_timeout_s", "strategies"}))
+
+    @property
+    def needs_ideal_first(self) -> bool:
+        """Whether a run is judged by its score drop: then every candidate's ideal run comes first."""
+        return SCORE_DROP in (self.objective, *self.failure.above, *self.failure.below)
 
     @property
     def dimensions(self) -> list[tuple[str, str, float, float]]:

@@ -19,6 +19,9 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
+from simgap.evaluate.run_scores import check_run_solution, score_run
+from simgap.evaluate.solution import solution_xml
+from simgap.evaluate.validity import SolutionCheckCache
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
@@ -47,6 +50,9 @@ class RunRequest:
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
     seed: int = 0
+    validate: bool = False                     # check the solution's validity (slow; after the run is saved;
+                                               # the CLI's commands ask for it unless --no-validate)
+    check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -154,6 +160,9 @@ def execute(request: RunRequest, out: Path | None = None,
     run.seed = request.seed
     run.vehicles = {a.id: a.vehicle for a in agents}
     run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings))
+    clock = time.perf_counter()
+    solution = score_run(run, scenario, problems, request.cosim, planner_vehicle, request.scenario)
+    run.timings["scoring"] = time.perf_counter() - clock
     run.settings |= {"parameter_units": meta.get("units", {}),
                      "planner": _planner_record(request.planner, planner_records),
                      "backend": request.backend_settings.model_dump(mode="json"),
@@ -162,7 +171,15 @@ def execute(request: RunRequest, out: Path | None = None,
         t0 = time.perf_counter()
         xml = scenario_xml(driven_scenario(scenario, agents, run), problems)
         run.timings["io"] = time.perf_counter() - t0
-        run.save(out, xml)
+        run.save(out, xml, solution_xml(solution))
+    if request.validate:           # the slow check, once the run is safe on disk
+        clock = time.perf_counter()
+        cached = check_run_solution(run, solution, scenario, problems, request.scenario,
+                                    SolutionCheckCache(request.check_cache))
+        run.timings["validation"] = time.perf_counter() - clock
+        run.settings["solution_check"] = "cached" if cached else "checked"
+        if out is not None:
+            run.save_record(out)
     return run
 
 

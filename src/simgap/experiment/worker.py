@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 from simgap.cosim import Outcome, Run
 from simgap.evaluate.errors import comfort
+from simgap.evaluate.run_scores import worst_scores
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import RunRequest, execute
@@ -19,7 +21,7 @@ def run_dir_of(root: Path, job: Job) -> Path:
 
 
 def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) -> RunRow:
-    """Every scalar of a finished run: outcome, goals, excursions, comfort, timings, versions."""
+    """Every scalar of a finished run: outcome, goals, excursions, comfort, scores, timings, versions."""
     outcomes = [a.outcome for a in run.agents]
     times = [a.time_to_goal_s for a in run.agents if a.time_to_goal_s is not None]
     gaps = [a.min_distance_to_traffic_m for a in run.agents if a.min_distance_to_traffic_m is not None]
@@ -41,7 +43,8 @@ def run_row(job: Job, run: Run, run_dir: Path, root: Path, job_time_s: float) ->
         peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
         peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
         wall_time_s=run.wall_time_s, fingerprint=run.fingerprint, run_dir=str(run_dir.relative_to(root)),
-        job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions))
+        job_time_s=job_time_s, metrics=dict(run.metrics), timings=dict(run.timings), versions=dict(run.versions),
+        **asdict(worst_scores(run)))
 
 
 def _slowest(values) -> float:
@@ -57,6 +60,6 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
     scenario = job.scenario_path or (context.scenarios or {})[job.scenario]
     request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
                          planner_vehicle=context.planner_vehicle, backend_settings=job.backend_settings,
-                         planner=job.planner, cosim=job.cosim, seed=job.seed)
+                         planner=job.planner, cosim=job.cosim, seed=job.seed, validate=context.validate)
     run = execute(request, run_dir)
     return run_row(job, run, run_dir, context.root, time.perf_counter() - started)

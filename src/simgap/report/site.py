@@ -32,6 +32,7 @@ from simgap.report.collection import ScenarioGroup, collect
 from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
                                    plot_paths_from_above, runtime_table)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
+from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
 
 PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.gif", "run.gif")
 
@@ -143,7 +144,7 @@ def _varying_parameters(groups: Sequence[ScenarioGroup]) -> list[str]:
 
 
 def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
-                  scale: tuple[float, float] | None = None) -> str:
+                  scale: tuple[float, float] | None = None, unit: str = "m") -> str:
     xs, ys, grid = heatmap_grid(points)
     finite = grid[np.isfinite(grid)]
     lo, hi = scale or ((float(finite.min()), float(finite.max())) if len(finite) else (0.0, 0.0))
@@ -154,7 +155,7 @@ def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
         for j, x in enumerate(xs):
             v = grid[i, j]
             bg, fg = heatmap_colour(v, lo, hi)
-            tip = f"{xlabel} = {x:g}, {ylabel} = {ys[i]:g}: {v:.3f} m" if np.isfinite(v) else "no run"
+            tip = f"{xlabel} = {x:g}, {ylabel} = {ys[i]:g}: {v:.3f} {unit}".rstrip() if np.isfinite(v) else "no run"
             text = f"{v:.2f}" if np.isfinite(v) else ""
             href = links.get((x, ys[i]))
             if href and text:
@@ -163,8 +164,8 @@ def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
         rows.append(f"<tr><th>{ys[i]:g}</th>" + "".join(cells) + "</tr>")
     lo_bg, lo_fg = heatmap_colour(lo, lo, hi)
     hi_bg, hi_fg = heatmap_colour(hi, lo, hi)
-    legend = (f"<p>colour scale: <span style='background:{lo_bg};color:{lo_fg};padding:0 6px'>{lo:.2f} m</span> → "
-              f"<span style='background:{hi_bg};color:{hi_fg};padding:0 6px'>{hi:.2f} m</span> "
+    legend = (f"<p>colour scale: <span style='background:{lo_bg};color:{lo_fg};padding:0 6px'>{lo:.2f} {unit}</span> → "
+              f"<span style='background:{hi_bg};color:{hi_fg};padding:0 6px'>{hi:.2f} {unit}</span> "
               "(cividis; hover a cell for its value, click it for the scenario)</p>")
     return f"<h3>{html.escape(title)}</h3><table class='heatmap'>{''.join(rows)}</table>{legend}"
 
@@ -196,6 +197,7 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
             "<h2>Against the ideal run</h2>",
             "<p>d: lateral offset from the route's lane centre, compared at equal arc length s; Δv, position and "
             "orientation errors at equal time.</p>", table(_gap_rows(group)),
+            "<h2>Scores</h2>", SCORES_NOTE, table(breakdown_rows(group)),
             "<h2>Plots</h2>"]
     for aid in sorted({aid for e in group.runs.values() for aid in e.run.driven}):
         body += _agent_figures(group, aid, adir, rel)
@@ -339,9 +341,11 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
             "<h2>Headline numbers</h2>",
             "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario with the "
             "same planner, at equal arc length along the route's lane centre.</p>",
-            table(_headline_rows(groups, variants))]
+            table(_headline_rows(groups, variants)),
+            "<h2>Scores per planner and fidelity</h2>", SCORES_NOTE, table(score_rows(groups, variants))]
     if len(params) >= 2:
         body += _heatmaps(groups, fidelities, planners, params[0], params[1], assets)
+        body += _score_heatmaps(groups, fidelities, planners, params[0], params[1], assets)
     label = {v: f"{v[0]} · {v[1]}" if len(planners) > 1 else v[1] for v in variants}
     entries = {v: [g.runs[v[1]] for g in groups if g.planner == v[0] and v[1] in g.runs] for v in variants}
     wall = {label[v]: [e.run.wall_time_s for e in entries[v]] for v in variants}
@@ -403,9 +407,7 @@ def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], planners: list
     """Per fidelity, the largest gap against the ideal run over two varying parameters, the planners
     side by side (one colour scale for every fidelity and planner, so colours compare across
     vehicles, backends and planners)."""
-    units = {k: u for g in groups for e in g.runs.values()
-             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
-    xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
+    xlabel, ylabel = _axis_labels(groups, xp, yp)
     body = ["<h2>Where the gap is largest</h2>"]
     maps: dict[str, dict[str, tuple]] = {}
     for fidelity in fidelities:
@@ -441,6 +443,38 @@ def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], planners: list
             pictures.append(figure(f"assets/{png.name}", f"{title} (picture)", half=len(per) > 1))
         body += [f"<div class='side'>{''.join(tables)}</div>", "".join(pictures)]
     return body
+
+
+def _axis_labels(groups: list[ScenarioGroup], xp: str, yp: str) -> tuple[str, str]:
+    """The two parameters with their units (as the runs record them)."""
+    units = {k: u for g in groups for e in g.runs.values()
+             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
+    xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
+    return xlabel, ylabel
+
+
+def _score_heatmaps(groups: list[ScenarioGroup], fidelities: list[str], planners: list[str], xp: str, yp: str,
+                    assets: Path) -> list[str]:
+    """Per fidelity and planner, the score drop from the ideal run over two varying parameters
+    (one colour scale, 0 to the largest drop)."""
+    maps = score_drop_maps(groups, fidelities, planners, xp, yp)
+    if not maps:
+        return []
+    xlabel, ylabel = _axis_labels(groups, xp, yp)
+    scale = (0.0, max([v for points in maps.values() for _, _, v, _ in points if math.isfinite(v)] + [1e-3]))
+    body = ["<h2>Where the score drops</h2>",
+            f"<p>The closed-loop score of the ideal run minus the run's (its agent that lost most), over "
+            f"{html.escape(xp)} × {html.escape(yp)}; one colour scale, 0 to {scale[1]:.2f}.</p>"]
+    tables, pictures = [], []
+    for (fidelity, planner), points in maps.items():
+        title = f"score drop, {fidelity}" + (f", {planner}" if len(planners) > 1 else "")
+        links = {(x, y): f"scenarios/{_slug(g.name)}.html" for x, y, _, g in points}
+        cells = [(x, y, v) for x, y, v, _ in points]
+        tables.append(f"<div>{heatmap_table(cells, xlabel, ylabel, title, links, scale, unit='')}</div>")
+        png = plot_heatmap(cells, assets / f"score_drop_{_slug(fidelity)}_{_slug(planner)}.png", title, xlabel,
+                           ylabel, "score drop", scale)
+        pictures.append(figure(f"assets/{png.name}", f"{title} (picture)", half=len(maps) > 1))
+    return body + [f"<div class='side'>{''.join(tables)}</div>", "".join(pictures)]
 
 
 def _ranking_rows(groups: list[ScenarioGroup], params: list[str]) -> list[dict]:

@@ -38,6 +38,10 @@ class PathFrame:
         self._seg_len = np.hypot(seg[:, 0], seg[:, 1])
         self.s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
 
+    @property
+    def length(self) -> float:
+        return float(self.s[-1])
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(s, d) of each point; the nearest segment wins (beyond the ends the path is extended)."""
         pts = np.atleast_2d(np.asarray(points, dtype=float))

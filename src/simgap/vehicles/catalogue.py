@@ -10,7 +10,7 @@ from __future__ import annotations
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -46,6 +46,9 @@ class Vehicle(BaseModel):
     wheelbase: float = Field(gt=0, description="front to rear axle [m]")
     rear_axle_to_center: float = Field(gt=0, description="rear axle to the vehicle centre [m]")
     limits: VehicleLimits
+    commonroad_vehicle_type: Literal[1, 2, 3] | None = Field(
+        None, description="the CommonRoad vehicle type (parameter set) this vehicle is, when it is one: 1 Ford "
+                          "Escort, 2 BMW 320i, 3 VW Vanagon; a planner driving it is scored as that type")
     physics: VehiclePhysics | None = Field(None, description="physical model for 3D backends")
     controllers: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="controller gains by controller name, overriding defaults")

@@ -1,0 +1,167 @@
+"""Whether each agent's solution is valid, by commonroad-drivability-checker's solution checker, and
+the first reason when it is not.
+
+The checks are the library's own (`commonroad_dc.feasibility.solution_checker`), in the order its
+``valid_solution`` runs them, on each agent's part of the solution alone: the goal reached, the
+start at the planning problem's initial state, no collision with the scenario's obstacles, inside
+the road boundary, no collision with another agent, and feasible for the vehicle model (its
+inputs reconstructed state by state). The first that fails is the reason; the checks after it are
+not run. Where the library only says *that* something failed, the time (and the obstacle) is
+located with its own collision objects.
+
+The feasibility check is slow (milliseconds per state, most of a run's evaluation); runs are
+checked after they are saved, in a process of their own, with their verdicts cached
+(`simgap.evaluate.validity`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from commonroad.common.solution import PlanningProblemSolution, Solution
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class SolutionCheck:
+    """One agent's verdict: valid (None: could not be checked) and why not."""
+
+    valid: bool | None
+    reason: str = ""
+
+
+Stage = Callable[[str], None]
+
+
+def check_solution(solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
+                   on_stage: Stage = lambda _: None) -> dict[int, SolutionCheck]:
+    """The verdict on each agent's part of ``solution`` (``on_stage`` is told each check as it starts)."""
+    return {pps.planning_problem_id: check_agent(pps, solution, scenario, problems, on_stage)
+            for pps in solution.planning_problem_solutions}
+
+
+def check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
+                on_stage: Stage = lambda _: None) -> SolutionCheck:
+    """The verdict on one agent's part of ``solution`` (None: the library raised on it)."""
+    try:
+        return _check_agent(pps, solution, scenario, problems,
+                            lambda check: on_stage(f"agent {pps.planning_problem_id}'s {check} check"))
+    except Exception as exc:     # the library failed on this input: no verdict, the run goes on
+        return SolutionCheck(None, f"the check raised {type(exc).__name__}: {_first_line(exc)}")
+
+
+def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Scenario,
+                 problems: PlanningProblemSet, on_stage: Stage) -> SolutionCheck:
+    from commonroad_dc.feasibility import solution_checker as checker
+
+    pid = pps.planning_problem_id
+    alone = Solution(solution.scenario_id, [pps], date=None)
+    problem_set = PlanningProblemSet([problems.planning_problem_dict[pid]])
+    on_stage("goal")
+    try:
+        checker.goal_reached(scenario, problem_set, alone)
+    except checker.GoalNotReachedException:
+        end = pps.trajectory.state_list[-1].time_step * scenario.dt
+        return SolutionCheck(False, f"goal not reached (the trajectory ends at t = {end:.1f} s)")
+    on_stage("initial state")
+    try:
+        checker.starts_at_correct_state(alone, problem_set)
+    except checker.SolutionCheckerException as exc:
+        return SolutionCheck(False, "does not start at the planning problem's initial state: " + _first_line(exc))
+    on_stage("obstacle collision")
+    try:
+        checker.obstacle_collision(scenario, problem_set, alone)
+    except checker.CollisionException:
+        return SolutionCheck(False, _obstacle_collision(pps, scenario))
+    on_stage("road boundary")
+    try:
+        checker.boundary_collision(scenario, problem_set, alone)
+    except checker.CollisionException:
+        return SolutionCheck(False, _boundary_collision(pps, scenario))
+    on_stage("collision between agents")
+    others = [o for o in solution.planning_problem_solutions if o.planning_problem_id != pid]
+    for other in others:
+        pair = Solution(solution.scenario_id, [pps, other], date=None)
+        pair_problems = PlanningProblemSet([problems.planning_problem_dict[pid],
+                                            problems.planning_problem_dict[other.planning_problem_id]])
+        try:
+            checker.ego_collision(scenario, pair_problems, pair)
+        except checker.CollisionException:
+            return SolutionCheck(False, _agent_collision(pps, other, scenario.dt))
+    on_stage("feasibility")
+    try:
+        feasible, inputs, _ = checker.solution_feasible(alone, scenario.dt, problem_set)[pid]
+    except checker.SolutionCheckerException as exc:
+        return SolutionCheck(False, f"infeasible for {_model(pps)}: " + _first_line(exc.__cause__ or exc))
+    if not feasible:
+        k = inputs.state_list[-1].time_step
+        return SolutionCheck(False, f"infeasible for {_model(pps)} at t = {(k + 1) * scenario.dt:.1f} s (no input "
+                                    f"reaches that state from the one at t = {k * scenario.dt:.1f} s)")
+    return SolutionCheck(True)
+
+
+def _model(pps: PlanningProblemSolution) -> str:
+    return f"{pps.vehicle_model.name}{pps.vehicle_type.value}"
+
+
+def _first_line(exc: BaseException) -> str:
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+
+
+# ----------------------------------------------------------------------- locating a collision
+def _ego_object(pps: PlanningProblemSolution):
+    """The agent's occupancy over time, as the checker builds it (the vehicle type's box)."""
+    from commonroad.prediction.prediction import TrajectoryPrediction
+    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_object
+    from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
+
+    shape = VehicleDynamics.from_model(pps.vehicle_model, pps.vehicle_type).shape
+    return create_collision_object(TrajectoryPrediction(pps.trajectory, shape))
+
+
+def _first_contact(ego, other) -> int | None:
+    """The first time step at which the time-variant ``ego`` touches ``other`` (None: never)."""
+    for k in range(ego.time_start_idx(), ego.time_end_idx() + 1):
+        at = ego.obstacle_at_time(k)
+        if at is None:
+            continue
+        if hasattr(other, "obstacle_at_time"):
+            if not other.time_start_idx() <= k <= other.time_end_idx():
+                continue
+            other_at = other.obstacle_at_time(k)
+            if other_at is not None and at.collide(other_at):
+                return k
+        elif at.collide(other):
+            return k
+    return None
+
+
+def _obstacle_collision(pps: PlanningProblemSolution, scenario: Scenario) -> str:
+    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_object
+
+    ego = _ego_object(pps)
+    hits = []
+    for obstacle in scenario.obstacles:
+        k = _first_contact(ego, create_collision_object(obstacle))
+        if k is not None:
+            hits.append((k, obstacle.obstacle_id))
+    if not hits:
+        return "collision with an obstacle"
+    k, oid = min(hits)
+    return f"collision with obstacle {oid} at t = {k * scenario.dt:.1f} s"
+
+
+def _boundary_collision(pps: PlanningProblemSolution, scenario: Scenario) -> str:
+    from commonroad_dc.boundary.boundary import create_road_boundary_obstacle
+    from commonroad_dc.collision.collision_detection.pycrcc_collision_dispatch import create_collision_object
+
+    boundary, _ = create_road_boundary_obstacle(scenario, method="triangulation")
+    k = _first_contact(_ego_object(pps), create_collision_object(boundary))
+    return "leaves the road boundary" + ("" if k is None else f" at t = {k * scenario.dt:.1f} s")
+
+
+def _agent_collision(pps: PlanningProblemSolution, other: PlanningProblemSolution, dt: float) -> str:
+    k = _first_contact(_ego_object(pps), _ego_object(other))
+    return f"collision with agent {other.planning_problem_id}" + ("" if k is None else f" at t = {k * dt:.1f} s")
