@@ -19,6 +19,7 @@ from typing import Callable
 import numpy as np
 
 from simgap.evaluate.road_users import RoadUser
+from simgap.planning.collision import boxes_overlap
 from simgap.trajectory import Trajectory
 
 
@@ -66,7 +67,7 @@ def time_to_collision(ego: Trajectory, length: float, width: float, rear_axle_to
     k = k_steps[None, None, :]                                       # (1, 1, K)
     rx = (ox - ego.x[:, None])[..., None] + (o_dx - ego_dx[:, None])[..., None] * k      # (n, m, K)
     ry = (oy - ego.y[:, None])[..., None] + (o_dy - ego_dy[:, None])[..., None] * k
-    overlap = _boxes_overlap(rx, ry, ego.yaw[:, None, None], length / 2, width / 2,
+    overlap = boxes_overlap(rx, ry, ego.yaw[:, None, None], length / 2, width / 2,
                              oyaw[..., None], olen[..., None] / 2, owid[..., None] / 2)
     overlap &= relevant[..., None]
     hit = overlap.any(axis=2)
@@ -75,17 +76,3 @@ def time_to_collision(ego: Trajectory, length: float, width: float, rear_axle_to
     found = earliest < len(steps)
     ttc[found] = steps[earliest[found]]
     return ttc
-
-
-def _boxes_overlap(rx, ry, yaw_a, hl_a, hw_a, yaw_b, hl_b, hw_b) -> np.ndarray:
-    """Whether box B, centred (rx, ry) from box A's centre, overlaps box A (separating axes)."""
-    ua = (np.cos(yaw_a), np.sin(yaw_a))
-    va = (-np.sin(yaw_a), np.cos(yaw_a))
-    ub = (np.cos(yaw_b), np.sin(yaw_b))
-    vb = (-np.sin(yaw_b), np.cos(yaw_b))
-    overlap = np.ones(np.broadcast_shapes(np.shape(rx), np.shape(yaw_a), np.shape(yaw_b)), dtype=bool)
-    for axis in (ua, va, ub, vb):
-        reach = (hl_a * np.abs(ua[0] * axis[0] + ua[1] * axis[1]) + hw_a * np.abs(va[0] * axis[0] + va[1] * axis[1])
-                 + hl_b * np.abs(ub[0] * axis[0] + ub[1] * axis[1]) + hw_b * np.abs(vb[0] * axis[0] + vb[1] * axis[1]))
-        overlap &= np.abs(rx * axis[0] + ry * axis[1]) <= reach
-    return overlap

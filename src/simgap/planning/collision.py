@@ -213,24 +213,19 @@ def traffic_overlaps(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_lengt
     near = dx * dx + dy * dy <= reach * reach
     if not near.any():
         return None
-    c1, s1 = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
-    yaw2 = traffic.yaw.T[None]
-    c2, s2 = np.cos(yaw2), np.sin(yaw2)
-    # relative orientation terms: |u1.u2|, |u1.v2| etc.
-    cos_rel = np.abs(c1 * c2 + s1 * s2)
-    sin_rel = np.abs(s1 * c2 - c1 * s2)
-    separated = np.zeros(near.shape, dtype=bool)
-    # ego axes
-    d_u1 = np.abs(dx * c1 + dy * s1)
-    d_v1 = np.abs(-dx * s1 + dy * c1)
-    separated |= d_u1 > half_length + hl2 * cos_rel + hw2 * sin_rel
-    separated |= d_v1 > half_width + hl2 * sin_rel + hw2 * cos_rel
-    # participant axes
-    d_u2 = np.abs(dx * c2 + dy * s2)
-    d_v2 = np.abs(-dx * s2 + dy * c2)
-    separated |= d_u2 > hl2 + half_length * cos_rel + half_width * sin_rel
-    separated |= d_v2 > hw2 + half_length * sin_rel + half_width * cos_rel
-    return near & ~separated
+    return near & boxes_overlap(dx, dy, yaw[..., None], half_length, half_width, traffic.yaw.T[None], hl2, hw2)
+
+
+def boxes_overlap(dx, dy, yaw_a, half_length_a, half_width_a, yaw_b, half_length_b, half_width_b) -> np.ndarray:
+    """Whether box B, its centre (dx, dy) from box A's, overlaps box A: separating axes, broadcast
+    over any shapes (a NaN offset overlaps nothing)."""
+    c1, s1, c2, s2 = np.cos(yaw_a), np.sin(yaw_a), np.cos(yaw_b), np.sin(yaw_b)
+    cos_rel = np.abs(c1 * c2 + s1 * s2)          # |u_a.u_b| = |v_a.v_b|
+    sin_rel = np.abs(s1 * c2 - c1 * s2)          # |u_a.v_b| = |v_a.u_b|
+    return ((np.abs(dx * c1 + dy * s1) <= half_length_a + half_length_b * cos_rel + half_width_b * sin_rel)
+            & (np.abs(-dx * s1 + dy * c1) <= half_width_a + half_length_b * sin_rel + half_width_b * cos_rel)
+            & (np.abs(dx * c2 + dy * s2) <= half_length_b + half_length_a * cos_rel + half_width_a * sin_rel)
+            & (np.abs(-dx * s2 + dy * c2) <= half_width_b + half_length_a * sin_rel + half_width_a * cos_rel))
 
 
 def struck_from_behind(cx: np.ndarray, cy: np.ndarray, yaw: np.ndarray, half_length: float,
