@@ -107,6 +107,21 @@ def test_probes_keep_to_their_budget_and_resume_without_repeating(tmp_path):
     assert summarise(root, "grid", 3, search.spec.distinct_radius).probed_modes == 3
 
 
+def test_a_small_probe_budget_gives_every_group_its_clearest_member_first(tmp_path):
+    """Three groups may be modes here (the city car off the road; each car out of its lane): nine
+    probe runs (three dimensions each at most) probe one member of each, the one nearest nominal,
+    and every group comes out a probed mode with that member as its representative."""
+    root = tmp_path / "grid"
+    search, space = searched(root)
+    probe(search, space, root, budget=9)
+    result = summarise(root, "grid", 3, search.spec.distinct_radius)
+    probed = [m for m in result.modes if m.probed]
+    assert {(m.vehicle, m.broke) for m in probed} == {("city", "off_road"), ("city", "max_lane_excursion_m"),
+                                                     ("sedan", "max_lane_excursion_m")}
+    delay = {m.vehicle: m for m in probed if m.broke == "max_lane_excursion_m"}
+    assert all(m.needs == ["steer_delay"] and m.representative_values["road_friction"] == 1.0 for m in delay.values())
+
+
 @pytest.mark.parametrize("reason, broke", [("goal missed (off_road)", "off_road"), ("collision", "collision"),
                                            ("max_lane_excursion_m 0.3 > 0.1", "max_lane_excursion_m"), ("", "unknown")])
 def test_what_broke(reason, broke):

@@ -1,14 +1,8 @@
 """The search for violated assumptions: its spec, its budget, its strategies on a planted
-failure region, and resuming a real search."""
+failure region and on a landscape of several (real searches: `test_search_runs.py`)."""
 
 from __future__ import annotations
 
-import json
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -19,27 +13,14 @@ from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
-from simgap.experiment.search_results import search_results, summarise
+from simgap.experiment.search_results import summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.search_space import SearchSpace
 from simgap.experiment.strategies import make_strategy
-from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
-LADDER = [{"backend": "ideal"},
-          {"backend": "dynamic", "settings": {"integration_step": 0.004, "controller_hz": 50},
-           "cosim": {"replan_every": 10}},
-          {"backend": "mujoco"}]
-
-
-def write(tmp_path: Path, **fields) -> Path:
-    spec = {"name": "t", "logical": "curve", "parameters": {"radius": {"min": 10, "max": 50}},
-            "knobs": {"road_friction": {"min": 0.2, "max": 1.0}}, "ladder": LADDER} | fields
-    path = tmp_path / "search.yaml"
-    path.write_text(yaml.safe_dump(spec))
-    return path
-
+from search_specs import LADDER, write
 
 @pytest.mark.parametrize("fields, where, allowed", [
     ({"knobs": {"grip": {"min": 0, "max": 1}}}, "knobs.grip", "road_friction"),
@@ -212,70 +193,6 @@ def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):
 
 
 # --- a real search, interrupted and resumed --------------------------------------------------
-
-def small_search(tmp_path, **fields):
-    return write(tmp_path, **({"parameters": {"radius": {"min": 10, "max": 30}, "initial_speed": {"min": 10, "max": 20}},
-                               "ladder": [{"backend": "ideal"}, LADDER[1], {"backend": "dynamic"}],
-                               "failure": {"above": {"peak_grip_use": 0.9}}, "strategies": ["random", "multi_fidelity"],
-                               "run_timeout_s": 120} | fields))
-
-
-def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
-    spec = small_search(tmp_path)
-    out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
-                             "--strategy", "random", "--workers", "2", "--no-report", "--no-validate"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
-    rows_dir = out / "random" / "store" / "rows"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not (rows_dir.exists() and len(list(rows_dir.glob("*.parquet"))) >= 2):
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGKILL)          # the driver and its workers, mid-run
-    proc.wait()
-    before = {r["key"]: r for r in ResultsStore(out / "random").rows()}
-    assert 2 <= len(before) < 8, "the kill came after the second and before the last run finished"
-
-    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"])
-    rows = ResultsStore(out / "random").rows()
-    keys = [r["key"] for r in rows]
-    assert len(keys) == len(set(keys)) == 8 == result.runs                 # none lost, none twice
-    after = {r["key"]: r for r in rows}
-    assert all(after[k]["fingerprint"] == r["fingerprint"] and after[k]["elapsed_s"] == r["elapsed_s"]
-               for k, r in before.items())                                  # kept as they were
-    assert not list(out.rglob(".*.tmp"))
-    candidates = sorted({int(r["candidate"]) for r in rows})
-    assert candidates == list(range(len(candidates)))                      # no candidate skipped
-
-
-def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
-    spec = small_search(tmp_path)
-    out = tmp_path / "search"
-    first = run_search(spec, out, Budget(runs=3), workers=2)
-    assert [r.name for r in first] == ["random", "multi_fidelity"]
-    before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
-    assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2, probe_runs=1)
-    build_search_report(search_results(out))
-    findings = json.loads((out / "search.json").read_text())["findings"]      # what each found, beside the spec
-    assert set(findings) == {"random", "multi_fidelity"} and findings["random"]["runs"] == 6
-    assert all(isinstance(f["modes"], list) for f in findings.values())
-    probes = [r for s in ("random", "multi_fidelity") for r in ResultsStore(out / s / "probes").rows()]
-    assert len(probes) <= 2 and all(r["status"] == "ok" for r in probes)      # through the executor
-    rows = ResultsStore(out / "multi_fidelity").rows()
-    keys = [r["key"] for r in rows]
-    assert len(keys) == len(set(keys)) == 6
-    assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
-    assert {r["rung"] for r in rows} >= {1}                                # the screen ran
-    results = search_results(out).strategies
-    assert [r.name for r in results] == ["random", "multi_fidelity"] and all(r.runs == 6 for r in results)
-    page = (out / "report" / "index.html").read_text()
-    assert "distinct violated assumptions" in page and "multi_fidelity" in page
-    assert (out / "report" / "failures_over_budget.png").stat().st_size > 10_000
-    # another spec in the same directory is refused, naming what to do
-    other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
-    with pytest.raises(InputError, match="different spec"):
-        run_search(other, out, Budget(runs=1), workers=1)
-
 
 # --- diversity: several planted regions -----------------------------------------------------
 

@@ -5,15 +5,18 @@ candidate otherwise (its vehicle, planner and seed), through the search's ladder
 
 Budgeted in runs per strategy and resumable: each probe's row goes to ``<strategy>/probes/store``
 under its own key (``c00012-road_friction/high``), and a probe with a row is never run again.
-Violations are probed whole, one after another, the first of each scenario (road, start,
-vehicle, planner) before the second of any, so that a small budget sees many scenarios.
+Violations are probed whole, one after another, the clearest of each group that may be a mode
+(vehicle, planner, what broke) before the second of any (`clearest_first`), so that a small budget
+gives every group a probed member.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from simgap.experiment.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow
+import numpy as np
+
+from simgap.experiment.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow, what_broke
 from simgap.experiment.job import Job
 from simgap.experiment.knobs import KNOBS
 from simgap.experiment.ladder import Ladder, scenario_name
@@ -59,7 +62,7 @@ class ModeProbes:
         self.plan.save(Path(root))
         self.done = set(self.store.finished_keys()) if self.store.rows_dir.exists() else set()
         self.made = len(self.done)
-        self.pending = [(v, i) for v in _scenarios_first(violations) for i in self.plan.off_nominal(v.unit)]
+        self.pending = [(v, i) for v in clearest_first(violations, self.plan) for i in self.plan.off_nominal(v.unit)]
         self.in_flight: dict[str, tuple[int, str]] = {}
 
     def next_job(self) -> Job | None:
@@ -89,12 +92,20 @@ class ModeProbes:
         self.done.add(job.key)
 
 
-def _scenarios_first(violations: list[SearchRow]) -> list[SearchRow]:
-    """``violations`` reordered: the first of each scenario, then the second of each, and so on."""
-    seen: dict[tuple, int] = {}
-    ranked = []
-    for order, v in enumerate(violations):
-        key = (v.run.id.fidelity.vehicle, v.run.id.planner, tuple(sorted(v.run.parameters.items())))
-        seen[key] = seen.get(key, 0) + 1
-        ranked.append((seen[key], order, v))
+def clearest_first(violations: list[SearchRow], plan: ProbePlan) -> list[SearchRow]:
+    """``violations`` in the order they are probed: the clearest of each group that may be a mode
+    (vehicle, planner, what broke) first — the fewest dimensions off nominal, then the nearest to
+    nominal: the cheapest to probe and the representative a mode would show — then the second
+    clearest of each, and so on; so that a small budget gives every group a probed member."""
+    nominal = np.array([d.nominal_unit for d in plan.dims])
+
+    def clarity(v: SearchRow) -> tuple[int, float, int]:
+        return len(plan.off_nominal(v.unit)), float(np.abs(np.array(v.unit) - nominal).sum()), v.candidate
+
+    groups: dict[tuple, list[SearchRow]] = {}
+    for v in violations:
+        key = (v.run.id.fidelity.vehicle, v.run.id.planner or DEFAULT_PLANNER, what_broke(v.failure_reason))
+        groups.setdefault(key, []).append(v)
+    ranked = [(rank, clarity(v), v) for members in groups.values()
+              for rank, v in enumerate(sorted(members, key=clarity))]
     return [v for _, _, v in sorted(ranked, key=lambda t: t[:2])]
