@@ -1,13 +1,8 @@
 """The search for violated assumptions: its spec, its budget, its strategies on a planted
-failure region, and resuming a real search."""
+failure region and on a landscape of several (real searches: `test_search_runs.py`)."""
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -18,27 +13,14 @@ from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
-from simgap.experiment.search_results import search_results, summarise
+from simgap.experiment.search_results import summarise
 from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
 from simgap.experiment.search_space import SearchSpace
 from simgap.experiment.strategies import make_strategy
-from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 
-LADDER = [{"backend": "ideal"},
-          {"backend": "dynamic", "settings": {"integration_step": 0.004, "controller_hz": 50},
-           "cosim": {"replan_every": 10}},
-          {"backend": "mujoco"}]
-
-
-def write(tmp_path: Path, **fields) -> Path:
-    spec = {"name": "t", "logical": "curve", "parameters": {"radius": {"min": 10, "max": 50}},
-            "knobs": {"road_friction": {"min": 0.2, "max": 1.0}}, "ladder": LADDER} | fields
-    path = tmp_path / "search.yaml"
-    path.write_text(yaml.safe_dump(spec))
-    return path
-
+from search_specs import LADDER, write
 
 @pytest.mark.parametrize("fields, where, allowed", [
     ({"knobs": {"grip": {"min": 0, "max": 1}}}, "knobs.grip", "road_friction"),
@@ -117,7 +99,7 @@ def search_planted(tmp_path, name, seed, runs):
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy(name, space, spec),
                       tmp_path / f"{name}-{seed}", Budget(runs=runs))
-    run.ladder.scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
         run.on_result(job, planted_row(job))
@@ -165,7 +147,7 @@ def knob_grid_run(root: Path, runs: int = 100) -> StrategyRun:
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), root,
                       Budget(runs=runs))
-    run.ladder.scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     return run
 
@@ -212,63 +194,50 @@ def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):
 
 # --- a real search, interrupted and resumed --------------------------------------------------
 
-def small_search(tmp_path, **fields):
-    return write(tmp_path, **({"parameters": {"radius": {"min": 10, "max": 30}, "initial_speed": {"min": 10, "max": 20}},
-                               "ladder": [{"backend": "ideal"}, LADDER[1], {"backend": "dynamic"}],
-                               "failure": {"above": {"peak_grip_use": 0.9}}, "strategies": ["random", "multi_fidelity"],
-                               "run_timeout_s": 120} | fields))
+# --- diversity: several planted regions -----------------------------------------------------
+
+REGIONS = [((0.8, 1.0), (0.0, 0.25), (0.0, 1.0)), ((0.0, 0.25), (0.75, 1.0), (0.75, 1.0)),
+           ((0.4, 0.6), (0.4, 0.6), (0.0, 0.25)), ((0.0, 0.3), (0.0, 0.3), (0.0, 0.3)),
+           ((0.7, 1.0), (0.7, 1.0), (0.0, 0.3))]       # boxes in (initial_speed, radius, angle), normalised
+SCENARIO = {"initial_speed": (0, 25), "radius": (10, 100), "angle": (-180, 180)}
 
 
-def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
-    spec = small_search(tmp_path)
-    out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
-                             "--strategy", "random", "--workers", "2", "--no-report", "--no-validate"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
-    rows_dir = out / "random" / "store" / "rows"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not (rows_dir.exists() and len(list(rows_dir.glob("*.parquet"))) >= 2):
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGKILL)          # the driver and its workers, mid-run
-    proc.wait()
-    before = {r["key"]: r for r in ResultsStore(out / "random").rows()}
-    assert 2 <= len(before) < 8, "the kill came after the second and before the last run finished"
-
-    (result,) = run_search(spec, out, Budget(runs=8), workers=2, strategies=["random"])
-    rows = ResultsStore(out / "random").rows()
-    keys = [r["key"] for r in rows]
-    assert len(keys) == len(set(keys)) == 8 == result.runs                 # none lost, none twice
-    after = {r["key"]: r for r in rows}
-    assert all(after[k]["fingerprint"] == r["fingerprint"] and after[k]["elapsed_s"] == r["elapsed_s"]
-               for k, r in before.items())                                  # kept as they were
-    assert not list(out.rglob(".*.tmp"))
-    candidates = sorted({int(r["candidate"]) for r in rows})
-    assert candidates == list(range(len(candidates)))                      # no candidate skipped
+def regions_row(job):
+    """Fails in high fidelity in any of five regions of the road and start under friction below
+    0.5; the screen's grip use rises towards the regions."""
+    u = [(job.parameters[n] - lo) / (hi - lo) for n, (lo, hi) in SCENARIO.items()]
+    gap = min(sum(max(lo - x, 0.0, x - hi) ** 2 for x, (lo, hi) in zip(u, box)) ** 0.5 for box in REGIONS)
+    mu = knob_value("road_friction", job.backend_settings)
+    failed = job.backend == "mujoco" and gap == 0.0 and mu < 0.5
+    grip = (1.2 - 2 * gap) * 0.5 / mu
+    return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
+                  job_time_s={"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend],
+                  metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0,
+                           "peak_grip_use": grip if job.backend != "ideal" else 0.3})
 
 
-def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
-    spec = small_search(tmp_path)
-    out = tmp_path / "search"
-    first = run_search(spec, out, Budget(runs=3), workers=2)
-    assert [r.name for r in first] == ["random", "multi_fidelity"]
-    before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
-    assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2)
-    build_search_report(search_results(out))
-    rows = ResultsStore(out / "multi_fidelity").rows()
-    keys = [r["key"] for r in rows]
-    assert len(keys) == len(set(keys)) == 6
-    assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
-    assert {r["rung"] for r in rows} >= {1}                                # the screen ran
-    results = search_results(out).strategies
-    assert [r.name for r in results] == ["random", "multi_fidelity"] and all(r.runs == 6 for r in results)
-    page = (out / "report" / "index.html").read_text()
-    assert "distinct violated assumptions" in page and "multi_fidelity" in page
-    assert (out / "report" / "failures_over_budget.png").stat().st_size > 10_000
-    # another spec in the same directory is refused, naming what to do
-    other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
-    with pytest.raises(InputError, match="different spec"):
-        run_search(other, out, Budget(runs=1), workers=1)
+def search_regions(root: Path, seed: int, spread: float):
+    spec = SearchSpec(name="regions", logical="curve",
+                      parameters={n: {"min": lo, "max": hi} for n, (lo, hi) in SCENARIO.items()},
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}, "steer_delay": {"min": 0.0, "max": 0.1}},
+                      ladder=LADDER, seed=seed, scenario_spread=spread, distinct_radius=0.1)
+    space = SearchSpace(spec, load_logical("curve"))
+    run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("multi_fidelity", space, spec), root,
+                      Budget(runs=120))
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
+    run.resume()
+    while (job := run.next_job()) is not None:
+        run.on_result(job, regions_row(job))
+    return summarise(root, "multi_fidelity", 3, spec.distinct_radius)
+
+
+def test_weighing_new_scenarios_finds_more_failing_scenarios_at_equal_budget(tmp_path):
+    plain = [search_regions(tmp_path / f"plain{s}", s, spread=0.0) for s in range(2)]
+    spread = [search_regions(tmp_path / f"spread{s}", s, spread=1.0) for s in range(2)]
+    scenarios = (sum(r.scenarios for r in plain), sum(r.scenarios for r in spread))
+    distinct = (sum(r.distinct for r in plain), sum(r.distinct for r in spread))
+    assert scenarios[1] >= 2 * scenarios[0] > 0, scenarios           # many more roads and starts ...
+    assert distinct[1] >= distinct[0], distinct                      # ... and no fewer distinct violations
 
 
 # --- searching for score drops (rows made up: the ideal world scores 0.9, MuJoCo loses score on
@@ -290,7 +259,7 @@ def test_a_search_for_score_drops_runs_each_ideal_run_first(tmp_path):
     space = SearchSpace(spec, load_logical("curve"))
     run = StrategyRun(checked_search(spec, space.logical), space, make_strategy("grid", space, spec), tmp_path / "s",
                       Budget(runs=50))
-    run.ladder.scenario = lambda c: "unused.xml"
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     first = run.next_job()
     assert first.backend == "ideal"

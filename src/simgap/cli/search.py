@@ -25,6 +25,9 @@ def search_cmd(
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
+    probe_runs: int = typer.Option(20, "--probe-runs", min=0,
+                                   help="per strategy, high-fidelity runs that probe which dimensions its "
+                                        "violations need (their failure modes; 0: none)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
@@ -56,7 +59,7 @@ def search_cmd(
 
     try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             validate=not no_validate)
+                             validate=not no_validate, probe_runs=probe_runs)
     finally:
         if bar.live.is_started:
             bar.stop()
@@ -68,12 +71,18 @@ def search_cmd(
 def _print(console: Console, results) -> None:
     t = Table(title="what each strategy found")
     for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "scenarios",
-                "per CPU-h"):
+                "modes (+unprobed)", "per CPU-h"):
         t.add_column(col, justify="left" if col == "strategy" else "right")
     for r in results:
         t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
-                  str(r.violations), str(r.distinct), str(r.scenarios), f"{r.per_cpu_hour:.1f}")
+                  str(r.violations), str(r.distinct), str(r.scenarios), _modes(r), f"{r.per_cpu_hour:.1f}")
     console.print(t)
+
+
+def _modes(r) -> str:
+    """Probed failure modes, and the unprobed groups beside them."""
+    rest = len(r.modes) - r.probed_modes
+    return f"{r.probed_modes}" + (f" (+{rest})" if rest else "")
 
 
 @app.command("search-status")

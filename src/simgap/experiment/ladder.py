@@ -37,9 +37,10 @@ class Ladder:
         self.search, self.root = search, Path(root)
         self.high = len(search.rungs) - 1
 
-    def scenario(self, c: Candidate) -> str:
-        """``c``'s CommonRoad scenario file (written on first use)."""
-        folder = self.root / "scenarios" / scenario_name(c.index)
+    def scenario(self, c: Candidate, name: str | None = None) -> str:
+        """``c``'s CommonRoad scenario file (written on first use), under ``name`` (default: its
+        index's)."""
+        folder = self.root / "scenarios" / (name or scenario_name(c.index))
         existing = sorted(folder.glob("*.xml"))
         if existing:
             return str(existing[0])
@@ -50,15 +51,17 @@ class Ladder:
         r = self.search.rungs[rung]
         return with_knobs(r.backend, r.settings, r.cosim, c.knobs)
 
-    def job(self, c: Candidate, rung: int) -> Job:
+    def job(self, c: Candidate, rung: int, name: str | None = None) -> Job:
+        """``c``'s run in ``rung``, named ``name`` (default: its index's; a probe of a failure names
+        its own, with the failure's index and seed)."""
         settings, cosim = self.settings(c, rung)
         r = self.search.rungs[rung]
         return Job(self._id(c, rung, Fidelity(r.backend, load_vehicle(c.vehicle).name, r.controller),
-                            self.search.spec.seed + c.index),
-                   c.params, c.vehicle, settings, cosim, self.scenario(c), self.search.planners[c.planner])
+                            self.search.spec.seed + c.index, name),
+                   c.params, c.vehicle, settings, cosim, self.scenario(c, name), self.search.planners[c.planner])
 
-    def _id(self, c: Candidate, rung: int, fidelity: Fidelity, seed: int) -> JobId:
-        return JobId(scenario_name(c.index), fidelity, seed=seed, planner=c.planner,
+    def _id(self, c: Candidate, rung: int, fidelity: Fidelity, seed: int, name: str | None = None) -> JobId:
+        return JobId(name or scenario_name(c.index), fidelity, seed=seed, planner=c.planner,
                      stage=rung_name(rung, len(self.search.rungs)))
 
     def ideal_key(self, c: Candidate) -> str:

@@ -169,7 +169,7 @@ class MultiFidelityStrategy(Strategy):
     first_rung = 1
 
     def __init__(self, space: SearchSpace, seed: int, objective: str, risk_scale: float,
-                 distinct_radius: float, scenario_spread: float = 0.5):
+                 distinct_radius: float, scenario_spread: float = 1.0):
         super().__init__(space, seed)
         self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
         self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]

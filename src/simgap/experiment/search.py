@@ -36,6 +36,7 @@ from typing import Callable
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
 from simgap.experiment.ladder import Ladder, SharedIdealRuns
+from simgap.experiment.mode_probes import ModeProbes
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search_results import META, StrategyResult, summarise
@@ -232,9 +233,12 @@ class SearchProgress:
 
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
-               on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False) -> list[StrategyResult]:
+               on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
+               probe_runs: int = 0) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
-    checks each run's solution (slow: `simgap search` asks for it unless --no-validate)."""
+    checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
+    each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
+    (`simgap.experiment.mode_probes`), and record what each found in ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
     if not validate and spec.failure.solution_invalid:
@@ -267,5 +271,22 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
 
         runner.run(run.next_job, context, on_result)
         run.ledger.save_budget(budget)
+        found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
+        probes = ModeProbes(search, space, sroot, [v.row for v in found.found], probe_runs,
+                            {v.candidate: v.ideal_row for v in found.found})
+        if probes.pending and probe_runs > 0:
+            runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle,
+                                                   validate=validate), probes.on_result)
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
+        _record_findings(root, results[-1])
     return results
+
+
+def _record_findings(root: Path, found: StrategyResult) -> None:
+    """Keep what a strategy found in ``search.json`` beside the spec: its counts and failure modes."""
+    meta = root / META
+    saved = json.loads(meta.read_text())
+    saved.setdefault("findings", {})[found.name] = {
+        "runs": found.runs, "violations": found.violations, "distinct": found.distinct, "scenarios": found.scenarios,
+        "modes": [m.model_dump(mode="json") for m in found.modes]}
+    atomic_write_text(meta, json.dumps(saved, indent=2, default=str))

@@ -45,13 +45,7 @@ class SearchLedger:
     def score_drop(self, index: int, rung: int, run: RunRow) -> float | None:
         """The candidate's ideal score minus ``run``'s: 0 for its ideal run, None while the ideal
         run is not in (or failed, or either has no score)."""
-        if rung == 0:
-            return 0.0
-        ideal = self.rows.get((index, 0))
-        if ideal is None or not ideal.ok or ideal.run.score is None or run.score is None \
-                or math.isnan(ideal.run.score) or math.isnan(run.score):
-            return None
-        return ideal.run.score - run.score
+        return 0.0 if rung == 0 else score_drop(self.rows.get((index, 0)), run)
 
     def save_budget(self, budget: Any) -> None:
         atomic_write_text(self.root / "budget.json",
@@ -92,3 +86,11 @@ class SearchLedger:
 
     def high_failures(self, high: int) -> int:
         return sum(1 for (_, k), r in self.rows.items() if k == high and r.failed)
+
+
+def score_drop(ideal: SearchRow | None, run: RunRow) -> float | None:
+    """``ideal``'s score minus ``run``'s; None if the ideal run is not in, failed, or either has no score."""
+    if ideal is None or not ideal.ok or ideal.run.score is None or run.score is None \
+            or math.isnan(ideal.run.score) or math.isnan(run.score):
+        return None
+    return ideal.run.score - run.score

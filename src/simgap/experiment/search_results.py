@@ -13,6 +13,7 @@ from typing import Any
 
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
+from simgap.experiment.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
 from simgap.experiment.search_rows import SearchRow, read_search_rows
 from simgap.experiment.search_spec import STRATEGIES, SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -88,6 +89,12 @@ class StrategyResult:
     cpu_s: float = 0.0
     curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
     found: list[Violation] = field(default_factory=list)            # the distinct violations, first found first
+    modes: list[FailureMode] = field(default_factory=list)          # ... grouped by what broke (`failure_modes`)
+
+    @property
+    def probed_modes(self) -> int:
+        """Failure modes whose members' probes are all done."""
+        return sum(1 for m in self.modes if m.probed)
 
     @property
     def per_cpu_hour(self) -> float:
@@ -131,6 +138,9 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
             res.found.append(_violation(root, name, by_candidate[index][high], by_candidate[index][0]))
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)
+    plan = ProbePlan.load(root)
+    if plan is not None:
+        res.modes = group_modes([v.row for v in res.found], read_probe_rows(root), plan)
     return res
 
 

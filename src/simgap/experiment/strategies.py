@@ -28,7 +28,9 @@ and tells the strategy each result.
   on each move's failures per CPU second picks the move (one candidate in ten is global
   regardless), and on each failure's share of failing neighbours picks whose neighbourhood to
   search. Both weigh the n-th failure on one road, start and vehicle by ``1/n^scenario_spread``
-  (a spec field, default 0.5), so that new scenarios keep being sought. A neighbourhood whose
+  (a spec field, default 1: measured on a planted landscape with five failure regions, 200 runs,
+  12 seeds, 0 / 0.5 / 1 found 24 / 37 / 53 distinct failing scenarios and 57 / 72 / 73 distinct
+  violations), so that new scenarios keep being sought. A neighbourhood whose
   neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
   which ends early, costs about what the screen would. The promotion threshold falls when most
   promoted candidates fail in high fidelity (the screen is trustworthy: cast a wider net) and
