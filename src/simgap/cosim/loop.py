@@ -61,6 +61,8 @@ class ObservationNoise(BaseModel):
 
 
 DEFAULT_TIME_LIMIT_S = 60.0
+# a car that reached its goal has left the scenario; one whose physics diverged, the backend's world
+_LEFT_THE_WORLD = (Outcome.GOAL_REACHED, Outcome.DIVERGED)
 RECORDED_PLANNER_ERRORS = 5      # exceptions kept with their tracebacks per run (all are counted)
 
 
@@ -213,6 +215,10 @@ class _CoSimulation:
             for p in self.progress_of.values():
                 if p.active:
                     self._finish(p, Outcome.DIVERGED, p.driven[-1] if p.driven else p.agent.initial_state, str(exc))
+        else:
+            diverged = [e for e in self.events if e.kind == Outcome.DIVERGED]
+            if diverged and len(diverged) == len(self.progress_of):   # no agent has a verdict of the scenario
+                failure = f"physics diverged: agent {diverged[0].agent_id}: {diverged[0].detail}"
         finally:
             backend_timings = dict(self.backend.timings)
             backend_notes = list(self.backend.notes)
@@ -314,14 +320,16 @@ class _CoSimulation:
         progress_of = self.progress_of
         shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
                   for aid, st in states.items()}
-        present = [aid for aid in states if progress_of[aid].outcome != Outcome.GOAL_REACHED]
-        obstacle_shapes = {oid: footprint(st, length, width)
-                           for oid, (st, length, width) in self.traffic.poses(t).items()}
         contacts = {}
         for ev in self.backend.events():       # a car that reached its goal has left the scenario
             gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
             if ev.kind == "collision" and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
+            elif ev.kind == "diverged" and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
+                self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
+        present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
+        obstacle_shapes = {oid: footprint(st, length, width)
+                           for oid, (st, length, width) in self.traffic.poses(t).items()}
         poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in self.traffic.poses(t).items()}
         for aid in present:
             p = progress_of[aid]

@@ -18,6 +18,17 @@ def steps_per_tick(physics_hz: float, controller_hz: float, field: str = "backen
     return int(round(ratio))
 
 
+def nearest_multiple(rate_hz: float, base_hz: float) -> float:
+    """The whole multiple of ``base_hz`` nearest ``rate_hz`` (``base_hz`` itself at least)."""
+    return base_hz * max(1, round(rate_hz / base_hz))
+
+
+def is_multiple(rate_hz: float, base_hz: float) -> bool:
+    """Whether ``rate_hz`` is a whole multiple of ``base_hz``."""
+    ratio = rate_hz / base_hz
+    return abs(ratio - round(ratio)) <= 1e-6 and round(ratio) >= 1
+
+
 class SpeedRate:
     """Acceleration as the speed's rate of change between measurements, low-pass filtered with
     `ACCEL_FILTER_S`; starts from a known (t, speed, acceleration)."""

@@ -25,6 +25,7 @@ from simgap.control.delay import with_actuator_delay
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.sim.protocol import Agent, BackendEvent, enters_at
+from simgap.sim.rates import is_multiple, nearest_multiple
 from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import State, Trajectory
 
@@ -71,7 +72,7 @@ class TrackedBackend:
     def __init__(self, name: str, physics: Physics, tracking: TrackingSettings):
         self.name = name
         self.physics = physics
-        self.tracking = tracking
+        self.tracking = self._configured = tracking
         self.timings = physics.timings
         self.timings.setdefault("control", 0.0)
         self.notes = physics.notes
@@ -82,16 +83,28 @@ class TrackedBackend:
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
-        hz = self.tracking.controller_hz
-        periods = self._dt * hz
-        if abs(periods - round(periods)) > 1e-6:
-            raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of controller periods at "
-                             f"{hz:g} Hz", field="backend_settings.controller_hz",
-                             allowed=f"a multiple of {1 / self._dt:g} Hz")
-        self._ticks = int(round(periods))
+        self.tracking = self.fit_rates(self._configured, self._dt)
+        self._ticks = int(round(self._dt * self.tracking.controller_hz))
         self._agents = list(agents)
         self.physics.load(scenario, agents)
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
+
+    def fit_rates(self, settings: TrackingSettings, dt: float) -> TrackingSettings:
+        """``settings`` with a controller rate that divides the scenario's step ``dt``: the one set,
+        or, when none was set and the default does not fit (a 30 Hz recording), the multiple of the
+        scenario's rate nearest the default (90 Hz), with a note for the run record. A rate that was
+        set and does not fit is an `InputError`. A physics whose own rate must divide by the
+        controller's adds it here (`MujocoBackend`)."""
+        hz, scenario_hz = settings.controller_hz, 1.0 / dt
+        if is_multiple(hz, scenario_hz):
+            return settings
+        if "controller_hz" in settings.model_fields_set:
+            raise InputError(f"the scenario's dt {dt:g} s is not a whole number of controller periods at {hz:g} Hz",
+                             field="backend_settings.controller_hz", allowed=f"a multiple of {scenario_hz:g} Hz")
+        fitted = nearest_multiple(hz, scenario_hz)
+        self.notes.append(f"controller at {fitted:g} Hz, the multiple of the scenario's {scenario_hz:g} Hz nearest "
+                          f"the default {hz:g} Hz")
+        return settings.model_copy(update={"controller_hz": fitted})
 
     def make_controller(self, agent: Agent) -> Controller | None:
         """The controller that drives ``agent``'s car: the tracking settings' controller, with its

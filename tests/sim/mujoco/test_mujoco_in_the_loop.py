@@ -14,7 +14,9 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
+from simgap.errors import InputError
 from simgap.sim.mujoco import MujocoBackend
+from simgap.sim.mujoco.settings import mujoco_settings
 from simgap.sim.mujoco.plant import proving_ground
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State, Trajectory
@@ -113,3 +115,47 @@ def test_a_blown_up_physics_is_a_failed_run_with_its_reason(sharp_curve, tmp_pat
     event = next(e for e in run.events if e.kind == "diverged")
     assert "no longer finite" in event.detail and event.t == pytest.approx(1.9, abs=1e-6)
     assert (tmp_path / "run" / "run.json").exists()
+
+
+def test_a_car_that_flips_is_taken_out_and_the_others_drive_on(tmp_path, monkeypatch):
+    """One car's chassis turned on its roof (as a start inside recorded traffic does): that car
+    ends ``diverged`` with where it happened, it leaves the world, and the other cars of the run
+    reach their goals; the run itself has not failed."""
+    path = write_scenario(build_scenario("intersection", {"agents": 2}), tmp_path, preview=False)
+    original = MujocoBackend.step
+    calls = {"n": 0}
+
+    def flipping_step(self, plans):
+        calls["n"] += 1
+        if calls["n"] == 10:
+            car = self.world.cars[min(plans)]
+            self.world.data.qpos[car.qpos + 3:car.qpos + 7] = [0.0, 1.0, 0.0, 0.0]     # upside down
+        return original(self, plans)
+
+    monkeypatch.setattr(MujocoBackend, "step", flipping_step)
+    run = execute(RunRequest(scenario=path, backend="mujoco", vehicles="sedan"), tmp_path / "run")
+    flipped, other = sorted(run.agents, key=lambda a: a.id)
+    assert run.failure is None
+    assert flipped.outcome == "diverged" and other.outcome == "goal_reached", run.events
+    event = next(e for e in run.events if e.kind == "diverged")
+    assert event.agent_id == flipped.id and "on its side or roof" in event.detail and event.t == pytest.approx(1.0)
+    assert flipped.max_road_excursion_m == 0.0          # parked far beyond the road, not judged there
+
+
+def test_a_30_hz_recording_runs_at_fitted_controller_and_physics_rates(tmp_path):
+    """A recording at 30 Hz (highD, inD, SinD): the default 100 Hz controller does not divide its
+    step, so the controller runs at 90 Hz and physics at 540 Hz, and the run says so; a rate the
+    user set that does not fit stays an error."""
+    concrete = build_scenario("curve", {"radius": 50, "angle": 30})
+    concrete.scenario.dt = 1 / 30
+    path = write_scenario(concrete, tmp_path, preview=False)
+    run = execute(RunRequest(scenario=path, backend="mujoco", vehicles="sedan"), tmp_path / "run")
+    assert run.agents[0].outcome == "goal_reached", run.events
+    notes = " ".join(run.settings["backend_notes"])
+    assert "controller at 90 Hz" in notes and "physics at 540 Hz" in notes
+    backend = MujocoBackend(mujoco_settings({"controller_hz": 100}))
+    with pytest.raises(InputError, match="controller_hz"):
+        backend.fit_rates(backend.settings, 1 / 30)
+    backend = MujocoBackend(mujoco_settings({"physics_hz": 500}))
+    with pytest.raises(InputError, match="physics_hz"):
+        backend.fit_rates(backend.settings, 1 / 30)

@@ -10,8 +10,9 @@ drag and the friction of the surface under each tyre are set; then physics runs 
 (default 500 Hz) until the next controller update, with slip-based tyre forces computed every
 physics step (`simgap.sim.mujoco.tyre`; ``timings['tyres']`` is their share). The controllers
 and that loop are `simgap.sim.tracked`'s; this module is the physics, `MujocoPhysics`. Physical
-contacts with other cars or with traffic are reported as collision events; a state that is no longer finite, a solver warning,
-or a chassis on its side is `PhysicsDiverged`.
+contacts with other cars or with traffic are reported as collision events; a chassis on its side
+is a ``diverged`` event of that car, which is then taken out of the world (the others drive on); a
+state that is no longer finite or a solver warning is `PhysicsDiverged` (the whole run).
 
 Reality knobs beyond the world's friction: ``steer_delay`` and ``pedal_delay`` [s] delay the
 controller's commands (`simgap.control.delay`); ``road_bank`` and ``road_grade`` [deg] tilt the
@@ -36,10 +37,11 @@ from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, sing
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
-from simgap.sim.rates import SpeedRate
+from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
+PARKED = Command(steer=0.0, throttle=0.0, brake=1.0)     # what a car taken out of the world is given
 PARKING_M = 100.0           # a car that has not entered the world yet waits this far beyond the road [m]
 FLIPPED_UP_Z = 0.3          # chassis up axis below this (tilted > ~73 deg): the car is on its side
 
@@ -87,6 +89,8 @@ class MujocoPhysics:
         w.tyres.apply(settle=True)
         self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._events = []
+        self._flipped: list[int] = []
+        self._retired: set[int] = set()
 
     def enter(self, agent_id: int, t: float) -> None:
         """Bring a parked car (`_parked`) to its initial state, its tyres settled to its motion."""
@@ -106,9 +110,22 @@ class MujocoPhysics:
         return State(t=t, x=x1 + PARKING_M + 8.0 * k, y=y0 - PARKING_M, yaw=0.0, v=0.0)
 
     def begin_step(self, t: float) -> None:
+        for aid in self._flipped:
+            self._retire(aid, t)
+        self._flipped = []
         self._events = []
         self._seen = set()
         self.check(t)
+
+    def _retire(self, agent_id: int, t: float) -> None:
+        """Take a car whose physics diverged out of the world: parked (`_parked`) and braked, so
+        that the others drive on in a world without it."""
+        w = self.world
+        k = next(k for k, a in enumerate(self._agents) if a.id == agent_id)
+        w.place(agent_id, self._parked(k, t))
+        mujoco.mj_forward(w.model, w.data)
+        w.tyres.settle(slice(4 * k, 4 * k + 4))
+        self._retired.add(agent_id)
 
     def advance(self, t: float, period: float) -> None:
         """Traffic and surface friction for the period, the physics sub-steps (tyre forces every
@@ -155,6 +172,8 @@ class MujocoPhysics:
         return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)
 
     def actuate(self, agent_id: int, command: Command, period: float) -> None:
+        if agent_id in self._retired:
+            command = PARKED
         w, car = self.world, self.world.cars[agent_id]
         ph, d, m = car.physics, w.data, w.model
         # steering: rate, then angle limit of the steering system; Ackermann at the wheels
@@ -219,9 +238,10 @@ class MujocoPhysics:
         for a in self._agents:
             car = w.cars[a.id]
             q = d.qpos[car.qpos:car.qpos + 7]
-            if up_z(q[3:7]) < FLIPPED_UP_Z:
-                raise PhysicsDiverged(f"agent {a.id}: chassis on its side or roof at t = {t:.2f} s, "
-                                      f"x = {q[0]:.1f} m, y = {q[1]:.1f} m")
+            if up_z(q[3:7]) < FLIPPED_UP_Z and a.id not in self._retired and a.id not in self._flipped:
+                self._flipped.append(a.id)
+                self._events.append(BackendEvent(t, a.id, "diverged", f"chassis on its side or roof at t = {t:.2f} s, "
+                                                 f"x = {q[0]:.1f} m, y = {q[1]:.1f} m"))
 
     def _collect_contacts(self, t: float, seen: set) -> None:
         """Contacts between two cars, or a car and recorded traffic, become collision events
@@ -253,6 +273,24 @@ class MujocoBackend(TrackedBackend):
     def __init__(self, settings: MujocoSettings | None = None):
         cfg = self.settings = settings or MujocoSettings()
         super().__init__("mujoco", MujocoPhysics(cfg), cfg)
+
+    def fit_rates(self, settings: MujocoSettings, dt: float) -> MujocoSettings:
+        """The controller rate fitted to the scenario (`TrackedBackend.fit_rates`), and the physics
+        rate to the controller's: the one set, or, when none was set and the default does not
+        divide by the controller's, its multiple nearest the default (540 Hz under 90 Hz)."""
+        fitted = super().fit_rates(settings, dt)
+        if fitted is settings or is_multiple(settings.physics_hz, fitted.controller_hz):
+            self.physics.settings = fitted
+            return fitted
+        if "physics_hz" in settings.model_fields_set:
+            steps_per_tick(settings.physics_hz, fitted.controller_hz, "backend_settings.physics_hz",
+                           allowed=f"a multiple of {fitted.controller_hz:g} Hz (the controller's, fitted to the "
+                                   f"scenario's step {dt:g} s), or no physics_hz")
+        physics_hz = nearest_multiple(settings.physics_hz, fitted.controller_hz)
+        self.notes.append(f"physics at {physics_hz:g} Hz, a multiple of the controller's {fitted.controller_hz:g} Hz")
+        fitted = fitted.model_copy(update={"physics_hz": physics_hz})
+        self.physics.settings = fitted
+        return fitted
 
     @property
     def world(self) -> World | None:

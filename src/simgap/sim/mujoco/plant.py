@@ -12,7 +12,7 @@ from simgap.control.protocol import Command
 from simgap.errors import validated_settings
 from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.mujoco.settings import WorldSettings
-from simgap.sim.protocol import Agent
+from simgap.sim.protocol import Agent, PhysicsDiverged
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle
 
@@ -50,4 +50,7 @@ class MujocoPlant:
         self.physics.actuate(AGENT, command, period)
         self.physics.advance(self._t, period)
         self._t += period
+        flipped = next((e for e in self.physics.events() if e.kind == "diverged"), None)
+        if flipped is not None:         # one car alone: nothing drives on without it
+            raise PhysicsDiverged(flipped.detail)
         return self.physics.measure(AGENT, self._t)
