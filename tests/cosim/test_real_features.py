@@ -94,13 +94,24 @@ def test_highway_speed_among_dense_recorded_traffic():
 
 @pytest.mark.parametrize("mode, outcomes", [("replay", {"collision", "planner_failure"}), ("idm", {"goal_reached"})])
 def test_recorded_traffic_behind_a_slow_start_reacts_only_with_idm(mode, outcomes):
-    # one lane; a car recorded at 15 m/s comes from behind an ego that starts from standstill:
-    # replayed, it drives into the ego (which cannot escape); driven by the IDM, it follows
+    # one lane; a car recorded at 25 m/s comes from 70 m behind an ego that starts from standstill:
+    # replayed, it drives into the ego (which cannot get away at any acceleration it has);
+    # driven by the IDM, it follows
     scenario = highway(lanes=1, length=300, segments=1)
-    scenario.add_objects(recorded_car(700, -30, 0, 15.0, 300))
+    scenario.add_objects(recorded_car(700, -60, 0, 25.0, 300))
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)), settings=CosimSettings(traffic=mode))
     assert _only_outcome(run).outcome in outcomes
     assert run.settings["cosim"]["traffic"] == mode
+
+
+def test_an_ego_run_into_from_behind_drives_away_when_it_can():
+    """A car recorded at 15 m/s from 40 m behind an ego at rest: every plan that keeps to the
+    desired speed is run into; the planner drives the one met latest (accelerating away), not
+    the cheapest (crawling on at the desired speed until the replayed car arrives)."""
+    scenario = highway(lanes=1, length=300, segments=1)
+    scenario.add_objects(recorded_car(700, -30, 0, 15.0, 300))
+    run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)))
+    assert _only_outcome(run).outcome == "goal_reached", run.events
 
 
 def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():

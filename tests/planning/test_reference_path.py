@@ -6,6 +6,11 @@ import math
 
 import numpy as np
 import pytest
+from commonroad.common.util import AngleInterval, Interval
+from commonroad.geometry.shape import Rectangle
+from commonroad.planning.goal import GoalRegion
+from commonroad.planning.planning_problem import PlanningProblem
+from commonroad.scenario.state import CustomState
 
 from planner_roads import lateral_offset
 from simgap.planning.reference_path import plan_reference_path, smooth_reference_path
@@ -56,3 +61,42 @@ def test_plan_reference_path_alone(straight_road):
     ref = plan_reference_path(straight_road.lanelet_network, straight_road.problem, extension_forward=50.0)
     assert np.allclose(ref.xy[:, 1], -1.5, atol=1e-6)
     assert ref.xy[0, 0] == pytest.approx(-20.0, abs=0.2) and ref.xy[-1, 0] == pytest.approx(250.0, abs=0.2)
+
+
+def _with_goal_beside(road, d: float, length: float = 4.0, width: float = 2.0,
+                      turned: float | None = None) -> PlanningProblem:
+    """``road``'s problem with its goal a ``length`` x ``width`` rectangle whose centre lies ``d``
+    left of the ego lane's centre, 30 m before the road's end (a recorded driver's end pose);
+    ``turned``: an orientation window of +-0.087 rad turned this much from the lane."""
+    gx, gy, gh = road.ego_lane_pose(road.centre_s[-1] - 30.0, d)
+    state = dict(position=Rectangle(length, width, np.array([gx, gy]), gh), time_step=Interval(0, 600))
+    if turned is not None:
+        state["orientation"] = AngleInterval(gh + turned - 0.087, gh + turned + 0.087)
+    return PlanningProblem(1, road.problem.initial_state, GoalRegion([CustomState(**state)]))
+
+
+def test_the_path_moves_over_onto_a_goal_area_beside_the_lane(straight_road):
+    """A goal rectangle 1 m left of the lane centre (the car on the centre line would pass beside
+    it): the path moves over onto its centre before it and is untouched near the start; a goal
+    on the centre line, or within centimetres of it, leaves the path as it was."""
+    x_goal = straight_road.ego_lane_pose(straight_road.centre_s[-1] - 30.0)[0]
+    ref = plan_reference_path(straight_road.lanelet_network, _with_goal_beside(straight_road, 1.0))
+    y_at = lambda x: float(np.interp(x, ref.xy[:, 0], ref.xy[:, 1]))      # noqa: E731 - the road runs along +x
+    assert y_at(x_goal) == pytest.approx(-0.5, abs=0.05)
+    assert y_at(x_goal - 40.0) == pytest.approx(-1.5, abs=0.01) and y_at(0.0) == pytest.approx(-1.5, abs=1e-6)
+    assert np.abs(ref.kappa).max() < 0.01              # a gentle move over
+    for d in (0.0, 0.2):
+        ref = plan_reference_path(straight_road.lanelet_network, _with_goal_beside(straight_road, d))
+        assert np.allclose(ref.xy[:, 1], -1.5, atol=1e-6), d
+
+
+def test_the_path_arrives_at_a_goal_beside_the_lane_with_its_heading(straight_road):
+    """The recorded driver was changing lanes at the end (the goal's orientation window turned
+    0.05 rad to the left): the path reaches the goal's centre heading that way, and runs on
+    beyond it without turning further."""
+    x_goal = straight_road.ego_lane_pose(straight_road.centre_s[-1] - 30.0)[0]
+    ref = plan_reference_path(straight_road.lanelet_network, _with_goal_beside(straight_road, 1.0, turned=0.05))
+    heading_at = lambda x: float(np.interp(x, ref.xy[:, 0], ref.theta))     # noqa: E731 - the road runs along +x
+    assert float(np.interp(x_goal, ref.xy[:, 0], ref.xy[:, 1])) == pytest.approx(-0.5, abs=0.05)
+    assert heading_at(x_goal) == pytest.approx(0.05, abs=0.01)
+    assert abs(heading_at(x_goal + 20.0)) < 0.01

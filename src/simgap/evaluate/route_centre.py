@@ -19,10 +19,12 @@ def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[in
     """The lanelets of the planners' route (`preferred_route`; a start off every lanelet included);
     empty when there is none."""
     try:
-        routes, _ = lanelet_routes(network, problem)
+        routes, start = lanelet_routes(network, problem)
     except InputError:
         return []
-    return list(preferred_route(network, routes))
+    initial = start.initial_state
+    return list(preferred_route(network, routes, np.asarray(initial.position, dtype=float),
+                                float(getattr(initial, "orientation", 0.0) or 0.0)))
 
 
 def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame | None:

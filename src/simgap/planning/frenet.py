@@ -228,7 +228,8 @@ class FrenetPlanner:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
             self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
-                                          self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed)
+                                          self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed,
+                                          self.vehicle.rear_axle_to_center)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------
@@ -451,30 +452,41 @@ class FrenetPlanner:
 
     def _struck_from_behind(self, checked: list[CartesianBatch], start: _Start, traffic: TrafficPrediction,
                             leeway: _RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
-        """When every plan within the limits and on the road meets traffic: the cheapest whose every
+        """When every plan within the limits and on the road meets traffic: of the plans whose every
         encounter within the horizon is another road user running into the ego from behind
         (replayed traffic does not brake for it, and braking would only bring it sooner; what the
-        stopping distance beyond the horizon would meet is not counted here), ``cycle.outcome``
-        saying so; None when every plan runs into someone (the planner fails, and says so)."""
+        stopping distance beyond the horizon would meet is not counted here), the one met latest
+        (driving away from it; the cheapest of equals), ``cycle.outcome`` saying so; None when every
+        plan runs into someone (the planner fails, and says so)."""
         veh = self.vehicle
         r, hl, hw = veh.rear_axle_to_center, veh.length / 2, veh.width / 2
         no_traffic = TrafficPrediction(*(np.zeros((0, 1)),) * 3, np.zeros(0), np.zeros(0), np.zeros(0))
+        best: tuple[float, CartesianBatch, int] | None = None
         for batch in checked:
             cx, cy = batch.x + r * np.cos(batch.yaw), batch.y + r * np.sin(batch.yaw)
             overlaps = traffic_overlaps(cx, cy, batch.yaw, hl, hw, traffic)
             if overlaps is None:      # met only beyond the horizon (braking to a stop): nobody the ego hits
                 at_fault = np.zeros(len(cx), dtype=bool)
+                met_at = np.full(len(cx), np.inf)
             else:        # judged where each participant is met first (replayed, it drives on through the ego)
                 met, struck = overlaps[:, 1:], struck_from_behind(cx, cy, batch.yaw, hl, traffic)[:, 1:]
                 first = met.argmax(axis=1)                                  # (plans, participants)
                 struck_first = np.take_along_axis(struck, first[:, None, :], axis=1)[:, 0, :]
                 at_fault = (met.any(axis=1) & ~struck_first).any(axis=1)
+                touched = met.any(axis=2)                                   # (plans, steps)
+                met_at = np.where(touched.any(axis=1), touched.argmax(axis=1), np.inf)
             _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt)
             innocent = np.flatnonzero(self._feasible(batch) & on_road & ~at_fault)
             if len(innocent):
-                cycle.outcome = "struck_from_behind"
-                return _row(batch, int(innocent[0]))
-        return None
+                i = int(innocent[np.argmax(met_at[innocent])])              # the first of the latest met
+                if best is None or met_at[i] > best[0]:
+                    best = (float(met_at[i]), batch, i)
+                if math.isinf(best[0]):
+                    break
+        if best is None:
+            return None
+        cycle.outcome = "struck_from_behind"
+        return _row(best[1], best[2])
 
     def _at_road_edge(self, start: _Start) -> bool:
         """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""

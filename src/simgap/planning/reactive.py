@@ -138,7 +138,8 @@ class ReactivePlanner:
         self.reference_path = plan_reference_path(setup.lanelet_network, setup.planning_problem,
                                                   extension_back=reach, extension_forward=reach)
         self.speed_profile, self.approach = route_speeds(self.reference_path, setup, s.cruise_m_s,
-                                                         s.max_lateral_acceleration, s.comfortable_deceleration)
+                                                         s.max_lateral_acceleration, s.comfortable_deceleration,
+                                                         vehicle.rear_axle_to_center)    # it plans the rear axle
         _, self._road_boundary = create_road_boundary_obstacle(scenario)
         self._upstream = UpstreamPlanner(self._config)
         self._upstream.set_reference_path(

@@ -8,15 +8,18 @@ Evaluation uses the same path (``xy`` and ``s``) to express lateral displacement
 from __future__ import annotations
 
 import copy
+import math
 import logging
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
+from simgap.scenario.goal import area_of
 
 _FINE_STEP_M = 0.1
 # a route's lane change takes this long at the vehicle's initial speed, and at least so far [s], [m]
@@ -30,6 +33,17 @@ LEVEL_BLEND_M = 4.0
 # tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
 KINK_CURVATURE = 0.25
 KINK_SMOOTHING_M = 3.0
+# a goal area the route's centre line passes less deep inside than this is aimed at (`towards_goal`),
+# when its centre lies this far beside the line; the move over takes at least this long [m]
+GOAL_DEPTH_M = 0.5
+GOAL_BESIDE_MIN_M = 0.3
+GOAL_BESIDE_MAX_M = 2.5
+GOAL_SHIFT_MIN_RAMP_M = 10.0
+GOAL_SHIFT_MAX_TURN_RAD = 0.2       # ... along a line that turns at most this much over the move
+# ... arriving with the goal's heading when it turns at most this from the line's (a lane change),
+# the sideways slope easing out over this distance beyond the goal [rad], [m]
+GOAL_HEADING_MAX_RAD = 0.3
+GOAL_RUN_OUT_M = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +93,9 @@ def route_centre_line(lanelet_network: LaneletNetwork,
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
 
     routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
-    ids = preferred_route(lanelet_network, routes)
+    initial = planning_problem.initial_state
+    ids = preferred_route(lanelet_network, routes, np.asarray(initial.position, dtype=float),
+                          float(getattr(initial, "orientation", 0.0) or 0.0))
     if not _lane_changes(lanelet_network, ids):
         try:
             route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
@@ -142,10 +158,27 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
                      allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
 
 
-def preferred_route(network: LaneletNetwork, routes) -> tuple[int, ...]:
-    """The lanelet ids of the route with the fewest lane changes, then the shortest."""
+def preferred_route(network: LaneletNetwork, routes, start: np.ndarray | None = None,
+                    heading: float | None = None) -> tuple[int, ...]:
+    """The lanelet ids of the route with the fewest lane changes, then the one whose first lanelet
+    the car is on (``start``: the initial position, ``heading``: its orientation; where two
+    lanelets merge, as at a roundabout's entry, both hold the car: the one heading its way), then
+    the shortest."""
+    def misfit(route: tuple[int, ...]) -> float:
+        if start is None:
+            return 0.0
+        lanelet = network.find_lanelet_by_id(route[0])
+        if not lanelet.polygon.contains_point(start):
+            return math.inf
+        if heading is None:
+            return 0.0
+        centre = np.asarray(lanelet.center_vertices, dtype=float)
+        k = min(int(np.hypot(*(centre - start).T).argmin()), len(centre) - 2)
+        along = math.atan2(*(centre[k + 1] - centre[k])[::-1])
+        return round(abs(math.remainder(heading - along, 2.0 * math.pi)), 1)   # 0.1 rad: the same way
+
     return min((tuple(int(i) for i in r.lanelet_ids) for r in routes),
-               key=lambda route: (_lane_changes(network, route), _route_length(network, route)))
+               key=lambda route: (_lane_changes(network, route), misfit(route), _route_length(network, route)))
 
 
 def _joined_centre_lines(network: LaneletNetwork, lanelet_ids: tuple[int, ...], start: np.ndarray,
@@ -334,6 +367,67 @@ def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: f
                          (start * scale, (start + route_length) * scale))
 
 
+def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.ndarray:
+    """``centre`` moved over to the goal where the goal is an area beside it.
+
+    A recorded scenario's goal is often a small rectangle around where the human driver was at the
+    end, a metre off the lane's centre: a car on the centre line passes beside it. When the line
+    passes less than `GOAL_DEPTH_M` inside the first goal area and the area's centre lies beside
+    the line (between `GOAL_BESIDE_MIN_M` and `GOAL_BESIDE_MAX_M`; farther is another lane, the
+    route's business), the line moves sideways onto that centre before it, as gently as a lane
+    change at the initial speed (`lane_change_length`; less when the start is nearer), arriving
+    with the heading the goal's orientation window asks for when that is a lane change's
+    (`GOAL_HEADING_MAX_RAD`; a recording's window is often +-5 deg around a driver changing
+    lanes), the sideways slope easing out beyond. Only where the line runs nearly straight
+    before the goal (`GOAL_SHIFT_MAX_TURN_RAD`): in a turn the move would change its radius."""
+    area = next((area_of(st.position) for st in planning_problem.goal.state_list
+                 if getattr(st, "position", None) is not None), None)
+    if area is None or area.is_empty:
+        return centre
+    fine = _resample(_without_duplicates(np.asarray(centre, dtype=float)), _FINE_STEP_M)
+    if len(fine) < 3:
+        return centre
+    inside = shapely.contains_xy(area, fine[:, 0], fine[:, 1])
+    if inside.any() and shapely.distance(area.boundary, shapely.points(fine[inside])).max() >= GOAL_DEPTH_M:
+        return centre
+    target = np.asarray(area.centroid.coords[0], dtype=float)
+    k = int(np.hypot(*(fine - target).T).argmin())
+    if k == 0 or k == len(fine) - 1:               # the goal's centre lies beyond an end of the line
+        return centre
+    s = _arc_length(fine)
+    tangent = np.gradient(fine, s, axis=0)
+    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) / np.hypot(*tangent.T)[:, None]
+    offset = float(np.dot(target - fine[k], normal[k]))
+    start = float(s[int(np.hypot(*(fine - np.asarray(planning_problem.initial_state.position)).T).argmin())])
+    speed = float(getattr(planning_problem.initial_state, "velocity", 0.0) or 0.0)
+    ramp = min(lane_change_length(speed), s[k] - start)
+    if not GOAL_BESIDE_MIN_M <= abs(offset) <= GOAL_BESIDE_MAX_M or ramp < GOAL_SHIFT_MIN_RAMP_M:
+        return centre
+    heading = np.unwrap(np.arctan2(tangent[:, 1], tangent[:, 0]))
+    if abs(heading[k] - np.interp(s[k] - ramp, s, heading)) > GOAL_SHIFT_MAX_TURN_RAD:
+        return centre               # a turn before the goal: moving over there would tighten or widen it
+    # the goal's heading relative to the line's there: the recorded driver may have been changing lanes
+    slope = math.tan(_goal_heading_offset(planning_problem, math.atan2(tangent[k, 1], tangent[k, 0])))
+    u = np.clip((s - (s[k] - ramp)) / ramp, 0.0, 1.0)
+    lateral = offset * u * u * (3.0 - 2.0 * u) + slope * ramp * u * u * (u - 1.0)      # cubic Hermite
+    beyond = np.clip(s - s[k], 0.0, GOAL_RUN_OUT_M)                # then the slope eases out
+    lateral += slope * beyond * (1.0 - beyond / (2.0 * GOAL_RUN_OUT_M))
+    return fine + lateral[:, None] * normal
+
+
+def _goal_heading_offset(planning_problem: PlanningProblem, heading: float) -> float:
+    """How far the middle of the first goal state's orientation window turns from ``heading``
+    (wrapped; 0 without a window, or when it turns more than `GOAL_HEADING_MAX_RAD`: a turn, not
+    a lane change)."""
+    window = next((st.orientation for st in planning_problem.goal.state_list
+                   if getattr(st, "orientation", None) is not None), None)
+    if window is None or not hasattr(window, "start"):
+        return 0.0
+    middle = 0.5 * (float(window.start) + float(window.end))
+    turn = math.remainder(middle - heading, 2.0 * math.pi)
+    return turn if abs(turn) <= GOAL_HEADING_MAX_RAD else 0.0
+
+
 def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem,
                         spacing: float = 1.0, smoothing: float = 1.0, extension_back: float = 20.0,
                         extension_forward: float = 100.0) -> ReferencePath:
@@ -343,6 +437,7 @@ def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: Plann
     metres): where the smoothed route still turns tighter than `KINK_CURVATURE`, it is smoothed
     again with `KINK_SMOOTHING_M`, as a driver would round the kink off."""
     centre, ids = route_centre_line(lanelet_network, planning_problem)
+    centre = towards_goal(centre, planning_problem)
     path = smooth_reference_path(centre, spacing, smoothing, extension_back, extension_forward, ids)
     lo, hi = path.route_s
     on_route = (path.s >= lo) & (path.s <= hi)

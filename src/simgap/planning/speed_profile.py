@@ -31,8 +31,9 @@ _STEERING_SPEED_FLOOR = 1.0
 # a target inside a window keeps this share of the window's width from its bounds
 _WINDOW_INSET = 0.1
 # the arrival is aimed this far into the time window (at most ``_TIME_AIM_MAX_S``), from either
-# end: a planned speed lags the desired one, and a late or early arrival still falls inside
-_TIME_AIM_SHARE = 0.25
+# end: a planned speed lags the desired one, and a late or early arrival still falls inside; a
+# window shorter than twice that (a recorded driver's end time, +-0.2 s) is aimed at its middle
+_TIME_AIM_SHARE = 0.5
 _TIME_AIM_MAX_S = 1.0
 # the planned speed follows the desired one with a lag: the velocity window is aimed this long ahead
 _RESPONSE_S = 1.0
@@ -64,14 +65,18 @@ class GoalApproach:
     reference points inside it, or the point nearest a goal centre off the path). The vehicle
     brakes into the velocity window before it enters the stretch and keeps to it until the stretch
     ends. Before the time window opens it drives no faster than the average speed that reaches the
-    hold point (`HOLD_MARGIN_M` before the stretch's end, or its middle when it is shorter) when the
-    window opens: arrived early, it stops there and waits. Late, it drives at least as fast as
-    entering the stretch before the window closes needs (`speed_floor`).
+    hold point (`HOLD_MARGIN_M` before the stretch's end or, when it is shorter, where the vehicle's
+    centre is at its middle) when the window opens: arrived early, it stops there and waits. Late,
+    it drives at least as fast as entering the stretch before the window closes needs
+    (`speed_floor`).
     """
 
     def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float,
-                 top_speed: float = math.inf):
+                 top_speed: float = math.inf, centre_ahead_m: float = 0.0):
+        """``centre_ahead_m``: how far the vehicle's centre (where the goal is judged) lies ahead of
+        the point whose arc length the planner passes (its rear axle: the wheelbase's rear part)."""
         self.stretch = _goal_stretch(reference, goal)
+        self.centre_ahead = centre_ahead_m
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
         # the slowest speed the vehicle may arrive at (the velocity window's lower bound, inset)
@@ -108,7 +113,7 @@ class GoalApproach:
             braking = max(enter - s - v * _RESPONSE_S, 0.0)
             cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
         if self.arrival_time is not None and t < self.arrival_time:
-            hold = max(0.5 * (enter + leave), leave - HOLD_MARGIN_M)
+            hold = max(0.5 * (enter + leave) - self.centre_ahead, leave - HOLD_MARGIN_M)
             cap = min(cap, self._pace(max(hold - s, 0.0), self.arrival_time - t))
         return cap
 
@@ -206,7 +211,7 @@ def desired_speed(profile: SpeedProfile, approach: GoalApproach, s: float, t: fl
 
 
 def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: float, max_lateral_acceleration: float,
-                 comfortable_deceleration: float) -> tuple[SpeedProfile, GoalApproach]:
+                 comfortable_deceleration: float, centre_ahead_m: float = 0.0) -> tuple[SpeedProfile, GoalApproach]:
     """The speed profile along ``reference`` (cruise speed from the goal's velocity window and the
     vehicle's top speed) and the approach to the goal's time window, for the agent ``setup`` builds."""
     problem = setup.planning_problem
@@ -214,4 +219,4 @@ def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: floa
     cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
     return (SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration),
             GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration,
-                         setup.vehicle.limits.max_speed))
+                         setup.vehicle.limits.max_speed, centre_ahead_m))
