@@ -5,8 +5,6 @@ driver from the traffic and counts both."""
 
 from __future__ import annotations
 
-import importlib
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,16 +18,10 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-
 
 @pytest.fixture(scope="module")
-def real_recorded():
-    sys.path.insert(0, str(BENCH))
-    try:
-        yield importlib.import_module("real_recorded")
-    finally:
-        sys.path.remove(str(BENCH))
+def real_recorded(bench_module):
+    return bench_module("real_recorded")
 
 
 def recording(tmp_path: Path) -> Path:

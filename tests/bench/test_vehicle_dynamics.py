@@ -4,24 +4,15 @@ reports numbers, not pass/fail)."""
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-
 
 @pytest.fixture(scope="module")
-def vehicle_dynamics():
-    sys.path.insert(0, str(BENCH))
-    try:
-        yield importlib.import_module("vehicle_dynamics")
-    finally:
-        sys.path.remove(str(BENCH))
+def vehicle_dynamics(bench_module):
+    return bench_module("vehicle_dynamics")
 
 
 def test_quick_json_benchmark_of_one_car_gives_sane_handling_figures(vehicle_dynamics, capsys):

@@ -56,9 +56,13 @@ class ProbePlan(BaseModel):
 
     dims: list[Dimension]
 
+    def departure(self, unit: tuple[float, ...]) -> np.ndarray:
+        """How far the point ``unit`` lies from nominal in each dimension (normalised)."""
+        return np.abs(np.asarray(unit, dtype=float) - [d.nominal_unit for d in self.dims])
+
     def off_nominal(self, unit: tuple[float, ...]) -> list[int]:
         """The dimensions in which the point ``unit`` is not at nominal."""
-        return [i for i, d in enumerate(self.dims) if abs(unit[i] - d.nominal_unit) > AT_NOMINAL]
+        return [int(i) for i in np.flatnonzero(self.departure(unit) > AT_NOMINAL)]
 
     def save(self, root: Path) -> None:
         atomic_write_text(Path(root) / PROBES / PLAN, self.model_dump_json(indent=2))
@@ -161,11 +165,10 @@ def group_modes(violations: list[SearchRow], probes: list[ProbeRow], plan: Probe
                needs is not None, tuple(needs or ()))
         groups.setdefault(key, []).append(row)
     knob_dims = [i for i, d in enumerate(plan.dims) if d.kind == "knob"]
-    nominal = np.array([d.nominal_unit for d in plan.dims])
     modes = []
     for (vehicle, planner, broke, probed, needs), rows in groups.items():
         def departure(r: SearchRow) -> tuple[float, float, int]:
-            off = np.abs(np.array(r.unit) - nominal)
+            off = plan.departure(r.unit)
             return float(off[knob_dims].sum()), float(off.sum()), r.candidate
         best = min(rows, key=departure)
         values = [values_of(r, plan) for r in rows]

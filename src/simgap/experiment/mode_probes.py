@@ -14,8 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from simgap.experiment.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow, what_broke
 from simgap.experiment.job import Job
 from simgap.experiment.knobs import KNOBS
@@ -97,10 +95,8 @@ def clearest_first(violations: list[SearchRow], plan: ProbePlan) -> list[SearchR
     (vehicle, planner, what broke) first — the fewest dimensions off nominal, then the nearest to
     nominal: the cheapest to probe and the representative a mode would show — then the second
     clearest of each, and so on; so that a small budget gives every group a probed member."""
-    nominal = np.array([d.nominal_unit for d in plan.dims])
-
     def clarity(v: SearchRow) -> tuple[int, float, int]:
-        return len(plan.off_nominal(v.unit)), float(np.abs(np.array(v.unit) - nominal).sum()), v.candidate
+        return len(plan.off_nominal(v.unit)), float(plan.departure(v.unit).sum()), v.candidate
 
     groups: dict[tuple, list[SearchRow]] = {}
     for v in violations:

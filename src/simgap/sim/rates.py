@@ -11,11 +11,10 @@ ACCEL_FILTER_S = 0.05       # s, time constant of the measured acceleration's lo
 def steps_per_tick(physics_hz: float, controller_hz: float, field: str = "backend_settings.physics_hz",
                    allowed: str | None = None) -> int:
     """Physics steps per controller period; an `InputError` on ``field`` unless it is whole."""
-    ratio = physics_hz / controller_hz
-    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+    if not is_multiple(physics_hz, controller_hz):
         raise InputError(f"physics rate {physics_hz:g} Hz must be a whole multiple of the controller rate "
                          f"{controller_hz:g} Hz", field=field, allowed=allowed)
-    return int(round(ratio))
+    return int(round(physics_hz / controller_hz))
 
 
 def nearest_multiple(rate_hz: float, base_hz: float) -> float:

@@ -33,11 +33,12 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
+from simgap.errors import InputError
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
-from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple, steps_per_tick
+from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
@@ -283,9 +284,10 @@ class MujocoBackend(TrackedBackend):
             self.physics.settings = fitted
             return fitted
         if "physics_hz" in settings.model_fields_set:
-            steps_per_tick(settings.physics_hz, fitted.controller_hz, "backend_settings.physics_hz",
-                           allowed=f"a multiple of {fitted.controller_hz:g} Hz (the controller's, fitted to the "
-                                   f"scenario's step {dt:g} s), or no physics_hz")
+            raise InputError(f"physics rate {settings.physics_hz:g} Hz must be a whole multiple of the controller "
+                             f"rate {fitted.controller_hz:g} Hz (fitted to the scenario's step {dt:g} s)",
+                             field="backend_settings.physics_hz",
+                             allowed=f"a multiple of {fitted.controller_hz:g} Hz, or no physics_hz")
         physics_hz = nearest_multiple(settings.physics_hz, fitted.controller_hz)
         self.notes.append(f"physics at {physics_hz:g} Hz, a multiple of the controller's {fitted.controller_hz:g} Hz")
         fitted = fitted.model_copy(update={"physics_hz": physics_hz})
