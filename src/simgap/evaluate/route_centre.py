@@ -22,9 +22,7 @@ def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[in
         routes, start = lanelet_routes(network, problem)
     except InputError:
         return []
-    initial = start.initial_state
-    return list(preferred_route(network, routes, np.asarray(initial.position, dtype=float),
-                                float(getattr(initial, "orientation", 0.0) or 0.0)))
+    return list(preferred_route(network, routes, start.initial_state))
 
 
 def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame | None:

@@ -17,6 +17,7 @@ import shapely
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
+from commonroad.scenario.state import InitialState
 
 from simgap.errors import InputError
 from simgap.scenario.goal import area_of
@@ -93,9 +94,7 @@ def route_centre_line(lanelet_network: LaneletNetwork,
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
 
     routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
-    initial = planning_problem.initial_state
-    ids = preferred_route(lanelet_network, routes, np.asarray(initial.position, dtype=float),
-                          float(getattr(initial, "orientation", 0.0) or 0.0))
+    ids = preferred_route(lanelet_network, routes, planning_problem.initial_state)
     if not _lane_changes(lanelet_network, ids):
         try:
             route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
@@ -158,27 +157,31 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
                      allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
 
 
-def preferred_route(network: LaneletNetwork, routes, start: np.ndarray | None = None,
-                    heading: float | None = None) -> tuple[int, ...]:
+def preferred_route(network: LaneletNetwork, routes, initial: InitialState | None = None) -> tuple[int, ...]:
     """The lanelet ids of the route with the fewest lane changes, then the one whose first lanelet
-    the car is on (``start``: the initial position, ``heading``: its orientation; where two
-    lanelets merge, as at a roundabout's entry, both hold the car: the one heading its way), then
-    the shortest."""
+    the car is on (``initial``: the planning problem's initial state; where two lanelets merge, as
+    at a roundabout's entry, both hold the car: the one heading its way), then the shortest."""
+    start = None if initial is None else np.asarray(initial.position, dtype=float)
+    heading = None if initial is None else float(getattr(initial, "orientation", 0.0) or 0.0)
+
     def misfit(route: tuple[int, ...]) -> float:
         if start is None:
             return 0.0
         lanelet = network.find_lanelet_by_id(route[0])
         if not lanelet.polygon.contains_point(start):
             return math.inf
-        if heading is None:
-            return 0.0
         centre = np.asarray(lanelet.center_vertices, dtype=float)
-        k = min(int(np.hypot(*(centre - start).T).argmin()), len(centre) - 2)
+        k = min(_nearest(centre, start), len(centre) - 2)
         along = math.atan2(*(centre[k + 1] - centre[k])[::-1])
         return round(abs(math.remainder(heading - along, 2.0 * math.pi)), 1)   # 0.1 rad: the same way
 
     return min((tuple(int(i) for i in r.lanelet_ids) for r in routes),
                key=lambda route: (_lane_changes(network, route), misfit(route), _route_length(network, route)))
+
+
+def _nearest(points: np.ndarray, point: np.ndarray) -> int:
+    """The index of the row of ``points`` nearest ``point``."""
+    return int(np.hypot(*(points - point).T).argmin())
 
 
 def _joined_centre_lines(network: LaneletNetwork, lanelet_ids: tuple[int, ...], start: np.ndarray,
@@ -212,7 +215,7 @@ def _lane_change(from_lane: np.ndarray, to_lane: np.ndarray, start: np.ndarray, 
     u = np.linspace(0.0, 1.0, n)
     a = np.stack([np.interp(u * s_from[-1], s_from, from_lane[:, j]) for j in range(2)], 1)
     b = np.stack([np.interp(u * s_to[-1], s_to, to_lane[:, j]) for j in range(2)], 1)
-    u0 = after if after is not None else float(u[np.hypot(*(a - start).T).argmin()])
+    u0 = after if after is not None else float(u[_nearest(a, start)])
     u1 = min(1.0, u0 + change_m / max(s_from[-1], 1e-6))
     x = np.clip((u - u0) / max(u1 - u0, 1e-6), 0.0, 1.0)
     w = (x ** 3 * (10.0 - 15.0 * x + 6.0 * x * x))[:, None]
@@ -391,14 +394,14 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     if inside.any() and shapely.distance(area.boundary, shapely.points(fine[inside])).max() >= GOAL_DEPTH_M:
         return centre
     target = np.asarray(area.centroid.coords[0], dtype=float)
-    k = int(np.hypot(*(fine - target).T).argmin())
+    k = _nearest(fine, target)
     if k == 0 or k == len(fine) - 1:               # the goal's centre lies beyond an end of the line
         return centre
     s = _arc_length(fine)
     tangent = np.gradient(fine, s, axis=0)
     normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) / np.hypot(*tangent.T)[:, None]
     offset = float(np.dot(target - fine[k], normal[k]))
-    start = float(s[int(np.hypot(*(fine - np.asarray(planning_problem.initial_state.position)).T).argmin())])
+    start = float(s[_nearest(fine, np.asarray(planning_problem.initial_state.position, dtype=float))])
     speed = float(getattr(planning_problem.initial_state, "velocity", 0.0) or 0.0)
     ramp = min(lane_change_length(speed), s[k] - start)
     if not GOAL_BESIDE_MIN_M <= abs(offset) <= GOAL_BESIDE_MAX_M or ramp < GOAL_SHIFT_MIN_RAMP_M:

@@ -90,17 +90,13 @@ class MujocoPhysics:
         w.tyres.apply(settle=True)
         self._accel = {a.id: SpeedRate(t0, a.initial_state.v, a.initial_state.a) for a in self._agents}
         self._events = []
-        self._flipped: list[int] = []
         self._retired: set[int] = set()
 
     def enter(self, agent_id: int, t: float) -> None:
         """Bring a parked car (`_parked`) to its initial state, its tyres settled to its motion."""
-        w = self.world
-        k, agent = next((k, a) for k, a in enumerate(self._agents) if a.id == agent_id)
-        initial = agent.initial_state.replace(t=t)
-        w.place(agent_id, initial)
-        mujoco.mj_forward(w.model, w.data)
-        w.tyres.settle(slice(4 * k, 4 * k + 4))
+        k = self._index(agent_id)
+        initial = self._agents[k].initial_state.replace(t=t)
+        self._place_settled(k, initial)
         self._steer_target[agent_id] = initial.steer
         self._accel[agent_id] = SpeedRate(t, initial.v, initial.a)
 
@@ -110,10 +106,23 @@ class MujocoPhysics:
         x0, y0, x1, _ = self.world.road_bounds
         return State(t=t, x=x1 + PARKING_M + 8.0 * k, y=y0 - PARKING_M, yaw=0.0, v=0.0)
 
+    def _index(self, agent_id: int) -> int:
+        return next(k for k, a in enumerate(self._agents) if a.id == agent_id)
+
+    def _place_settled(self, k: int, state: State) -> None:
+        """Put the ``k``-th car at ``state``, its tyres settled to its motion."""
+        w = self.world
+        w.place(self._agents[k].id, state)
+        mujoco.mj_forward(w.model, w.data)
+        w.tyres.settle(slice(4 * k, 4 * k + 4))
+
+    def _flipped(self) -> list[int]:
+        """The cars found on their side since the step began (their ``diverged`` events)."""
+        return [e.agent_id for e in self._events if e.kind == "diverged"]
+
     def begin_step(self, t: float) -> None:
-        for aid in self._flipped:
+        for aid in self._flipped():
             self._retire(aid, t)
-        self._flipped = []
         self._events = []
         self._seen = set()
         self.check(t)
@@ -121,11 +130,8 @@ class MujocoPhysics:
     def _retire(self, agent_id: int, t: float) -> None:
         """Take a car whose physics diverged out of the world: parked (`_parked`) and braked, so
         that the others drive on in a world without it."""
-        w = self.world
-        k = next(k for k, a in enumerate(self._agents) if a.id == agent_id)
-        w.place(agent_id, self._parked(k, t))
-        mujoco.mj_forward(w.model, w.data)
-        w.tyres.settle(slice(4 * k, 4 * k + 4))
+        k = self._index(agent_id)
+        self._place_settled(k, self._parked(k, t))
         self._retired.add(agent_id)
 
     def advance(self, t: float, period: float) -> None:
@@ -239,8 +245,7 @@ class MujocoPhysics:
         for a in self._agents:
             car = w.cars[a.id]
             q = d.qpos[car.qpos:car.qpos + 7]
-            if up_z(q[3:7]) < FLIPPED_UP_Z and a.id not in self._retired and a.id not in self._flipped:
-                self._flipped.append(a.id)
+            if up_z(q[3:7]) < FLIPPED_UP_Z and a.id not in self._retired and a.id not in self._flipped():
                 self._events.append(BackendEvent(t, a.id, "diverged", f"chassis on its side or roof at t = {t:.2f} s, "
                                                  f"x = {q[0]:.1f} m, y = {q[1]:.1f} m"))
 
@@ -280,17 +285,15 @@ class MujocoBackend(TrackedBackend):
         rate to the controller's: the one set, or, when none was set and the default does not
         divide by the controller's, its multiple nearest the default (540 Hz under 90 Hz)."""
         fitted = super().fit_rates(settings, dt)
-        if fitted is settings or is_multiple(settings.physics_hz, fitted.controller_hz):
-            self.physics.settings = fitted
-            return fitted
-        if "physics_hz" in settings.model_fields_set:
-            raise InputError(f"physics rate {settings.physics_hz:g} Hz must be a whole multiple of the controller "
-                             f"rate {fitted.controller_hz:g} Hz (fitted to the scenario's step {dt:g} s)",
-                             field="backend_settings.physics_hz",
-                             allowed=f"a multiple of {fitted.controller_hz:g} Hz, or no physics_hz")
-        physics_hz = nearest_multiple(settings.physics_hz, fitted.controller_hz)
-        self.notes.append(f"physics at {physics_hz:g} Hz, a multiple of the controller's {fitted.controller_hz:g} Hz")
-        fitted = fitted.model_copy(update={"physics_hz": physics_hz})
+        if fitted is not settings and not is_multiple(settings.physics_hz, fitted.controller_hz):
+            if "physics_hz" in settings.model_fields_set:
+                raise InputError(f"physics rate {settings.physics_hz:g} Hz must be a whole multiple of the controller "
+                                 f"rate {fitted.controller_hz:g} Hz (fitted to the scenario's step {dt:g} s)",
+                                 field="backend_settings.physics_hz",
+                                 allowed=f"a multiple of {fitted.controller_hz:g} Hz, or no physics_hz")
+            physics_hz = nearest_multiple(settings.physics_hz, fitted.controller_hz)
+            self.notes.append(f"physics at {physics_hz:g} Hz, a multiple of the controller's {fitted.controller_hz:g} Hz")
+            fitted = fitted.model_copy(update={"physics_hz": physics_hz})
         self.physics.settings = fitted
         return fitted
 
