@@ -126,8 +126,9 @@ def test_a_goal_no_lanelet_leads_to_is_refused_naming_the_planning_problem():
     scenario = highway(lanes=1, length=200, segments=2)
     goal = GoalRegion([CustomState(time_step=Interval(0, 100), position=Rectangle(10.0, 3.0, np.array([20.0, 1.75])))])
     init = start(150, 0, 5.0)     # the goal lies on the lanelet before the start's, on a one-way lane
-    with pytest.raises(InputError, match="planning problem 1.*no route"):
+    with pytest.raises(InputError, match="planning problem 1.*no route") as refused:
         run_ego(scenario, init, goal)
+    assert " object at 0x" not in str(refused.value)          # the route planner's reason, readable
 
 
 def _scenario_2018b(states: int = 120) -> str:

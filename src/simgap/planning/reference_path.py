@@ -8,8 +8,9 @@ Evaluation uses the same path (``xy`` and ``s``) to express lateral displacement
 from __future__ import annotations
 
 import copy
-import math
 import logging
+import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -147,7 +148,7 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
         try:
             routes = RoutePlanner(lanelet_network, candidate, logging_level=logging.ERROR).plan_routes()
         except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
-            first = first or str(exc) or type(exc).__name__
+            first = first or _readable(exc)
             continue
         if routes and any(len(r.lanelet_ids) for r in routes):
             return [r for r in routes if len(r.lanelet_ids)], candidate
@@ -155,6 +156,12 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
     raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
                      field=f"planning problem {pid}",
                      allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
+
+
+def _readable(exc: Exception) -> str:
+    """The route planner's message for a user: an object's repr (``<...Planner object at 0x...>``)
+    becomes its class's name."""
+    return re.sub(r"<(?:[\w]+\.)*(\w+) object at 0x[0-9a-fA-F]+>", r"\1", str(exc)) or type(exc).__name__
 
 
 def preferred_route(network: LaneletNetwork, routes, initial: InitialState | None = None) -> tuple[int, ...]:
