@@ -24,41 +24,44 @@ PROPOSAL_TRIES = 30           # neighbours drawn before a move gives up and prop
 NEIGHBOUR_DISTANCE = (1.0, 1.5)   # a neighbour's distance from its parent, in distinct radii: new, yet close
 SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
 # The promotion threshold (a risk) starts where the screen's grip use reaches the road's limit or the
-# objective reaches risk_scale, and follows the precision of the recent promotions:
+# objective reaches risk_scale, and then is the risk that best separates the promoted candidates that
+# failed in high fidelity from those that passed:
 START_THRESHOLD = 1.0
-PRECISION_WINDOW = 10         # the promotions the precision is measured over ...
-PRECISION_MIN = 4             # ... once there are this many
-TRUSTED_PRECISION = 0.6       # above: most promoted candidates fail in high fidelity, cast a wider net ...
-WIDEN = 0.9                   # ... by lowering the threshold by this factor
-POOR_PRECISION = 0.3          # below: few do, promote fewer ...
-NARROW = 1.1                  # ... by raising it by this factor
+FIT_MIN = 4                   # ... once this many verdicts, of both kinds, are in
 LOWEST_THRESHOLD = 0.2        # never below: a candidate this safe in the screen is not worth the high fidelity
-
 
 @dataclass
 class PromotionThreshold:
-    """The risk a screened candidate needs to go up the ladder, learned from what promotions found."""
+    """The risk a screened candidate needs to go up the ladder, learned from what promotions found:
+    the threshold that would have promoted the fewest passing candidates plus missed the fewest
+    failing ones among every screened candidate judged in high fidelity so far (those promoted by
+    their risk and those promoted regardless, which keep the estimate honest below it)."""
 
     value: float = START_THRESHOLD
-    promoted: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
-
-    def missed(self, risk: float) -> None:
-        """A candidate promoted regardless of its ``risk`` failed in high fidelity: the screen missed it."""
-        self.value = min(self.value, risk)
+    judged_risks: list[tuple[float, bool]] = field(default_factory=list)   # (risk, failed in high)
 
     def judged(self, risk: float, failed: bool) -> None:
-        """The high-fidelity verdict on a candidate the threshold promoted."""
-        self.promoted.append((risk, failed))
-        recent = self.promoted[-PRECISION_WINDOW:]
-        if len(recent) < PRECISION_MIN:
+        """The high-fidelity verdict on a screened candidate of this ``risk``."""
+        self.judged_risks.append((risk, failed))
+        failing = sum(f for _, f in self.judged_risks)
+        if len(self.judged_risks) < FIT_MIN or failing in (0, len(self.judged_risks)):
             return
-        precision = sum(f for _, f in recent) / len(recent)
-        if precision > TRUSTED_PRECISION:
-            self.value *= WIDEN
-        elif precision < POOR_PRECISION:
-            self.value *= NARROW
-        # never above a screen failure's risk: what fails in the screen always goes up
-        self.value = min(max(self.value, LOWEST_THRESHOLD), SCREEN_FAILURE_RISK)
+        self.value = min(max(separating_risk(self.judged_risks), LOWEST_THRESHOLD), SCREEN_FAILURE_RISK)
+
+
+def separating_risk(verdicts: list[tuple[float, bool]]) -> float:
+    """The risk threshold with the fewest errors on ``verdicts`` (risk, failed): passing candidates
+    at or above it plus failing ones below it; midway between the two risks it falls between (the
+    lowest such threshold on a tie, so that no failure is given up for nothing)."""
+    risks = sorted(verdicts)
+    errors = sum(not f for _, f in risks)          # threshold below every risk: each pass is promoted
+    best, best_at = errors, risks[0][0]
+    for i, (risk, failed) in enumerate(risks):
+        errors += 1 if failed else -1               # the threshold moves above this one
+        above = risks[i + 1][0] if i + 1 < len(risks) else risk + 1.0
+        if errors < best and above > risk:
+            best, best_at = errors, (risk + above) / 2.0
+    return best_at
 
 
 @dataclass
@@ -177,7 +180,6 @@ class MultiFidelityStrategy(Strategy):
         self.map = FailureMap(distinct_radius)
         self.allocation = MoveAllocation(scenario_spread)
         self.risk: dict[int, float] = {}
-        self.explored: set[int] = set()
 
     # --- proposing ----------------------------------------------------------------------------
     def propose(self, index: int) -> Candidate | None:
@@ -245,8 +247,6 @@ class MultiFidelityStrategy(Strategy):
         self.risk[candidate.index] = risk
         explore = candidate.index % EXPLORE_EVERY == EXPLORE_EVERY - 1
         if self.map.novelty(candidate) >= 1.0 and (risk >= self.threshold.value or explore):
-            if risk < self.threshold.value:
-                self.explored.add(candidate.index)
             return [rung + 1]
         self._close(candidate, False)      # not promoted: a failure already this close, or too safe
         return []
@@ -261,14 +261,8 @@ class MultiFidelityStrategy(Strategy):
             self.map.add(candidate)
             self.allocation.parents[candidate.index] = _Yield()
         risk = self.risk.get(candidate.index)
-        if risk is None:
-            return
-        if candidate.index in self.explored:        # not the screen's judgement: no evidence on it ...
-            if failed:
-                self.threshold.missed(risk)         # ... unless the screen missed a failure
-            return
-        self.threshold.judged(risk, failed)
-
+        if risk is not None:
+            self.threshold.judged(risk, failed)
 
 def _scenario_key(c: Candidate) -> tuple:
     """What the ideal world sees of a candidate: its road and start, its vehicle and its planner."""
