@@ -100,3 +100,30 @@ def test_the_path_arrives_at_a_goal_beside_the_lane_with_its_heading(straight_ro
     assert float(np.interp(x_goal, ref.xy[:, 0], ref.xy[:, 1])) == pytest.approx(-0.5, abs=0.05)
     assert heading_at(x_goal) == pytest.approx(0.05, abs=0.01)
     assert abs(heading_at(x_goal + 20.0)) < 0.01
+
+
+@pytest.mark.parametrize("logical, params", [("curve", {"radius": 15, "angle": 120}), ("curve", {"radius": 90, "angle": -60}),
+                                             ("s-curve", {}), ("t-junction", {}), ("intersection", {})])
+def test_a_route_without_alternatives_is_the_route_planners_own_path(logical, params, monkeypatch):
+    """Made from the route planner's polyline operations without its lane-change bookkeeping (which
+    prints each lanelet's vertices to hash it), the path of the only route is the route planner's,
+    point for point."""
+    import logging
+
+    import commonroad_route_planner.reference_path_planner as planner_module
+    from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
+
+    from simgap.planning.reference_path import lanelet_routes, route_centre_line
+    from simgap.scenario.logical import build_scenario
+
+    built = build_scenario(logical, params)
+    network = built.scenario.lanelet_network
+    for problem in built.problems.planning_problem_dict.values():
+        routes, start = lanelet_routes(network, problem)
+        assert len(routes) == 1
+        library = ReferencePathPlanner(network, start, routes, logging_level=logging.ERROR).plan_shortest_reference_path()
+        with monkeypatch.context() as m:        # not asked: a call would fall back to the joined centre lines
+            m.setattr(planner_module, "ReferencePathPlanner", None)
+            ours, ids = route_centre_line(network, problem)
+        assert ids == tuple(library.lanelet_ids)
+        assert np.array_equal(ours, library.reference_path), logical
