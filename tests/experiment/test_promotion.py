@@ -7,7 +7,7 @@ import numpy as np
 
 from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.multi_fidelity import START_THRESHOLD, PromotionThreshold, separating_risk
+from simgap.experiment.multi_fidelity import START_THRESHOLD, MoveAllocation, PromotionThreshold, _Yield, separating_risk
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
 from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search
@@ -71,7 +71,7 @@ def test_promotions_fail_where_the_screen_separates(tmp_path):
                       failure=FailureRule(), objective="max_lateral_offset_m", distinct_radius=0.1)
     space = SearchSpace(spec, load_logical("curve"))
     strategy = make_strategy("multi_fidelity", space, spec)
-    run = StrategyRun(checked_search(spec, space.logical), space, strategy, tmp_path, Budget(runs=200))
+    run = StrategyRun(checked_search(spec, space.logical), space, strategy, tmp_path, Budget(runs=300))
     run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
@@ -80,7 +80,20 @@ def test_promotions_fail_where_the_screen_separates(tmp_path):
     for r in ResultsStore(tmp_path).rows():
         rungs.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
     promoted = [k for k in rungs.values() if 1 in k and 2 in k]
-    assert sum(k[2]["failed"] for k in promoted) >= 3 and sum(not k[2]["failed"] for k in promoted) >= 3
+    assert sum(k[2]["failed"] for k in promoted) >= 2 and sum(not k[2]["failed"] for k in promoted) >= 3
     # the threshold found the boundary from both sides (a threshold that only falls to the risk of
     # a failure the screen missed stays above it: 0.93 here)
     assert abs(strategy.threshold.value - BOUNDARY) < 0.1, strategy.threshold.value
+
+
+def test_a_move_unlucky_in_its_first_tries_is_not_starved():
+    """Knob moves passed in two of their first four tries (seed 1 of the real study) while scenario
+    moves kept finding: the knob moves must still be drawn now and then, to learn that they find."""
+    allocation = MoveAllocation(spread=1.0)
+    allocation.moves["knobs"] = _Yield(cost_s=12.0, found=0.8, tried=4)
+    allocation.moves["scenario"] = _Yield(cost_s=180.0, found=30.0, tried=30)
+    allocation.moves["global"] = _Yield(cost_s=60.0, found=2.0, tried=12)
+    rng = np.random.default_rng(0)
+    draws = [allocation.draw_move(rng) for _ in range(2000)]
+    assert draws.count("knobs") >= 0.1 * len(draws)        # with a prior of one failure in 20 s: 3 %
+    assert draws.count("scenario") > draws.count("knobs")   # the evidence still counts most
