@@ -19,7 +19,7 @@ EXPLORE_EVERY = 10          # one candidate in this many is promoted whatever it
 # --- multi_fidelity's numbers ---------------------------------------------------------------
 SCREEN_FAILURE_RISK = 2.0     # the risk of a candidate that already fails in the screen (above any other)
 MOVES = ("global", "knobs", "scenario")
-COST_PRIOR_S = 20.0           # a move's yield starts as the moves' pooled yield, worth this many CPU seconds of evidence
+COST_PRIOR_S = 20.0           # a move's yield starts as the pooled yield, worth this many CPU seconds
 PROPOSAL_TRIES = 30           # neighbours drawn before a move gives up and proposes a global candidate
 NEIGHBOUR_DISTANCE = (1.0, 1.5)   # a neighbour's distance from its parent, in distinct radii: new, yet close
 SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
@@ -29,6 +29,7 @@ SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often
 START_THRESHOLD = 1.0
 FIT_MIN = 4                   # ... once this many verdicts, of both kinds, are in
 LOWEST_THRESHOLD = 0.2        # never below: a candidate this safe in the screen is not worth the high fidelity
+
 
 @dataclass
 class PromotionThreshold:
@@ -272,6 +273,7 @@ class MultiFidelityStrategy(Strategy):
         risk = self.risk.get(candidate.index)
         if risk is not None:
             self.threshold.judged(risk, failed)
+
 
 def _scenario_key(c: Candidate) -> tuple:
     """What the ideal world sees of a candidate: its road and start, its vehicle and its planner."""

@@ -91,27 +91,37 @@ def route_centre_line(lanelet_network: LaneletNetwork,
     begin): on recorded maps the route planner squeezes some lane changes into the last metres
     before the goal (a sharp S the speed profile must crawl through), and its lane-change geometry
     fails outright on others."""
-    # imported here: the route planner pulls in networkx and its own logging at import time
-    from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
-
     routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
     ids = preferred_route(lanelet_network, routes, planning_problem.initial_state)
     if not _lane_changes(lanelet_network, ids):
-        try:
-            if len(routes) == 1:        # the route planner's choice of one route is that route
-                path = _route_planner_path(lanelet_network, ids)
-            else:
-                route = ReferencePathPlanner(lanelet_network, planning_problem, routes,
-                                             logging_level=logging.ERROR).plan_shortest_reference_path()
-                path = route.reference_path if tuple(int(i) for i in route.lanelet_ids) == ids else np.empty((0, 2))
-            if len(path) >= 2:
-                return np.asarray(path, dtype=float), ids
-        except Exception:  # noqa: BLE001 - its geometry fails on some real maps: the centre lines are joined
-            pass
+        path = _planners_path(lanelet_network, planning_problem, routes, ids)
+        if path is not None:
+            return path, ids
     initial = planning_problem.initial_state
     speed = float(getattr(initial, "velocity", 0.0) or 0.0)
     return _joined_centre_lines(lanelet_network, ids, np.asarray(initial.position, dtype=float),
                                 lane_change_length(speed)), ids
+
+
+def _planners_path(network: LaneletNetwork, planning_problem: PlanningProblem, routes,
+                   ids: tuple[int, ...]) -> np.ndarray | None:
+    """The route planner's reference path of the route ``ids`` (no lane change) among ``routes``;
+    None where it chose another route or its geometry fails (as on some real maps)."""
+    # imported here: the route planner pulls in networkx and its own logging at import time
+    from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
+
+    try:
+        if len(routes) == 1:        # the route planner's choice of one route is that route
+            path = _route_planner_path(network, ids)
+        else:
+            route = ReferencePathPlanner(network, planning_problem, routes,
+                                         logging_level=logging.ERROR).plan_shortest_reference_path()
+            if tuple(int(i) for i in route.lanelet_ids) != ids:
+                return None
+            path = route.reference_path
+    except Exception:  # noqa: BLE001 - its geometry fails on some real maps: the centre lines are joined
+        return None
+    return np.asarray(path, dtype=float) if len(path) >= 2 else None
 
 
 def _route_planner_path(network: LaneletNetwork, lanelet_ids: tuple[int, ...]) -> np.ndarray:
