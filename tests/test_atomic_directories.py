@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from simgap.errors import InputError
 from simgap.files import replace_directory, restore_directory
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -64,3 +65,16 @@ def test_a_failed_build_keeps_the_old_directory(tmp_path):
         replace_directory(target, broken)
     assert (target / "run.json").read_text() == "old"
     assert sorted(p.name for p in target.parent.iterdir()) == ["x"]       # nothing left beside it
+
+
+def test_a_foreign_file_by_the_set_aside_name_is_refused_and_kept(tmp_path):
+    """A file of someone else's named like the old directory's place aside (``.x.old``) stops the
+    swap with a message naming it, before anything moves; the run and the file are untouched."""
+    target = _old_run(tmp_path)
+    foreign = target.with_name(".x.old")
+    foreign.write_text("not simgap's")
+    with pytest.raises(InputError, match=r"\.x\.old.*remove or rename"):
+        replace_directory(target, lambda d: (d / "run.json").write_text("new"))
+    assert (target / "run.json").read_text() == "old"
+    assert foreign.read_text() == "not simgap's"
+    assert sorted(p.name for p in target.parent.iterdir()) == [".x.old", "x"]

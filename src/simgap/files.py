@@ -61,8 +61,12 @@ def replace_directory(path: str | Path, build: Callable[[Path], Any]) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     restore_directory(path)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     old = _set_aside(path)
+    if path.exists() and old.exists() and not old.is_dir():
+        raise InputError(f"a file named {old.name} lies where the old directory would be set aside while the new one "
+                         "moves in; it is not simgap's, so nothing was replaced", file=old,
+                         allowed="remove or rename that file, or choose another destination")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
         build(tmp)
         if path.exists():
@@ -83,7 +87,7 @@ def restore_directory(path: str | Path) -> None:
     at work)."""
     path = Path(path)
     old = _set_aside(path)
-    if old.exists():
+    if old.is_dir():                  # anything else by that name is not one of ours
         if path.exists():
             shutil.rmtree(old, ignore_errors=True)
         else:
