@@ -103,7 +103,7 @@ def route_centre_line(lanelet_network: LaneletNetwork,
                                 lane_change_length(speed)), ids
 
 
-def _planners_path(network: LaneletNetwork, planning_problem: PlanningProblem, routes,
+def _planners_path(network: LaneletNetwork, planning_problem: PlanningProblem, routes: list,
                    ids: tuple[int, ...]) -> np.ndarray | None:
     """The route planner's reference path of the route ``ids`` (no lane change) among ``routes``;
     None where it chose another route or its geometry fails (as on some real maps)."""
