@@ -97,3 +97,38 @@ def test_a_move_unlucky_in_its_first_tries_is_not_starved():
     draws = [allocation.draw_move(rng) for _ in range(2000)]
     assert draws.count("knobs") >= 0.1 * len(draws)        # with a prior of one failure in 20 s: 3 %
     assert draws.count("scenario") > draws.count("knobs")   # the evidence still counts most
+
+
+class _TwoFailures:
+    """A failure map with two parents, one failure on each scenario."""
+
+    def parents(self):
+        return [1, 2]
+
+    def crowd(self, parent):
+        return 1
+
+
+def _parent_draws(allocation: MoveAllocation, n: int = 2000) -> list[int]:
+    allocation.draw_move = lambda rng: "knobs"
+    rng = np.random.default_rng(0)
+    return [allocation.choose(rng, 1, _TwoFailures())[1] for _ in range(n)]
+
+
+def test_a_failure_that_shows_early_is_searched_around_more():
+    """Two failures, one found by a 0.5 s run (the car leaves the road at once), one by a 5 s run:
+    at an equal share of failing neighbours, the cheap one is varied about ten times as often."""
+    allocation = MoveAllocation(spread=1.0)
+    allocation.new_parent(1, 0.5)
+    allocation.new_parent(2, 5.0)
+    draws = _parent_draws(allocation)
+    assert draws.count(1) >= 0.9 * len(draws)          # per try alone (no cost): about half
+    # ... until its neighbours keep passing (each run to the road's end) while the other's keep failing
+    for index, parent, failed in [(10, 1, False), (11, 1, False), (12, 1, False), (13, 1, False),
+                                  (20, 2, True), (21, 2, True), (22, 2, True), (23, 2, True)]:
+        allocation.proposed(index, "knobs", parent)
+        allocation.charge(index, 5.0)
+        if failed:
+            allocation.found(index, 1)
+    assert allocation.parents[1].cost_s == 20.5 and allocation.parents[2].cost_s == 25.0
+    assert _parent_draws(allocation).count(2) >= 0.75 * 2000

@@ -22,6 +22,7 @@ MOVES = ("global", "knobs", "scenario")
 COST_PRIOR_S = 20.0           # a move's yield starts as the pooled yield, worth this many CPU seconds
 PROPOSAL_TRIES = 30           # neighbours drawn before a move gives up and proposes a global candidate
 NEIGHBOUR_DISTANCE = (1.0, 1.5)   # a neighbour's distance from its parent, in distinct radii: new, yet close
+MIN_TRY_COST_S = 0.1          # a try around a parent costs at least this (no job is free) [s]
 SKIP_SCREEN_AT = 0.5          # a neighbourhood whose neighbours fail this often goes straight to high fidelity
 # The promotion threshold (a risk) starts where the screen's grip use reaches the road's limit or the
 # objective reaches risk_scale, and then is the risk that best separates the promoted candidates that
@@ -118,8 +119,8 @@ class FailureMap:
 
 class MoveAllocation:
     """Which kind of move proposes the next candidate, and around which failure: Thompson sampling
-    on each move's failures per CPU second, and on each parent's share of failing neighbours
-    (discounted by the failures its scenario already has)."""
+    on each move's failures per CPU second, and on each parent's share of failing neighbours per
+    CPU second a try around it costs (discounted by the failures its scenario already has)."""
 
     def __init__(self, spread: float):
         self.spread = spread
@@ -134,12 +135,16 @@ class MoveAllocation:
         move = self.draw_move(rng)
         if move == "global":
             return move, None
-        # ... and on each parent's share of neighbours that failed (a beta posterior), discounted by
-        # the failures its road and start already have: a new scenario is worth more than another knob
+        # ... and on each parent's failures per CPU second: the share of its neighbours that failed
+        # (a beta posterior) over what a try around it costs (its own failing run and its neighbours'
+        # runs, averaged), discounted by the failures its road and start already have: a new scenario
+        # is worth more than another knob
         found = np.array([self.parents[p].found for p in parents])
         tried = np.array([self.parents[p].tried for p in parents])
+        per_try = np.array([self.parents[p].cost_s / (self.parents[p].tried + 1) for p in parents])
         crowd = np.array([failures.crowd(p) for p in parents], dtype=float)
-        draws = rng.beta(found + 1.0, tried - found + 1.0) / crowd ** self.spread
+        draws = rng.beta(found + 1.0, tried - found + 1.0) / (np.maximum(per_try, MIN_TRY_COST_S)
+                                                              * crowd ** self.spread)
         return move, parents[int(np.argmax(draws))]
 
     def draw_move(self, rng: np.random.Generator) -> str:
@@ -165,8 +170,16 @@ class MoveAllocation:
         return (y.found + 1.0) / (y.tried + 2.0)
 
     def charge(self, index: int, cost_s: float) -> None:
-        move, _ = self.move_of.get(index, ("global", None))
-        self.moves[move].cost_s += cost_s if math.isfinite(cost_s) else 0.0
+        move, parent = self.move_of.get(index, ("global", None))
+        cost_s = cost_s if math.isfinite(cost_s) else 0.0
+        self.moves[move].cost_s += cost_s
+        if parent is not None and parent in self.parents:
+            self.parents[parent].cost_s += cost_s
+
+    def new_parent(self, index: int, cost_s: float) -> None:
+        """The candidate ``index`` failed in the high fidelity, in a run of ``cost_s``: a parent now,
+        its own run the first evidence of what a try around it costs."""
+        self.parents[index] = _Yield(cost_s=cost_s if math.isfinite(cost_s) else 0.0)
 
     def found(self, index: int, nth_on_scenario: int) -> None:
         """The candidate ``index`` failed, the ``nth_on_scenario`` failure on its scenario (it
@@ -190,6 +203,7 @@ class MultiFidelityStrategy(Strategy):
         self.map = FailureMap(distinct_radius)
         self.allocation = MoveAllocation(scenario_spread)
         self.risk: dict[int, float] = {}
+        self.high_cost: dict[int, float] = {}       # a high-fidelity run's job time, until confirmed
 
     # --- proposing ----------------------------------------------------------------------------
     def propose(self, index: int) -> Candidate | None:
@@ -247,7 +261,9 @@ class MultiFidelityStrategy(Strategy):
                 self.map.ideal_fails.add(_scenario_key(candidate))
             return []
         if rung == self.high:
-            if row.status != "ok":
+            if row.status == "ok":
+                self.high_cost[candidate.index] = row.value("job_time_s")
+            else:
                 self._close(candidate, False)
             return []
         risk = self.risk_of(row, failed)
@@ -267,9 +283,10 @@ class MultiFidelityStrategy(Strategy):
 
     def confirmed(self, candidate: Candidate, failed: bool) -> None:
         self._close(candidate, failed)
+        cost_s = self.high_cost.pop(candidate.index, math.nan)
         if failed:
             self.map.add(candidate)
-            self.allocation.parents[candidate.index] = _Yield()
+            self.allocation.new_parent(candidate.index, cost_s)
         risk = self.risk.get(candidate.index)
         if risk is not None:
             self.threshold.judged(risk, failed)
