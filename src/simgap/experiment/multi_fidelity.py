@@ -139,9 +139,10 @@ class MoveAllocation:
         # (a beta posterior) over what a try around it costs (its own failing run and its neighbours'
         # runs, averaged), discounted by the failures its road and start already have: a new scenario
         # is worth more than another knob
-        found = np.array([self.parents[p].found for p in parents])
-        tried = np.array([self.parents[p].tried for p in parents])
-        per_try = np.array([self.parents[p].cost_s / (self.parents[p].tried + 1) for p in parents])
+        yields = [self.parents[p] for p in parents]
+        found = np.array([y.found for y in yields])
+        tried = np.array([y.tried for y in yields])
+        per_try = np.array([y.cost_s for y in yields]) / (tried + 1.0)
         crowd = np.array([failures.crowd(p) for p in parents], dtype=float)
         draws = rng.beta(found + 1.0, tried - found + 1.0) / (np.maximum(per_try, MIN_TRY_COST_S)
                                                               * crowd ** self.spread)
@@ -171,7 +172,7 @@ class MoveAllocation:
 
     def charge(self, index: int, cost_s: float) -> None:
         move, parent = self.move_of.get(index, ("global", None))
-        cost_s = cost_s if math.isfinite(cost_s) else 0.0
+        cost_s = _seconds(cost_s)
         self.moves[move].cost_s += cost_s
         if parent is not None and parent in self.parents:
             self.parents[parent].cost_s += cost_s
@@ -179,7 +180,7 @@ class MoveAllocation:
     def new_parent(self, index: int, cost_s: float) -> None:
         """The candidate ``index`` failed in the high fidelity, in a run of ``cost_s``: a parent now,
         its own run the first evidence of what a try around it costs."""
-        self.parents[index] = _Yield(cost_s=cost_s if math.isfinite(cost_s) else 0.0)
+        self.parents[index] = _Yield(cost_s=_seconds(cost_s))
 
     def found(self, index: int, nth_on_scenario: int) -> None:
         """The candidate ``index`` failed, the ``nth_on_scenario`` failure on its scenario (it
@@ -290,6 +291,11 @@ class MultiFidelityStrategy(Strategy):
         risk = self.risk.get(candidate.index)
         if risk is not None:
             self.threshold.judged(risk, failed)
+
+
+def _seconds(cost_s: float) -> float:
+    """A job's time in seconds, 0 where it is not known (nan)."""
+    return cost_s if math.isfinite(cost_s) else 0.0
 
 
 def _scenario_key(c: Candidate) -> tuple:
