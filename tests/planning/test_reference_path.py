@@ -102,6 +102,18 @@ def test_the_path_arrives_at_a_goal_beside_the_lane_with_its_heading(straight_ro
     assert abs(heading_at(x_goal + 20.0)) < 0.01
 
 
+def test_a_goal_on_the_lane_is_reached_with_the_heading_its_window_asks_for(straight_road):
+    """The goal's centre lies on the lane's centre line, but its orientation window (+-0.087 rad)
+    is turned 0.15 rad from the lane (a recorded driver changing lanes there): the path passes the
+    goal's centre heading as the window asks (0.15 +- 0.087 rad: well inside it), and is untouched
+    near the start."""
+    x_goal = straight_road.ego_lane_pose(straight_road.centre_s[-1] - 30.0)[0]
+    ref = plan_reference_path(straight_road.lanelet_network, _with_goal_beside(straight_road, 0.0, turned=0.15))
+    assert 0.15 - 0.05 <= float(np.interp(x_goal, ref.xy[:, 0], ref.theta)) <= 0.15 + 0.05
+    assert float(np.interp(x_goal, ref.xy[:, 0], ref.xy[:, 1])) == pytest.approx(-1.5, abs=0.05)
+    assert float(np.interp(0.0, ref.xy[:, 0], ref.xy[:, 1])) == pytest.approx(-1.5, abs=1e-6)
+
+
 @pytest.mark.parametrize("logical, params", [("curve", {"radius": 15, "angle": 120}), ("curve", {"radius": 90, "angle": -60}),
                                              ("s-curve", {}), ("t-junction", {}), ("intersection", {})])
 def test_a_route_without_alternatives_is_the_route_planners_own_path(logical, params, monkeypatch):

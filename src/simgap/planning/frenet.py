@@ -229,7 +229,7 @@ class FrenetPlanner:
         if self._approach is None or self._dt != dt:
             self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
                                           self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed,
-                                          self.vehicle.rear_axle_to_center)
+                                          self.vehicle.rear_axle_to_center, self.speed_profile.limit)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------

@@ -416,7 +416,8 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     change at the initial speed (`lane_change_length`; less when the start is nearer), arriving
     with the heading the goal's orientation window asks for when that is a lane change's
     (`GOAL_HEADING_MAX_RAD`; a recording's window is often +-5 deg around a driver changing
-    lanes), the sideways slope easing out beyond. Only where the line runs nearly straight
+    lanes), the sideways slope easing out beyond. A goal on the line whose orientation window
+    the line's heading misses (by a lane change's turn at most) is passed at that heading. Only where the line runs nearly straight
     before the goal (`GOAL_SHIFT_MAX_TURN_RAD`): in a turn the move would change its radius."""
     area = next((area_of(st.position) for st in planning_problem.goal.state_list
                  if getattr(st, "position", None) is not None), None)
@@ -425,9 +426,6 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     fine = _resample(_without_duplicates(np.asarray(centre, dtype=float)), _FINE_STEP_M)
     if len(fine) < 3:
         return centre
-    inside = shapely.contains_xy(area, fine[:, 0], fine[:, 1])
-    if inside.any() and shapely.distance(area.boundary, shapely.points(fine[inside])).max() >= GOAL_DEPTH_M:
-        return centre
     target = np.asarray(area.centroid.coords[0], dtype=float)
     k = _nearest(fine, target)
     if k == 0 or k == len(fine) - 1:               # the goal's centre lies beyond an end of the line
@@ -435,17 +433,26 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     s = _arc_length(fine)
     tangent = np.gradient(fine, s, axis=0)
     normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1) / np.hypot(*tangent.T)[:, None]
+    # the goal's heading relative to the line's there: the recorded driver may have been changing lanes
+    turn, misses = _goal_heading_offset(planning_problem, math.atan2(tangent[k, 1], tangent[k, 0]))
+    inside = shapely.contains_xy(area, fine[:, 0], fine[:, 1])
+    deep = inside.any() and shapely.distance(area.boundary, shapely.points(fine[inside])).max() >= GOAL_DEPTH_M
+    if deep and not misses:
+        return centre
     offset = float(np.dot(target - fine[k], normal[k]))
     start = float(s[_nearest(fine, np.asarray(planning_problem.initial_state.position, dtype=float))])
     speed = float(getattr(planning_problem.initial_state, "velocity", 0.0) or 0.0)
     ramp = min(lane_change_length(speed), s[k] - start)
-    if not GOAL_BESIDE_MIN_M <= abs(offset) <= GOAL_BESIDE_MAX_M or ramp < GOAL_SHIFT_MIN_RAMP_M:
+    if abs(offset) > GOAL_BESIDE_MAX_M or ramp < GOAL_SHIFT_MIN_RAMP_M:
         return centre
+    if abs(offset) < GOAL_BESIDE_MIN_M or deep:
+        if not misses:
+            return centre
+        offset = 0.0                # on the line, but the line misses the goal's heading: only turn to it
     heading = np.unwrap(np.arctan2(tangent[:, 1], tangent[:, 0]))
     if abs(heading[k] - np.interp(s[k] - ramp, s, heading)) > GOAL_SHIFT_MAX_TURN_RAD:
         return centre               # a turn before the goal: moving over there would tighten or widen it
-    # the goal's heading relative to the line's there: the recorded driver may have been changing lanes
-    slope = math.tan(_goal_heading_offset(planning_problem, math.atan2(tangent[k, 1], tangent[k, 0])))
+    slope = math.tan(turn)
     u = np.clip((s - (s[k] - ramp)) / ramp, 0.0, 1.0)
     lateral = offset * u * u * (3.0 - 2.0 * u) + slope * ramp * u * u * (u - 1.0)      # cubic Hermite
     beyond = np.clip(s - s[k], 0.0, GOAL_RUN_OUT_M)                # then the slope eases out
@@ -453,17 +460,19 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     return fine + lateral[:, None] * normal
 
 
-def _goal_heading_offset(planning_problem: PlanningProblem, heading: float) -> float:
+def _goal_heading_offset(planning_problem: PlanningProblem, heading: float) -> tuple[float, bool]:
     """How far the middle of the first goal state's orientation window turns from ``heading``
     (wrapped; 0 without a window, or when it turns more than `GOAL_HEADING_MAX_RAD`: a turn, not
-    a lane change)."""
+    a lane change), and whether ``heading`` lies outside the window (False in both those cases)."""
     window = next((st.orientation for st in planning_problem.goal.state_list
                    if getattr(st, "orientation", None) is not None), None)
     if window is None or not hasattr(window, "start"):
-        return 0.0
+        return 0.0, False
     middle = 0.5 * (float(window.start) + float(window.end))
     turn = math.remainder(middle - heading, 2.0 * math.pi)
-    return turn if abs(turn) <= GOAL_HEADING_MAX_RAD else 0.0
+    if abs(turn) > GOAL_HEADING_MAX_RAD:
+        return 0.0, False
+    return turn, abs(turn) > 0.5 * (float(window.end) - float(window.start))
 
 
 def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem,

@@ -37,6 +37,8 @@ _TIME_AIM_SHARE = 0.5
 _TIME_AIM_MAX_S = 1.0
 # the planned speed follows the desired one with a lag: the velocity window is aimed this long ahead
 _RESPONSE_S = 1.0
+# the pace to an early time window is bracketed twice among this many speeds up to the path's limit
+_PACE_CANDIDATES = 32
 # a goal whose centre lies farther than this from the reference path is not aimed at
 _GOAL_ON_PATH_M = 20.0
 
@@ -64,18 +66,24 @@ class GoalApproach:
     The goal's position is a stretch of the reference path (``enter`` to ``exit`` arc length: the
     reference points inside it, or the point nearest a goal centre off the path). The vehicle
     brakes into the velocity window before it enters the stretch and keeps to it until the stretch
-    ends. Before the time window opens it drives no faster than the average speed that reaches the
-    hold point (`HOLD_MARGIN_M` before the stretch's end or, when it is shorter, where the vehicle's
-    centre is at its middle) when the window opens: arrived early, it stops there and waits. Late,
+    ends. Before the time window opens it drives no faster than the pace that reaches the hold
+    point (`HOLD_MARGIN_M` before the stretch's end or, when it is shorter, where the vehicle's
+    centre is at its middle) when the window opens — slower where the path's limit asks for it
+    (a turn on the way is made up for elsewhere), up to speed for the velocity window a response
+    time before (`_pace`): arrived early, it stops there and waits. Late,
     it drives at least as fast as entering the stretch before the window closes needs
     (`speed_floor`).
     """
 
     def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float,
-                 top_speed: float = math.inf, centre_ahead_m: float = 0.0):
+                 top_speed: float = math.inf, centre_ahead_m: float = 0.0, limit: np.ndarray | None = None):
         """``centre_ahead_m``: how far the vehicle's centre (where the goal is judged) lies ahead of
-        the point whose arc length the planner passes (its rear axle: the wheelbase's rear part)."""
+        the point whose arc length the planner passes (its rear axle: the wheelbase's rear part).
+        ``limit``: the path's speed limit over ``reference.s`` (`SpeedProfile.limit`), which the
+        pace to an early time window drives within."""
         self.stretch = _goal_stretch(reference, goal)
+        self.s = reference.s
+        self.limit = np.minimum(limit if limit is not None else np.full(len(reference.s), math.inf), top_speed)
         self.centre_ahead = centre_ahead_m
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
@@ -114,21 +122,43 @@ class GoalApproach:
             cap = math.sqrt(self.arrival_speed**2 + 2.0 * self.deceleration * braking)
         if self.arrival_time is not None and t < self.arrival_time:
             hold = max(0.5 * (enter + leave) - self.centre_ahead, leave - HOLD_MARGIN_M)
-            cap = min(cap, self._pace(max(hold - s, 0.0), self.arrival_time - t))
+            cap = min(cap, self._pace(s, max(hold, s), self.arrival_time - t))
         return cap
 
-    def _pace(self, distance: float, duration: float) -> float:
-        """The speed to drive at now so as to cover ``distance`` in ``duration``: the average speed,
-        or, when that is slower than the slowest arrival the velocity window allows, a speed held
-        first and then raised (at the comfortable rate) to that slowest arrival speed."""
-        average = distance / duration
+    def _pace(self, s: float, hold: float, duration: float) -> float:
+        """The speed ``v`` to drive at now so as to reach arc length ``hold`` from ``s`` in
+        ``duration``, driving along the way at v, or slower where the path's limit asks for it, and
+        raised (at the comfortable rate) to the slowest arrival the velocity window allows
+        `_RESPONSE_S` before ``hold`` (the planned speed lags the desired one); inf when even the
+        limit is too slow (late: `speed_floor`'s business)."""
+        x = np.concatenate(([s], self.s[(self.s > s) & (self.s < hold)], [hold]))
+        if x[-1] - x[0] < 1e-6:
+            return 0.0
+        limit = np.interp(x, self.s, self.limit)
         w, a = self.slowest_arrival, self.deceleration
-        if average >= w:
-            return average
-        # v held, then raised to w at a: v (duration - (w - v) / a) + (w^2 - v^2) / (2 a) = distance
-        b = a * duration - w
-        root = b * b - w * w + 2.0 * a * distance
-        return max(-b + math.sqrt(root), 0.0) if root >= 0.0 else 0.0
+        raised = np.sqrt(np.maximum(w * w - 2.0 * a * np.maximum(hold - w * _RESPONSE_S - x, 0.0), 0.0))
+        step = np.diff(x)
+
+        def times(v: np.ndarray) -> np.ndarray:           # falls as v rises
+            inverse = 1.0 / np.maximum(np.minimum(limit, np.maximum(v[:, None], raised)), 1e-3)
+            return ((inverse[:, 1:] + inverse[:, :-1]) * 0.5 * step).sum(axis=1)
+
+        top = float(limit.max())
+        if not math.isfinite(top):                         # no limit: well above any pace that arrives in time
+            top = 4.0 * (x[-1] - x[0]) / duration + w
+        v = top * (np.arange(1, _PACE_CANDIDATES + 1) / _PACE_CANDIDATES) ** 2
+        for _ in range(2):                                 # a coarse bracket, then a fine one
+            spent = times(v)
+            if spent[-1] > duration:
+                return math.inf
+            k = int(np.argmax(spent <= duration))
+            if k == 0:
+                return float(v[0]) * float(spent[0]) / duration     # slower than the slowest candidate
+            lo, hi, t_lo, t_hi = v[k - 1], v[k], spent[k - 1], spent[k]
+            v = np.linspace(lo, hi, _PACE_CANDIDATES)
+        # between the two, the time is close to linear in 1 / v (exactly so when v is held throughout)
+        share = (t_lo - duration) / (t_lo - t_hi)
+        return float(1.0 / (1.0 / lo + share * (1.0 / hi - 1.0 / lo)))
 
 
 # a late vehicle aims this far into the goal's stretch of the path when its time window is closing [m]
@@ -217,6 +247,7 @@ def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: floa
     problem = setup.planning_problem
     initial_speed = float(getattr(problem.initial_state, "velocity", 0.0) or 0.0)
     cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
-    return (SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration),
+    profile = SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration)
+    return (profile,
             GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration,
-                         setup.vehicle.limits.max_speed, centre_ahead_m))
+                         setup.vehicle.limits.max_speed, centre_ahead_m, profile.limit))
