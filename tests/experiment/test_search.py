@@ -237,7 +237,8 @@ def test_weighing_new_scenarios_finds_more_failing_scenarios_at_equal_budget(tmp
     spread = [search_regions(tmp_path / f"spread{s}", s, spread=1.0) for s in range(2)]
     scenarios = (sum(r.scenarios for r in plain), sum(r.scenarios for r in spread))
     distinct = (sum(r.distinct for r in plain), sum(r.distinct for r in spread))
-    assert scenarios[1] >= 2 * scenarios[0] > 0, scenarios           # many more roads and starts ...
+    # many more roads and starts (scenarios a distinct radius apart; 2 seeds: 24 against 8) ...
+    assert scenarios[1] >= 2 * scenarios[0] > 0, scenarios
     # ... at a small price in distinct violations (2 seeds: 101 against 103; over 4 seeds 163 each)
     assert distinct[1] >= 0.9 * distinct[0], distinct
 

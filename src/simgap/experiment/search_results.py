@@ -83,7 +83,9 @@ class StrategyResult:
     high_failures: int = 0
     violations: int = 0
     distinct: int = 0
-    scenarios: int = 0                # distinct scenarios (road, start, vehicle, planner) among the violations
+    scenarios: int = 0                # distinct scenarios (road, start, vehicle, planner) among the violations:
+                                      # two within the distinct radius of each other in the scenario's own
+                                      # (normalised) parameters are one, as two such violations are
     errors: int = 0
     wall_s: float = 0.0
     cpu_s: float = 0.0
@@ -101,6 +103,11 @@ class StrategyResult:
         return self.distinct / (self.cpu_s / 3600.0) if self.cpu_s > 0 else 0.0
 
 
+def _new(point: tuple[float, ...], driver: str, kept: list[tuple[tuple[float, ...], str]], radius: float) -> bool:
+    """Whether ``point`` lies at least ``radius`` from every point ``kept`` for the same ``driver``."""
+    return all(d != driver or math.dist(point, p) >= radius for p, d in kept)
+
+
 def summarise(root: Path, name: str, ladder_len: int, radius: float) -> StrategyResult:
     """What a strategy found, from its store alone."""
     rows = read_search_rows(root)
@@ -114,7 +121,6 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
         res.cpu_s += float(r.run.job_time_s or r.run.wall_time_s or 0.0)
         res.errors += not r.ok
     found: list[tuple[float, tuple[float, ...], str, int]] = []
-    scenarios: set[tuple] = set()
     for index, runs in by_candidate.items():
         h = runs.get(high)
         if h is None or not h.ok:
@@ -128,14 +134,18 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
             continue
         res.violations += 1
         driver = f"{h.run.id.fidelity.vehicle}|{h.run.id.planner or DEFAULT_PLANNER}"
-        scenarios.add((driver,) + tuple(sorted(h.run.parameters.items())))
         found.append((max(h.elapsed_s, ideal.elapsed_s), h.unit, driver, index))
     distinct: list[tuple[tuple[float, ...], str]] = []
+    scenarios: list[tuple[tuple[float, ...], str]] = []
     for when, unit, driver, index in sorted(found):
-        if all(d != driver or math.dist(unit, u) >= radius for u, d in distinct):
+        if _new(unit, driver, distinct, radius):
             distinct.append((unit, driver))
             res.curve.append((when, len(distinct)))
             res.found.append(_violation(root, name, by_candidate[index][high], by_candidate[index][0]))
+        # the scenario's parameters lead the point, its knobs follow (`SearchSpace`)
+        scenario = unit[:len(unit) - len(by_candidate[index][high].knobs)]
+        if _new(scenario, driver, scenarios, radius):
+            scenarios.append((scenario, driver))
     res.distinct = len(distinct)
     res.scenarios = len(scenarios)
     plan = ProbePlan.load(root)
