@@ -31,8 +31,8 @@ and tells the strategy each result.
   cheaper to vary than one that shows at the end of the road) picks whose neighbourhood to
   search. Both weigh the n-th failure on one road, start and vehicle by ``1/n^scenario_spread``
   (a spec field, default 1: on a planted landscape with five failure regions, 120 runs, 4 seeds,
-  0 / 1 / 1.2 found 28 / 111 / 111 distinct failing scenarios and 163 / 163 / 149 distinct
-  violations; `curve-gaps` uses 1.2, measured on the real search), so that new scenarios keep
+  0 / 1 / 1.2 found 15 / 38 / 32 failing scenarios a distinct radius apart and 163 / 163 / 149
+  distinct violations; `curve-gaps` uses 1.2, measured on the real search), so that new scenarios keep
   being sought. A neighbourhood whose
   neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
   which ends early, costs about what the screen would. The promotion threshold is learned
