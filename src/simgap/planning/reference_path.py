@@ -417,8 +417,9 @@ def towards_goal(centre: np.ndarray, planning_problem: PlanningProblem) -> np.nd
     with the heading the goal's orientation window asks for when that is a lane change's
     (`GOAL_HEADING_MAX_RAD`; a recording's window is often +-5 deg around a driver changing
     lanes), the sideways slope easing out beyond. A goal on the line whose orientation window
-    the line's heading misses (by a lane change's turn at most) is passed at that heading. Only where the line runs nearly straight
-    before the goal (`GOAL_SHIFT_MAX_TURN_RAD`): in a turn the move would change its radius."""
+    the line's heading misses (by a lane change's turn at most) is passed at that heading. Only
+    where the line runs nearly straight before the goal (`GOAL_SHIFT_MAX_TURN_RAD`): in a turn
+    the move would change its radius."""
     area = next((area_of(st.position) for st in planning_problem.goal.state_list
                  if getattr(st, "position", None) is not None), None)
     if area is None or area.is_empty:
