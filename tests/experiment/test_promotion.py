@@ -64,26 +64,36 @@ def separable_row(job):
                            "peak_grip_use": grip if job.backend == "dynamic" else 0.3})
 
 
-def test_promotions_fail_where_the_screen_separates(tmp_path):
+def separable_search(root, seed: int):
+    """multi_fidelity on the separable landscape, 300 runs: its promoted candidates (rungs by
+    number) and its threshold at the end."""
     spec = SearchSpec(name="separable", logical="curve",
                       parameters={"initial_speed": {"min": 0, "max": 25}, "radius": {"min": 10, "max": 100}},
-                      knobs={"road_friction": {"min": 0.2, "max": 1.0}}, ladder=LADDER, seed=0,
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}}, ladder=LADDER, seed=seed,
                       failure=FailureRule(), objective="max_lateral_offset_m", distinct_radius=0.1)
     space = SearchSpace(spec, load_logical("curve"))
     strategy = make_strategy("multi_fidelity", space, spec)
-    run = StrategyRun(checked_search(spec, space.logical), space, strategy, tmp_path, Budget(runs=300))
+    run = StrategyRun(checked_search(spec, space.logical), space, strategy, root, Budget(runs=300))
     run.ladder.scenario = lambda c, name=None: "unused.xml"
     run.resume()
     while (job := run.next_job()) is not None:
         run.on_result(job, separable_row(job))
     rungs: dict[int, dict[int, dict]] = {}
-    for r in ResultsStore(tmp_path).rows():
+    for r in ResultsStore(root).rows():
         rungs.setdefault(int(r["candidate"]), {})[int(r["rung"])] = r
-    promoted = [k for k in rungs.values() if 1 in k and 2 in k]
+    return [k for k in rungs.values() if 1 in k and 2 in k], strategy.threshold.value
+
+
+def test_promotions_fail_where_the_screen_separates(tmp_path):
+    # near known failures the search skips the screen, so one seed may promote a single failure
+    # (seed 0: 1 failing and 23 passing promotions, 32 candidates straight to MuJoCo): two seeds
+    searches = [separable_search(tmp_path / str(seed), seed) for seed in range(2)]
+    promoted = [k for p, _ in searches for k in p]
     assert sum(k[2]["failed"] for k in promoted) >= 2 and sum(not k[2]["failed"] for k in promoted) >= 3
     # the threshold found the boundary from both sides (a threshold that only falls to the risk of
     # a failure the screen missed stays above it: 0.93 here)
-    assert abs(strategy.threshold.value - BOUNDARY) < 0.1, strategy.threshold.value
+    for _, threshold in searches:
+        assert abs(threshold - BOUNDARY) < 0.1, threshold
 
 
 def test_a_move_unlucky_in_its_first_tries_is_not_starved():

@@ -77,36 +77,45 @@ class _Yield:
 class FailureMap:
     """The high-fidelity failures confirmed so far and the proposals still open: how far a
     candidate is from them, which failures are worth searching around (parents), and how crowded
-    each scenario is."""
+    each failure's scenario is — the failures whose road and start lie within a distinct radius of
+    it (the search table counts failing scenarios that far apart)."""
 
-    def __init__(self, radius: float):
-        self.radius = radius
+    def __init__(self, radius: float, scenario_dims: list[int]):
+        self.radius, self.scenario_dims = radius, list(scenario_dims)
         self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
-        self.scenario_of: dict[int, tuple] = {}      # ... their scenarios
         self._points: dict[tuple[str, str], np.ndarray] = {}     # ... their points, per driver
+        self._indices: dict[tuple[str, str], list[int]] = {}     # ... and their indices, in that order
+        self._crowd: dict[int, int] = {}             # ... the failures within a radius of each one's scenario
         self.live: dict[int, Candidate] = {}         # proposed, verdict still open
         self.ideal_fails: set[tuple] = set()         # scenarios that already fail in the ideal world
-        self.on_scenario: dict[tuple, int] = {}      # high-fidelity failures per scenario
 
     def add(self, candidate: Candidate) -> None:
         """``candidate`` failed in the high fidelity."""
+        near = self.near_scenario(candidate)
+        for i in near:
+            self._crowd[i] += 1
+        self._crowd[candidate.index] = len(near) + 1
         self.failures[candidate.index] = candidate
-        self.scenario_of[candidate.index] = _scenario_key(candidate)
         points = self._points.get(candidate.driver, np.empty((0, len(candidate.unit))))
         self._points[candidate.driver] = np.vstack([points, candidate.unit])
+        self._indices.setdefault(candidate.driver, []).append(candidate.index)
 
-    def found_on(self, candidate: Candidate) -> int:
-        """Count a failure on ``candidate``'s scenario; how many it has now."""
-        key = _scenario_key(candidate)
-        self.on_scenario[key] = self.on_scenario.get(key, 0) + 1
-        return self.on_scenario[key]
+    def near_scenario(self, c: Candidate) -> list[int]:
+        """The failures of ``c``'s driver whose road and start lie within a distinct radius of its own."""
+        points = self._points.get(c.driver)
+        if points is None or not self.scenario_dims:
+            return list(self._indices.get(c.driver, []))
+        d = points[:, self.scenario_dims] - np.asarray(c.unit)[self.scenario_dims]
+        close = np.flatnonzero(np.sqrt((d ** 2).sum(axis=1)) < self.radius)
+        return [self._indices[c.driver][k] for k in close]
+
+    def crowd(self, failure: int) -> int:
+        """The failures (itself among them) within a distinct radius of ``failure``'s scenario."""
+        return self._crowd[failure]
 
     def parents(self) -> list[int]:
         """The failures to search around: those whose scenario passes in the ideal world."""
-        return [i for i, key in self.scenario_of.items() if key not in self.ideal_fails]
-
-    def crowd(self, parent: int) -> int:
-        return self.on_scenario[self.scenario_of[parent]]
+        return [i for i, c in self.failures.items() if _scenario_key(c) not in self.ideal_fails]
 
     def novelty(self, c: Candidate, include_live: bool = False) -> float:
         """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
@@ -200,8 +209,9 @@ class MultiFidelityStrategy(Strategy):
         super().__init__(space, seed)
         self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
         self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]
+        self.scenario_dims = [i for i, d in enumerate(space.dims) if d[0] != "knob"]
         self.threshold = PromotionThreshold()
-        self.map = FailureMap(distinct_radius)
+        self.map = FailureMap(distinct_radius, self.scenario_dims)
         self.allocation = MoveAllocation(scenario_spread)
         self.risk: dict[int, float] = {}
         self.high_cost: dict[int, float] = {}       # a high-fidelity run's job time, until confirmed
@@ -225,9 +235,10 @@ class MultiFidelityStrategy(Strategy):
 
     def _neighbour(self, index: int, parent: Candidate, move: str, rng: np.random.Generator) -> Candidate | None:
         """A point one to one and a half distinct radii from ``parent`` — in the knobs only (the same
-        road and start, so its ideal verdict is known) or in every dimension — and at least a
-        distinct radius from every failure and open proposal."""
-        dims = self.knob_dims if move == "knobs" else list(range(len(self.space.dims)))
+        road and start, so its ideal verdict is known) or in the road and start only (a new
+        scenario, under the knobs that made the parent fail) — and at least a distinct radius from
+        every failure and open proposal."""
+        dims = self.knob_dims if move == "knobs" else self.scenario_dims
         if not dims:
             return None
         for _ in range(PROPOSAL_TRIES):
@@ -236,8 +247,6 @@ class MultiFidelityStrategy(Strategy):
             unit = np.array(parent.unit)
             unit[dims] = np.clip(unit[dims] + rng.uniform(*NEIGHBOUR_DISTANCE) * self.radius * direction, 0.0, 1.0)
             c = self.space.candidate(index, unit, parent.vehicle, planner=parent.planner)
-            if move == "scenario" and _scenario_key(c) == _scenario_key(parent):
-                continue
             if self.map.novelty(c, include_live=True) >= 1.0:
                 return c
         return None
@@ -253,7 +262,7 @@ class MultiFidelityStrategy(Strategy):
     def _close(self, candidate: Candidate, found: bool) -> None:
         self.map.live.pop(candidate.index, None)
         if found:
-            self.allocation.found(candidate.index, self.map.found_on(candidate))
+            self.allocation.found(candidate.index, self.map.crowd(candidate.index))
 
     def observe(self, candidate, rung, row, failed):
         self.allocation.charge(candidate.index, row.value("job_time_s"))
@@ -283,11 +292,11 @@ class MultiFidelityStrategy(Strategy):
         self.observe(candidate, rung, row, failed)
 
     def confirmed(self, candidate: Candidate, failed: bool) -> None:
-        self._close(candidate, failed)
         cost_s = self.high_cost.pop(candidate.index, math.nan)
         if failed:
             self.map.add(candidate)
             self.allocation.new_parent(candidate.index, cost_s)
+        self._close(candidate, failed)
         risk = self.risk.get(candidate.index)
         if risk is not None:
             self.threshold.judged(risk, failed)
