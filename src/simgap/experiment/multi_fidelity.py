@@ -236,8 +236,8 @@ class MultiFidelityStrategy(Strategy):
     def _neighbour(self, index: int, parent: Candidate, move: str, rng: np.random.Generator) -> Candidate | None:
         """A point one to one and a half distinct radii from ``parent`` — in the knobs only (the same
         road and start, so its ideal verdict is known) or in the road and start only (a new
-        scenario, under the knobs that made the parent fail) — and at least a distinct radius from
-        every failure and open proposal."""
+        scenario, under the knobs that made the parent fail, a distinct radius from every failing
+        scenario) — and at least a distinct radius from every failure and open proposal."""
         dims = self.knob_dims if move == "knobs" else self.scenario_dims
         if not dims:
             return None
@@ -247,6 +247,8 @@ class MultiFidelityStrategy(Strategy):
             unit = np.array(parent.unit)
             unit[dims] = np.clip(unit[dims] + rng.uniform(*NEIGHBOUR_DISTANCE) * self.radius * direction, 0.0, 1.0)
             c = self.space.candidate(index, unit, parent.vehicle, planner=parent.planner)
+            if move == "scenario" and self.map.near_scenario(c):
+                continue        # a failing scenario of this driver already lies within a distinct radius
             if self.map.novelty(c, include_live=True) >= 1.0:
                 return c
         return None

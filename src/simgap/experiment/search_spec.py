@@ -125,9 +125,10 @@ class SearchSpec(BatchSpec):
     objective: str = "max_lateral_offset_m"
     risk_scale: float = Field(1.0, gt=0, description="objective value the screen counts as risky as a failure")
     distinct_radius: float = Field(0.1, gt=0, le=1, description="failures closer than this (normalised) are one")
-    scenario_spread: float = Field(1.0, ge=0, le=3, description="multi_fidelity: the n-th failure on one road, start and "
-                                   "vehicle counts 1/n^spread when it weighs where to search (0: every distinct "
-                                   "failure alike; 1 and more: new scenarios first)")
+    scenario_spread: float = Field(1.0, ge=0, le=3, description="multi_fidelity: the n-th failure within "
+                                   "distinct_radius of one road and start (and vehicle) counts 1/n^spread when it "
+                                   "weighs where to search (0: every distinct failure alike; 1 and more: new "
+                                   "scenarios first)")
     strategies: list[Literal["grid", "random", "lhs", "bo", "multi_fidelity"]] = \
         Field(default_factory=lambda: list(STRATEGIES), min_length=1)
     grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")

@@ -23,17 +23,18 @@ and tells the strategy each result.
   Candidates come from three kinds of move: *global* (uniform over the space), *knobs* (a
   confirmed failure's road, start and vehicle under reality knobs one to one and a half distinct
   radii away — the ideal world takes no knob, so its verdict on that scenario is already known
-  and is not paid for again) and *scenario* (the same distance away in every dimension: a new
-  road or start). The allocation adapts as evidence comes in, at two levels: Thompson sampling
+  and is not paid for again) and *scenario* (the same distance away in the road and start alone,
+  under the knobs that made the failure, and a distinct radius from every failing scenario: a
+  new situation, not a variation of one). The allocation adapts as evidence comes in, at two levels: Thompson sampling
   on each move's failures per CPU second picks the move (one candidate in ten is global
   regardless), and on each failure's share of failing neighbours per CPU second a try around it
   costs (its own failing run and its neighbours' runs, averaged: a failure that shows at once is
   cheaper to vary than one that shows at the end of the road) picks whose neighbourhood to
-  search. Both weigh the n-th failure on one road, start and vehicle by ``1/n^scenario_spread``
-  (a spec field, default 1: on a planted landscape with five failure regions, 120 runs, 4 seeds,
-  0 / 1 / 1.2 found 15 / 38 / 32 failing scenarios a distinct radius apart and 163 / 163 / 149
-  distinct violations; `curve-gaps` uses 1.2, measured on the real search), so that new scenarios keep
-  being sought. A neighbourhood whose
+  search. Both weigh the n-th failure within a distinct radius of one road and start (and vehicle)
+  by ``1/n^scenario_spread`` (a spec field, default 1: on a planted landscape with five failure
+  regions, 120 runs, 4 seeds, 0 / 1 / 1.2 found 38 / 61 / 75 failing scenarios a distinct radius
+  apart and 178 / 124 / 137 distinct violations; `curve-gaps` uses 1.2), so that new scenarios
+  keep being sought. A neighbourhood whose
   neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
   which ends early, costs about what the screen would. The promotion threshold is learned
   from the high-fidelity verdicts on screened candidates: the risk that best separates those that
