@@ -33,7 +33,7 @@ and tells the strategy each result.
   search. Both weigh the n-th failure within a distinct radius of one road and start (and vehicle)
   by ``1/n^scenario_spread`` (a spec field, default 1: on a planted landscape with five failure
   regions, 120 runs, 4 seeds, 0 / 1 / 1.2 found 38 / 61 / 75 failing scenarios a distinct radius
-  apart and 178 / 124 / 137 distinct violations; `curve-gaps` uses 1.2), so that new scenarios
+  apart and 178 / 124 / 137 distinct violations; `curve-gaps` uses 1.0), so that new scenarios
   keep being sought. A neighbourhood whose
   neighbours fail at least half the time skips the screen: there a failing high-fidelity run,
   which ends early, costs about what the screen would. The promotion threshold is learned
