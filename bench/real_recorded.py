@@ -4,8 +4,8 @@ wall time; goal rates per world and per kind (highway, urban, merge, roundabout,
 The corpus is a folder of public CommonRoad files with recorded traffic (highD, exiD, inD, SinD,
 NGSIM, INTERACTION, the CommonRoad "T" scenarios); `bench/recorded_corpus.yaml` names each file's
 source, licence and kind. The files are not shipped (most licences forbid it) and nothing is
-downloaded: gather them once into a folder (the manifest says from where) and pass it with
-``--files``. Files the manifest does not list run as kind ``other``.
+downloaded: gather them once into a folder from clones of their repositories
+(`bench/gather_recorded.py`, which checks each file's sha256) and pass it with ``--files``. Files the manifest does not list run as kind ``other``.
 
 An agent whose footprint at t = 0 already overlaps a recorded road user, or overhangs the road
 (beyond the loop's off-road tolerance), starts in a collision: it is excluded from the rates and

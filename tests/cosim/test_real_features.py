@@ -135,6 +135,17 @@ def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():
     assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(3.0)
 
 
+def test_a_goal_with_only_a_time_window_waits_where_the_mapped_road_ends():
+    # as in NGSIM US101: "be on the road at 15 s", 140 m of road ahead at 10 m/s (it ran off the
+    # road's end at 14 s, 0.084 m beyond it in the recorded scene)
+    scenario = highway(lanes=1, length=150, segments=2)
+    goal = GoalRegion([CustomState(time_step=Interval(150, 150))])
+    run = run_ego(scenario, start(10, 0, 10.0), goal)
+    agent = _only_outcome(run)
+    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(15.0), run.events
+    assert run.driven[1].x[-1] < 150.0 - 2.0           # the centre: the front short of the road's end
+
+
 def test_a_goal_no_lanelet_leads_to_is_refused_naming_the_planning_problem():
     scenario = highway(lanes=1, length=200, segments=2)
     goal = GoalRegion([CustomState(time_step=Interval(0, 100), position=Rectangle(10.0, 3.0, np.array([20.0, 1.75])))])

@@ -9,6 +9,9 @@ import math
 import numpy as np
 import pytest
 import shapely
+from commonroad.common.util import Interval
+from commonroad.planning.goal import GoalRegion
+from commonroad.scenario.state import CustomState
 
 from planner_roads import DT, drive, lateral_offset, two_lane_road
 from simgap.scenario.road_frame import DrivableArea, footprint
@@ -284,3 +287,17 @@ def test_a_vehicle_close_to_the_road_edge_is_not_planned_off_the_road(sedan, cur
         assert plan is None or all(road_area.contains(footprint(plan[k], sedan.length, sedan.width))
                                    for k in range(1, len(plan))), (s, v, gap, yaw_error)
     assert tried > 40
+
+
+def test_a_vehicle_late_for_its_goal_window_takes_the_curve_harder(sedan):
+    # 180 degrees at r = 30 m from 12.5 m/s, a goal 150 m on that must be entered by 14 s: within
+    # the comfortable 4 m/s^2 the car is inside at 14.2 s (too late); recorded drivers late for
+    # their window turn harder (`late_lateral_acceleration`, 6 m/s^2)
+    road = two_lane_road(radius=30.0, angle_deg=180.0, straight=40.0, v0=12.5)
+    area = road.problem.goal.state_list[0].position
+    road.problem.goal = GoalRegion([CustomState(position=area, time_step=Interval(0, 140))])
+    planner = FrenetPlanner(PlannerSetup.for_problem(road.problem, sedan, road.lanelet_network))
+    run = drive(planner, road, steps=160)
+    assert run.goal_time is not None and run.goal_time <= 14.0
+    lateral = max(s.v ** 2 * abs(math.tan(s.steer)) / sedan.wheelbase for s in run.states)
+    assert 4.0 < lateral <= planner.settings.speed.late_lateral_acceleration

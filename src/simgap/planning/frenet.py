@@ -52,7 +52,7 @@ from simgap.planning.collision import (
 )
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
 from simgap.planning.protocol import PlannerSetup, World
-from simgap.planning.reference_path import ReferencePath, plan_reference_path
+from simgap.planning.reference_path import ReferencePath, dead_end, plan_reference_path
 from simgap.planning.sampling import (
     END_OFFSET,
     END_SPEED,
@@ -65,7 +65,7 @@ from simgap.planning.sampling import (
     steps_in_horizon,
 )
 from simgap.planning.settings import FrenetSettings
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed
+from simgap.planning.speed_profile import ROAD_END_MARGIN_M, GoalApproach, SpeedProfile, cruise_speed, desired_speed
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -108,6 +108,7 @@ class _Start:
     desired: float
     low_velocity: bool
     may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
+    lateral_bound: float = math.inf   # plans within this lateral acceleration are preferred [m/s^2]
 
 
 @dataclass(frozen=True)
@@ -173,7 +174,9 @@ class FrenetPlanner:
                                          initial_speed)
         self.speed_profile = SpeedProfile(self.reference_path, self.cruise_speed,
                                           s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration,
-                                          (vehicle.wheelbase, STEER_RATE_SHARE * vehicle.limits.max_steer_rate))
+                                          (vehicle.wheelbase, STEER_RATE_SHARE * vehicle.limits.max_steer_rate),
+                                          s.speed.late_lateral_acceleration)
+        self._dead_end = dead_end(self.reference_path, lanelet_network)
         route_end = np.asarray(lanelet_network.find_lanelet_by_id(
             self.reference_path.lanelet_ids[-1]).center_vertices[-1]) if self.reference_path.lanelet_ids \
             else self.reference_path.xy[-1]
@@ -227,9 +230,12 @@ class FrenetPlanner:
     def _approach_for(self, dt: float) -> GoalApproach:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
+            r = self.vehicle.rear_axle_to_center
+            road_end = None if self._dead_end is None else \
+                self._dead_end - (r + self.vehicle.length / 2.0 + ROAD_END_MARGIN_M)
             self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
                                           self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed,
-                                          self.vehicle.rear_axle_to_center, self.speed_profile.limit)
+                                          r, self.speed_profile.limit, road_end, self.speed_profile.late_limit)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------
@@ -324,11 +330,15 @@ class FrenetPlanner:
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
         approach = self._approach_for(dt)
-        desired = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
+        aim = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
+        desired = aim.speed
         cycle.desired_speed = desired
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
+        speed = self.settings.speed
+        bound = max(speed.late_lateral_acceleration, speed.max_lateral_acceleration) if aim.late \
+            else speed.max_lateral_acceleration
         return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
-                      may_overtake)
+                      may_overtake, bound)
 
     def _relaxed(self, start: _Start) -> _Start | None:
         """``start`` with zero acceleration and the reference path's curvature."""
@@ -427,7 +437,7 @@ class FrenetPlanner:
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
             checked.append(batch)
-            passing, lateral_ok = self._verdicts(batch, traffic, leeway, start.dt, cycle)
+            passing, lateral_ok = self._verdicts(batch, traffic, leeway, start, cycle)
             for i in np.flatnonzero(passing):
                 if not (lateral_ok[i] or not self.settings.speed.enforce_lateral_acceleration):
                     cycle.rejected_lateral_acceleration += 1
@@ -475,7 +485,7 @@ class FrenetPlanner:
                 at_fault = (met.any(axis=1) & ~struck_first).any(axis=1)
                 touched = met.any(axis=2)                                   # (plans, steps)
                 met_at = np.where(touched.any(axis=1), touched.argmax(axis=1), np.inf)
-            _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt)
+            _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt, start.lateral_bound)
             innocent = np.flatnonzero(self._feasible(batch) & on_road & ~at_fault)
             if len(innocent):
                 i = int(innocent[np.argmax(met_at[innocent])])              # the first of the latest met
@@ -502,7 +512,7 @@ class FrenetPlanner:
         the road) for the recovery time (the rejections of this second look are not counted)."""
         leeway = _RoadLeeway(self._recovery_steps(start.dt), RoadBand.ROAD)
         for batch in checked:
-            passing, _ = self._verdicts(batch, traffic, leeway, start.dt, PlanningCycle())
+            passing, _ = self._verdicts(batch, traffic, leeway, start, PlanningCycle())
             if passing.any():
                 return _row(batch, int(np.flatnonzero(passing)[0]))
         return None
@@ -512,12 +522,12 @@ class FrenetPlanner:
         return (start.may_overtake and cycle.rejected_traffic > 0
                 and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired)
 
-    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float,
+    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, start: _Start,
                   cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
         """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
         acceleration bound? Counts the rejections in ``cycle``."""
         feasible_ok = self._feasible(batch)
-        hit, on_road, lateral_ok = self._check(batch, traffic, leeway, dt)
+        hit, on_road, lateral_ok = self._check(batch, traffic, leeway, start.dt, start.lateral_bound)
         cycle.checked += len(feasible_ok)
         cycle.rejected_infeasible += int((~feasible_ok).sum())
         cycle.rejected_traffic += int((feasible_ok & hit).sum())
@@ -536,8 +546,10 @@ class FrenetPlanner:
         ok_k = (np.abs(kappa) <= math.tan(limits.max_steer) / wheelbase + tol).all(axis=1)
         return ok_a & ok_k
 
-    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float):
-        """Per plan of ``batch``: hits traffic?, stays on the road?, within the lateral-acceleration bound?"""
+    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float,
+               lateral_bound: float):
+        """Per plan of ``batch``: hits traffic?, stays on the road?, within ``lateral_bound`` and the
+        steering rate?"""
         veh, s = self.vehicle, self.settings
         r = veh.rear_axle_to_center
         hl, hw = veh.length / 2, veh.width / 2
@@ -578,7 +590,7 @@ class FrenetPlanner:
                                                leeway.band).all(axis=1)
         a_lat = (batch.v[:, 1:] ** 2 * np.abs(batch.kappa[:, 1:])).max(axis=1)
         steer_rate = np.abs(np.diff(np.arctan(veh.wheelbase * batch.kappa), axis=1)).max(axis=1) / dt
-        return hit, on_road, (a_lat <= s.speed.max_lateral_acceleration) & (steer_rate <= veh.limits.max_steer_rate)
+        return hit, on_road, (a_lat <= lateral_bound) & (steer_rate <= veh.limits.max_steer_rate)
 
     def _to_trajectory(self, plan: CartesianBatch, observed: State, times: np.ndarray, dt: float) -> Trajectory:
         n = len(times)

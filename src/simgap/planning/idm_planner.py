@@ -149,7 +149,7 @@ class IdmPlanner:
 
     def _desired_speed(self, s: float, t: float, v: float) -> float:
         lookahead = max(v, 1.0) * self.settings.lookahead_s
-        return desired_speed(self.speed_profile, self.approach, s, t, v, lookahead)
+        return desired_speed(self.speed_profile, self.approach, s, t, v, lookahead).speed
 
     def _acceleration(self, v: float, desired: float, gap: float, v_lead: float) -> float:
         """The IDM: a [1 - (v / v0)^delta - (s* / s)^2], s* = s0 + max(0, v T + v dv / (2 sqrt(a b)))."""

@@ -230,7 +230,7 @@ class ReactivePlanner:
             return None
         s_ref = float(up.x_0_cl[0][0])
         lookahead = max(v, 1.0) * self.settings.lookahead_s
-        desired = desired_speed(self.speed_profile, self.approach, s_ref, t, v, lookahead)
+        desired = desired_speed(self.speed_profile, self.approach, s_ref, t, v, lookahead).speed
         cycle.desired_speed = desired
         up.set_desired_velocity(desired_velocity=desired, current_speed=max(v, _MIN_REFERENCE_SPEED))
         result = up.plan()

@@ -476,6 +476,15 @@ def _goal_heading_offset(planning_problem: PlanningProblem, heading: float) -> t
     return turn, abs(turn) > 0.5 * (float(window.end) - float(window.start))
 
 
+def dead_end(reference: ReferencePath, network: LaneletNetwork) -> float | None:
+    """The arc length where ``reference``'s route reaches the end of the mapped road (its last
+    lanelet has no successor); None where the road goes on."""
+    if not reference.lanelet_ids:
+        return None
+    last = network.find_lanelet_by_id(reference.lanelet_ids[-1])
+    return None if last is None or last.successor else float(reference.route_s[1])
+
+
 def plan_reference_path(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem,
                         spacing: float = 1.0, smoothing: float = 1.0, extension_back: float = 20.0,
                         extension_forward: float = 100.0) -> ReferencePath:

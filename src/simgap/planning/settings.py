@@ -66,6 +66,9 @@ class SpeedSettings(_Section):
     cruise_m_s: float = Field(10.0, gt=0, description="desired speed [m/s]; a faster start keeps its speed, and a goal velocity window above it raises it")
     max_lateral_acceleration: float = Field(
         4.0, gt=0, description="bound on v^2 * curvature along plans and the reference path [m/s^2]")
+    late_lateral_acceleration: float = Field(
+        6.0, gt=0, description="the bound instead, for a vehicle that would enter its goal after the time window "
+                               "closes within max_lateral_acceleration [m/s^2]")
     comfortable_deceleration: float = Field(
         2.0, gt=0, description="deceleration assumed when slowing down ahead of a curve [m/s^2]")
     lookahead_s: float = Field(

@@ -12,13 +12,14 @@ window (braking towards it at the comfortable deceleration) and not before its t
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from commonroad.planning.goal import GoalRegion
 
 from simgap.planning.protocol import PlannerSetup
-from simgap.planning.reference_path import ReferencePath
+from simgap.planning.reference_path import ReferencePath, dead_end
 from simgap.scenario.goal import Goal, Window, area_of
 
 # the profile aims at this share of the lateral-acceleration bound, leaving room for plans
@@ -72,18 +73,26 @@ class GoalApproach:
     (a turn on the way is made up for elsewhere), up to speed for the velocity window a response
     time before (`_pace`): arrived early, it stops there and waits. Late,
     it drives at least as fast as entering the stretch before the window closes needs
-    (`speed_floor`).
+    (`speed_floor`), turning harder (the late limit) when the path's limit would make it too late.
+    A goal that is a time window alone, on a road that ends before the window opens, is waited for
+    before the road's end.
     """
 
     def __init__(self, reference: ReferencePath, goal: Goal, cruise: float, deceleration: float,
-                 top_speed: float = math.inf, centre_ahead_m: float = 0.0, limit: np.ndarray | None = None):
+                 top_speed: float = math.inf, centre_ahead_m: float = 0.0, limit: np.ndarray | None = None,
+                 road_end: float | None = None, late_limit: np.ndarray | None = None):
         """``centre_ahead_m``: how far the vehicle's centre (where the goal is judged) lies ahead of
         the point whose arc length the planner passes (its rear axle: the wheelbase's rear part).
         ``limit``: the path's speed limit over ``reference.s`` (`SpeedProfile.limit`), which the
-        pace to an early time window drives within."""
+        pace to an early time window drives within, and ``late_limit`` (`SpeedProfile.late_limit`)
+        the one a vehicle that cannot enter the goal in time within ``limit`` drives within.
+        ``road_end``: where that point is when the vehicle's front reaches the end of the mapped
+        road (the route's dead end), if it has one: a goal that is a time window alone (no
+        position on the path) is waited for before it."""
         self.stretch = _goal_stretch(reference, goal)
         self.s = reference.s
         self.limit = np.minimum(limit if limit is not None else np.full(len(reference.s), math.inf), top_speed)
+        self.late_limit = None if late_limit is None else np.minimum(late_limit, top_speed)
         self.centre_ahead = centre_ahead_m
         velocity, time = goal.velocity_window(), goal.time_window()
         self.arrival_speed = target_in(velocity, cruise) if velocity is not None else None
@@ -95,6 +104,8 @@ class GoalApproach:
                                time.hi - min(_TIME_AIM_SHARE * (time.hi - time.lo), _TIME_AIM_MAX_S))
         self.deceleration = deceleration
         self.top_speed = top_speed
+        self.road_end = road_end if self.stretch is None and time is not None else None
+        self.time_end = time.lo if time is not None else None     # a time window alone is met when it opens
 
     def distance_to_goal(self, s: float) -> float:
         """Arc length from ``s`` to the goal's stretch (0 inside it; inf: no goal on the path, or passed)."""
@@ -102,17 +113,28 @@ class GoalApproach:
             return math.inf
         return max(self.stretch[0] - s, 0.0)
 
-    def speed_floor(self, s: float, t: float) -> float:
+    def speed_floor(self, s: float, t: float, cruise: float) -> tuple[float, bool]:
         """The lowest cruise speed that still enters the goal's stretch (`ENTRY_DEPTH_M` into it)
-        before its time window closes (0: no time window, or already in the stretch)."""
+        before its time window closes, driving within the path's limit on the way (a turn is made
+        up for elsewhere), and whether the vehicle is late: that speed lies above ``cruise``, and
+        it is the late limit it drives within (0: no time window, or already in the stretch)."""
         if self.stretch is None or self.latest_arrival is None or s >= self.stretch[0] or t >= self.latest_arrival:
-            return 0.0
+            return 0.0, False
         enter, leave = self.stretch
         target = enter + min(ENTRY_DEPTH_M, 0.5 * (leave - enter))
-        return min((target - s) / (self.latest_arrival - t), self.top_speed)
+        pace = self._pace(s, target, self.latest_arrival - t)
+        if pace > cruise and self.late_limit is not None:
+            return min(self._pace(s, target, self.latest_arrival - t, self.late_limit), self.top_speed), True
+        return min(pace, self.top_speed), False
 
     def speed_cap(self, s: float, t: float, v: float) -> float:
         """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
+        if self.road_end is not None and t < self.time_end:
+            # a time window alone on a road that ends: the pace that reaches the road's end when the
+            # window opens, braking (at the comfortable rate) to stand there before
+            braking = max(self.road_end - s - v * _RESPONSE_S, 0.0)
+            return min(math.sqrt(2.0 * self.deceleration * braking),
+                       self._pace(s, max(self.road_end, s), self.time_end - t))
         if self.stretch is None or s > self.stretch[1]:
             return math.inf
         enter, leave = self.stretch
@@ -125,7 +147,7 @@ class GoalApproach:
             cap = min(cap, self._pace(s, max(hold, s), self.arrival_time - t))
         return cap
 
-    def _pace(self, s: float, hold: float, duration: float) -> float:
+    def _pace(self, s: float, hold: float, duration: float, limit: np.ndarray | None = None) -> float:
         """The speed ``v`` to drive at now so as to reach arc length ``hold`` from ``s`` in
         ``duration``, driving along the way at v, or slower where the path's limit asks for it, and
         raised (at the comfortable rate) to the slowest arrival the velocity window allows
@@ -134,7 +156,7 @@ class GoalApproach:
         x = np.concatenate(([s], self.s[(self.s > s) & (self.s < hold)], [hold]))
         if x[-1] - x[0] < 1e-6:
             return 0.0
-        limit = np.interp(x, self.s, self.limit)
+        limit = np.interp(x, self.s, self.limit if limit is None else limit)
         w, a = self.slowest_arrival, self.deceleration
         raised = np.sqrt(np.maximum(w * w - 2.0 * a * np.maximum(hold - w * _RESPONSE_S - x, 0.0), 0.0))
         step = np.diff(x)
@@ -166,6 +188,8 @@ ENTRY_DEPTH_M = 3.0
 # an early arrival waits this far before the end of the goal's stretch of the path [m] (the planner's
 # arc length is the rear axle's; the goal is judged at the vehicle's centre, a metre or two ahead)
 HOLD_MARGIN_M = 4.0
+# a vehicle waiting for a goal's time window at the end of the mapped road stands this far before it [m]
+ROAD_END_MARGIN_M = 1.0
 
 
 def _goal_stretch(reference: ReferencePath, goal: Goal) -> tuple[float, float] | None:
@@ -193,51 +217,75 @@ def _goal_stretch(reference: ReferencePath, goal: Goal) -> tuple[float, float] |
 class SpeedProfile:
     """Desired speed at every reference point (array ``v`` over ``reference.s``): the cruise speed,
     lowered by the limits of the path (array ``limit``: curvature, steering rate, and braking
-    ahead of both)."""
+    ahead of both); ``late_limit`` the same at a higher lateral acceleration, for a vehicle late
+    for its goal's time window (None when there is none higher)."""
 
     def __init__(self, reference: ReferencePath, cruise: float, max_lateral_acceleration: float,
-                 comfortable_deceleration: float, steering: tuple[float, float] | None = None):
+                 comfortable_deceleration: float, steering: tuple[float, float] | None = None,
+                 late_lateral_acceleration: float | None = None):
         """``steering``: (wheelbase [m], steering rate [rad/s]) to keep the curvature's change
         within: the road-wheel angle atan(wheelbase * kappa) changes at
         wheelbase * v * dkappa/ds / (1 + (wheelbase * kappa)^2)."""
         self.reference = reference
         self.cruise = cruise
-        kappa = np.maximum(np.abs(reference.kappa), 1e-9)
-        limit = np.sqrt(_LATERAL_ACCELERATION_SHARE * max_lateral_acceleration / kappa)
-        if steering is not None and len(reference.s) > 2:
-            wheelbase, steer_rate = steering
-            change = np.abs(np.gradient(reference.kappa, reference.s)) * wheelbase
-            limit = np.minimum(limit, np.maximum(steer_rate * (1.0 + (wheelbase * kappa) ** 2) / np.maximum(change, 1e-9),
-                                                 _STEERING_SPEED_FLOOR))
-        ds = np.diff(reference.s)
-        for i in range(len(limit) - 2, -1, -1):
-            limit[i] = min(limit[i], np.sqrt(limit[i + 1] ** 2 + 2.0 * comfortable_deceleration * ds[i]))
+        self.limit = _path_limit(reference, max_lateral_acceleration, comfortable_deceleration, steering)
+        self.late_limit = None
+        if late_lateral_acceleration is not None and late_lateral_acceleration > max_lateral_acceleration:
+            self.late_limit = _path_limit(reference, late_lateral_acceleration, comfortable_deceleration, steering)
         # braking ahead of a constant cruise speed changes nothing: min(cruise, limit) is the profile
-        self.limit = limit
-        self.v = np.minimum(limit, cruise)
-        self.limit.flags.writeable = False
+        self.v = np.minimum(self.limit, cruise)
         self.v.flags.writeable = False
 
-    def desired_speed(self, s: float, distance: float, cruise: float | None = None) -> float:
+    def desired_speed(self, s: float, distance: float, cruise: float | None = None, late: bool = False) -> float:
         """The lowest desired speed between ``s`` and ``s + distance`` (reference arc length); with
-        ``cruise``, as if the profile had been built for that cruise speed."""
+        ``cruise``, as if the profile had been built for that cruise speed (``late``: within
+        ``late_limit``)."""
         ref_s = self.reference.s
         lo = int(np.searchsorted(ref_s, s, side="right")) - 1
         hi = int(np.searchsorted(ref_s, s + max(distance, 0.0), side="right"))
         lo, hi = max(lo, 0), min(max(hi, lo + 1), len(ref_s))
-        limits = self.v if cruise is None else self.limit
+        limits = self.v if cruise is None else self.late_limit if late and self.late_limit is not None \
+            else self.limit
         here = float(np.interp(s, ref_s, limits))
         speed = float(min(here, limits[lo:hi].min()))
         return speed if cruise is None else min(speed, cruise)
 
 
+def _path_limit(reference: ReferencePath, max_lateral_acceleration: float, comfortable_deceleration: float,
+                steering: tuple[float, float] | None) -> np.ndarray:
+    """The speed limit at every reference point: curvature, steering rate, and braking ahead of both."""
+    kappa = np.maximum(np.abs(reference.kappa), 1e-9)
+    limit = np.sqrt(_LATERAL_ACCELERATION_SHARE * max_lateral_acceleration / kappa)
+    if steering is not None and len(reference.s) > 2:
+        wheelbase, steer_rate = steering
+        change = np.abs(np.gradient(reference.kappa, reference.s)) * wheelbase
+        limit = np.minimum(limit, np.maximum(steer_rate * (1.0 + (wheelbase * kappa) ** 2) / np.maximum(change, 1e-9),
+                                             _STEERING_SPEED_FLOOR))
+    ds = np.diff(reference.s)
+    for i in range(len(limit) - 2, -1, -1):
+        limit[i] = min(limit[i], np.sqrt(limit[i + 1] ** 2 + 2.0 * comfortable_deceleration * ds[i]))
+    limit.flags.writeable = False
+    return limit
+
+
+@dataclass(frozen=True)
+class DesiredSpeed:
+    """The speed a planning cycle aims at, and whether it is late for the goal's time window
+    (then plans may turn at the late lateral acceleration)."""
+
+    speed: float
+    late: bool = False
+
+
 def desired_speed(profile: SpeedProfile, approach: GoalApproach, s: float, t: float, v: float,
-                  lookahead: float) -> float:
+                  lookahead: float) -> DesiredSpeed:
     """The speed a planner aims at, at arc length ``s``, time ``t`` and speed ``v``: the profile's
     lowest within ``lookahead`` metres, its cruise speed raised as far as the goal's time window
-    needs (`GoalApproach.speed_floor`), capped by the goal's approach (`GoalApproach.speed_cap`)."""
-    cruise = max(profile.cruise, approach.speed_floor(s, t))
-    return min(profile.desired_speed(s, lookahead, cruise), approach.speed_cap(s, t, v))
+    needs (`GoalApproach.speed_floor`; late, within the profile's late limit), capped by the goal's
+    approach (`GoalApproach.speed_cap`)."""
+    floor, late = approach.speed_floor(s, t, profile.cruise)
+    cruise = max(profile.cruise, floor)
+    return DesiredSpeed(min(profile.desired_speed(s, lookahead, cruise, late), approach.speed_cap(s, t, v)), late)
 
 
 def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: float, max_lateral_acceleration: float,
@@ -248,6 +296,9 @@ def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: floa
     initial_speed = float(getattr(problem.initial_state, "velocity", 0.0) or 0.0)
     cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
     profile = SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration)
+    front = centre_ahead_m + setup.vehicle.length / 2.0 + ROAD_END_MARGIN_M
+    end = dead_end(reference, setup.lanelet_network)
     return (profile,
             GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration,
-                         setup.vehicle.limits.max_speed, centre_ahead_m, profile.limit))
+                         setup.vehicle.limits.max_speed, centre_ahead_m, profile.limit,
+                         None if end is None else end - front))
