@@ -83,6 +83,7 @@ class FailureMap:
     def __init__(self, radius: float, scenario_dims: list[int]):
         self.radius, self.scenario_dims = radius, list(scenario_dims)
         self.failures: dict[int, Candidate] = {}     # high-fidelity failures, by index
+        self.scenario_of: dict[int, tuple] = {}      # ... what the ideal world sees of them
         self._points: dict[tuple[str, str], np.ndarray] = {}     # ... their points, per driver
         self._indices: dict[tuple[str, str], list[int]] = {}     # ... and their indices, in that order
         self._crowd: dict[int, int] = {}             # ... the failures within a radius of each one's scenario
@@ -96,6 +97,7 @@ class FailureMap:
             self._crowd[i] += 1
         self._crowd[candidate.index] = len(near) + 1
         self.failures[candidate.index] = candidate
+        self.scenario_of[candidate.index] = _scenario_key(candidate)
         points = self._points.get(candidate.driver, np.empty((0, len(candidate.unit))))
         self._points[candidate.driver] = np.vstack([points, candidate.unit])
         self._indices.setdefault(candidate.driver, []).append(candidate.index)
@@ -115,7 +117,7 @@ class FailureMap:
 
     def parents(self) -> list[int]:
         """The failures to search around: those whose scenario passes in the ideal world."""
-        return [i for i, c in self.failures.items() if _scenario_key(c) not in self.ideal_fails]
+        return [i for i, key in self.scenario_of.items() if key not in self.ideal_fails]
 
     def novelty(self, c: Candidate, include_live: bool = False) -> float:
         """Distance to the nearest failure (and open proposal), in distinct radii, at most 1."""
