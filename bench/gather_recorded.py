@@ -56,7 +56,8 @@ def main() -> int:
         return 0
     if args.out is None:
         parser.error("--out is required (or --clone-commands)")
-    missing = [s for s in sources if _clone_of(args.repos, s) is None]
+    clones = {s: _clone_of(args.repos, s) for s in sources}
+    missing = [s for s, clone in clones.items() if clone is None]
     if missing:
         print(f"{args.repos}: no clone of {', '.join(missing)}; --clone-commands prints how to make them",
               file=sys.stderr)
@@ -68,7 +69,7 @@ def main() -> int:
         if target.exists() and hashlib.sha256(target.read_bytes()).hexdigest() == f["sha256"]:
             kept += 1
             continue
-        data = _blob(_clone_of(args.repos, f["source_repo"]), f["commit"], f["path_in_repo"])
+        data = _blob(clones[f["source_repo"]], f["commit"], f["path_in_repo"])
         if data is None or hashlib.sha256(data).hexdigest() != f["sha256"]:
             failed.append(f"{f['file']} ({f['source_repo']}@{f['commit'][:10]}:{f['path_in_repo']}: "
                           f"{'not in the clone' if data is None else 'sha256 differs'})")

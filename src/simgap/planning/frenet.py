@@ -52,7 +52,7 @@ from simgap.planning.collision import (
 )
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
 from simgap.planning.protocol import PlannerSetup, World
-from simgap.planning.reference_path import ReferencePath, dead_end, plan_reference_path
+from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
     END_OFFSET,
     END_SPEED,
@@ -65,7 +65,7 @@ from simgap.planning.sampling import (
     steps_in_horizon,
 )
 from simgap.planning.settings import FrenetSettings
-from simgap.planning.speed_profile import ROAD_END_MARGIN_M, GoalApproach, SpeedProfile, cruise_speed, desired_speed
+from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed, goal_approach
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
@@ -176,7 +176,7 @@ class FrenetPlanner:
                                           s.speed.max_lateral_acceleration, s.speed.comfortable_deceleration,
                                           (vehicle.wheelbase, STEER_RATE_SHARE * vehicle.limits.max_steer_rate),
                                           s.speed.late_lateral_acceleration)
-        self._dead_end = dead_end(self.reference_path, lanelet_network)
+        self._network = lanelet_network
         route_end = np.asarray(lanelet_network.find_lanelet_by_id(
             self.reference_path.lanelet_ids[-1]).center_vertices[-1]) if self.reference_path.lanelet_ids \
             else self.reference_path.xy[-1]
@@ -230,12 +230,9 @@ class FrenetPlanner:
     def _approach_for(self, dt: float) -> GoalApproach:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
-            r = self.vehicle.rear_axle_to_center
-            road_end = None if self._dead_end is None else \
-                self._dead_end - (r + self.vehicle.length / 2.0 + ROAD_END_MARGIN_M)
-            self._approach = GoalApproach(self.reference_path, Goal.of(self.goal, dt), self.cruise_speed,
-                                          self.settings.speed.comfortable_deceleration, self.vehicle.limits.max_speed,
-                                          r, self.speed_profile.limit, road_end, self.speed_profile.late_limit)
+            self._approach = goal_approach(self.reference_path, Goal.of(self.goal, dt), self.speed_profile,
+                                           self.settings.speed.comfortable_deceleration, self.vehicle, self._network,
+                                           self.vehicle.rear_axle_to_center)
         return self._approach
 
     # -- planning ----------------------------------------------------------------------------
@@ -335,8 +332,7 @@ class FrenetPlanner:
         cycle.desired_speed = desired
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
         speed = self.settings.speed
-        bound = max(speed.late_lateral_acceleration, speed.max_lateral_acceleration) if aim.late \
-            else speed.max_lateral_acceleration
+        bound = speed.late_lateral_acceleration if aim.late else speed.max_lateral_acceleration
         return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
                       may_overtake, bound)
 

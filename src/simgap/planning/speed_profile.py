@@ -13,14 +13,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from commonroad.planning.goal import GoalRegion
+from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.reference_path import ReferencePath, dead_end
 from simgap.scenario.goal import Goal, Window, area_of
+
+if TYPE_CHECKING:
+    from simgap.vehicles.catalogue import Vehicle
 
 # the profile aims at this share of the lateral-acceleration bound, leaving room for plans
 # whose curvature overshoots the reference path's while they converge onto it
@@ -105,7 +110,7 @@ class GoalApproach:
         self.deceleration = deceleration
         self.top_speed = top_speed
         self.road_end = road_end if self.stretch is None and time is not None else None
-        self.time_end = time.lo if time is not None else None     # a time window alone is met when it opens
+        self.window_opens = time.lo if time is not None else None     # a time window alone is met then
 
     def distance_to_goal(self, s: float) -> float:
         """Arc length from ``s`` to the goal's stretch (0 inside it; inf: no goal on the path, or passed)."""
@@ -129,12 +134,12 @@ class GoalApproach:
 
     def speed_cap(self, s: float, t: float, v: float) -> float:
         """The highest desired speed at arc length ``s``, time ``t`` and speed ``v`` (inf: no cap)."""
-        if self.road_end is not None and t < self.time_end:
+        if self.road_end is not None and t < self.window_opens:
             # a time window alone on a road that ends: the pace that reaches the road's end when the
             # window opens, braking (at the comfortable rate) to stand there before
             braking = max(self.road_end - s - v * _RESPONSE_S, 0.0)
             return min(math.sqrt(2.0 * self.deceleration * braking),
-                       self._pace(s, max(self.road_end, s), self.time_end - t))
+                       self._pace(s, max(self.road_end, s), self.window_opens - t))
         if self.stretch is None or s > self.stretch[1]:
             return math.inf
         enter, leave = self.stretch
@@ -296,9 +301,16 @@ def route_speeds(reference: ReferencePath, setup: PlannerSetup, cruise_m_s: floa
     initial_speed = float(getattr(problem.initial_state, "velocity", 0.0) or 0.0)
     cruise = cruise_speed(problem.goal, cruise_m_s, setup.vehicle.limits.max_speed, initial_speed)
     profile = SpeedProfile(reference, cruise, max_lateral_acceleration, comfortable_deceleration)
-    front = centre_ahead_m + setup.vehicle.length / 2.0 + ROAD_END_MARGIN_M
-    end = dead_end(reference, setup.lanelet_network)
-    return (profile,
-            GoalApproach(reference, Goal.of(problem.goal, setup.dt), cruise, comfortable_deceleration,
-                         setup.vehicle.limits.max_speed, centre_ahead_m, profile.limit,
-                         None if end is None else end - front))
+    return profile, goal_approach(reference, Goal.of(problem.goal, setup.dt), profile, comfortable_deceleration,
+                                  setup.vehicle, setup.lanelet_network, centre_ahead_m)
+
+
+def goal_approach(reference: ReferencePath, goal: Goal, profile: SpeedProfile, comfortable_deceleration: float,
+                  vehicle: Vehicle, network: LaneletNetwork, centre_ahead_m: float = 0.0) -> GoalApproach:
+    """The approach to ``goal`` along ``reference`` within ``profile``'s limits (and its late
+    limit), for ``vehicle`` whose planned point lies ``centre_ahead_m`` behind its centre, standing
+    short of the mapped road's end where the route has one (`dead_end`)."""
+    end = dead_end(reference, network)
+    road_end = None if end is None else end - (centre_ahead_m + vehicle.length / 2.0 + ROAD_END_MARGIN_M)
+    return GoalApproach(reference, goal, profile.cruise, comfortable_deceleration, vehicle.limits.max_speed,
+                        centre_ahead_m, profile.limit, road_end, profile.late_limit)
