@@ -131,11 +131,120 @@ def test_a_route_without_alternatives_is_the_route_planners_own_path(logical, pa
     built = build_scenario(logical, params)
     network = built.scenario.lanelet_network
     for problem in built.problems.planning_problem_dict.values():
-        routes, start = lanelet_routes(network, problem)
-        assert len(routes) == 1
-        library = ReferencePathPlanner(network, start, routes, logging_level=logging.ERROR).plan_shortest_reference_path()
+        found = lanelet_routes(network, problem)
+        assert len(found.routes) == 1 and found.network is network
+        library = ReferencePathPlanner(network, found.problem, found.routes,
+                                       logging_level=logging.ERROR).plan_shortest_reference_path()
         with monkeypatch.context() as m:        # not asked: a call would fall back to the joined centre lines
             m.setattr(planner_module, "ReferencePathPlanner", None)
             ours, ids = route_centre_line(network, problem)
         assert ids == tuple(library.lanelet_ids)
         assert np.array_equal(ours, library.reference_path), logical
+
+
+def _parallel_lanes(pieces_m: tuple[float, ...], lanes: int = 2, width: float = 3.5, linked: bool = True):
+    """Straight lanes along +x (lane 0 on the right, centre y = 1.75), each cut into lanelets of
+    ``pieces_m`` with two vertices a side, as recorded maps draw them; id = 10 * (lane + 1) + piece.
+    ``linked``: neighbours know each other (else the map leaves them unlinked)."""
+    from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+
+    ends = np.concatenate([[0.0], np.cumsum(pieces_m)])
+    lanelets = []
+    for lane in range(lanes):
+        for k in range(len(pieces_m)):
+            x = ends[k:k + 2]
+            side = lambda y: np.stack([x, np.full(2, y)], 1)          # noqa: E731
+            lid = 10 * (lane + 1) + k
+            lanelets.append(Lanelet(
+                side((lane + 1) * width), side((lane + 0.5) * width), side(lane * width), lid,
+                predecessor=[lid - 1] if k else None, successor=[lid + 1] if k < len(pieces_m) - 1 else None,
+                adjacent_left=lid + 10 if linked and lane < lanes - 1 else None, adjacent_left_same_direction=True,
+                adjacent_right=lid - 10 if linked and lane else None, adjacent_right_same_direction=True))
+    return LaneletNetwork.create_from_lanelet_list(lanelets)
+
+
+def _monotone_move(path: np.ndarray) -> tuple[float, float]:
+    """(smallest step along x, steepest sideways slope) of a path along +x."""
+    step = np.diff(path[:, 0])
+    return float(step.min()), float(np.abs(np.diff(path[:, 1]) / np.maximum(step, 1e-9)).max())
+
+
+def test_a_lane_change_onto_a_short_last_lanelet_starts_on_the_lanelets_before_it():
+    # the route planner changes lanes on the last lanelet before the goal, 12 m long on this map
+    # (AAH-4's ramp): the change starts beside the car, on the lanelet before, and takes its full
+    # length (35 m) instead of being squeezed into 12 m
+    from simgap.planning.reference_path import _joined_centre_lines
+
+    network = _parallel_lanes((60.0, 12.0))
+    path = _joined_centre_lines(network, (10, 11, 21), np.array([5.0, 1.75]), change_m=35.0)
+    smallest_step, slope = _monotone_move(path)
+    assert smallest_step > 0.0                                   # never back along the road
+    assert slope <= 1.875 * 3.5 / 35.0 + 0.01                    # a smoothstep over 35 m
+    y_at = lambda x: float(np.interp(x, path[:, 0], path[:, 1]))  # noqa: E731
+    assert y_at(5.0) == pytest.approx(1.75, abs=0.01) and y_at(41.0) == pytest.approx(5.25, abs=0.01)
+
+
+def test_lane_changes_in_a_row_share_the_stretch_before_the_junction():
+    # two changes to the right lane of three within 40 m (Peachtree's right turn from the left lane):
+    # each takes half of the stretch beside the car, not the first all of it and the second a jump
+    from simgap.planning.reference_path import _joined_centre_lines
+
+    network = _parallel_lanes((40.0,), lanes=3)
+    path = _joined_centre_lines(network, (10, 20, 30), np.array([2.0, 1.75]), change_m=35.0)
+    smallest_step, slope = _monotone_move(path)
+    assert smallest_step > 0.0
+    assert slope <= 1.875 * 3.5 / 19.0 + 0.02                    # two smoothsteps over 19 m each
+    assert float(np.interp(21.0, path[:, 0], path[:, 1])) == pytest.approx(5.25, abs=0.01)
+    assert path[-1, 1] == pytest.approx(8.75, abs=1e-6)
+
+
+def test_a_map_that_leaves_side_by_side_lanes_unlinked_is_routed_with_them_linked():
+    # DEU_Muc-2's two lanes share a boundary but the file links neither as the other's neighbour:
+    # the goal in the lane beside was refused ("no route"); it is routed with a lane change now,
+    # on a copy of the network (the file's network is left as it was)
+    from commonroad.scenario.state import InitialState
+
+    from simgap.planning.reference_path import lanelet_routes
+
+    network = _parallel_lanes((200.0,), linked=False)
+    initial = InitialState(position=np.array([10.0, 1.75]), orientation=0.0, velocity=10.0, acceleration=0.0,
+                           yaw_rate=0.0, slip_angle=0.0, time_step=0)
+    goal = GoalRegion([CustomState(position=Rectangle(10.0, 3.0, np.array([160.0, 5.25])), time_step=Interval(0, 200))])
+    problem = PlanningProblem(1, initial, goal)
+    found = lanelet_routes(network, problem)
+    assert {tuple(int(i) for i in r.lanelet_ids) for r in found.routes} == {(10, 20)}
+    assert found.network is not network and network.find_lanelet_by_id(10).adj_left is None
+    assert found.network.find_lanelet_by_id(10).adj_left == 20 and found.network.find_lanelet_by_id(20).adj_right == 10
+    ref = plan_reference_path(network, problem)
+    assert float(np.interp(160.0, ref.xy[:, 0], ref.xy[:, 1])) == pytest.approx(5.25, abs=0.05)
+
+
+def test_a_recorded_turn_drawn_with_a_few_vertices_is_eased_within_the_kink_tolerance(monkeypatch):
+    # a 90 degree turn of 8 m radius drawn as four chords between straights (recorded maps'
+    # turning lanelets): smoothed within a hand's breadth only, its curvature ramps over a metre or
+    # two, which the steering rate follows at walking pace; eased within KINK_DEVIATION_TOLERANCE_M
+    # the ramp is half as steep. A curve whose curvature ramps gently keeps the narrow tolerance.
+    import simgap.planning.reference_path as reference_path
+
+    phi = np.linspace(0.0, math.pi / 2, 5)
+    turn = np.stack([8.0 * np.sin(phi), -8.0 + 8.0 * np.cos(phi)], 1)
+    line = np.vstack([np.stack([np.arange(-40.0, 0.0, 10.0), np.zeros(4)], 1), turn,
+                      np.stack([np.full(4, 8.0), -8.0 - np.arange(10.0, 41.0, 10.0)], 1)])
+
+    def ramp_and_offset(centre):
+        """The path's steepest curvature ramp [1/m^2], the path, and its largest offset from ``centre``."""
+        path = smooth_reference_path(centre, 1.0, 1.0, 10.0, 20.0)
+        on = (path.s >= path.route_s[0]) & (path.s <= path.route_s[1])
+        return (float(np.abs(np.gradient(path.kappa, path.s))[on].max()), path,
+                max(abs(lateral_offset(centre, *p)) for p in path.xy[on]))
+
+    tolerance = reference_path.KINK_DEVIATION_TOLERANCE_M
+    eased, _, off = ramp_and_offset(line)
+    arc = _straight_arc_straight(radius=30.0)
+    _, arc_path, _ = ramp_and_offset(arc)
+    monkeypatch.setattr(reference_path, "KINK_DEVIATION_TOLERANCE_M", reference_path.DEVIATION_TOLERANCE_M)
+    narrow, _, _ = ramp_and_offset(line)
+    _, arc_narrow, _ = ramp_and_offset(arc)
+    assert eased <= 0.6 * narrow
+    assert reference_path.DEVIATION_TOLERANCE_M < off <= tolerance + 0.01
+    assert np.allclose(arc_path.xy, arc_narrow.xy)

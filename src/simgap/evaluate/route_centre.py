@@ -19,10 +19,10 @@ def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[in
     """The lanelets of the planners' route (`preferred_route`; a start off every lanelet included);
     empty when there is none."""
     try:
-        routes, start = lanelet_routes(network, problem)
+        found = lanelet_routes(network, problem)
     except InputError:
         return []
-    return list(preferred_route(network, routes, start.initial_state))
+    return list(preferred_route(found.network, found.routes, found.problem.initial_state))
 
 
 def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame | None:

@@ -31,6 +31,9 @@ LANE_CHANGE_MIN_M = 30.0
 # DEVIATION_TOLERANCE_M of the route's centre line (`_widened_smoothing`)
 WIDER_SMOOTHING = (1.0, 2.0, 4.0, 8.0, 16.0)
 DEVIATION_TOLERANCE_M = 0.1
+# ... and within KINK_DEVIATION_TOLERANCE_M where the curvature changes faster than KINK_RAMP [1/m^2]
+KINK_RAMP = 0.03
+KINK_DEVIATION_TOLERANCE_M = 0.4
 LEVEL_BLEND_M = 4.0
 # tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
 KINK_CURVATURE = 0.25
@@ -46,6 +49,8 @@ GOAL_SHIFT_MAX_TURN_RAD = 0.2       # ... along a line that turns at most this m
 # the sideways slope easing out over this distance beyond the goal [rad], [m]
 GOAL_HEADING_MAX_RAD = 0.3
 GOAL_RUN_OUT_M = 10.0
+# two lanelets whose boundaries lie within this of each other end to end are side by side [m]
+SHARED_BOUNDARY_M = 0.2
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,15 +96,16 @@ def route_centre_line(lanelet_network: LaneletNetwork,
     begin): on recorded maps the route planner squeezes some lane changes into the last metres
     before the goal (a sharp S the speed profile must crawl through), and its lane-change geometry
     fails outright on others."""
-    routes, planning_problem = lanelet_routes(lanelet_network, planning_problem)
-    ids = preferred_route(lanelet_network, routes, planning_problem.initial_state)
-    if not _lane_changes(lanelet_network, ids):
-        path = _planners_path(lanelet_network, planning_problem, routes, ids)
+    found = lanelet_routes(lanelet_network, planning_problem)
+    network, planning_problem = found.network, found.problem
+    ids = preferred_route(network, found.routes, planning_problem.initial_state)
+    if not _lane_changes(network, ids):
+        path = _planners_path(network, planning_problem, found.routes, ids)
         if path is not None:
             return path, ids
     initial = planning_problem.initial_state
     speed = float(getattr(initial, "velocity", 0.0) or 0.0)
-    return _joined_centre_lines(lanelet_network, ids, np.asarray(initial.position, dtype=float),
+    return _joined_centre_lines(network, ids, np.asarray(initial.position, dtype=float),
                                 lane_change_length(speed)), ids
 
 
@@ -156,34 +162,84 @@ def _route_length(network: LaneletNetwork, route: tuple[int, ...]) -> float:
     return sum(float(network.find_lanelet_by_id(i).distance[-1]) for i in route)
 
 
-def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> tuple[list, PlanningProblem]:
-    """commonroad-route-planner's routes from the initial state to the goal, and the planning
-    problem they start from.
+@dataclass(frozen=True)
+class LaneletRoutes:
+    """commonroad-route-planner's routes, the planning problem they start from, and the lanelet
+    network they run on (the file's, or a copy with unlinked neighbours linked: `_linked_neighbours`)."""
+
+    routes: list
+    problem: PlanningProblem
+    network: LaneletNetwork
+
+
+def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningProblem) -> LaneletRoutes:
+    """commonroad-route-planner's routes from the initial state to the goal.
 
     The route planner changes lanes where the goal lanelet needs it and, for a goal without
     lanelets (no position, or one off the lanelets), follows the road from the start. An initial
     state off every lanelet (between lanelets, on the shoulder, on an intersection's boundary)
-    starts the route from the nearest lanelet with a matching direction; only where no route
-    exists on the map is the planning problem refused, with the reason."""
+    starts the route from the nearest lanelet with a matching direction; a map that leaves two
+    lanes side by side unlinked (one's boundary is the other's, the same way) is routed with them
+    linked; only where no route exists on the map is the planning problem refused, with the reason."""
     from commonroad_route_planner.route_planner import RoutePlanner
 
     pid = planning_problem.planning_problem_id
     first = ""
-    for candidate in (planning_problem, None):
-        candidate = candidate or _snapped_to_lanelet(lanelet_network, planning_problem)
-        if candidate is None:
+    for network in (lanelet_network, None):
+        network = network or _linked_neighbours(lanelet_network)
+        if network is None:
             break
-        try:
-            routes = RoutePlanner(lanelet_network, candidate, logging_level=logging.ERROR).plan_routes()
-        except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
-            first = first or _readable(exc)
-            continue
-        if routes and any(len(r.lanelet_ids) for r in routes):
-            return [r for r in routes if len(r.lanelet_ids)], candidate
-        first = first or "no route found"
+        for candidate in (planning_problem, None):
+            candidate = candidate or _snapped_to_lanelet(network, planning_problem)
+            if candidate is None:
+                break
+            try:
+                routes = RoutePlanner(network, candidate, logging_level=logging.ERROR).plan_routes()
+            except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
+                first = first or _readable(exc)
+                continue
+            if routes and any(len(r.lanelet_ids) for r in routes):
+                return LaneletRoutes([r for r in routes if len(r.lanelet_ids)], candidate, network)
+            first = first or "no route found"
     raise InputError(f"no route from the initial state to the goal on the lanelet network ({first})",
                      field=f"planning problem {pid}",
                      allowed="a goal reachable along lanelets (successors and same-direction neighbours)") from None
+
+
+def _linked_neighbours(network: LaneletNetwork) -> LaneletNetwork | None:
+    """A copy of ``network`` in which lanelets side by side that the map does not link are
+    neighbours (the same way): one's right boundary is the other's left, end to end (within
+    `SHARED_BOUNDARY_M`); None when there are none."""
+    lanelets = [l for l in network.lanelets if len(l.left_vertices) >= 2 and len(l.right_vertices) >= 2]
+    if len(lanelets) < 2:
+        return None
+    lefts = np.array([[l.left_vertices[0], l.left_vertices[-1]] for l in lanelets], dtype=float)
+    pairs = []
+    for i, lanelet in enumerate(lanelets):
+        if lanelet.adj_right is not None:
+            continue
+        right = np.array([lanelet.right_vertices[0], lanelet.right_vertices[-1]], dtype=float)
+        ends = np.hypot(*(lefts - right).transpose(2, 0, 1)).max(axis=1)
+        for j in np.flatnonzero(ends <= SHARED_BOUNDARY_M):
+            other = lanelets[j]
+            if j != i and other.adj_left is None and _shared(lanelet.right_vertices, other.left_vertices):
+                pairs.append((lanelet.lanelet_id, other.lanelet_id))
+    if not pairs:
+        return None
+    linked = copy.deepcopy(network)
+    for left_id, right_id in pairs:
+        left, right = linked.find_lanelet_by_id(left_id), linked.find_lanelet_by_id(right_id)
+        left.adj_right, left.adj_right_same_direction = right_id, True
+        right.adj_left, right.adj_left_same_direction = left_id, True
+    return linked
+
+
+def _shared(a: np.ndarray, b: np.ndarray) -> bool:
+    """Do the polylines ``a`` and ``b`` (the same way) lie on each other, within `SHARED_BOUNDARY_M`?"""
+    fine_a, fine_b = _resample(np.asarray(a, dtype=float), 1.0), _resample(np.asarray(b, dtype=float), 1.0)
+    if abs(_arc_length(fine_a)[-1] - _arc_length(fine_b)[-1]) > SHARED_BOUNDARY_M:
+        return False
+    return bool(shapely.LineString(fine_b).distance(shapely.points(fine_a)).max() <= SHARED_BOUNDARY_M)
 
 
 def _readable(exc: Exception) -> str:
@@ -224,20 +280,78 @@ def _joined_centre_lines(network: LaneletNetwork, lanelet_ids: tuple[int, ...], 
     """The route's centre lines joined end to end; a lane change (the next lanelet is a neighbour,
     not a successor) blends into the neighbour's centre line over ``change_m`` metres from where
     ``start`` lies beside the two lanes (or where they begin; a second change in the same stretch
-    follows the first)."""
+    follows the first, the series sharing the stretch when it is shorter than a change each). A
+    lane change from a lanelet shorter than ``change_m`` starts on the
+    lanelets before it whose neighbours lead into the target lane (`_lanes_beside`): the route
+    planner puts a change on the last lanelet before the goal, a few metres long on some maps."""
     done: list[np.ndarray] = []         # the path before the lanelet we are on
-    current: np.ndarray | None = None   # the path along the lanelet we are on
-    changed_at = None                   # where along it the last lane change ended (fraction)
+    done_ids: list[int] = []            # ... the lanelet each of those pieces follows
+    current: np.ndarray | None = None   # the path along the lanelet we are on (whole: a lane change
+    changed_at = None                   # blends from it); where along it the last lane change ended
+    each_m = change_m                   # how long each change of the present series is
     for k, lanelet_id in enumerate(lanelet_ids):
-        centre = _without_duplicates(np.asarray(network.find_lanelet_by_id(lanelet_id).center_vertices, dtype=float))
+        centre = _centre_line(network, lanelet_id)
         if current is None:
             current = centre
         elif _adjacent(network, lanelet_ids[k - 1], lanelet_id):
-            current, changed_at = _lane_change(current, centre, start, change_m, changed_at)
+            if changed_at is None:          # the first of a series of changes: they share the stretch
+                series = _changes_from(network, lanelet_ids, k)
+                back = _lanes_beside(network, done_ids, lanelet_ids[k - 1], lanelet_id,
+                                     series * change_m - float(_arc_length(current)[-1]))
+                if back:
+                    current = _joined([*done[-len(back):], current])
+                    centre = _joined([*(_centre_line(network, i) for i in back), centre])
+                    del done[-len(back):], done_ids[-len(back):]
+                along = _arc_length(current)
+                each_m = min(change_m, (along[-1] - along[_nearest(current, start)]) / series) if series > 1 \
+                    else change_m
+            current, changed_at = _lane_change(current, centre, start, each_m, changed_at)
         else:
             done.append(current)
-            current, changed_at = centre[1:] if np.allclose(centre[0], current[-1], atol=0.05) else centre, None
-    return np.vstack([*done, current])
+            done_ids.append(lanelet_ids[k - 1] if changed_at is None else -1)
+            current, changed_at = centre, None
+    return _joined([*done, current])
+
+
+def _changes_from(network: LaneletNetwork, lanelet_ids: tuple[int, ...], k: int) -> int:
+    """How many lane changes follow one another from ``lanelet_ids[k - 1]`` on (each next lanelet a neighbour)."""
+    n = 0
+    while k + n < len(lanelet_ids) and _adjacent(network, lanelet_ids[k + n - 1], lanelet_ids[k + n]):
+        n += 1
+    return n
+
+
+def _centre_line(network: LaneletNetwork, lanelet_id: int) -> np.ndarray:
+    return _without_duplicates(np.asarray(network.find_lanelet_by_id(lanelet_id).center_vertices, dtype=float))
+
+
+def _joined(pieces: list[np.ndarray]) -> np.ndarray:
+    """Polylines end to end; where one starts at the previous one's end, the shared point once."""
+    return np.vstack([pieces[0], *(piece[1:] if np.allclose(piece[0], before[-1], atol=0.05) else piece
+                                   for before, piece in zip(pieces, pieces[1:]))])
+
+
+def _lanes_beside(network: LaneletNetwork, behind: list[int], source: int, target: int,
+                  needed_m: float) -> list[int]:
+    """For a lane change from ``source`` into its neighbour ``target``: the neighbours, on the same
+    side and in the same direction, of the lanelets the route passed just before ``source``
+    (``behind``, nearest last), that lead into ``target`` one after the other; as many as make up
+    ``needed_m`` metres, nearest last (none where the lane beside does not go back that far)."""
+    left = network.find_lanelet_by_id(source).adj_left == target
+    beside: list[int] = []
+    ahead = target
+    for lanelet_id in reversed(behind):
+        if needed_m <= 0 or lanelet_id < 0:
+            break
+        lanelet = network.find_lanelet_by_id(lanelet_id)
+        neighbour = lanelet.adj_left if left else lanelet.adj_right
+        same_way = lanelet.adj_left_same_direction if left else lanelet.adj_right_same_direction
+        if neighbour is None or not same_way or neighbour not in network.find_lanelet_by_id(ahead).predecessor:
+            break
+        beside.insert(0, neighbour)
+        needed_m -= float(network.find_lanelet_by_id(lanelet_id).distance[-1])
+        ahead = neighbour
+    return beside
 
 
 def _lane_change(from_lane: np.ndarray, to_lane: np.ndarray, start: np.ndarray, change_m: float,
@@ -322,6 +436,13 @@ def _extend(xy: np.ndarray, back_m: float, forward_m: float, step: float) -> np.
     return np.vstack(parts)
 
 
+def _heading_and_curvature(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arc length, heading (unwrapped) and signed curvature at every point of a polyline."""
+    s = _arc_length(xy)
+    theta = np.unwrap(np.arctan2(np.gradient(xy[:, 1], s), np.gradient(xy[:, 0], s)))
+    return s, theta, np.gradient(theta, s)
+
+
 def _gaussian_smooth(xy: np.ndarray, sigma_samples: float) -> np.ndarray:
     """Gaussian smoothing along the polyline; the ends are padded by point reflection so that
     straight ends stay straight (a Gaussian keeps linear functions unchanged)."""
@@ -338,23 +459,34 @@ def _gaussian_smooth(xy: np.ndarray, sigma_samples: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(2)], axis=1)
 
 
-def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float) -> np.ndarray:
+def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float,
+                       kink_tolerance_m: float | None = None) -> np.ndarray:
     """``xy`` (a polyline `_FINE_STEP_M` apart) Gaussian-smoothed with ``sigma_m``, and more widely
-    (`WIDER_SMOOTHING`) wherever the wider smoothing stays within ``tolerance_m`` of the polyline.
+    (`WIDER_SMOOTHING`) wherever the wider smoothing stays within ``tolerance_m`` of the polyline
+    — ``kink_tolerance_m`` where the narrow smoothing's curvature changes faster than `KINK_RAMP`.
 
     Lanelets of recorded maps meet at small angles (a degree or two where two centre lines join);
     smoothed over a metre such a kink asks for a steering rate that only a slow car has, and the
     speed profile would brake for it on a straight highway. A driver rounds it off over tens of
     metres within a hand's breadth of the lane centre, as this does; a curve's real shape keeps
-    the narrow smoothing (a wide one would cut it by more than the tolerance)."""
+    the narrow smoothing (a wide one would cut it by more than the tolerance). Where a turn's
+    curvature sets in within a metre or two (faster than `KINK_RAMP`: a recorded turn drawn with a
+    few chords, a tight arc joined to a straight without a transition), which the steering rate
+    follows only below about 4 m/s, the driver eases the bend over a few metres, up to
+    ``kink_tolerance_m`` off the centre line."""
     sigmas = [sigma_m * factor for factor in WIDER_SMOOTHING]
     levels = [_gaussian_smooth(xy, s / _FINE_STEP_M) for s in sigmas]
+    tolerance = np.full(len(xy), tolerance_m)
+    if kink_tolerance_m is not None and kink_tolerance_m > tolerance_m:
+        ramp = np.abs(np.gradient(_heading_and_curvature(levels[0])[2], _FINE_STEP_M))
+        reach = 2 * int(np.ceil(2 * sigmas[-1] / _FINE_STEP_M)) + 1
+        tolerance[maximum_filter1d(ramp, size=reach, mode="nearest") > KINK_RAMP] = kink_tolerance_m
     allowed = np.zeros(len(xy))
     ok = np.ones(len(xy), dtype=bool)
     for j in range(1, len(sigmas)):
         deviation = np.hypot(*(levels[j] - xy).T)
         reach = 2 * int(np.ceil(2 * sigmas[j] / _FINE_STEP_M)) + 1
-        ok &= maximum_filter1d(deviation, size=reach, mode="nearest") <= tolerance_m
+        ok &= maximum_filter1d(deviation, size=reach, mode="nearest") <= tolerance
         allowed[ok] = j
     if not allowed.any():
         return levels[0]
@@ -386,12 +518,9 @@ def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: f
     fine = _resample(centre, _FINE_STEP_M)
     route_length = _arc_length(fine)[-1]
     fine = _extend(fine, extension_back, extension_forward, _FINE_STEP_M)
-    fine = _widened_smoothing(fine, smoothing, DEVIATION_TOLERANCE_M) if smoothing > 0 else fine
-    s_fine = _arc_length(fine)
-    dx = np.gradient(fine[:, 0], s_fine)
-    dy = np.gradient(fine[:, 1], s_fine)
-    theta_fine = np.unwrap(np.arctan2(dy, dx))
-    kappa_fine = np.gradient(theta_fine, s_fine)
+    fine = _widened_smoothing(fine, smoothing, DEVIATION_TOLERANCE_M, KINK_DEVIATION_TOLERANCE_M) \
+        if smoothing > 0 else fine
+    s_fine, theta_fine, kappa_fine = _heading_and_curvature(fine)
     n = max(3, int(np.ceil(s_fine[-1] / spacing)) + 1)
     s = np.linspace(0.0, s_fine[-1], n)
     xy = np.stack([np.interp(s, s_fine, fine[:, 0]), np.interp(s, s_fine, fine[:, 1])], axis=1)
