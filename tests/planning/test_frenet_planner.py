@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 import shapely
-from commonroad.common.util import Interval
+from commonroad.common.util import AngleInterval, Interval
+from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.scenario.state import CustomState
 
@@ -301,3 +302,23 @@ def test_a_vehicle_late_for_its_goal_window_takes_the_curve_harder(sedan):
     assert run.goal_time is not None and run.goal_time <= 14.0
     lateral = max(s.v ** 2 * abs(math.tan(s.steer)) / sedan.wheelbase for s in run.states)
     assert 4.0 < lateral <= planner.settings.speed.late_lateral_acceleration
+
+
+@pytest.mark.parametrize("radius, offset, ahead", [(15.0, 1.0, 12.0), (25.0, -1.0, 20.0)])
+def test_a_plan_that_reaches_the_goal_is_preferred_to_a_cheaper_one_that_passes_it(sedan, radius, offset, ahead):
+    # a recorded goal: a 3 x 2 m box on the lane in a curve, heading the lane's way +-0.05 rad, a
+    # dozen metres ahead of a car at 10 m/s a metre off the lane centre (as the recorded driver was);
+    # the cheapest plans converge onto the lane with a heading lag and pass the box outside its
+    # orientation window (the goal is missed on a planner that takes the cheapest plan regardless)
+    road = two_lane_road(radius=radius, angle_deg=90.0, straight=60.0, start_s=50.0, v0=10.0, initial_offset=offset)
+    gx, gy, heading = road.ego_lane_pose(50.0 + ahead)
+    window = (heading - 0.05, heading + 0.05)
+    road.problem.goal = GoalRegion([CustomState(position=Rectangle(3.0, 2.0, np.array([gx, gy]), heading),
+                                                orientation=AngleInterval(*window), time_step=Interval(0, 100))])
+    planner = FrenetPlanner(PlannerSetup.for_problem(road.problem, sedan, road.lanelet_network))
+    run = drive(planner, road, steps=100)
+    assert run.goal_time is not None and run.goal_time < 3.0
+    at_goal = run.states[-1]
+    assert window[0] <= at_goal.yaw <= window[1]
+    assert max(s.v ** 2 * abs(math.tan(s.steer)) / sedan.wheelbase for s in run.states) \
+        <= planner.settings.speed.max_lateral_acceleration + 1e-6

@@ -117,3 +117,27 @@ def test_every_obstacle_kind_is_recorded():
     # a static obstacle stands for ever, rotated as its state says
     assert parked.static and parked.motion.at(500.0).x == pytest.approx(60.0)
     assert parked.length == pytest.approx(2.0) and math.sin(parked.motion.at(0.0).yaw) ** 2 == pytest.approx(1.0)
+
+
+def test_many_states_at_once_are_judged_as_one_at_a_time():
+    # the planner judges every state of its sampled plans at once (`Goal.reached_at`): the same
+    # verdicts as `is_reached`, state by state, for a box with every window and for a goal of two
+    # states (a polygon; a lanelet-like shape group), headings on the circle included
+    rng = np.random.default_rng(7)
+    two_states = Goal.of(GoalRegion([
+        CustomState(time_step=Interval(20, 40), position=Polygon(np.array([[0.0, -2.0], [8.0, -2.0], [6.0, 3.0], [0.0, 2.0]]))),
+        CustomState(time_step=Interval(0, 100), orientation=AngleInterval(3.0, 3.3),
+                    position=ShapeGroup([Rectangle(4.0, 2.0, np.array([20.0, 0.0])), Circle(1.5, np.array([25.0, 0.0]))]))]), DT)
+    # sampled around each goal (times, places, headings and speeds near its windows, some inside)
+    for goal, t_range, x_range, turn in ((ngsim_like_goal(), (8.5, 10.5), (48.0, 52.0), 0.0),
+                                         (two_states, (1.0, 5.0), (-2.0, 28.0), 3.15)):
+        n = 4000
+        t = rng.uniform(*t_range, n).round(1)
+        x = rng.uniform(*x_range, n)
+        y = rng.uniform(-2.5, 2.5, n)
+        yaw = turn + rng.uniform(-0.5, 0.5, n) + 2 * math.pi * rng.integers(-1, 2, n)
+        v = rng.uniform(0.0, 5.0, n)
+        at_once = goal.reached_at(t, x, y, yaw, v)
+        one_by_one = np.array([goal.is_reached(State(t=t[i], x=x[i], y=y[i], yaw=yaw[i], v=v[i])) for i in range(n)])
+        assert 100 < at_once.sum() < n - 100
+        assert np.array_equal(at_once, one_by_one)

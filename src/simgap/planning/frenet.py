@@ -17,6 +17,10 @@ Beyond the core:
   along the path stays clear of traffic as it stands at the horizon's end; without this, a
   3 s horizon happily drives up to a parked car too fast to stop.
 * Plans that exceed the lateral-acceleration bound are taken only when nothing else passes.
+* Near the goal (its time window within the horizon, its area within reach), a plan that reaches
+  it — every window of a goal state at one of the plan's states — is preferred to a cheaper one
+  that passes beside it, too early or too fast (a recorded goal is often a 2 m box with an
+  orientation window around where the human driver was).
 * When nothing is feasible from the observed acceleration and steering angle (physics may
   hand over values no polynomial continues), one retry starts from the observed pose and speed
   with zero acceleration and the reference's curvature (``relax_initial_state``).
@@ -109,6 +113,7 @@ class _Start:
     low_velocity: bool
     may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
     lateral_bound: float = math.inf   # plans within this lateral acceleration are preferred [m/s^2]
+    goal_in_reach: bool = False   # a plan may reach the goal within the horizon: one that does is preferred
 
 
 @dataclass(frozen=True)
@@ -192,6 +197,7 @@ class FrenetPlanner:
         self._handler: frenetix.TrajectoryHandler | None = None
         self._dt: float | None = None
         self._approach: GoalApproach | None = None
+        self._goal: Goal | None = None         # the goal's windows, time in seconds (steps of dt)
         # the manoeuvre chosen last: (absolute end time, end speed, lateral end offset)
         self._previous: tuple[float, float, float] | None = None
         self._previous_t: float | None = None
@@ -230,10 +236,21 @@ class FrenetPlanner:
     def _approach_for(self, dt: float) -> GoalApproach:
         """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
         if self._approach is None or self._dt != dt:
-            self._approach = goal_approach(self.reference_path, Goal.of(self.goal, dt), self.speed_profile,
+            self._goal = Goal.of(self.goal, dt)
+            self._approach = goal_approach(self.reference_path, self._goal, self.speed_profile,
                                            self.settings.speed.comfortable_deceleration, self.vehicle, self._network,
                                            self.vehicle.rear_axle_to_center)
         return self._approach
+
+    def _goal_in_reach(self, observed: State, t: float, speed: float) -> bool:
+        """Might a plan from ``observed`` at ``t`` reach a goal state within the horizon: its time
+        window overlaps the horizon and its position lies within the distance driven at ``speed``
+        (and a car's length) of the vehicle's centre?"""
+        horizon = self.settings.sampling.horizon_s
+        reach = speed * horizon + self.vehicle.length
+        return any((gs.time is None or (gs.time.lo <= t + horizon and gs.time.hi >= t))
+                   and gs.distance_from_position(observed.x, observed.y) <= reach
+                   for gs in self._goal.states)
 
     # -- planning ----------------------------------------------------------------------------
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
@@ -333,8 +350,9 @@ class FrenetPlanner:
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
         speed = self.settings.speed
         bound = speed.late_lateral_acceleration if aim.late else speed.max_lateral_acceleration
+        in_reach = self._goal_in_reach(observed, t, max(v, desired))
         return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
-                      may_overtake, bound)
+                      may_overtake, bound, in_reach)
 
     def _relaxed(self, start: _Start) -> _Start | None:
         """``start`` with zero acceleration and the reference path's curvature."""
@@ -418,12 +436,15 @@ class FrenetPlanner:
         """In cost order, a few at a time: the first plan within the limits, clear of traffic and on
         the road (and within the lateral-acceleration bound if any is). When traffic holds the
         cheapest such plan well below the desired speed (``blocked_speed_share``), a faster one among
-        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. When
-        every plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they
-        are checked again with the recovery time to get back onto the safe cells."""
+        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. With the
+        goal in reach (``start.goal_in_reach``) the cheapest passing plan that reaches the goal is
+        taken, looked for among as many more (only those that reach it are checked). When every
+        plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they are
+        checked again with the recovery time to get back onto the safe cells."""
         leeway = self._leeway(start)
         clock = time.perf_counter()
         chosen: CartesianBatch | None = None
+        blocked = False
         fallback: CartesianBatch | None = None
         checked: list[CartesianBatch] = []
         taken, chunk, beyond_chosen = 0, FIRST_CHUNK, 0
@@ -432,18 +453,31 @@ class FrenetPlanner:
             taken += len(samples)
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
+            if chosen is not None and not blocked:      # only a plan that reaches the goal would do now
+                reaching = np.flatnonzero(self._reaches_goal(batch, np.arange(len(samples)), start))
+                if not len(reaching):
+                    beyond_chosen += len(samples)
+                    continue
+                batch = _rows(batch, reaching)
             checked.append(batch)
             passing, lateral_ok = self._verdicts(batch, traffic, leeway, start, cycle)
-            for i in np.flatnonzero(passing):
-                if not (lateral_ok[i] or not self.settings.speed.enforce_lateral_acceleration):
-                    cycle.rejected_lateral_acceleration += 1
-                    fallback = fallback or _row(batch, i)
-                elif chosen is None:
+            within = passing & (lateral_ok | (not self.settings.speed.enforce_lateral_acceleration))
+            cycle.rejected_lateral_acceleration += int((passing & ~within).sum())
+            if fallback is None and (passing & ~within).any():
+                fallback = _row(batch, int(np.flatnonzero(passing & ~within)[0]))
+            if start.goal_in_reach and within.any():
+                reaching = np.flatnonzero(within)[self._reaches_goal(batch, np.flatnonzero(within), start)]
+                if len(reaching):               # the cheapest plan that reaches the goal
+                    _lap(cycle, "collision", clock)
+                    return _row(batch, int(reaching[0]))
+            for i in np.flatnonzero(within):
+                if chosen is None:
                     chosen = _row(batch, i)
-                    if not self._blocked(chosen, start, cycle):
+                    blocked = self._blocked(chosen, start, cycle)
+                    if not (blocked or start.goal_in_reach):
                         _lap(cycle, "collision", clock)
                         return chosen
-                elif batch.v[i, -1] >= chosen.v[0, -1] + BLOCKED_SPEED_GAIN * start.desired:
+                elif blocked and batch.v[i, -1] >= chosen.v[0, -1] + BLOCKED_SPEED_GAIN * start.desired:
                     _lap(cycle, "collision", clock)
                     return _row(batch, i)
             if chosen is not None:
@@ -493,6 +527,15 @@ class FrenetPlanner:
             return None
         cycle.outcome = "struck_from_behind"
         return _row(best[1], best[2])
+
+    def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: _Start) -> np.ndarray:
+        """Per plan ``rows`` of ``batch``: does it reach the goal (every window of a goal state,
+        judged at the vehicle's centre) at one of its states?"""
+        r = self.vehicle.rear_axle_to_center
+        yaw = batch.yaw[rows]
+        x, y = self.frame.xy_to_world(batch.x[rows] + r * np.cos(yaw), batch.y[rows] + r * np.sin(yaw))
+        t = np.broadcast_to(start.t + start.dt * np.arange(yaw.shape[1]), yaw.shape)
+        return self._goal.reached_at(t, x, y, yaw + self.frame.rotation, batch.v[rows]).any(axis=1)
 
     def _at_road_edge(self, start: _Start) -> bool:
         """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""
@@ -606,7 +649,11 @@ class FrenetPlanner:
 
 
 def _row(batch: CartesianBatch, i: int) -> CartesianBatch:
-    return CartesianBatch(*(getattr(batch, f)[i:i + 1] for f in CartesianBatch.__dataclass_fields__))
+    return _rows(batch, np.array([i]))
+
+
+def _rows(batch: CartesianBatch, rows: np.ndarray) -> CartesianBatch:
+    return CartesianBatch(*(getattr(batch, f)[rows] for f in CartesianBatch.__dataclass_fields__))
 
 
 def _lap(cycle: PlanningCycle, phase: str, since: float) -> float:

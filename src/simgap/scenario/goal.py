@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Sequence
 
 import numpy as np
@@ -84,11 +85,33 @@ class GoalState:
             out.append("orientation")
         return out
 
+    def reached_at(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
+                   v: np.ndarray) -> np.ndarray:
+        """`misses` for many states at once (arrays of one shape: time, centre, heading, speed):
+        True where every window holds (the position's boundary does not count)."""
+        ok = np.ones(np.shape(x), dtype=bool)
+        for window, value in ((self.time, t), (self.velocity, v)):
+            if window is not None:
+                ok &= (value >= window.lo - _TOLERANCE) & (value <= window.hi + _TOLERANCE)
+        if self.orientation is not None:
+            centre = 0.5 * (self.orientation.lo + self.orientation.hi)
+            closest = yaw + 2 * math.pi * np.round((centre - yaw) / (2 * math.pi))
+            ok &= (closest >= self.orientation.lo - _TOLERANCE) & (closest <= self.orientation.hi + _TOLERANCE)
+        if self.position is not None and ok.any():
+            ok[ok] = shapely.contains_xy(self._area, x[ok], y[ok])
+        return ok
+
+    @cached_property
+    def _area(self) -> BaseGeometry:
+        area = area_of(self.position)
+        shapely.prepare(area)
+        return area
+
     def distance_from_position(self, x: float, y: float) -> float:
         """How far [m] the point (x, y) lies from the goal position (0 inside, or when it is free)."""
         if self.position is None:
             return 0.0
-        return float(area_of(self.position).distance(Point(x, y)))
+        return float(self._area.distance(Point(x, y)))
 
     def describe_misses(self, state: State, missed: list[str]) -> str:
         """The windows in ``missed`` with ``state``'s values, in a user's words."""
@@ -130,6 +153,14 @@ class Goal:
 
     def is_reached(self, state: State) -> bool:
         return any(not gs.misses(state) for gs in self.states)
+
+    def reached_at(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, yaw: np.ndarray,
+                   v: np.ndarray) -> np.ndarray:
+        """`is_reached` for many states at once (see `GoalState.reached_at`)."""
+        ok = np.zeros(np.shape(x), dtype=bool)
+        for gs in self.states:
+            ok |= gs.reached_at(t, x, y, yaw, v)
+        return ok
 
     @property
     def deadline_s(self) -> float | None:
