@@ -453,7 +453,8 @@ class FrenetPlanner:
             taken += len(samples)
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
-            if chosen is not None and not blocked:      # only a plan that reaches the goal would do now
+            only_reaching = chosen is not None and not blocked      # only a plan that reaches the goal would do now
+            if only_reaching:
                 reaching = np.flatnonzero(self._reaches_goal(batch, np.arange(len(samples)), start))
                 if not len(reaching):
                     beyond_chosen += len(samples)
@@ -466,7 +467,9 @@ class FrenetPlanner:
             if fallback is None and (passing & ~within).any():
                 fallback = _row(batch, int(np.flatnonzero(passing & ~within)[0]))
             if start.goal_in_reach and within.any():
-                reaching = np.flatnonzero(within)[self._reaches_goal(batch, np.flatnonzero(within), start)]
+                reaching = np.flatnonzero(within)
+                if not only_reaching:
+                    reaching = reaching[self._reaches_goal(batch, reaching, start)]
                 if len(reaching):               # the cheapest plan that reaches the goal
                     _lap(cycle, "collision", clock)
                     return _row(batch, int(reaching[0]))
@@ -649,7 +652,7 @@ class FrenetPlanner:
 
 
 def _row(batch: CartesianBatch, i: int) -> CartesianBatch:
-    return _rows(batch, np.array([i]))
+    return CartesianBatch(*(getattr(batch, f)[i:i + 1] for f in CartesianBatch.__dataclass_fields__))
 
 
 def _rows(batch: CartesianBatch, rows: np.ndarray) -> CartesianBatch:

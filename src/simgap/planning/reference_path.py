@@ -459,8 +459,7 @@ def _gaussian_smooth(xy: np.ndarray, sigma_samples: float) -> np.ndarray:
     return np.stack([np.convolve(padded[:, j], kernel, mode="valid") for j in range(2)], axis=1)
 
 
-def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float,
-                       kink_tolerance_m: float | None = None) -> np.ndarray:
+def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float, kink_tolerance_m: float) -> np.ndarray:
     """``xy`` (a polyline `_FINE_STEP_M` apart) Gaussian-smoothed with ``sigma_m``, and more widely
     (`WIDER_SMOOTHING`) wherever the wider smoothing stays within ``tolerance_m`` of the polyline
     — ``kink_tolerance_m`` where the narrow smoothing's curvature changes faster than `KINK_RAMP`.
@@ -476,11 +475,9 @@ def _widened_smoothing(xy: np.ndarray, sigma_m: float, tolerance_m: float,
     ``kink_tolerance_m`` off the centre line."""
     sigmas = [sigma_m * factor for factor in WIDER_SMOOTHING]
     levels = [_gaussian_smooth(xy, s / _FINE_STEP_M) for s in sigmas]
-    tolerance = np.full(len(xy), tolerance_m)
-    if kink_tolerance_m is not None and kink_tolerance_m > tolerance_m:
-        ramp = np.abs(np.gradient(_heading_and_curvature(levels[0])[2], _FINE_STEP_M))
-        reach = 2 * int(np.ceil(2 * sigmas[-1] / _FINE_STEP_M)) + 1
-        tolerance[maximum_filter1d(ramp, size=reach, mode="nearest") > KINK_RAMP] = kink_tolerance_m
+    ramp = np.abs(np.gradient(_heading_and_curvature(levels[0])[2], _FINE_STEP_M))
+    reach = 2 * int(np.ceil(2 * sigmas[-1] / _FINE_STEP_M)) + 1
+    tolerance = np.where(maximum_filter1d(ramp, size=reach, mode="nearest") > KINK_RAMP, kink_tolerance_m, tolerance_m)
     allowed = np.zeros(len(xy))
     ok = np.ones(len(xy), dtype=bool)
     for j in range(1, len(sigmas)):

@@ -32,8 +32,9 @@ class Window:
     lo: float
     hi: float
 
-    def contains(self, value: float) -> bool:
-        return self.lo - _TOLERANCE <= value <= self.hi + _TOLERANCE
+    def contains(self, value):
+        """``value`` (a number or an array of them) inside the window, within a tolerance."""
+        return (value >= self.lo - _TOLERANCE) & (value <= self.hi + _TOLERANCE)
 
     def describe(self, unit: str) -> str:
         return f"{self.lo:g}-{self.hi:g} {unit}"
@@ -56,10 +57,11 @@ def area_of(shape: Shape) -> BaseGeometry:
     return shape.shapely_object
 
 
-def _heading_in(window: Window, yaw: float) -> bool:
-    """Orientation on the circle: the heading or any turn of it lies in the window."""
+def _heading_in(window: Window, yaw):
+    """Orientation on the circle: the heading (or each of an array of them) or any turn of it lies
+    in the window."""
     centre = 0.5 * (window.lo + window.hi)
-    closest = yaw + 2 * math.pi * round((centre - yaw) / (2 * math.pi))
+    closest = yaw + 2 * math.pi * np.round((centre - yaw) / (2 * math.pi))
     return window.contains(closest)
 
 
@@ -92,11 +94,9 @@ class GoalState:
         ok = np.ones(np.shape(x), dtype=bool)
         for window, value in ((self.time, t), (self.velocity, v)):
             if window is not None:
-                ok &= (value >= window.lo - _TOLERANCE) & (value <= window.hi + _TOLERANCE)
+                ok &= window.contains(value)
         if self.orientation is not None:
-            centre = 0.5 * (self.orientation.lo + self.orientation.hi)
-            closest = yaw + 2 * math.pi * np.round((centre - yaw) / (2 * math.pi))
-            ok &= (closest >= self.orientation.lo - _TOLERANCE) & (closest <= self.orientation.hi + _TOLERANCE)
+            ok &= _heading_in(self.orientation, yaw)
         if self.position is not None and ok.any():
             ok[ok] = shapely.contains_xy(self._area, x[ok], y[ok])
         return ok
