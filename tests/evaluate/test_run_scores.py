@@ -8,6 +8,11 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+import pytest
+from commonroad.common.util import Interval
+from commonroad.geometry.shape import Rectangle
+from commonroad.planning.goal import GoalRegion
+from commonroad.scenario.state import CustomState
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 
 from cosim.real_like import DT, box_goal, highway, recorded_car, start
@@ -93,3 +98,19 @@ def test_a_planner_that_drives_off_the_road_scores_zero(tmp_path):
     saved = json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]
     assert saved["score"] == 0.0 and saved["solution_valid"] is False and saved["solution_cost"] > 0
     assert Path(tmp_path / "run" / "solution.xml").is_file()
+
+
+@pytest.mark.parametrize("speed", [0.0, 5.0])
+def test_without_a_route_to_the_goal_standing_or_driving_away_makes_no_progress(speed):
+    # the goal lies behind the start on a one-way road: no lanelet route leads to it (the Frenet
+    # planner refuses the problem); a planner that stands or drives on closes no distance to it
+    scenario = highway(lanes=1, length=200, segments=2)
+    goal = GoalRegion([CustomState(time_step=Interval(0, 100), position=Rectangle(10.0, 3.0, np.array([20.0, 1.75])))])
+    problems = PlanningProblemSet([PlanningProblem(1, start(150.0, 0, speed), goal)])
+    agents = agents_from_problems(problems, DT, load_vehicle("sedan"))
+    run = simulate(scenario, problems, IdealBackend(), agents, {1: Cruise(speed)}, CosimSettings(max_time_s=6.0))
+    assert run.agents[0].outcome == Outcome.TIMEOUT
+    score = closed_loop_scores(run, scenario, problems, CosimSettings())[1]
+    assert score.measures["goal_progress_m"] == pytest.approx(125.0)
+    assert score.measures["progress_m"] == pytest.approx(-speed * 6.0, abs=0.01)
+    assert score.components["making_progress"] == 0.0 and score.score == 0.0

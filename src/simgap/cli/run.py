@@ -196,11 +196,12 @@ def _validity(valid: bool | None) -> str:
 def score_lines(a: AgentOutcome) -> list[str]:
     """What an agent's score and cost are made of, in a line each."""
     if a.score is None:
-        return []
-    outside = [k.removesuffix("_within") for k, v in a.score_measures.items() if k.endswith("_within") and not v]
-    lost = [f"{name} {value:.3g}" + (f" ({', '.join(outside)} beyond bounds)" if name == "comfort" and outside else "")
-            for name, value in a.score_components.items() if value < 1.0]
-    lines = [f"agent {a.id}: score {a.score:.3f}" + (f", lost on {', '.join(lost)}" if lost else ", nothing lost")]
+        lines = [f"agent {a.id}: no score (it drove no step)"]
+    else:
+        outside = [k.removesuffix("_within") for k, v in a.score_measures.items() if k.endswith("_within") and not v]
+        lost = [f"{name} {value:.3g}" + (f" ({', '.join(outside)} beyond bounds)" if name == "comfort" and outside
+                                         else "") for name, value in a.score_components.items() if value < 1.0]
+        lines = [f"agent {a.id}: score {a.score:.3f}" + (f", lost on {', '.join(lost)}" if lost else ", nothing lost")]
     if a.solution_partial_costs:
         terms = ", ".join(f"{name} {c.weighted:.0f} ({c.cost:.3g} x {c.weight:g})"
                           for name, c in a.solution_partial_costs.items())

@@ -18,9 +18,10 @@ Weighted terms:
 
 - ``progress``: progress along the route's lane centre over the progress to the goal (nuPlan
   compares with an expert's progress; the planning problem's goal stands in for the expert: its
-  position's nearest point along the route; 1 when the goal is reached or the agent has no route),
-  max(progress, floor) / max(goal progress, floor), capped at 1, 0 when it drove backwards
-  further than the floor;
+  position's nearest point along the route; 1 when the goal is reached; without a route on the
+  lanelets, the distance closed towards the goal's position over its distance from the start, and
+  1 when the goal has no position), max(progress, floor) / max(goal progress, floor), capped at 1,
+  0 when it drove backwards (or away from the goal) further than the floor;
 - ``time_to_collision``: 1 when the TTC (`simgap.evaluate.time_to_collision`) stays above
   ``min_time_to_collision_s`` at every step, else 0;
 - ``speed_limit``: 1 - (time integral of the speed above the lanelet's limit) / (``overspeed_scale_m_s``
@@ -47,6 +48,7 @@ from simgap.evaluate.road_users import RoadUser, RoadUserKind, road_users
 from simgap.evaluate.route_centre import route_centre
 from simgap.scenario.road_frame import footprint
 from simgap.evaluate.time_to_collision import time_to_collision
+from simgap.scenario.goal import Goal
 from simgap.trajectory import Trajectory
 
 #: component -> (role, meaning); the multipliers first, then the weighted terms
@@ -212,15 +214,31 @@ class _AgentScorer:
         return direction_multiplier(worst, self.settings)
 
     def _progress_ratio(self) -> float:
-        frame = route_centre(self.lanes.network, self.problem) if self.problem is not None else None
-        if self.outcome.outcome == Outcome.GOAL_REACHED or frame is None:
+        measured = None if self.outcome.outcome == Outcome.GOAL_REACHED else self._progress()
+        if measured is None:
             self.measures["progress_ratio"] = 1.0
             return 1.0
-        s, _ = frame.project(np.column_stack([self.driven.x[[0, -1]], self.driven.y[[0, -1]]]))
-        progress, goal = float(s[1] - s[0]), _goal_progress(self.problem, frame, float(s[0]))
+        progress, goal = measured
         ratio = progress_ratio(progress, goal, self.settings.progress_floor_m)
         self.measures |= {"progress_m": progress, "goal_progress_m": goal, "progress_ratio": ratio}
         return ratio
+
+    def _progress(self) -> tuple[float, float] | None:
+        """(progress made, progress to the goal) [m]: along the route's lane centre; without a route
+        on the lanelets (the agent's planner may still drive), the distance closed towards the goal's
+        position and its distance from the start; None when neither can be measured."""
+        if self.problem is None:
+            return None
+        first, last = self.driven[0], self.driven[len(self.driven) - 1]
+        frame = route_centre(self.lanes.network, self.problem)
+        if frame is not None:
+            s, _ = frame.project(np.array([[first.x, first.y], [last.x, last.y]]))
+            return float(s[1] - s[0]), _goal_progress(self.problem, frame, float(s[0]))
+        positioned = [gs for gs in Goal.of(self.problem.goal, self.run.dt).states if gs.position is not None]
+        if not positioned:
+            return None
+        goal = min(gs.distance_from_position(first.x, first.y) for gs in positioned)
+        return goal - min(gs.distance_from_position(last.x, last.y) for gs in positioned), goal
 
     def _time_to_collision(self, collisions: list[Collision]) -> float:
         st = self.settings
@@ -266,11 +284,11 @@ class _AgentScorer:
 
 def closed_loop_scores(run: Run, scenario: Scenario, problems: PlanningProblemSet,
                        cosim: CosimSettings) -> dict[int, ClosedLoopScore]:
-    """Every agent's closed-loop score."""
+    """Every agent's closed-loop score (none for an agent that drove no step: its run failed before)."""
     lanes = LaneOccupancy(scenario.lanelet_network)
     users = road_users(run, scenario)
     return {a.id: _AgentScorer(run, a, problems.planning_problem_dict.get(a.id), lanes, users, cosim).score()
-            for a in run.agents if a.id in run.driven}
+            for a in run.agents if a.id in run.driven and len(run.driven[a.id]) > 1}
 
 
 # ------------------------------------------------------------------------------ across fidelities
