@@ -29,6 +29,15 @@ def test_malformed_xml_is_refused(tmp_path, text):
     assert err.value.file == str(path) and "CommonRoad XML" in err.value.allowed
 
 
+def test_a_file_of_an_older_commonroad_format_is_refused_naming_its_version(tmp_path):
+    path = tmp_path / "GER_A9_2a.xml"
+    path.write_text('<?xml version="1.0"?>\n<commonRoad commonRoadVersion="2017a" benchmarkID="GER_A9_2a"></commonRoad>')
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == "commonRoadVersion"
+    assert "format 2017a" in str(err.value) and "2018b or 2020a" in err.value.allowed
+
+
 def test_a_missing_file_is_refused(tmp_path):
     with pytest.raises(InputError, match="no such scenario file"):
         load_scenario(tmp_path / "missing.xml")

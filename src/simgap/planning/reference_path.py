@@ -193,8 +193,8 @@ def lanelet_routes(lanelet_network: LaneletNetwork, planning_problem: PlanningPr
             candidate = candidate or _snapped_to_lanelet(network, planning_problem)
             if candidate is None:
                 break
-            try:
-                routes = RoutePlanner(network, candidate, logging_level=logging.ERROR).plan_routes()
+            try:    # its errors are logged as it raises them: the raised one is reported, in our words
+                routes = RoutePlanner(network, candidate, logging_level=logging.CRITICAL).plan_routes()
             except Exception as exc:  # noqa: BLE001 - the route planner raises many kinds
                 first = first or _readable(exc)
                 continue

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from xml.etree import ElementTree
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,17 @@ from simgap.scenario.templates import ConcreteScenario
 
 
 XML_PRECISION = 8  # decimals written for coordinates: a written file reloads equal to 1e-8 m
+READ_FORMATS = ("2018b", "2020a")   # the CommonRoad formats commonroad-io 2024.3 reads
+
+
+def _format_version(path: Path) -> str | None:
+    """The ``commonRoadVersion`` of the file's root element (None: not XML, or no such attribute)."""
+    try:
+        for _, root in ElementTree.iterparse(path, events=("start",)):
+            return root.get("commonRoadVersion")
+    except ElementTree.ParseError:
+        return None
+    return None
 
 
 def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, source: str = "simgap") -> None:
@@ -49,13 +61,17 @@ def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenar
     path = Path(path)
     if not path.is_file():
         raise InputError("no such scenario file", file=path, allowed="a CommonRoad XML file")
+    version = _format_version(path)
+    if version is not None and version not in READ_FORMATS:
+        raise InputError(f"CommonRoad format {version}, which commonroad-io 2024.3 does not read", file=path,
+                         field="commonRoadVersion", allowed=f"{' or '.join(READ_FORMATS)}; convert older files first")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             scenario, problems = CommonRoadFileReader(str(path)).open()
     except Exception as exc:  # the reader raises many kinds on malformed input
         raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
-                         file=path, allowed="CommonRoad XML (2020a format)") from None
+                         file=path, allowed=f"CommonRoad XML ({' or '.join(READ_FORMATS)} format)") from None
     if needs_problems and (problems is None or not problems.planning_problem_dict):
         raise InputError("the scenario has no planning problems, so there is no agent to run",
                          file=path, field="planningProblem", allowed="one or more planning problems")
