@@ -72,6 +72,15 @@ def test_a_miss_is_judged_at_the_time_window_not_at_the_early_arrival():
     assert Goal.of(region, DT).miss_reason(away).startswith("never inside the goal position (6.0 m from it")
 
 
+def test_a_goal_never_entered_is_missed_by_the_closest_approach():
+    # stop in a box 100 m ahead within 20 s; the car starts at rest (inside the velocity window) and
+    # drives towards it at 4 m/s (outside): the miss is how close it came, at the end, not at the start
+    region = GoalRegion([CustomState(time_step=Interval(0, 200), velocity=Interval(0.0, 0.1),
+                                     position=Rectangle(10.0, 3.5, np.array([100.0, 0.0])))])
+    driven = [State(t=k * DT, x=4.0 * k * DT, y=0.0, yaw=0.0, v=0.0 if k == 0 else 4.0) for k in range(201)]
+    assert Goal.of(region, DT).miss_reason(driven).startswith("never inside the goal position (15.0 m from it at t = 20.0 s")
+
+
 def test_shapes_become_oriented_boxes():
     assert box_of(Rectangle(4.0, 2.0)) .length == pytest.approx(4.0)
     circle = box_of(Circle(0.5, np.array([1.0, 0.0])))

@@ -212,8 +212,11 @@ def _judged(gs: GoalState, driven: Sequence[State]) -> tuple[tuple[int, float], 
             return (1, 0.0), f"inside the goal position at t = {inside.t:.1f} s but {ended}"
         rank, st, missed = closest(in_window, "time")
         if "position" in missed and all("position" in gs.misses(other) for other in driven):
-            return rank, (f"never inside the goal position ({rank[1]:.1f} m from it at t = {st.t:.1f} s, "
-                          f"in the time window {window})")
+            # the closest approach, whatever else it missed there
+            nearest = min(in_window, key=lambda other: gs.distance_from_position(other.x, other.y))
+            gap = gs.distance_from_position(nearest.x, nearest.y)
+            return (rank[0], gap), (f"never inside the goal position ({gap:.1f} m from it at t = {nearest.t:.1f} s, "
+                                    f"in the time window {window})")
         where = "outside the goal position:" if "position" in missed else "inside the goal position but"
         return rank, f"in the time window {window} at t = {st.t:.1f} s {where} {gs.describe_misses(st, missed)}"
     inside = [st for st in driven if "position" not in gs.misses(st)]
