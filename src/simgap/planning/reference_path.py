@@ -120,8 +120,9 @@ def _planners_path(network: LaneletNetwork, planning_problem: PlanningProblem, r
         if len(routes) == 1:        # the route planner's choice of one route is that route
             path = _route_planner_path(network, ids)
         else:
+            # it logs an error where no route is 'well oriented' and returns the first: checked below
             route = ReferencePathPlanner(network, planning_problem, routes,
-                                         logging_level=logging.ERROR).plan_shortest_reference_path()
+                                         logging_level=logging.CRITICAL).plan_shortest_reference_path()
             if tuple(int(i) for i in route.lanelet_ids) != ids:
                 return None
             path = route.reference_path
