@@ -43,11 +43,16 @@ def _blob(clone: Path, commit: str, path: str) -> bytes | None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--manifest", type=Path, default=MANIFEST,
+                        help=f"the corpus to gather (default {MANIFEST.name}; bench/heldout_corpus.yaml is the held-out one)")
+    parser.add_argument("--split", default=None, help="only the files of this split (heldout_corpus.yaml: development, held_out)")
     parser.add_argument("--repos", type=Path, required=True, help="folder of the source repositories' clones")
     parser.add_argument("--out", type=Path, help="folder to gather the corpus into")
     parser.add_argument("--clone-commands", action="store_true", help="print the git clone commands needed, and stop")
     args = parser.parse_args()
-    files = yaml.safe_load(MANIFEST.read_text())["files"]
+    files = [f for f in yaml.safe_load(args.manifest.read_text())["files"] if args.split in (None, f.get("split"))]
+    if not files:
+        parser.error(f"--split: no file of split {args.split!r} in {args.manifest}")
     sources = sorted({f["source_repo"] for f in files})
     if args.clone_commands:
         for source in sources:

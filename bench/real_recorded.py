@@ -5,7 +5,9 @@ The corpus is a folder of public CommonRoad files with recorded traffic (highD, 
 NGSIM, INTERACTION, the CommonRoad "T" scenarios); `bench/recorded_corpus.yaml` names each file's
 source, licence and kind. The files are not shipped (most licences forbid it) and nothing is
 downloaded: gather them once into a folder from clones of their repositories
-(`bench/gather_recorded.py`, which checks each file's sha256) and pass it with ``--files``. Files the manifest does not list run as kind ``other``.
+(`bench/gather_recorded.py`, which checks each file's sha256) and pass it with ``--files``. Files
+the manifest does not list run as kind ``other``. `bench/heldout_corpus.yaml` (``--manifest``) is a
+second corpus, kept apart to tell how far what was tuned on the first carries.
 
 An agent whose footprint at t = 0 already overlaps a recorded road user, or overhangs the road
 (beyond the loop's off-road tolerance), starts in a collision: it is excluded from the rates and
@@ -15,6 +17,7 @@ none).
     MUJOCO_GL=egl .venv/bin/python bench/real_recorded.py --files DIR --worlds ideal mujoco --workers 2
     .venv/bin/python bench/real_recorded.py --files DIR --worlds ideal --only ZAM_Tjunction-1_23_T-1
     .venv/bin/python bench/real_recorded.py --files DIR --kind highway --json results.json
+    .venv/bin/python bench/real_recorded.py --manifest bench/heldout_corpus.yaml --files HELDOUT --workers 2
 """
 
 from __future__ import annotations
@@ -48,11 +51,11 @@ class AgentResult:
     human: str = ""          # how the recorded human driver it replaces did ("" when the file has none)
 
 
-def manifest_kinds() -> dict[str, str]:
+def manifest_kinds(manifest: Path = MANIFEST) -> dict[str, str]:
     """File stem -> kind, from the manifest (empty when there is none)."""
-    if not MANIFEST.exists():
+    if not manifest.exists():
         return {}
-    entries = yaml.safe_load(MANIFEST.read_text()).get("files", [])
+    entries = yaml.safe_load(manifest.read_text()).get("files", [])
     return {Path(e["file"]).stem: e.get("kind", "other") for e in entries}
 
 
@@ -166,11 +169,13 @@ def main() -> None:
     parser.add_argument("--planner", default="frenet", help="the planner of every agent (as simgap run --planner)")
     parser.add_argument("--planner-config", type=Path, default=None, help="its settings (YAML)")
     parser.add_argument("--json", type=Path, default=None, help="also write every result to this JSON file")
+    parser.add_argument("--manifest", type=Path, default=MANIFEST,
+                        help=f"the corpus's manifest, for each file's kind (default {MANIFEST.name})")
     args = parser.parse_args()
     if args.files is None or not Path(args.files).is_dir():
         sys.exit(f"--files: a folder of recorded CommonRoad files is needed (got {args.files}); "
-                 f"{MANIFEST.name} names each file's source")
-    kinds = manifest_kinds()
+                 f"{args.manifest.name} names each file's source")
+    kinds = manifest_kinds(args.manifest)
     files = sorted(Path(args.files).rglob("*.xml"), key=lambda p: p.stem)
     files = [p for p in files if (args.only is None or p.stem in args.only)
              and (args.kind is None or kinds.get(p.stem, "other") in args.kind)]
