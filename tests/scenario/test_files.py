@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+from commonroad.geometry.shape import Rectangle
 from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.prediction.prediction import Occupancy, SetBasedPrediction, TrajectoryPrediction
+from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, PhantomObstacle
+from commonroad.scenario.state import InitialState, LateralState
+from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
 from simgap.errors import InputError
 from simgap.scenario import build_scenario, load_scenario
 from simgap.scenario.files import write_xml
+from simgap.scenario.obstacles import recorded_obstacles
 
 
 def test_a_file_without_planning_problems_is_refused(tmp_path):
@@ -36,6 +43,37 @@ def test_a_file_of_an_older_commonroad_format_is_refused_naming_its_version(tmp_
         load_scenario(path)
     assert err.value.file == str(path) and err.value.field == "commonRoadVersion"
     assert "format 2017a" in str(err.value) and "2018b or 2020a" in err.value.allowed
+
+
+def test_an_obstacle_recorded_without_positions_is_refused_naming_it(tmp_path):
+    # commonroad-io reads trajectories of lateral states (offset, heading, curvature), which place
+    # nothing on the map
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    shape = Rectangle(4.5, 1.8)
+    initial = InitialState(time_step=0, position=np.array([5.0, 0.0]), orientation=0.0, velocity=5.0,
+                           acceleration=0.0, yaw_rate=0.0, slip_angle=0.0)
+    lateral = [LateralState(time_step=k, lateral_position=0.0, orientation=0.0, curvature=0.0, curvature_rate=0.0)
+               for k in range(1, 4)]
+    concrete.scenario.add_objects(DynamicObstacle(7, ObstacleType.CAR, shape, initial,
+                                                  TrajectoryPrediction(CrTrajectory(1, lateral), shape)))
+    path = tmp_path / "lateral.xml"
+    write_xml(concrete.scenario, concrete.problems, path)
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == "obstacle 7"
+    assert "without a position (time step 1)" in str(err.value)
+
+
+def test_a_phantom_obstacle_is_read_and_left_out_of_the_traffic(tmp_path):
+    # an occluded road user that may be there (a set-based occupancy without an initial state)
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    occupancy = [Occupancy(k, Rectangle(4.5, 1.8, np.array([20.0 + k, 0.0]))) for k in range(1, 4)]
+    concrete.scenario.add_objects(PhantomObstacle(77, SetBasedPrediction(1, occupancy)))
+    path = tmp_path / "phantom.xml"
+    write_xml(concrete.scenario, concrete.problems, path)
+    scenario, _ = load_scenario(path)
+    assert [o.obstacle_id for o in scenario.phantom_obstacle] == [77]
+    assert 77 not in {o.id for o in recorded_obstacles(scenario)}
 
 
 def test_a_missing_file_is_refused(tmp_path):

@@ -11,6 +11,7 @@ from typing import Any
 from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistingFile
 from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.scenario import Location, Scenario
 
 from simgap.errors import InputError
@@ -72,10 +73,28 @@ def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenar
     except Exception as exc:  # the reader raises many kinds on malformed input
         raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
                          file=path, allowed=f"CommonRoad XML ({' or '.join(READ_FORMATS)} format)") from None
+    _check_obstacles_are_placed(scenario, path)
     if needs_problems and (problems is None or not problems.planning_problem_dict):
         raise InputError("the scenario has no planning problems, so there is no agent to run",
                          file=path, field="planningProblem", allowed="one or more planning problems")
     return scenario, problems
+
+
+def _check_obstacles_are_placed(scenario: Scenario, path: Path) -> None:
+    """Every state of a static or dynamic obstacle (the road users simgap places; phantom
+    obstacles, occluded road users that may be there, are not) has a position: a recording in
+    curvilinear states alone (offset, curvature: commonroad-io reads them) cannot be placed."""
+    for obstacle in [*scenario.static_obstacles, *scenario.dynamic_obstacles]:
+        prediction = getattr(obstacle, "prediction", None)
+        states = [obstacle.initial_state, *(prediction.trajectory.state_list
+                                            if isinstance(prediction, TrajectoryPrediction) else [])]
+        unplaced = next((st for st in states if getattr(st, "position", None) is None), None)
+        if unplaced is not None:
+            raise InputError(f"obstacle {obstacle.obstacle_id} has a state without a position (time step "
+                             f"{getattr(unplaced, 'time_step', '?')}), so it cannot be placed on the map",
+                             file=path, field=f"obstacle {obstacle.obstacle_id}",
+                             allowed="states with a position (point or shape), as every state type but the "
+                                     "lateral and longitudinal ones has")
 
 
 def read_metadata(xml_path: str | Path) -> dict[str, Any]:
