@@ -12,8 +12,8 @@ import pytest
 from commonroad.common.util import Interval
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
-from commonroad.scenario.state import CustomState
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
+from commonroad.scenario.state import CustomState
 
 from cosim.real_like import DT, box_goal, highway, recorded_car, start
 from simgap.cosim import CosimSettings, Outcome, simulate

@@ -234,11 +234,11 @@ class _AgentScorer:
         if frame is not None:
             s, _ = frame.project(np.array([[first.x, first.y], [last.x, last.y]]))
             return float(s[1] - s[0]), _goal_progress(self.problem, frame, float(s[0]))
-        positioned = [gs for gs in Goal.of(self.problem.goal, self.run.dt).states if gs.position is not None]
-        if not positioned:
+        goal = Goal.of(self.problem.goal, self.run.dt)
+        away = goal.distance_from_position(first.x, first.y)
+        if away is None:
             return None
-        goal = min(gs.distance_from_position(first.x, first.y) for gs in positioned)
-        return goal - min(gs.distance_from_position(last.x, last.y) for gs in positioned), goal
+        return away - goal.distance_from_position(last.x, last.y), away
 
     def _time_to_collision(self, collisions: list[Collision]) -> float:
         st = self.settings

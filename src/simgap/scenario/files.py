@@ -26,11 +26,10 @@ READ_FORMATS = ("2018b", "2020a")   # the CommonRoad formats commonroad-io 2024.
 def _format_version(path: Path) -> str | None:
     """The ``commonRoadVersion`` of the file's root element (None: not XML, or no such attribute)."""
     try:
-        for _, root in ElementTree.iterparse(path, events=("start",)):
-            return root.get("commonRoadVersion")
-    except ElementTree.ParseError:
+        _, root = next(ElementTree.iterparse(path, events=("start",)))
+    except (ElementTree.ParseError, StopIteration):
         return None
-    return None
+    return root.get("commonRoadVersion")
 
 
 def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, source: str = "simgap") -> None:

@@ -162,6 +162,12 @@ class Goal:
             ok |= gs.reached_at(t, x, y, yaw, v)
         return ok
 
+    def distance_from_position(self, x: float, y: float) -> float | None:
+        """How far [m] the point (x, y) lies from the nearest goal state's position (None: no goal
+        state bounds the position)."""
+        distances = [gs.distance_from_position(x, y) for gs in self.states if gs.position is not None]
+        return min(distances) if distances else None
+
     @property
     def deadline_s(self) -> float | None:
         """The latest end of the goal states' time windows (None: no time bound)."""
@@ -213,9 +219,8 @@ def _judged(gs: GoalState, driven: Sequence[State]) -> tuple[tuple[int, float], 
         rank, st, missed = closest(in_window, "time")
         if "position" in missed and all("position" in gs.misses(other) for other in driven):
             # the closest approach, whatever else it missed there
-            nearest = min(in_window, key=lambda other: gs.distance_from_position(other.x, other.y))
-            gap = gs.distance_from_position(nearest.x, nearest.y)
-            return (rank[0], gap), (f"never inside the goal position ({gap:.1f} m from it at t = {nearest.t:.1f} s, "
+            gap, t = min((gs.distance_from_position(other.x, other.y), other.t) for other in in_window)
+            return (rank[0], gap), (f"never inside the goal position ({gap:.1f} m from it at t = {t:.1f} s, "
                                     f"in the time window {window})")
         where = "outside the goal position:" if "position" in missed else "inside the goal position but"
         return rank, f"in the time window {window} at t = {st.t:.1f} s {where} {gs.describe_misses(st, missed)}"
