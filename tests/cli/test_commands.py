@@ -220,7 +220,7 @@ def test_reality_knobs_on_the_command_line(tmp_path):
     assert proc.returncode == 0, proc.stderr
     saved = json.loads((tmp_path / "r" / "run.json").read_text())
     assert saved["settings"]["backend"]["steer_delay"] == 0.05
-    assert saved["settings"]["cosim"]["observation_noise"]["position_m"] == 0.05
+    assert saved["settings"]["cosim"]["sensing"]["position_noise_m"] == 0.05
 
 
 @pytest.mark.parametrize("args, fragments", [

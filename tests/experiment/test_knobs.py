@@ -18,15 +18,19 @@ from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
 
 
+PERFECT_MACHINE = {"realism": "ideal"}     # each knob is measured against a car that has no other defect
+
+
 def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0):
     scenario, problems = concrete.scenario, concrete.problems
+    settings = PERFECT_MACHINE | (settings or {})
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, scenario.dt, sedan)
     planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
     run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
                    CosimSettings(**(cosim or {})), seed=seed)
-    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings or {}))
+    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings))
 
 
 @pytest.fixture(scope="module")
@@ -85,8 +89,10 @@ def test_pedal_delay_makes_the_car_late_on_its_speed_plan(sharp_curve):
 
 
 def test_observation_noise_moves_the_car_off_its_lane_centre(sharp_curve):
-    _, clean = drive(sharp_curve, "dynamic")
-    _, noisy = drive(sharp_curve, "dynamic", cosim={"observation_noise": {"position_m": 0.2}}, seed=3)
+    real = {"realism": "real", "steer_delay": 0.0, "steer_lag": 0.0, "pedal_delay": 0.0, "pedal_lag": 0.0}
+    _, clean = drive(sharp_curve, "dynamic", real, cosim={"sensing": {"profile": "perfect"}, "latency": 0})
+    _, noisy = drive(sharp_curve, "dynamic", real, cosim={"sensing": {"profile": "perfect", "position_noise_m": 0.2},
+                                                          "latency": 0}, seed=3)
     assert noisy["max_lateral_offset_m"] > clean["max_lateral_offset_m"] + 0.05
 
 
@@ -106,14 +112,16 @@ def test_bank_pushes_the_car_downhill_and_grade_slows_it():
 
 
 def test_knobs_go_where_they_apply():
-    values = {"road_friction": 0.4, "steer_delay": 0.1, "position_noise": 0.2, "road_bank": 5.0, "pedal_delay": 0.0}
+    values = {"road_friction": 0.4, "steer_delay": 0.1, "position_noise": 0.2, "road_bank": 5.0, "pedal_delay": 0.0,
+              "latency": 0.05}
     assert apply_knobs("ideal", values) == ({}, {})
-    assert apply_knobs("dynamic", values) == ({"road_friction": 0.4, "steer_delay": 0.1},
-                                              {"observation_noise": {"position_m": 0.2}})
+    # a knob at the ideal world's value is set too: the physical worlds' default is the vehicle's
+    assert apply_knobs("dynamic", values) == ({"road_friction": 0.4, "steer_delay": 0.1, "pedal_delay": 0.0},
+                                              {"sensing": {"position_noise_m": 0.2}, "latency": 0.05})
     settings, _ = apply_knobs("mujoco", values)
-    assert settings == {"road_friction": 0.4, "steer_delay": 0.1, "road_bank": 5.0}
-    for knob in KNOBS.values():                 # every default is inside its allowed range
-        assert knob.low <= knob.default <= knob.high and knob.unit and knob.meaning
+    assert settings == {"road_friction": 0.4, "steer_delay": 0.1, "road_bank": 5.0, "pedal_delay": 0.0}
+    for knob in KNOBS.values():                 # every nominal value is inside its allowed range
+        assert knob.low <= knob.nominal <= knob.high and knob.unit and knob.meaning
 
 
 def test_the_readme_table_of_knobs_is_the_knob_table():

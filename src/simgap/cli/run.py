@@ -22,6 +22,7 @@ from simgap.files import read_model, read_yaml_mapping
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings
 from simgap.vehicles import DEFAULT_VEHICLE
 
@@ -45,6 +46,9 @@ def run(
     controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
     physics_hz: Optional[float] = typer.Option(None, help="physics rate [Hz] (mujoco, >= 200, a multiple of the "
                                                "controller rate)"),
+    realism: Optional[Realism] = typer.Option(None, help="physics backends: real (default: the vehicle's measured "
+                                              "actuators, a drifting localisation, compute latency) or ideal (a "
+                                              "perfect machine: the ideal world's assumptions on a physical car)"),
     road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
     offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
     knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
@@ -75,9 +79,10 @@ def run(
 
     Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
     (your planner: --planner my_planner.py:MyPlanner; a planner per agent: --planner 1=frenet,2=my_planner)
-    (on snow, with a late steering: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.1)
+    (on snow, with a later steering than the car's: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.3)
+    (the perfect machine of the ideal world's assumptions, in 3D: --backend mujoco --realism ideal)
     """
-    physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
+    physical = {"realism": realism, "controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
     scoring = {"score": read_model(score_config, ScoreSettings, "score settings file", empty_ok=True)} \

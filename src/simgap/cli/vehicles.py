@@ -57,7 +57,8 @@ def catalogue(ctx: typer.Context) -> None:
 @vehicles_app.command()
 def show(name: str = typer.Argument(..., help="catalogue name or path of a vehicle data file"),
          as_yaml: Optional[bool] = typer.Option(False, "--yaml", help="print the data file's content as YAML")) -> None:
-    """Print one vehicle: every parameter with its unit and source.
+    """Print one vehicle: every parameter with its unit and source, its actuators' dead times and
+    lags among them (the steering's angle and rate limits are physics.steering's).
 
     Example: simgap vehicles show sedan
     """
@@ -80,6 +81,10 @@ def show(name: str = typer.Argument(..., help="catalogue name or path of a vehic
     notes: list[str] = []
     if v.physics is not None:
         _add_model_rows(table, "physics", v.physics, notes)
+    if v.actuators is not None:
+        _add_model_rows(table, "actuators", v.actuators, notes)
+    else:
+        notes.append("actuators: none in the data file: steering, drive and brakes act at once")
     for controller, gains in v.controllers.items():
         table.add_row(f"controllers.{controller}", str(gains), "gains overriding the defaults")
     console.print(table)

@@ -1,48 +1,93 @@
-"""Actuator delay: a reality knob. Real steering and powertrain/brake systems act some time after
-they are asked to; the ideal world assumes they act at once.
+"""Delay compensation: a controller that knows its car's actuators are late steers the car it will
+have when its command acts, not the one it measures now — as Autoware's MPC (``input_delay``,
+``vehicle_model_steer_tau``) and openpilot's controls (``steerActuatorDelay``) do.
 
-`DelayedActuators` wraps any controller and delivers each channel's command a whole number of
-controller periods late (a pure transport delay, rounded to the controller's rate): the steering
-request after ``steer_delay_s``, throttle and brake after ``pedal_delay_s``. Until the first
-request comes through, the steering holds the angle it had at reset and the pedals are released.
+`DelayCompensation` wraps any tracking controller. It mirrors the car's actuators
+(`simgap.vehicles.actuators.ActuatorResponses`) with the commands it has sent, and each period
+predicts the measured state forward over the steering's effective delay (dead time + lag): the
+road-wheel angle from the requests already in flight, the pose by a kinematic single-track model,
+the speed with the measured acceleration. The wrapped controller then commands from that
+predicted state at that later time. With ideal actuators there is nothing to compensate and the
+controller is used as it is (`compensated`).
 """
 
 from __future__ import annotations
 
-from collections import deque
+import math
 
 from simgap.control.protocol import Command, Controller
 from simgap.trajectory import State, Trajectory
+from simgap.vehicles.actuators import Actuators, ActuatorResponses
 
 
-class DelayedActuators:
-    """``controller`` with its steering and pedal commands delayed (see the module doc)."""
+class DelayCompensation:
+    """``controller`` commanding from the state predicted over the actuators' delay."""
 
-    def __init__(self, controller: Controller, steer_delay_s: float = 0.0, pedal_delay_s: float = 0.0):
-        if steer_delay_s < 0 or pedal_delay_s < 0:
-            raise ValueError("actuator delays must be >= 0")
-        self.controller = controller
+    def __init__(self, controller: Controller, actuators: Actuators, wheelbase: float, rear_axle_to_center: float):
+        self.controller, self.actuators = controller, actuators
         self.rate_hz = controller.rate_hz
-        self.steer_ticks = round(steer_delay_s * self.rate_hz)
-        self.pedal_ticks = round(pedal_delay_s * self.rate_hz)
-        self._steer: deque[float] = deque()
-        self._pedals: deque[tuple[float, float]] = deque()
+        self.period = 1.0 / self.rate_hz
+        self.wheelbase, self.rear_axle_to_center = wheelbase, rear_axle_to_center
+        steering = actuators.steering
+        self.dead_ticks = int(round(steering.dead_time / self.period))
+        lag = steering.time_constant if steering.order == 1 else \
+            2.0 * steering.damping_ratio / steering.natural_frequency if steering.order == 2 else 0.0
+        self.lag_ticks = int(round(lag / self.period))
+        self.horizon = (self.dead_ticks + self.lag_ticks) * self.period
+        self._mirror = ActuatorResponses(actuators, self.period)
 
     def reset(self, state: State) -> None:
         self.controller.reset(state)
-        self._steer = deque([state.steer] * self.steer_ticks)
-        self._pedals = deque([(0.0, 0.0)] * self.pedal_ticks)
+        self._mirror = ActuatorResponses(self.actuators, self.period, state.steer)
 
     def command(self, measured: State, plan: Trajectory, t: float) -> Command:
-        asked = self.controller.command(measured, plan, t)
-        self._steer.append(asked.steer)
-        self._pedals.append((asked.throttle, asked.brake))
-        throttle, brake = self._pedals.popleft()
-        return Command(steer=self._steer.popleft(), throttle=throttle, brake=brake)
+        asked = self.controller.command(self.predict(measured), plan, t + self.horizon)
+        self._mirror.respond(asked.steer, asked.throttle, asked.brake)
+        return asked
+
+    def predict(self, measured: State) -> State:
+        """``measured`` carried forward over the horizon: the steering acts the requests in flight,
+        then holds the last one; the centre follows the arc of the mean kinematic curvature
+        (single-track, sideslip from the steering angle); the speed, the measured acceleration."""
+        n = self.dead_ticks + self.lag_ticks
+        if n == 0:
+            return measured
+        steer, tan_sum = self._steering_ahead(n)
+        horizon, wheelbase = self.horizon, self.wheelbase
+        v = measured.v
+        v_end = max(0.0, v + measured.a * horizon)
+        travel = 0.5 * (v + v_end) * horizon
+        turn = travel * tan_sum / (n * wheelbase)                  # yaw change over the horizon
+        slip = math.atan(self.rear_axle_to_center / wheelbase * math.tan(steer))
+        chord = travel * (math.sin(0.5 * turn) / (0.5 * turn) if abs(turn) > 1e-9 else 1.0)
+        heading = measured.yaw + 0.5 * turn + 0.5 * (slip + math.atan(self.rear_axle_to_center / wheelbase
+                                                                      * math.tan(measured.steer)))
+        yaw = (measured.yaw + turn + math.pi) % (2.0 * math.pi) - math.pi
+        return State(measured.t + horizon, measured.x + chord * math.cos(heading), measured.y + chord * math.sin(heading),
+                     yaw, v_end, measured.a, v_end * math.tan(steer) / wheelbase, steer)
+
+    def _steering_ahead(self, n: int) -> tuple[float, float]:
+        """The road-wheel angle ``n`` periods ahead and the sum of its tangents over them: the
+        requests in flight, then the last one held (a first-order lag inline: a hot path)."""
+        response = self._mirror.steering
+        pending = response.in_flight
+        held = pending[-1] if pending else response.output
+        if response.order == 2:
+            ahead = response.copy()
+            angles = [ahead.step(held) for _ in range(n)]
+            return angles[-1], sum(math.tan(a) for a in angles)
+        alpha = response.alpha if response.order == 1 else 1.0
+        angle, tan_sum, tan = response.output, 0.0, math.tan
+        for k in range(n):
+            angle += alpha * ((pending[k] if k < len(pending) else held) - angle)
+            tan_sum += tan(angle)
+        return angle, tan_sum
 
 
-def with_actuator_delay(controller: Controller, steer_delay_s: float, pedal_delay_s: float) -> Controller:
-    """``controller`` itself when both delays are zero, else wrapped in `DelayedActuators`."""
-    if steer_delay_s == 0 and pedal_delay_s == 0:
+def compensated(controller: Controller, actuators: Actuators, wheelbase: float, rear_axle_to_center: float,
+                compensate: bool = True) -> Controller:
+    """``controller`` itself when the actuators are ideal or compensation is off, else wrapped in
+    `DelayCompensation`."""
+    if actuators.ideal or not compensate:
         return controller
-    return DelayedActuators(controller, steer_delay_s, pedal_delay_s)
+    return DelayCompensation(controller, actuators, wheelbase, rear_axle_to_center)

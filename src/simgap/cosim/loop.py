@@ -10,9 +10,18 @@ The goal is CommonRoad's (`simgap.scenario.goal`): any goal state counts, and th
 window is the agent's deadline. When a planner finds no plan, the agent brakes along the path of
 its last plan (in its lane), and the event records the planner's reason.
 
-Observation noise (a reality knob, off by default as in the ideal world): each time an agent
-plans, it sees its own state with seeded Gaussian noise on position, heading and speed; the
-backend, the record and the monitors keep the true state.
+In a physical world whose realism is ``real`` (the default of the physics backends) two things
+stand between the planner and its car. Sensing: each time an agent plans it sees its own state
+through its localisation (`simgap.cosim.sensing`: drifting errors, an estimate's latency), seeded
+per run and agent; the backend, the record and the monitors keep the true state. Latency: a plan
+made from the state observed at t reaches the car ``latency`` later — a fixed time, or the
+planner's own compute time rounded up to whole planning cycles (``measured``, the default): as in
+a stack that plans in cycles of the scenario's step, a plan drives the car from the cycle after
+the one it was made in, and a planner that overruns its cycle pays a cycle more for each it
+overran. A planner that keeps its cycle runs bit for bit the same; one that overruns it on some
+calls makes the run depend on the machine's speed there (a fixed latency never does). Until a
+plan arrives the car follows the plan it had.
+The ideal world takes neither: it is the planner's assumption.
 """
 
 from __future__ import annotations
@@ -21,7 +30,7 @@ import copy
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import Annotated, Callable, Literal, Mapping
 
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
@@ -30,34 +39,27 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
+from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, PROFILES
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
 from simgap.scenario.road_frame import DrivableArea, footprint
-from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
-from simgap.trajectory import State, Trajectory, wrap_angle
+from simgap.sim.protocol import Agent, Backend, PhysicsDiverged, PlanHandover, PlanInForce, Realism
+from simgap.trajectory import State, Trajectory
 
 
-class ObservationNoise(BaseModel):
-    """Standard deviations of the noise on the state a planner observes (0: none)."""
+MEASURED = "measured"
+Latency = Literal["measured"] | Annotated[float, Field(ge=0.0, le=1.0)]
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
-    position_m: float = Field(0.0, ge=0, le=5.0, description="on x and y, each [m]")
-    yaw_deg: float = Field(0.0, ge=0, le=30.0, description="on the heading [deg]")
-    speed_mps: float = Field(0.0, ge=0, le=5.0, description="on the speed [m/s]")
-
-    @property
-    def active(self) -> bool:
-        return bool(self.position_m or self.yaw_deg or self.speed_mps)
-
-    def observe(self, state: State, rng: np.random.Generator) -> State:
-        if not self.active:
-            return state
-        dx, dy, dyaw, dv = rng.standard_normal(4)
-        return state.replace(x=state.x + self.position_m * dx, y=state.y + self.position_m * dy,
-                             yaw=wrap_angle(state.yaw + math.radians(self.yaw_deg) * dyaw),
-                             v=max(0.0, state.v + self.speed_mps * dv))
+def plan_latency(setting: Latency, compute_s: float, cycle: float) -> float:
+    """How long after its planning time a plan reaches the car: the fixed latency set, or
+    (``measured``) the planner's own compute time rounded up to whole planning cycles (the
+    scenario's step): a plan made within its cycle drives the car from the next one, a plan that
+    overran its cycle one cycle later for each it overran."""
+    if setting == MEASURED:
+        return max(1, math.ceil(compute_s / cycle - 1e-9)) * cycle
+    return float(setting)
 
 
 DEFAULT_TIME_LIMIT_S = 60.0
@@ -79,8 +81,12 @@ class CosimSettings(BaseModel):
     planner_failure_limit: int = Field(
         10, ge=1, description="consecutive failed planning cycles before an agent is given up")
     offroad_tolerance: float = Field(0.05, ge=0, description="footprint may exceed the road by [m]")
-    observation_noise: ObservationNoise = Field(default_factory=ObservationNoise,
-                                                description="noise on the state each planner observes")
+    sensing: SensingSettings = Field(default_factory=SensingSettings,
+                                     description="the localisation each planner observes its car through (physical "
+                                                 "worlds of realism real)")
+    latency: Latency = Field(MEASURED, description="when a plan reaches the car after its planning time: measured "
+                             "(the planner's compute time, rounded up to whole planning cycles of the scenario's "
+                             "step) or a fixed time [s] (physical worlds of realism real)")
     traffic: TrafficMode = Field(TrafficMode.REPLAY, description="recorded traffic: replay (as recorded) or idm "
                                  "(driven along its recorded path by an IDM towards the vehicle ahead)")
     planning_budget_s: float | None = Field(
@@ -100,7 +106,11 @@ class _AgentProgress:
     deadline: float
     driven: list[State] = field(default_factory=list)
     plans: list[Trajectory] = field(default_factory=list)
-    plan: Trajectory | None = None
+    plan: Trajectory | None = None              # the newest plan (what the other agents see)
+    in_force: Trajectory | None = None          # the plan the car follows
+    arriving: list[tuple[float, Trajectory]] = field(default_factory=list)   # plans on their way: (when, plan)
+    latencies: list[float] = field(default_factory=list)
+    localisation: Localisation | None = None
     plan_age: int = 0
     outcome: Outcome | None = None
     time_to_goal: float | None = None
@@ -171,7 +181,7 @@ def simulate(
     seed: int = 0,
 ) -> Run:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``; ``seed``
-    seeds the observation noise."""
+    seeds the localisations' errors."""
     return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed).run(progress)
 
 
@@ -181,7 +191,7 @@ class _CoSimulation:
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
                  planners: Mapping[int, Planner], settings: CosimSettings, seed: int):
         self.scenario, self.backend, self.settings = scenario, backend, settings
-        self.rng = np.random.default_rng(seed)
+        self.realism = backend.realism
         self.dt = float(scenario.dt)
         self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
         self.events: list[Event] = []
@@ -193,6 +203,8 @@ class _CoSimulation:
             problem = problems.planning_problem_dict[a.id]
             goal = Goal.of(problem.goal, self.dt)
             self.progress_of[a.id] = _AgentProgress(a, planners[a.id], problem, goal, deadline(goal, settings))
+            accuracy = settings.sensing.accuracy() if self.realism is Realism.REAL else PROFILES[SensingProfile.PERFECT]
+            self.progress_of[a.id].localisation = Localisation(accuracy, np.random.default_rng((seed, a.id)))
         self.horizon = max(p.deadline for p in self.progress_of.values())
         self.agents = agents
 
@@ -245,7 +257,7 @@ class _CoSimulation:
             self._plan(self.progress_of[aid], state, t, snapshot)
         self.timings["planning"] += time.perf_counter() - clock
         clock = time.perf_counter()
-        states = self.backend.step({aid: p.plan for aid, p in self.progress_of.items()})
+        states = self.backend.step({aid: self._in_force(p, t) for aid, p in self.progress_of.items()})
         self.timings["execution"] += time.perf_counter() - clock
         clock = time.perf_counter()
         self.traffic.advance(t, self.dt, snapshot)
@@ -261,7 +273,8 @@ class _CoSimulation:
         settings, dt = self.settings, self.dt
         if not p.active:
             if p.plan is None or p.plan.t_end < t + dt:
-                p.plan = emergency_stop(state, dt, settings.emergency_decel, path=p.plan)
+                p.plan = p.in_force = emergency_stop(state, dt, settings.emergency_decel, path=p.plan)
+                p.arriving = []
             return
         due = (p.plan is None or p.plan_age >= settings.replan_every
                or p.plan.t_end < t + dt or p.failures_in_row > 0)
@@ -270,7 +283,7 @@ class _CoSimulation:
             return
         world = World(self.scenario.lanelet_network, p.problem.goal, dt,
                       tuple(_traffic_for(p.agent.id, snapshot, self.traffic.participants())))
-        observed = settings.observation_noise.observe(state, self.rng)
+        observed = p.localisation.observe(p.driven, t)
         clock = time.perf_counter()
         try:
             plan = p.planner.plan(observed, t, world)
@@ -289,6 +302,32 @@ class _CoSimulation:
             p.failures_in_row = 0
             p.plan, p.plan_age = plan, 1
             p.plans.append(plan)
+            self._send(p, plan, t, elapsed)
+
+    def _send(self, p: _AgentProgress, plan: Trajectory, t: float, compute_s: float) -> None:
+        """``plan`` (made at ``t``) sets off for the car; it arrives after its latency."""
+        latency = 0.0 if self.realism is Realism.IDEAL else \
+            plan_latency(self.settings.latency, compute_s, self.dt)
+        p.latencies.append(latency)
+        if latency <= 0.0 or p.in_force is None:
+            p.in_force, p.arriving = plan, []
+        else:
+            p.arriving.append((t + latency, plan))
+
+    def _in_force(self, p: _AgentProgress, t: float) -> PlanInForce | None:
+        """What ``p``'s car follows over the step from ``t``: its plan in force, handed over to the
+        last plan that arrives during the step."""
+        dt = self.dt
+        while p.arriving and p.arriving[0][0] <= t + 1e-9:
+            p.in_force = p.arriving.pop(0)[1]
+        during = [(at, plan) for at, plan in p.arriving if at < t + dt - 1e-9]
+        if not during:
+            return p.in_force
+        at, plan = during[-1]
+        handover = PlanHandover(p.in_force, plan, at)
+        p.arriving = [(a, q) for a, q in p.arriving if a > at]
+        p.in_force = plan
+        return handover
 
     def _planner_raised(self, p: _AgentProgress, t: float, exc: Exception) -> None:
         """Count the exception; keep the first few with their tracebacks for the run record."""
@@ -301,8 +340,9 @@ class _CoSimulation:
         p.failures_in_row += 1
         self.events.append(Event(t, p.agent.id, "planner_no_solution", state.x, state.y,
                                  f"{reason}; braking in lane"))
-        if p.failures_in_row == 1:
-            p.plan = emergency_stop(state, self.dt, self.settings.emergency_decel, path=p.plan)
+        if p.failures_in_row == 1:     # the car's own fallback: it acts at once
+            p.plan = p.in_force = emergency_stop(state, self.dt, self.settings.emergency_decel, path=p.plan)
+            p.arriving = []
         p.plan_age = 0
         if p.failures_in_row >= self.settings.planner_failure_limit:
             self._finish(p, Outcome.PLANNER_FAILURE, state,
@@ -366,8 +406,10 @@ class _CoSimulation:
                 distance_m=round(driven.path_length(), 3),
                 min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
                 max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures,
-                planner_exceptions=p.exceptions, **planning_time_stats(p.call_times), planning_over_budget=p.over_budget))
-        settings = {"cosim": self.settings.model_dump(mode="json")}
+                planner_exceptions=p.exceptions, **planning_time_stats(p.call_times), planning_over_budget=p.over_budget,
+                plan_latency_mean_s=round(float(np.mean(p.latencies)), 6) if p.latencies else None,
+                plan_latency_max_s=round(max(p.latencies), 6) if p.latencies else None))
+        settings = {"cosim": self.settings.model_dump(mode="json"), "realism": self.realism.value}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
             driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)

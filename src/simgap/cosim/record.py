@@ -30,6 +30,7 @@ from simgap.errors import InputError
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.cosim.fidelity import Fidelity
+from simgap.sim.protocol import Realism
 from simgap.trajectory import STATE_FIELDS, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
@@ -109,6 +110,8 @@ class AgentOutcome:
     planning_p95_s: float | None = None
     planning_max_s: float | None = None
     planning_over_budget: int = 0               # calls longer than the loop's planning_budget_s
+    plan_latency_mean_s: float | None = None    # how long after its planning time a plan reached the car
+    plan_latency_max_s: float | None = None
     recorded_as: int | None = None              # the recorded road user this agent replaces (its own
                                                 # recording in the file, left out of the traffic)
     # scores (simgap.evaluate: closed_loop_score, solution); None: not scored (a run recorded before scores)
@@ -162,7 +165,12 @@ class Run:
     def fidelity(self) -> Fidelity:
         """What produced the run: its backend, its agents' vehicles and its controller."""
         vehicles = "+".join(sorted({a.vehicle for a in self.agents}))
-        return Fidelity(self.backend, vehicles, (self.settings.get("backend") or {}).get("controller"))
+        return Fidelity(self.backend, vehicles, (self.settings.get("backend") or {}).get("controller"), self.realism)
+
+    @property
+    def realism(self) -> Realism:
+        """How real the car was: a run recorded before realism was a setting drove a perfect machine."""
+        return Realism(self.settings.get("realism", Realism.IDEAL.value))
 
     @property
     def planner(self) -> str:

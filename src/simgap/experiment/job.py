@@ -59,7 +59,8 @@ class JobId:
     def from_columns(cls, cols: Mapping[str, Any]) -> "JobId":
         """The identity of a stored row (the inverse of `columns`). Rows written before the
         ``stage`` column name their stage, and a repeat 0, in their key only: read from it there."""
-        fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None)
+        fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None,
+                            Fidelity.realism_of_label(str(cols.get("fidelity") or "")))
         key = str(cols["key"])
         repeat = int(cols.get("repeat") or 0)
         stage = cols.get("stage")

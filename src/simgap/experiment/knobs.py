@@ -1,11 +1,13 @@
 """Reality knobs: what the 2D world assumes and the real world does not, as parameters a search
-can vary in the higher fidelities. Each knob's default is the ideal world's assumption, so a
-knob left out of a search spec changes nothing; the ideal fidelity never takes a knob.
+can vary in the higher fidelities. A knob left out of a search spec leaves its setting at the
+world's default (the vehicle's actuators, the sensing profile's accuracy, the measured latency);
+a knob's ``nominal`` value is the ideal world's assumption (no delay, no error), which a failure's
+probes move it back to. The ideal fidelity never takes a knob.
 
 `KNOBS` is the one table of them (name, unit, the settings field it turns, the backends that take
-it, what it means); a knob's default and range are its field's, bound once in the settings model:
-the search spec's validation, ``simgap run --knob`` (its help and its checks) and the README's
-table (`knob_table`, checked by a test) all come from it.
+it, what it means); a knob's range is its field's, bound once in the settings model: the search
+spec's validation, ``simgap run --knob`` (its help and its checks) and the README's table
+(`knob_table`, checked by a test) all come from it.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
 from simgap.cosim import CosimSettings
-from simgap.cosim.loop import ObservationNoise
+from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
 from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.settings import RoadSurface, TrackingSettings
@@ -35,38 +37,62 @@ class Knob:
     setting: str
     backends: tuple[str, ...]
     meaning: str
+    nominal: float = 0.0            # the ideal world's assumption
+    default: str = ""               # what the world has when the knob is left out (empty: the field's default)
 
     @property
     def _field(self) -> FieldInfo:
         return self.model.model_fields[self.setting.rpartition(".")[2]]
 
     @property
-    def default(self) -> float:
-        return float(self._field.default)
+    def _bounds(self) -> list:
+        """The field's bound metadata (of its number, where the field also takes a word)."""
+        metadata = list(self._field.metadata)
+        for arg in getattr(self._field.annotation, "__args__", ()):
+            for info in getattr(arg, "__metadata__", ()):
+                metadata += getattr(info, "metadata", [info])
+        return metadata
 
     @property
     def low(self) -> float:
         """The widest range a spec may ask for: the field's bounds."""
-        return float(next(m.ge for m in self._field.metadata if hasattr(m, "ge")))
+        return float(next(m.ge for m in self._bounds if hasattr(m, "ge")))
 
     @property
     def high(self) -> float:
-        return float(next(m.le for m in self._field.metadata if hasattr(m, "le")))
+        return float(next(m.le for m in self._bounds if hasattr(m, "le")))
+
+    @property
+    def default_text(self) -> str:
+        return self.default or f"{self._field.default:g}"
 
 
+_PHYSICAL = ("dynamic", "mujoco", "beamng")
 KNOBS: dict[str, Knob] = {k.name: k for k in (
     Knob("road_friction", "-", RoadSurface, "road_friction", ("dynamic", "mujoco"),
-         "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)"),
-    Knob("steer_delay", "s", TrackingSettings, "steer_delay", ("dynamic", "mujoco", "beamng"),
-         "steering actuator dead time"),
-    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", ("dynamic", "mujoco", "beamng"),
-         "throttle and brake dead time"),
-    Knob("position_noise", "m", ObservationNoise, "cosim.observation_noise.position_m", ("dynamic", "mujoco", "beamng"),
-         "std. dev. of the noise on the x and y the planner observes"),
-    Knob("yaw_noise", "deg", ObservationNoise, "cosim.observation_noise.yaw_deg", ("dynamic", "mujoco", "beamng"),
-         "std. dev. of the noise on the heading the planner observes"),
-    Knob("speed_noise", "m/s", ObservationNoise, "cosim.observation_noise.speed_mps", ("dynamic", "mujoco", "beamng"),
-         "std. dev. of the noise on the speed the planner observes"),
+         "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)", nominal=1.0),
+    Knob("steer_delay", "s", TrackingSettings, "steer_delay", _PHYSICAL, "steering dead time",
+         default="the vehicle's"),
+    Knob("steer_lag", "s", TrackingSettings, "steer_lag", ("dynamic", "mujoco"),
+         "steering lag: first-order time constant", default="the vehicle's"),
+    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", _PHYSICAL, "drive and brake dead time",
+         default="the vehicle's"),
+    Knob("pedal_lag", "s", TrackingSettings, "pedal_lag", ("dynamic", "mujoco"),
+         "drive and brake lag: first-order time constant", default="the vehicle's"),
+    Knob("latency", "s", CosimSettings, "cosim.latency", _PHYSICAL,
+         "from the planning time to the plan reaching the car", default="measured"),
+    Knob("position_drift", "m", SensingSettings, "cosim.sensing.position_drift_m", _PHYSICAL,
+         "drifting localisation error on x and y, 1-sigma", default="the profile's"),
+    Knob("heading_drift", "deg", SensingSettings, "cosim.sensing.heading_drift_deg", _PHYSICAL,
+         "drifting localisation error on the heading, 1-sigma", default="the profile's"),
+    Knob("speed_drift", "m/s", SensingSettings, "cosim.sensing.speed_drift_mps", _PHYSICAL,
+         "drifting localisation error on the speed, 1-sigma", default="the profile's"),
+    Knob("position_noise", "m", SensingSettings, "cosim.sensing.position_noise_m", _PHYSICAL,
+         "white noise on the x and y the planner observes, 1-sigma", default="the profile's"),
+    Knob("yaw_noise", "deg", SensingSettings, "cosim.sensing.heading_noise_deg", _PHYSICAL,
+         "white noise on the heading the planner observes, 1-sigma", default="the profile's"),
+    Knob("speed_noise", "m/s", SensingSettings, "cosim.sensing.speed_noise_mps", _PHYSICAL,
+         "white noise on the speed the planner observes, 1-sigma", default="the profile's"),
     Knob("road_bank", "deg", WorldSettings, "road_bank", ("mujoco",),
          "cross slope; positive: the road falls to the right of the way of travel"),
     Knob("road_grade", "deg", WorldSettings, "road_grade", ("mujoco",), "grade; positive: uphill"),
@@ -93,20 +119,22 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
     return k
 
 
-def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float:
+def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float | None:
     """The value of knob ``name`` in ``values`` (a backend's settings model, or knob values), else
-    its default."""
+    its field's default; None where that default is the world's own (the vehicle's actuators, the
+    sensing profile's accuracy, the measured latency)."""
     k = KNOBS[name]
-    if isinstance(values, BaseModel):
-        return float(getattr(values, k.setting, k.default))
-    return float(values.get(k.setting, k.default))
+    value = getattr(values, k.setting, None) if isinstance(values, BaseModel) else values.get(k.setting)
+    if value is None:
+        value = k._field.default
+    return float(value) if isinstance(value, (int, float)) else None
 
 
 def knob_table() -> str:
     """The knobs as the README's Markdown table."""
-    rows = ["| knob | unit | default | range | fidelities | meaning |", "|---|---|---|---|---|---|"]
-    rows += [f"| `{k.name}` | {k.unit} | {k.default:g} | {k.low:g}–{k.high:g} | {', '.join(k.backends)} | {k.meaning} |"
-             for k in KNOBS.values()]
+    rows = ["| knob | unit | default | ideal | range | fidelities | meaning |", "|---|---|---|---|---|---|---|"]
+    rows += [f"| `{k.name}` | {k.unit} | {k.default_text} | {k.nominal:g} | {k.low:g}–{k.high:g} | "
+             f"{', '.join(k.backends)} | {k.meaning} |" for k in KNOBS.values()]
     return "\n".join(rows)
 
 
@@ -117,11 +145,14 @@ def apply_knobs(backend: str, values: Mapping[str, float]) -> tuple[dict[str, An
     cosim: dict[str, Any] = {}
     for name, value in values.items():
         knob = KNOBS[name]
-        if backend not in knob.backends or value == knob.default:
+        if backend not in knob.backends:
             continue
         if knob.setting.startswith("cosim."):
-            section, field = knob.setting.split(".")[1:]
-            cosim.setdefault(section, {})[field] = float(value)
+            path = knob.setting.split(".")[1:]
+            if len(path) == 1:
+                cosim[path[0]] = float(value)
+            else:
+                cosim.setdefault(path[0], {})[path[1]] = float(value)
         else:
             settings[knob.setting] = float(value)
     return settings, cosim
@@ -137,5 +168,5 @@ def with_knobs(backend: str, settings: BaseModel | None, cosim: CosimSettings,
         settings = settings.model_copy(update=overrides)
     if sections:
         cosim = cosim.model_copy(update={name: getattr(cosim, name).model_copy(update=fields)
-                                         for name, fields in sections.items()})
+                                         if isinstance(fields, dict) else fields for name, fields in sections.items()})
     return settings, cosim

@@ -19,6 +19,7 @@ from simgap.experiment.search_spec import Search
 from simgap.experiment.search_space import Candidate
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario import write_scenario
+from simgap.sim.settings import realism_of
 from simgap.vehicles import load_vehicle
 
 
@@ -56,7 +57,8 @@ class Ladder:
         its own, with the failure's index and seed)."""
         settings, cosim = self.settings(c, rung)
         r = self.search.rungs[rung]
-        return Job(self._id(c, rung, Fidelity(r.backend, load_vehicle(c.vehicle).name, r.controller),
+        return Job(self._id(c, rung, Fidelity(r.backend, load_vehicle(c.vehicle).name, r.controller,
+                                              realism_of(r.settings)),
                             self.search.spec.seed + c.index, name),
                    c.params, c.vehicle, settings, cosim, self.scenario(c, name), self.search.planners[c.planner])
 
@@ -66,12 +68,11 @@ class Ladder:
 
     def ideal_key(self, c: Candidate) -> str:
         """Everything an ideal run of ``c`` depends on: the scenario's parameters, the vehicle, the
-        planner, the rung's settings, and the seed only if that rung observes with noise."""
+        planner and the rung's settings (the ideal world observes the exact state: no seed)."""
         settings, cosim = self.settings(c, 0)
         driver = [c.vehicle] if c.planner == DEFAULT_PLANNER else [c.vehicle, c.planner]
         return json.dumps([c.params, *driver, settings.model_dump(mode="json") if settings is not None else None,
-                           cosim.model_dump(mode="json"),
-                           self.search.spec.seed + c.index if cosim.observation_noise.active else None],
+                           cosim.model_dump(mode="json")],
                           sort_keys=True, default=str)
 
     def copied_ideal(self, c: Candidate, source: SearchRow, elapsed_s: float) -> SearchRow:

@@ -32,7 +32,7 @@ def probe_plan(search: Search) -> ProbePlan:
     """The dimensions of ``search`` and their nominal values: a knob's default, a parameter's."""
     dims = []
     for kind, name, low, high in search.spec.dimensions:
-        default = KNOBS[name].default if kind == "knob" else float(search.logical.parameters[name].default)
+        default = KNOBS[name].nominal if kind == "knob" else float(search.logical.parameters[name].default)
         dims.append(Dimension(kind=kind, name=name, low=low, high=high, nominal=min(max(default, low), high)))
     return ProbePlan(dims=dims)
 

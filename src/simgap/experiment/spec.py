@@ -35,6 +35,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.control import DEFAULT_CONTROLLER, controller_names
+from simgap.sim.settings import realism_of
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.errors import InputError, validated
 from simgap.experiment.job import Job, JobId
@@ -230,11 +231,13 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
             check_controller(c, path, f"fidelities.{i}.controllers")
         combos = [(planner_vehicle, None)] if fid.backend == REFERENCE else \
             [(vehicle_ref(v, path), c) for v in fid.vehicles for c in fid.controllers]
-        variants.append([FidelityVariant(Fidelity(fid.backend, load_vehicle(vehicle).name, controller), vehicle,
-                                         settings_of(fid.backend, dict(fid.settings) | (
-                                             {"controller": controller} if controller is not None else {}),
-                                             path, f"fidelities.{i}.settings"))
-                         for vehicle, controller in combos])
+        fidelity_variants = []
+        for vehicle, controller in combos:
+            settings = settings_of(fid.backend, dict(fid.settings) | (
+                {"controller": controller} if controller is not None else {}), path, f"fidelities.{i}.settings")
+            fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller, realism_of(settings))
+            fidelity_variants.append(FidelityVariant(fidelity, vehicle, settings))
+        variants.append(fidelity_variants)
     planners = planner_choices(spec, path)
     cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
     return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle)

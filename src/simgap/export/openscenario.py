@@ -28,6 +28,7 @@ from simgap.cosim.record import Run
 from simgap.errors import InputError
 from simgap.export.driven_scenario import AGENT_ID_OFFSET
 from simgap.scenario.goal import Goal
+from simgap.sim.protocol import Realism
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.trajectory import Trajectory
 from simgap.vehicles import Vehicle
@@ -241,13 +242,15 @@ def description(run: Run, users: list[RoadUser], notes: list[str]) -> str:
                          f"{', ...' if len(late) > 3 else ''}) stand at their first position until then"]
     backend = run.settings.get("backend") or {}
     cosim = run.settings.get("cosim") or {}
-    noise = cosim.get("observation_noise") or {}
+    sensing = {k: v for k, v in (cosim.get("sensing") or {}).items() if v is not None}
     planner = (run.settings.get("planner") or {}).get("name", "")
     parts = [f"simgap run of {run.scenario_id} in the {run.backend} world"
              + (f" (controller {backend['controller']})" if backend.get("controller") else "")
              + (f", planner {planner}" if planner else "") + f", seed {run.seed}"]
-    settings = {k: backend[k] for k in ("steer_delay", "pedal_delay", "road_bank", "road_grade") if backend.get(k)}
-    settings |= {f"observation_noise.{k}": v for k, v in noise.items() if v}
+    settings = {k: backend[k] for k in ("realism", "steer_delay", "steer_lag", "pedal_delay", "pedal_lag", "road_bank",
+                                        "road_grade") if backend.get(k)}
+    if run.realism is Realism.REAL:
+        settings |= {f"sensing.{k}": v for k, v in sensing.items()} | {"latency": cosim.get("latency")}
     if cosim.get("traffic") and cosim["traffic"] != "replay":
         settings["traffic"] = cosim["traffic"]
         notes = notes + ["recorded traffic moved by the IDM in the run; its motion is not in the run record, the "

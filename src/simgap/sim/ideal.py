@@ -10,12 +10,13 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, enters_at
-from simgap.trajectory import State, Trajectory
+from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
+from simgap.trajectory import State
 
 
 class IdealBackend:
     name = REFERENCE
+    realism = Realism.IDEAL
 
     def __init__(self, settings: object = None) -> None:
         """``settings``: the registry's `NoSettings` (the ideal world takes none)."""
@@ -35,7 +36,7 @@ class IdealBackend:
         self._step = 0
         return dict(self._states)
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+    def step(self, plans: Mapping[int, PlanInForce]) -> dict[int, State]:
         self._step += 1
         t_next = self._step * self._dt          # no drift from summing dt
         for aid, state in self._states.items():
@@ -43,7 +44,7 @@ class IdealBackend:
             if plan is None:
                 self._states[aid] = state.replace(t=t_next, v=0.0, a=0.0, yaw_rate=0.0)
             else:
-                self._states[aid] = plan.at(t_next).replace(t=t_next)
+                self._states[aid] = plan_at(plan, t_next).at(t_next).replace(t=t_next)
         for a in self._agents:
             if a.id not in self._states and enters_at(a, t_next, self._dt):
                 self._states[a.id] = a.initial_state.replace(t=t_next)

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping, Protocol, Sequence
+from enum import Enum
+from typing import Mapping, Protocol, Sequence, Union
 
 from commonroad.scenario.scenario import Scenario
 
@@ -11,6 +12,37 @@ from simgap.trajectory import State, Trajectory
 from simgap.vehicles import Vehicle
 
 REFERENCE = "ideal"     # the ideal backend's name: the world of the planner's assumptions, which every other is compared with
+
+
+class Realism(str, Enum):
+    """How real a physics world's car is. ``real`` (the default): the vehicle's measured actuators,
+    a localisation that drifts, and compute latency; ``ideal``: a perfect machine (actuators that
+    act at once, the exact state observed, plans that take no time) — the ideal world's
+    assumptions on a physical car. The ideal backend is always ``ideal``."""
+
+    REAL = "real"
+    IDEAL = "ideal"
+
+
+@dataclass(frozen=True)
+class PlanHandover:
+    """A plan that reaches the car during a step (after its compute latency): the ``previous``
+    plan stays in force until ``at``, then ``plan`` takes over."""
+
+    previous: Trajectory
+    plan: Trajectory
+    at: float
+
+    def in_force(self, t: float) -> Trajectory:
+        return self.plan if t >= self.at - 1e-9 else self.previous
+
+
+PlanInForce = Union[Trajectory, PlanHandover]
+
+
+def plan_at(plan: PlanInForce, t: float) -> Trajectory:
+    """The trajectory a car follows at ``t``."""
+    return plan.in_force(t) if isinstance(plan, PlanHandover) else plan
 
 
 @dataclass(frozen=True)
@@ -56,18 +88,20 @@ class Backend(Protocol):
 
     The loop reads ``timings`` (wall seconds spent per phase inside the backend, e.g. control
     and physics; added to the run's timings) and ``notes`` (what the backend did that the run
-    record should say, e.g. how it approximated a moving start) once the run ends.
+    record should say, e.g. how it approximated a moving start) once the run ends. A plan that
+    reaches a car during the step (a `PlanHandover`) is followed from its time on.
     """
 
     name: str
     timings: dict[str, float]
     notes: list[str]
+    realism: Realism            # the ideal world's is IDEAL: the loop then adds no sensing error and no latency
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
 
     def reset(self) -> dict[int, State]: ...
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]: ...
+    def step(self, plans: Mapping[int, PlanInForce]) -> dict[int, State]: ...
 
     def events(self) -> list[BackendEvent]:
         """Events observed during the last step (may be empty)."""

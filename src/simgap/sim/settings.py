@@ -10,11 +10,14 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from simgap.control import DEFAULT_CONTROLLER, controller_names
 from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
+from simgap.sim.protocol import Realism
+from simgap.vehicles import Vehicle
+from simgap.vehicles.actuators import IDEAL_ACTUATORS, MAX_DEAD_TIME_S, MAX_TIME_CONSTANT_S, Actuators
 
-MAX_ACTUATOR_DELAY_S = 1.0      # s: longer dead times are no actuator but a broken car
 DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
 
-ActuatorDelay = Annotated[float, Field(ge=0.0, le=MAX_ACTUATOR_DELAY_S)]
+ActuatorDelay = Annotated[float | None, Field(ge=0.0, le=MAX_DEAD_TIME_S)]
+ActuatorLag = Annotated[float | None, Field(ge=0.0, le=MAX_TIME_CONSTANT_S)]
 RoadFriction = Annotated[float, Field(ge=0.1, le=1.5, description="scales each tyre's friction [-]")]
 
 
@@ -41,8 +44,24 @@ class TrackingSettings(BaseModel):
     controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, description="controller rate [Hz]")
     controller_gains: dict[str, Any] = Field(default_factory=dict,
                                              description="gains over the controller's defaults and the vehicle's")
-    steer_delay: ActuatorDelay = Field(0.0, description="steering actuator dead time [s]")
-    pedal_delay: ActuatorDelay = Field(0.0, description="throttle and brake dead time [s]")
+    realism: Realism = Field(Realism.REAL, description="real: the vehicle's actuators, a drifting localisation and "
+                             "compute latency; ideal: a perfect machine (the ideal world's assumptions on a physical car)")
+    steer_delay: ActuatorDelay = Field(None, description="steering dead time [s] (default: the vehicle's)")
+    steer_lag: ActuatorLag = Field(None, description="steering first-order lag, time constant [s] (default: the vehicle's)")
+    pedal_delay: ActuatorDelay = Field(None, description="drive and brake dead time [s] (default: the vehicle's)")
+    pedal_lag: ActuatorLag = Field(None, description="drive and brake first-order lag, time constant [s] "
+                                   "(default: the vehicle's)")
+    delay_compensation: bool = Field(True, description="the controller predicts the car over its actuators' known "
+                                     "delays before it steers (as Autoware's MPC and openpilot do); false: a naive "
+                                     "controller")
+
+    def actuators(self, vehicle: Vehicle) -> Actuators:
+        """The actuators ``vehicle``'s car has in this world: the vehicle's (none that delay under
+        ``realism: ideal``), with the knobs' dead times and lags over them."""
+        own = IDEAL_ACTUATORS if self.realism is Realism.IDEAL else vehicle.actuators or IDEAL_ACTUATORS
+        return Actuators(steering=own.steering.with_changes(self.steer_delay, self.steer_lag),
+                         drive=own.drive.with_changes(self.pedal_delay, self.pedal_lag),
+                         brake=own.brake.with_changes(self.pedal_delay, self.pedal_lag))
 
     @field_validator("controller")
     @classmethod
@@ -50,3 +69,8 @@ class TrackingSettings(BaseModel):
         if name not in controller_names():
             raise ValueError(f"unknown controller '{name}'; known: {', '.join(controller_names())}")
         return name
+
+
+def realism_of(settings: BaseModel | None) -> Realism:
+    """How real a world's car is: its tracking settings' realism; the ideal world's is ideal."""
+    return settings.realism if isinstance(settings, TrackingSettings) else Realism.IDEAL

@@ -4,8 +4,14 @@ and advances its cars; `TrackedBackend` owns what every such backend shares: a t
 controller per agent (with its actuator delays), the controller rate, and the inner loop that
 runs, for each scenario dt,
 
-    for every controller period k:   measure each car -> its controller's command -> actuate it;
+    for every controller period k:   measure each car -> its controller's command -> its actuators
+                                     (dead time, lag) -> actuate it;
                                      then the physics advances one period (its own sub-steps)
+
+The actuators are the vehicle's (`simgap.vehicles.actuators`), with the settings' knobs over
+them, or none under ``realism: ideal``; the controller compensates their delays unless
+``delay_compensation`` is off (`simgap.control.delay`). A plan that reaches a car during the step
+(`PlanHandover`, after the planner's compute latency) is followed from its time on.
 
 and times the phases (``control`` here; ``physics`` and anything finer in the physics).
 
@@ -21,13 +27,14 @@ from typing import Mapping, Protocol, Sequence
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control import make_controller
-from simgap.control.delay import with_actuator_delay
+from simgap.control.delay import compensated
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
-from simgap.sim.protocol import Agent, BackendEvent, enters_at
+from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.sim.rates import is_multiple, nearest_multiple
 from simgap.sim.settings import TrackingSettings
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import State
+from simgap.vehicles.actuators import ActuatorResponses, Actuators
 
 class Physics(Protocol):
     """The physical world of a physics backend with all its cars, driven one controller period at
@@ -80,6 +87,16 @@ class TrackedBackend:
         self._dt = 0.1
         self._step = 0
         self._present: list[Agent] = []
+        self._actuators: dict[int, Actuators] = {}
+        self._responses: dict[int, ActuatorResponses] = {}
+
+    @property
+    def realism(self) -> Realism:
+        return self.tracking.realism
+
+    @property
+    def control_period(self) -> float:
+        return 1.0 / self.tracking.controller_hz
 
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._dt = float(scenario.dt)
@@ -87,7 +104,12 @@ class TrackedBackend:
         self._ticks = int(round(self._dt * self.tracking.controller_hz))
         self._agents = list(agents)
         self.physics.load(scenario, agents)
+        self._actuators = {a.id: self.tracking.actuators(a.vehicle) for a in agents}
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
+        for a in agents:
+            if a.vehicle.actuators is None and a.id in self._controllers and self.realism is Realism.REAL:
+                self.notes.append(f"agent {a.id}: vehicle {a.vehicle.name} has no actuators in its data file; "
+                                  "they act at once")
 
     def fit_rates(self, settings: TrackingSettings, dt: float) -> TrackingSettings:
         """``settings`` with a controller rate that divides the scenario's step ``dt``: the one set,
@@ -107,12 +129,19 @@ class TrackedBackend:
         return settings.model_copy(update={"controller_hz": fitted})
 
     def make_controller(self, agent: Agent) -> Controller | None:
-        """The controller that drives ``agent``'s car: the tracking settings' controller, with its
-        actuator delays. A backend whose cars drive themselves (BeamNG's script AI) returns None:
-        the loop then neither measures nor actuates that car between scenario steps."""
-        t = self.tracking
-        return with_actuator_delay(make_controller(t.controller, agent.vehicle, t.controller_hz, t.controller_gains),
-                                   t.steer_delay, t.pedal_delay)
+        """The controller that drives ``agent``'s car: the tracking settings' controller,
+        compensating its actuators' delays. A backend whose cars drive themselves (BeamNG's script
+        AI) returns None: the loop then neither measures nor actuates that car between scenario
+        steps."""
+        t, v = self.tracking, agent.vehicle
+        return compensated(make_controller(t.controller, v, t.controller_hz, t.controller_gains),
+                           self._actuators[agent.id], v.wheelbase, v.rear_axle_to_center, t.delay_compensation)
+
+    def _start(self, agent_id: int, state: State) -> None:
+        """The car's controller and actuators start from ``state``."""
+        if agent_id in self._controllers:
+            self._controllers[agent_id].reset(state)
+            self._responses[agent_id] = ActuatorResponses(self._actuators[agent_id], self.control_period, state.steer)
 
     def reset(self) -> dict[int, State]:
         self._step = 0
@@ -120,22 +149,23 @@ class TrackedBackend:
         self._present = [a for a in self._agents if enters_at(a, 0.0, self._dt)]
         states = {a.id: self.physics.measure(a.id, 0.0) for a in self._present}
         for aid, state in states.items():
-            if aid in self._controllers:
-                self._controllers[aid].reset(state)
+            self._start(aid, state)
         return states
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
+    def step(self, plans: Mapping[int, PlanInForce]) -> dict[int, State]:
         physics, timings = self.physics, self.timings
         ticks = self._ticks
         period = self._dt / ticks
         t0 = self._step * self._dt
         physics.begin_step(t0)
-        driving = [(a.id, self._controllers[a.id]) for a in self._present if a.id in self._controllers]
+        driving = [(a.id, self._controllers[a.id], self._responses[a.id]) for a in self._present
+                   if a.id in self._controllers]
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for aid, controller in driving:
-                physics.actuate(aid, controller.command(physics.measure(aid, t), plans[aid], t), period)
+            for aid, controller, actuators in driving:
+                asked = controller.command(physics.measure(aid, t), plan_at(plans[aid], t), t)
+                physics.actuate(aid, Command(*actuators.respond(asked.steer, asked.throttle, asked.brake)), period)
             timings["control"] += time.perf_counter() - start
             physics.advance(t, period)
         self._step += 1
@@ -149,8 +179,7 @@ class TrackedBackend:
             if a not in self._present and enters_at(a, t, self._dt):
                 self.physics.enter(a.id, t)
                 self._present.append(a)
-                if a.id in self._controllers:
-                    self._controllers[a.id].reset(self.physics.measure(a.id, t))
+                self._start(a.id, self.physics.measure(a.id, t))
 
     def events(self) -> list[BackendEvent]:
         return self.physics.events()

@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.errors import InputError
 from simgap.files import read_model
+from simgap.vehicles.actuators import Actuators
 from simgap.vehicles.physics import VehiclePhysics
 
 DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
@@ -50,6 +51,8 @@ class Vehicle(BaseModel):
         None, description="the CommonRoad vehicle type (parameter set) this vehicle is, when it is one: 1 Ford "
                           "Escort, 2 BMW 320i, 3 VW Vanagon; a planner driving it is scored as that type")
     physics: VehiclePhysics | None = Field(None, description="physical model for 3D backends")
+    actuators: Actuators | None = Field(
+        None, description="dead times and lags of the steering, drive and brakes (None: they act at once)")
     controllers: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="controller gains by controller name, overriding defaults")
 

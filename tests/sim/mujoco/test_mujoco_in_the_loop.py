@@ -19,6 +19,7 @@ from simgap.sim.mujoco import MujocoBackend
 from simgap.sim.mujoco.settings import mujoco_settings
 from simgap.sim.mujoco.plant import proving_ground
 from simgap.sim.protocol import Agent
+from simgap.sim.registry import backend_settings
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import load_vehicle, vehicle_names
 
@@ -31,7 +32,10 @@ def sharp_curve(tmp_path_factory):
 
 @pytest.mark.parametrize("vehicle_name", vehicle_names())
 def test_every_vehicle_drives_the_sharp_curve_to_its_goal(sharp_curve, vehicle_name, tmp_path):
-    run = execute(RunRequest(scenario=sharp_curve, backend="mujoco", vehicles=vehicle_name), tmp_path / "run")
+    # the perfect machine: the physics alone (the suv's real steering, 0.24 s + 0.27 s, leaves this
+    # curve's lane by 1.4 cm: tests/cosim/test_realism.py and bench/realism.py measure the real cars)
+    run = execute(RunRequest(scenario=sharp_curve, backend="mujoco", vehicles=vehicle_name,
+                             backend_settings=backend_settings("mujoco", {"realism": "ideal"})), tmp_path / "run")
     agent = run.agents[0]
     assert agent.outcome == "goal_reached", run.events
     assert agent.max_road_excursion_m == 0.0

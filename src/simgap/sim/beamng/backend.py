@@ -41,7 +41,7 @@ from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, PlanInForce, enters_at
 from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State, Trajectory
@@ -251,13 +251,14 @@ class BeamngBackend(TrackedBackend):
         self._scripted = {}
         return super().reset()
 
-    def step(self, plans: Mapping[int, Trajectory]) -> dict[int, State]:
-        if self.settings.driver == "script_ai":        # a replanned plan goes to the script AI at once
+    def step(self, plans: Mapping[int, PlanInForce]) -> dict[int, State]:
+        if self.settings.driver == "script_ai":        # a plan goes to the script AI when it reaches the car
             now = self._step * self._dt
             for a in self._agents:
-                if self._scripted.get(a.id) is not plans[a.id]:
-                    self.physics.follow(a.id, plans[a.id], now)
-                    self._scripted[a.id] = plans[a.id]
+                plan = plans[a.id] if isinstance(plans[a.id], Trajectory) else plans[a.id].plan
+                if self._scripted.get(a.id) is not plan:
+                    self.physics.follow(a.id, plan, now)
+                    self._scripted[a.id] = plan
         return super().step(plans)
 
 

@@ -6,9 +6,11 @@ with RK4 at 1 kHz, so tyre slip, steering lag and powertrain limits already brea
 world's perfect tracking. The model's reference point (its centre of gravity) is taken as the
 vehicle's centre.
 
-Settings (``backend_settings``): the tracking (`TrackingSettings`), ``params_id`` (CommonRoad
-parameter set), ``model`` (``st`` single-track, or ``mb`` multi-body on request), ``integration_step`` and the reality
-knobs ``road_friction`` (1.0 = dry), ``steer_delay`` and ``pedal_delay`` [s].
+Settings (``backend_settings``): the tracking (`TrackingSettings`: the realism, the actuators'
+knobs), ``params_id`` (CommonRoad parameter set), ``model`` (``st`` single-track, or ``mb``
+multi-body on request), ``integration_step`` and the reality knob ``road_friction`` (1.0 = dry).
+Under ``realism: real`` the drive and brakes lag through the vehicle's actuators, so the model's
+own powertrain lag is off; under ``realism: ideal`` it keeps it (0.1 s), as before realism.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.control.protocol import Command
 from simgap.sim.dynamic.plant import PLANTS
 from simgap.sim.dynamic.settings import DynamicSettings
-from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
+from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, Realism, enters_at
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import State
 
@@ -40,8 +42,10 @@ class SingleTrackWorld:
         cfg = self.settings
         self._agents = list(agents)
         self._dt = float(scenario.dt)
+        # a real car's drive and brakes lag through its actuators (`TrackedBackend`), not twice
+        lag = {} if cfg.realism is Realism.IDEAL else {"accel_time_constant": 0.0}
         self._plants = {a.id: PLANTS[cfg.model](a.vehicle, cfg.params_id, road_friction=cfg.road_friction,
-                                                integration_step=cfg.integration_step) for a in agents}
+                                                integration_step=cfg.integration_step, **lag) for a in agents}
         self._commands: dict[int, Command] = {}
 
     def reset(self, t0: float) -> None:

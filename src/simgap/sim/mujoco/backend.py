@@ -14,8 +14,8 @@ contacts with other cars or with traffic are reported as collision events; a cha
 is a ``diverged`` event of that car, which is then taken out of the world (the others drive on); a
 state that is no longer finite or a solver warning is `PhysicsDiverged` (the whole run).
 
-Reality knobs beyond the world's friction: ``steer_delay`` and ``pedal_delay`` [s] delay the
-controller's commands (`simgap.control.delay`); ``road_bank`` and ``road_grade`` [deg] tilt the
+The car's actuators (dead times and lags, the vehicle's or the knobs') act between its controller
+and this world (`simgap.sim.tracked`). Reality knobs of the world: its friction; ``road_bank`` and ``road_grade`` [deg] tilt the
 road under each car. The ground stays a plane: the slope acts as the component of gravity along
 it, ``m g sin(angle)``, applied to the car across (bank) or along (grade) the nearest lane centre
 line; the small loss of normal load (``cos(angle)``, under 1 % at 8 deg) is neglected.

@@ -1,0 +1,171 @@
+"""A vehicle's actuators: how late and how slowly its steering, drive and brakes do what they are
+asked. Every number in a data file carries its source, like the tyres'.
+
+Each channel is a dead time followed by a lag (first order: a time constant; second order: a
+natural frequency and a damping ratio), the model Autoware's vehicle simulator and its MPC use
+(``DELAY_STEER_ACC``: dead time + first-order lag) and openpilot's car ports identify
+(``steerActuatorDelay``, ``longitudinalActuatorDelay``). The steering's angle and rate limits
+at the road wheels are the steering system's (``physics.steering``), applied after the lag.
+
+`ChannelResponse` is the channel's response in discrete time, at the controller's period: the
+physics backends apply it between the controller and the car (`simgap.sim.tracked`), and the
+controllers that compensate the delays predict with it (`simgap.control.delay`). It is
+deterministic and its state can be copied, so a prediction runs the same response forward.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.linalg import expm
+
+MAX_DEAD_TIME_S = 1.0       # s: a longer dead time is no actuator but a broken car
+MAX_TIME_CONSTANT_S = 2.0   # s
+
+
+class ActuatorChannel(BaseModel):
+    """One actuator: a dead time, then a first-order lag (``time_constant``) or a second-order
+    one (``natural_frequency`` and ``damping_ratio``), or none."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    dead_time: float = Field(0.0, ge=0.0, le=MAX_DEAD_TIME_S, description="dead time [s]")
+    time_constant: float = Field(0.0, ge=0.0, le=MAX_TIME_CONSTANT_S,
+                                 description="first-order lag: time to 63 % of a step [s] (0: none)")
+    natural_frequency: float | None = Field(None, gt=0.0, le=200.0,
+                                            description="second-order lag: natural frequency [rad/s]")
+    damping_ratio: float | None = Field(None, gt=0.0, le=5.0, description="second-order lag: damping ratio [-]")
+    source: str = Field("", description="where the numbers come from")
+
+    @model_validator(mode="after")
+    def _one_lag(self) -> "ActuatorChannel":
+        second = (self.natural_frequency is not None, self.damping_ratio is not None)
+        if any(second) and not all(second):
+            raise ValueError("a second-order lag needs both natural_frequency and damping_ratio")
+        if all(second) and self.time_constant > 0:
+            raise ValueError("give either time_constant (first order) or natural_frequency and damping_ratio "
+                             "(second order), not both")
+        return self
+
+    @property
+    def order(self) -> int:
+        return 2 if self.natural_frequency is not None else 1 if self.time_constant > 0 else 0
+
+    def with_changes(self, dead_time: float | None = None, time_constant: float | None = None) -> "ActuatorChannel":
+        """This channel with another dead time or first-order lag (a reality knob's override;
+        a first-order lag replaces a second-order one)."""
+        changes: dict = {}
+        if dead_time is not None:
+            changes["dead_time"] = dead_time
+        if time_constant is not None:
+            changes |= {"time_constant": time_constant, "natural_frequency": None, "damping_ratio": None}
+        return self.model_copy(update=changes) if changes else self
+
+    def response(self, period: float, initial: float = 0.0) -> "ChannelResponse":
+        return ChannelResponse(self, period, initial)
+
+
+IDEAL_CHANNEL = ActuatorChannel(source="ideal: acts at once")
+
+
+class Actuators(BaseModel):
+    """The steering (road-wheel angle request), the drive (torque request) and the brakes (pressure
+    request) of a car."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    steering: ActuatorChannel = IDEAL_CHANNEL
+    drive: ActuatorChannel = IDEAL_CHANNEL
+    brake: ActuatorChannel = IDEAL_CHANNEL
+
+    @property
+    def ideal(self) -> bool:
+        return all(c.dead_time == 0 and c.order == 0 for c in (self.steering, self.drive, self.brake))
+
+
+IDEAL_ACTUATORS = Actuators()
+
+
+class ChannelResponse:
+    """An `ActuatorChannel` in discrete time at ``period``: the dead time as a queue of whole
+    periods (rounded), the lag discretised exactly for a request held over each period (zero-order
+    hold). ``initial``: the output (and the requests in flight) at the start."""
+
+    def __init__(self, channel: ActuatorChannel, period: float, initial: float = 0.0):
+        self.channel, self.period, self.order = channel, period, channel.order
+        self.delay_ticks = int(round(channel.dead_time / period))
+        self._queue: deque[float] = deque([initial] * self.delay_ticks)
+        self._y, self._rate = float(initial), 0.0        # output and its rate (plain floats: a hot path)
+        if self.order == 2:
+            wn, zeta = channel.natural_frequency, channel.damping_ratio
+            phi, gamma = _zero_order_hold(np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]]),
+                                          np.array([0.0, wn * wn]), period)
+            self._phi = tuple(float(v) for v in phi.ravel())
+            self._gamma = tuple(float(v) for v in gamma)
+        elif self.order == 1:
+            self._alpha = 1.0 - math.exp(-period / channel.time_constant)
+
+    @property
+    def output(self) -> float:
+        return self._y
+
+    @property
+    def alpha(self) -> float:
+        """A first-order lag's share of the gap to the request closed in one period."""
+        return self._alpha
+
+    def step(self, request: float) -> float:
+        """Take ``request`` now; the output over the next period."""
+        queue = self._queue
+        if queue:
+            queue.append(request)
+            request = queue.popleft()
+        if self.order == 0:
+            self._y = request
+        elif self.order == 1:
+            self._y += self._alpha * (request - self._y)
+        else:
+            p, g, y, r = self._phi, self._gamma, self._y, self._rate
+            self._y = p[0] * y + p[1] * r + g[0] * request
+            self._rate = p[2] * y + p[3] * r + g[1] * request
+        return self._y
+
+    def copy(self) -> "ChannelResponse":
+        twin = object.__new__(ChannelResponse)
+        twin.__dict__.update(self.__dict__)
+        twin._queue = deque(self._queue)
+        return twin
+
+    @property
+    def in_flight(self) -> list[float]:
+        """The requests sent and not yet arrived, oldest first."""
+        return list(self._queue)
+
+
+def _zero_order_hold(a: np.ndarray, b: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact discretisation of x' = A x + B u with u held over ``period`` (the augmented matrix's
+    exponential)."""
+    n = len(a)
+    m = np.zeros((n + 1, n + 1))
+    m[:n, :n], m[:n, n] = a * period, b * period
+    exp = expm(m)
+    return exp[:n, :n], exp[:n, n]
+
+
+class ActuatorResponses:
+    """A car's three channels in discrete time: what the steering, drive and brakes deliver, period
+    by period, for what they are asked. Starts with the steering at ``steer`` and the pedals
+    released."""
+
+    def __init__(self, actuators: Actuators, period: float, steer: float = 0.0):
+        self.actuators, self.period = actuators, period
+        self.steering = actuators.steering.response(period, steer)
+        self.drive = actuators.drive.response(period)
+        self.brake = actuators.brake.response(period)
+
+    def respond(self, steer: float, throttle: float, brake: float) -> tuple[float, float, float]:
+        """Ask for a road-wheel angle [rad] and pedal positions [0, 1]; what acts over the next period."""
+        return self.steering.step(steer), self.drive.step(throttle), self.brake.step(brake)
