@@ -357,3 +357,17 @@ def test_run_refuses_limits_that_never_end(hostile, tmp_path, args, fragments):
     assert proc.returncode == 2
     assert_clean_error(proc, *fragments)
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("template, fixed, fragments", [
+    ("curve", "{straight_length: 1.0e+9, radius: 50, angle: 90}",
+     ["field 'straight_length, radius, angle, transition'", "2e+09 m long", "roads up to 20000 m"]),
+    ("t-junction", "{approach_length: 1.0e+9}", ["field 'approach_length'", "10 to 20000 m"]),
+])
+def test_generate_refuses_a_road_longer_than_the_maximum(tmp_path, template, fixed, fragments):
+    spec = tmp_path / "long.yaml"
+    spec.write_text(f"name: long\ntemplate: {template}\nfixed: {fixed}\n"
+                    "parameters:\n  lane_width: {unit: m, min: 2.5, max: 5, default: 3.0}\n")
+    proc = simgap("generate", str(spec), "--no-preview", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, *fragments)

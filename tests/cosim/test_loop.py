@@ -246,3 +246,12 @@ def test_a_planning_call_that_never_returns_ends_the_run_at_its_wall_time_limit(
     assert time.perf_counter() - clock < 5.0
     assert result.failure == "timeout: still running after 0.5 s of wall time in agent 1's planning call at t = 0.0 s"
     assert result.agents[0].outcome == "timeout" and result.events[-1].detail == result.failure
+
+
+def test_an_absurd_goal_window_is_capped_at_the_longest_simulated_time():
+    from simgap.cosim.loop import MAX_SIMULATED_TIME_S, deadline
+    from simgap.scenario.goal import Goal
+
+    goal = Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=2_000_000_000).goal, DT)
+    assert deadline(goal, CosimSettings()) == MAX_SIMULATED_TIME_S == 600.0
+    assert deadline(Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50).goal, DT), CosimSettings()) == 5.0
