@@ -17,6 +17,7 @@ from commonroad.scenario.state import CustomState, InitialState
 
 from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
+from simgap.scenario.road_frame import footprint
 from simgap.sim.ideal import IdealBackend
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import load_vehicle
@@ -255,3 +256,32 @@ def test_an_absurd_goal_window_is_capped_at_the_longest_simulated_time():
     goal = Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=2_000_000_000).goal, DT)
     assert deadline(goal, CosimSettings()) == MAX_SIMULATED_TIME_S == 600.0
     assert deadline(Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50).goal, DT), CosimSettings()) == 5.0
+
+
+def parked_cars(scenario, rows: int, first_row_y: float = 100.0):
+    """Rows of 100 parked cars, 10 m apart, from ``first_row_y`` away from the road."""
+    from commonroad.geometry.shape import Rectangle
+    from commonroad.scenario.obstacle import ObstacleType, StaticObstacle
+
+    for k in range(100 * rows):
+        position = np.array([(k % 100) * 10.0, first_row_y + (k // 100) * 10.0])
+        scenario.add_objects(StaticObstacle(1000 + k, ObstacleType.PARKED_VEHICLE, Rectangle(4.5, 1.8),
+                                            InitialState(position=position, orientation=0.0, time_step=0)))
+    return scenario
+
+
+def test_far_away_obstacles_add_no_footprint_checks(monkeypatch):
+    import simgap.cosim.loop as loop
+
+    built = []
+    monkeypatch.setattr(loop, "footprint", lambda *shape: built.append(shape) or footprint(*shape))
+    pps = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=30)])
+    gaps, footprints = [], []
+    for rows in (1, 50):            # 100 and 5000 parked cars
+        built.clear()
+        result = simulate(parked_cars(straight_road(), rows), pps, IdealBackend(),
+                          agents_from_problems(pps, DT, load_vehicle("sedan")), {1: StraightLine(10.0)})
+        gaps.append(result.agents[0].min_distance_to_traffic_m)
+        footprints.append(len(built))
+    assert gaps[0] == gaps[1] == pytest.approx(100 - 0.9 - 1.75 - load_vehicle("sedan").width / 2, abs=1e-3)
+    assert footprints[1] == footprints[0] < 30 * 10          # the other 49 rows: not one footprint

@@ -362,9 +362,9 @@ class _CoSimulation:
             elif ev.kind == "diverged" and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
                 self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
         present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
-        obstacle_shapes = {oid: footprint(st, length, width)
-                           for oid, (st, length, width) in self.traffic.poses(t).items()}
-        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in self.traffic.poses(t).items()}
+        obstacles = self._obstacles_near(present, states, t)
+        obstacle_shapes = {oid: footprint(st, length, width) for oid, (st, length, width) in obstacles.items()}
+        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in obstacles.items()}
         for aid in present:
             p = progress_of[aid]
             others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
@@ -377,6 +377,18 @@ class _CoSimulation:
                 detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
                                                                  poses.get(hit), hit in progress_of)
                 self._judge(p, states[aid], hit, excursion, detail)
+
+    def _obstacles_near(self, present: list[int], states: Mapping[int, State],
+                        t: float) -> dict[int, tuple[State, float, float]]:
+        """The obstacles at ``t`` that may touch a present agent or come closer to it than anything
+        has so far (`ObstacleReach.near`): every other one is farther, and needs no footprint."""
+        reach = self.traffic.reach
+        near = set()
+        for aid in present:
+            p, st = self.progress_of[aid], states[aid]
+            near.update(reach.near(t, st.x, st.y, math.hypot(p.agent.vehicle.length, p.agent.vehicle.width) / 2,
+                                   p.min_distance).tolist())
+        return self.traffic.poses(t, [int(i) for i in reach.ids[sorted(near)]])
 
     def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float, detail: str = "") -> None:
         if hit is not None:
