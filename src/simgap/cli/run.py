@@ -83,7 +83,8 @@ def run(
     (on snow, with a late steering: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.1)
     """
     if not (math.isfinite(run_timeout) and run_timeout > 0):
-        raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout", allowed="a finite number of seconds > 0")
+        raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
+                         allowed="a finite number of seconds > 0")
     physical = {"controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)

@@ -20,7 +20,8 @@ from pydantic import TypeAdapter, ValidationError
 
 from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
-from simgap.scenario.geometry import MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces, self_intersects
+from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces,
+                                     self_intersects)
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road import LaneLayout, build_road
 
