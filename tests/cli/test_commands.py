@@ -284,3 +284,90 @@ def test_experiment_commands_refuse_bad_input_clearly(tmp_path):
     assert_clean_error(simgap("experiment", "run", "demo", "--out", str(tmp_path / "x"), "--address", "a:1"),
                        "--address is for the ray executor")
     assert not (tmp_path / "x" / "store").exists()
+
+
+HOSTILE_PLANNERS = '''
+import sys
+import time
+
+
+class Exits:
+    def plan(self, observed, t, world):
+        sys.exit(3)
+
+
+class ExitsWhenBuilt:
+    def __init__(self):
+        sys.exit(3)
+
+    def plan(self, observed, t, world):
+        return None
+
+
+class NeverReturns:
+    def plan(self, observed, t, world):
+        while True:
+            time.sleep(0.01)
+'''
+
+
+@pytest.fixture(scope="module")
+def hostile(tmp_path_factory) -> tuple[Path, Path]:
+    """A curve scenario and a file of planners that exit or never return."""
+    from simgap.scenario import build_scenario, write_scenario
+
+    folder = tmp_path_factory.mktemp("hostile")
+    (folder / "hostile.py").write_text(HOSTILE_PLANNERS)
+    return write_scenario(build_scenario("curve", {"radius": 20.0, "angle": 60.0}), folder, preview=False), \
+        folder / "hostile.py"
+
+
+def test_a_planner_that_calls_sys_exit_fails_its_run_not_the_command(hostile, tmp_path):
+    scenario, planners = hostile
+    proc = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:Exits", "--out", str(tmp_path / "a"))
+    assert proc.returncode == 0, proc.stderr
+    assert "planner raised SystemExit" in proc.stdout and "Traceback" not in proc.stdout + proc.stderr
+    meta = json.loads((tmp_path / "a" / "run.json").read_text())
+    assert meta["agents"][0]["outcome"] == "planner_failure" and meta["agents"][0]["planner_exceptions"] == 10
+    built = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:ExitsWhenBuilt",
+                   "--out", str(tmp_path / "b"))
+    assert built.returncode == 1, built.stderr
+    meta = json.loads((tmp_path / "b" / "run.json").read_text())
+    assert meta["failure"] == "the planner of agent 1 raised SystemExit in its constructor: 3"
+
+
+def test_a_planner_that_never_returns_ends_the_run_at_its_timeout(hostile, tmp_path):
+    scenario, planners = hostile
+    proc = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:NeverReturns", "--run-timeout", "1",
+                  "--out", str(tmp_path / "r"))
+    assert proc.returncode == 1, proc.stderr
+    meta = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert meta["failure"] == "timeout: still running after 1 s of wall time in agent 1's planning call at t = 0.0 s"
+    assert meta["agents"][0]["outcome"] == "timeout"
+
+
+@pytest.mark.parametrize("args, fragments", [
+    (["--max-time", "inf"], ["field 'max_time_s'", "finite"]),
+    (["--max-time", "1e9"], ["field 'max_time_s'", "less than or equal to 600"]),
+    (["--run-timeout", "inf"], ["field 'run-timeout'", "a finite number of seconds > 0"]),
+])
+def test_run_refuses_limits_that_never_end(hostile, tmp_path, args, fragments):
+    scenario, _ = hostile
+    proc = simgap("run", str(scenario), *args, "--out", str(tmp_path / "r"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, *fragments)
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("template, fixed, fragments", [
+    ("curve", "{straight_length: 1.0e+9, radius: 50, angle: 90}",
+     ["field 'straight_length, radius, angle, transition'", "2e+09 m long", "roads up to 20000 m"]),
+    ("t-junction", "{approach_length: 1.0e+9}", ["field 'approach_length'", "10 to 20000 m"]),
+])
+def test_generate_refuses_a_road_longer_than_the_maximum(tmp_path, template, fixed, fragments):
+    spec = tmp_path / "long.yaml"
+    spec.write_text(f"name: long\ntemplate: {template}\nfixed: {fixed}\n"
+                    "parameters:\n  lane_width: {unit: m, min: 2.5, max: 5, default: 3.0}\n")
+    proc = simgap("generate", str(spec), "--no-preview", "--out", str(tmp_path / "out"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, *fragments)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from commonroad.scenario.state import CustomState, InitialState
 
 from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
+from simgap.scenario.road_frame import footprint
 from simgap.sim.ideal import IdealBackend
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import load_vehicle
@@ -156,3 +158,130 @@ def test_a_failing_planner_brakes_along_its_last_plan():
     # it stops on the arc (radius 20 m around (0, 20)), not on the straight tangent
     assert math.hypot(stop.x[-1], stop.y[-1] - 20) == pytest.approx(20.0, abs=0.05)
     assert stop.y[-1] > 0.5
+
+
+class Returns:
+    """Test planner that returns ``make(observed, t, dt)`` (a good plan from `StraightLine` first, if asked)."""
+
+    def __init__(self, make, good_cycles=0):
+        self.make, self.good, self.calls = make, StraightLine(10.0), 0
+        self.good_cycles = good_cycles
+
+    def plan(self, observed, t, world):
+        self.calls += 1
+        if self.calls <= self.good_cycles:
+            return self.good.plan(observed, t, world)
+        return self.make(observed, t, world.dt)
+
+
+def line(t0, dt, n=31, **changes):
+    """A straight plan of ``n`` states at 10 m/s from x = 10 starting at ``t0`` (columns replaced by ``changes``)."""
+    columns = dict(t=t0 + dt * np.arange(n), x=10 + 10 * dt * np.arange(n), y=np.full(n, 1.75), yaw=np.zeros(n),
+                   v=np.full(n, 10.0), a=np.zeros(n), yaw_rate=np.zeros(n), steer=np.zeros(n))
+    return Trajectory(dt, **(columns | changes))
+
+
+@pytest.mark.parametrize("make, reason", [
+    (lambda s, t, dt: {"x": [1, 2]}, "a dict, not a Trajectory"),
+    (lambda s, t, dt: "forward", "a str, not a Trajectory"),
+    (lambda s, t, dt: line(t, dt, x=np.r_[10.0, np.nan, np.zeros(29)]), "x[1] is nan"),
+    (lambda s, t, dt: line(t, dt, v=np.r_[np.full(30, 10.0), np.inf]), "v[30] is inf"),
+    (lambda s, t, dt: line(t, dt, n=1), "1 state; a plan needs at least 2"),
+    (lambda s, t, dt: line(t + 1.0, dt), "planned at t = 0.3 s"),
+    (lambda s, t, dt: line(t, 2 * dt), "dt = 0.2 s, the scenario's time step is 0.1 s"),
+    (lambda s, t, dt: line(t, dt, t=t + dt * np.r_[np.arange(10), np.arange(11, 32)]), "t[10]"),
+])
+def test_a_plan_the_loop_cannot_execute_fails_its_cycle_with_the_reason(make, reason):
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Returns(make, good_cycles=3)},
+                 CosimSettings(planner_failure_limit=2))
+    (agent,) = result.agents
+    assert agent.outcome == "planner_failure" and agent.planner_failures == 2 and agent.planner_exceptions == 0
+    failed = [e for e in result.events if e.kind == "planner_no_solution"]
+    assert failed[0].t == pytest.approx(0.3) and "invalid plan: " in failed[0].detail and reason in failed[0].detail
+    assert len(result.plans[1]) == 3
+
+
+def test_plans_are_cut_to_the_horizon_cap():
+    from simgap.planning.plan_check import MAX_PLAN_HORIZON_S
+
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=20)],
+                 {1: Returns(lambda s, t, dt: line(t, dt, n=1_000_000, x=s.x + 10 * dt * np.arange(1_000_000)))})
+    plans = result.plans[1]
+    assert len(plans) == 20 and result.agents[0].planner_failures == 0
+    assert {len(p) for p in plans} == {int(MAX_PLAN_HORIZON_S / DT) + 1}
+    assert plans[5].t_end == pytest.approx(0.5 + MAX_PLAN_HORIZON_S)
+
+
+class Exits:
+    """Test planner that raises ``exc`` from every planning call."""
+
+    def __init__(self, exc: BaseException):
+        self.exc = exc
+
+    def plan(self, observed, t, world):
+        raise self.exc
+
+
+@pytest.mark.parametrize("exc, text", [(SystemExit(3), "SystemExit: 3"), (KeyboardInterrupt(), "KeyboardInterrupt")])
+def test_a_planner_that_exits_or_interrupts_fails_its_cycles_not_the_process(exc, text):
+    result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Exits(exc)}, CosimSettings(planner_failure_limit=2))
+    (agent,) = result.agents
+    assert agent.outcome == "planner_failure" and agent.planner_exceptions == 2
+    assert f"planner raised {text}" in result.events[0].detail
+    assert result.planner_errors[0].exception == type(exc).__name__
+
+
+class NeverReturns:
+    """Test planner whose first planning call does not return."""
+
+    def plan(self, observed, t, world):
+        while True:
+            time.sleep(0.01)
+
+
+def test_a_planning_call_that_never_returns_ends_the_run_at_its_wall_time_limit():
+    scenario, pps = straight_road(), PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150)])
+    clock = time.perf_counter()
+    result = simulate(scenario, pps, IdealBackend(), agents_from_problems(pps, DT, load_vehicle("sedan")),
+                      {1: NeverReturns()}, wall_time_limit_s=0.5)
+    assert time.perf_counter() - clock < 5.0
+    assert result.failure == "timeout: still running after 0.5 s of wall time in agent 1's planning call at t = 0.0 s"
+    assert result.agents[0].outcome == "timeout" and result.events[-1].detail == result.failure
+
+
+def test_an_absurd_goal_window_is_capped_at_the_longest_simulated_time():
+    from simgap.cosim.loop import MAX_SIMULATED_TIME_S, deadline
+    from simgap.scenario.goal import Goal
+
+    goal = Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=2_000_000_000).goal, DT)
+    assert deadline(goal, CosimSettings()) == MAX_SIMULATED_TIME_S == 600.0
+    assert deadline(Goal.of(problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50).goal, DT), CosimSettings()) == 5.0
+
+
+def parked_cars(scenario, rows: int, first_row_y: float = 100.0):
+    """Rows of 100 parked cars, 10 m apart, from ``first_row_y`` away from the road."""
+    from commonroad.geometry.shape import Rectangle
+    from commonroad.scenario.obstacle import ObstacleType, StaticObstacle
+
+    for k in range(100 * rows):
+        position = np.array([(k % 100) * 10.0, first_row_y + (k // 100) * 10.0])
+        scenario.add_objects(StaticObstacle(1000 + k, ObstacleType.PARKED_VEHICLE, Rectangle(4.5, 1.8),
+                                            InitialState(position=position, orientation=0.0, time_step=0)))
+    return scenario
+
+
+def test_far_away_obstacles_add_no_footprint_checks(monkeypatch):
+    import simgap.cosim.loop as loop
+
+    built = []
+    monkeypatch.setattr(loop, "footprint", lambda *shape: built.append(shape) or footprint(*shape))
+    pps = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=30)])
+    gaps, footprints = [], []
+    for rows in (1, 50):            # 100 and 5000 parked cars
+        built.clear()
+        result = simulate(parked_cars(straight_road(), rows), pps, IdealBackend(),
+                          agents_from_problems(pps, DT, load_vehicle("sedan")), {1: StraightLine(10.0)})
+        gaps.append(result.agents[0].min_distance_to_traffic_m)
+        footprints.append(len(built))
+    assert gaps[0] == gaps[1] == pytest.approx(100 - 0.9 - 1.75 - load_vehicle("sedan").width / 2, abs=1e-3)
+    assert footprints[1] == footprints[0] < 30 * 10          # the other 49 rows: not one footprint

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -16,6 +17,8 @@ from rich.table import Table
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
+from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
+from simgap.cosim.loop import MAX_SIMULATED_TIME_S
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
 from simgap.files import read_model, read_yaml_mapping
@@ -61,7 +64,9 @@ def run(
                                                     "calls are counted per agent"),
     max_time: Optional[float] = typer.Option(
         None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
-                   "(60 s when the goal has none)"),
+                   f"(60 s when the goal has none); at most {MAX_SIMULATED_TIME_S:g} s"),
+    run_timeout: float = typer.Option(DEFAULT_RUN_TIMEOUT_S, help="wall time the run may take [s]; a run still "
+                                      "going then (a planner that does not return) is stopped and recorded as failed"),
     traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
                                                "its recorded path by an IDM towards the vehicle ahead)"),
     cost_function: Optional[CostFunctionId] = typer.Option(
@@ -82,6 +87,9 @@ def run(
     (on snow, with a later steering than the car's: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.3)
     (the perfect machine of the ideal world's assumptions, in 3D: --backend mujoco --realism ideal)
     """
+    if not (math.isfinite(run_timeout) and run_timeout > 0):
+        raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
+                         allowed="a finite number of seconds > 0")
     physical = {"realism": realism, "controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
@@ -97,7 +105,7 @@ def run(
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
-                         validate=not no_validate)
+                         validate=not no_validate, run_timeout_s=run_timeout)
     check_run_out(out, request, overwrite)
     _execute(request, out, as_json)
 

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Collection, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 from pydantic import Field
 
+from simgap.cosim.traffic import ObstacleReach
 from simgap.planning.car_following import IdmParameters
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
@@ -92,6 +93,8 @@ class IdmTraffic:
                 self._replayed.append(obstacle)
             else:
                 self._driven.append(vehicle)
+        self.reach = ObstacleReach.of([TrafficParticipant(o.id, o.length, o.width, o.motion) for o in self._replayed],
+                                      [pv.obstacle.id for pv in self._driven])
         self._t = None
         self._place(0.0)
 
@@ -102,11 +105,12 @@ class IdmTraffic:
                 for pv in self._driven if pv.present and pv.prediction is not None]
         return out
 
-    def poses(self, t: float) -> dict[int, tuple[State, float, float]]:
+    def poses(self, t: float, ids: Collection[int] | None = None) -> dict[int, tuple[State, float, float]]:
+        wanted = None if ids is None else set(ids)
         out = {o.id: (o.motion.at(t), o.length, o.width) for o in self._replayed
-               if o.motion.t[0] - 1e-9 <= t <= o.motion.t_end + 1e-9}
+               if (wanted is None or o.id in wanted) and o.motion.t[0] - 1e-9 <= t <= o.motion.t_end + 1e-9}
         for pv in self._driven:
-            if pv.present:
+            if pv.present and (wanted is None or pv.obstacle.id in wanted):
                 x, y, yaw = pv.pose(pv.s)
                 out[pv.obstacle.id] = (State(t, x, y, yaw, pv.v), pv.obstacle.length, pv.obstacle.width)
         return out

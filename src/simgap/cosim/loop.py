@@ -37,10 +37,12 @@ from commonroad.scenario.scenario import Scenario
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from simgap.cosim.interruptions import PLANNER_CRASHES, RunInterrupted, WallClockExceeded, interruptions
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
 from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, PROFILES
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
+from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, TrafficParticipant, World
 from simgap.scenario.goal import Goal
 from simgap.scenario.road_frame import DrivableArea, footprint
@@ -63,6 +65,7 @@ def plan_latency(setting: Latency, compute_s: float, cycle: float) -> float:
 
 
 DEFAULT_TIME_LIMIT_S = 60.0
+MAX_SIMULATED_TIME_S = 600.0     # no run simulates longer, whatever its goal's time window
 # a car that reached its goal has left the scenario; one whose physics diverged, the backend's world
 _LEFT_THE_WORLD = (Outcome.GOAL_REACHED, Outcome.DIVERGED)
 RECORDED_PLANNER_ERRORS = 5      # exceptions kept with their tracebacks per run (all are counted)
@@ -71,12 +74,14 @@ RECORDED_PLANNER_ERRORS = 5      # exceptions kept with their tracebacks per run
 class CosimSettings(BaseModel):
     """Settings of the loop (not of the planner or backend)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     replan_every: int = Field(1, ge=1, description="replan every N steps (the paper's Frenetix: 3)")
     max_time_s: float | None = Field(
-        None, gt=0, description="limit on simulated time [s]; default: the end of the goal's time window "
-                                f"(the planning problem's deadline), or {DEFAULT_TIME_LIMIT_S:g} s when it states none")
+        None, gt=0, le=MAX_SIMULATED_TIME_S,
+        description="limit on simulated time [s]; default: the end of the goal's time window (the planning "
+                    f"problem's deadline), or {DEFAULT_TIME_LIMIT_S:g} s when it states none; never more than "
+                    f"{MAX_SIMULATED_TIME_S:g} s")
     emergency_decel: float = Field(8.0, gt=0, description="deceleration of the emergency stop [m/s^2]")
     planner_failure_limit: int = Field(
         10, ge=1, description="consecutive failed planning cycles before an agent is given up")
@@ -164,10 +169,11 @@ def _along(path: Trajectory | None, state: State, travel: np.ndarray):
 
 
 def deadline(goal: Goal, settings: CosimSettings) -> float:
-    """When an agent times out: the cap when set, else the goal's deadline, else the default."""
+    """When an agent times out: the cap when set, else the goal's deadline (at most
+    `MAX_SIMULATED_TIME_S`), else the default."""
     if settings.max_time_s is not None:
         return settings.max_time_s
-    return goal.deadline_s if goal.deadline_s is not None else DEFAULT_TIME_LIMIT_S
+    return min(goal.deadline_s, MAX_SIMULATED_TIME_S) if goal.deadline_s is not None else DEFAULT_TIME_LIMIT_S
 
 
 def simulate(
@@ -179,19 +185,24 @@ def simulate(
     settings: CosimSettings | None = None,
     progress: Callable[[float], None] | None = None,
     seed: int = 0,
+    wall_time_limit_s: float | None = None,
 ) -> Run:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``; ``seed``
-    seeds the localisations' errors."""
-    return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed).run(progress)
+    seeds the localisations' errors. A run still going after ``wall_time_limit_s`` (even in a
+    planning call that does not return) is stopped and recorded as failed."""
+    return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed,
+                         wall_time_limit_s).run(progress)
 
 
 class _CoSimulation:
     """One run of the loop: the agents' progress, the traffic, the events and the timings."""
 
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
-                 planners: Mapping[int, Planner], settings: CosimSettings, seed: int):
+                 planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None):
         self.scenario, self.backend, self.settings = scenario, backend, settings
         self.realism = backend.realism
+        self.wall_time_limit_s = wall_time_limit_s
+        self.planning_agent: int | None = None      # whose planner is running
         self.dt = float(scenario.dt)
         self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
         self.events: list[Event] = []
@@ -212,16 +223,26 @@ class _CoSimulation:
         wall_start = time.perf_counter()
         self.backend.load(self._scenario_for_backend(), self.agents)
         failure = None
+        limit = self.wall_time_limit_s
+        step = 0
         try:
-            states = self.backend.reset()
-            for aid, st in states.items():
-                self.progress_of[aid].driven.append(st)
-            step = 0
-            while any(p.active for p in self.progress_of.values()):
-                states = self._step(step, states)
-                step += 1
-                if progress is not None:
-                    progress(min(1.0, step * self.dt / self.horizon))
+            with interruptions(limit):
+                states = self.backend.reset()
+                for aid, st in states.items():
+                    self.progress_of[aid].driven.append(st)
+                while any(p.active for p in self.progress_of.values()):
+                    if limit is not None and time.perf_counter() - wall_start > limit:
+                        raise WallClockExceeded(limit)
+                    states = self._step(step, states)
+                    step += 1
+                    if progress is not None:
+                        progress(min(1.0, step * self.dt / self.horizon))
+        except WallClockExceeded as exc:
+            where = "" if self.planning_agent is None else f" in agent {self.planning_agent}'s planning call"
+            failure = f"timeout: {exc}{where} at t = {step * self.dt:.1f} s"
+            for p in self.progress_of.values():
+                if p.active:
+                    self._finish(p, Outcome.TIMEOUT, p.driven[-1] if p.driven else p.agent.initial_state, failure)
         except PhysicsDiverged as exc:
             failure = f"physics diverged: {exc}"
             for p in self.progress_of.values():
@@ -285,13 +306,17 @@ class _CoSimulation:
                       tuple(_traffic_for(p.agent.id, snapshot, self.traffic.participants())))
         observed = p.localisation.observe(p.driven, t)
         clock = time.perf_counter()
+        self.planning_agent = p.agent.id
         try:
             plan = p.planner.plan(observed, t, world)
-        except Exception as exc:  # a planner that crashes fails its cycle, not the run
+        except RunInterrupted:
+            raise
+        except PLANNER_CRASHES as exc:  # a planner that crashes (or exits) fails its cycle, not the run
             plan, reason = None, f"planner raised {type(exc).__name__}: {exc}"
             self._planner_raised(p, t, exc)
         else:
-            reason = getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+            plan, reason = self._checked(p, plan, t)
+        self.planning_agent = None
         elapsed = time.perf_counter() - clock
         p.call_times.append(elapsed)
         if settings.planning_budget_s is not None and elapsed > settings.planning_budget_s:
@@ -329,7 +354,16 @@ class _CoSimulation:
         p.in_force = plan
         return handover
 
-    def _planner_raised(self, p: _AgentProgress, t: float, exc: Exception) -> None:
+    def _checked(self, p: _AgentProgress, plan: object, t: float) -> tuple[Trajectory | None, str]:
+        """What ``p``'s planner returned at ``t`` as a plan to execute (None: no plan), and the reason when none."""
+        if plan is None:
+            return None, getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+        try:
+            return executable_plan(plan, t, self.dt), ""
+        except InvalidPlan as exc:
+            return None, f"invalid plan: {exc}"
+
+    def _planner_raised(self, p: _AgentProgress, t: float, exc: BaseException) -> None:
         """Count the exception; keep the first few with their tracebacks for the run record."""
         p.exceptions += 1
         if len(self.planner_errors) < RECORDED_PLANNER_ERRORS:
@@ -368,9 +402,9 @@ class _CoSimulation:
             elif ev.kind == "diverged" and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
                 self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
         present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
-        obstacle_shapes = {oid: footprint(st, length, width)
-                           for oid, (st, length, width) in self.traffic.poses(t).items()}
-        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in self.traffic.poses(t).items()}
+        obstacles = self._obstacles_near(present, states, t)
+        obstacle_shapes = {oid: footprint(st, length, width) for oid, (st, length, width) in obstacles.items()}
+        poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in obstacles.items()}
         for aid in present:
             p = progress_of[aid]
             others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
@@ -383,6 +417,18 @@ class _CoSimulation:
                 detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
                                                                  poses.get(hit), hit in progress_of)
                 self._judge(p, states[aid], hit, excursion, detail)
+
+    def _obstacles_near(self, present: list[int], states: Mapping[int, State],
+                        t: float) -> dict[int, tuple[State, float, float]]:
+        """The obstacles at ``t`` that may touch a present agent or come closer to it than anything
+        has so far (`ObstacleReach.near`): every other one is farther, and needs no footprint."""
+        reach = self.traffic.reach
+        near = set()
+        for aid in present:
+            p, st = self.progress_of[aid], states[aid]
+            near.update(reach.near(t, st.x, st.y, math.hypot(p.agent.vehicle.length, p.agent.vehicle.width) / 2,
+                                   p.min_distance).tolist())
+        return self.traffic.poses(t, [int(i) for i in reach.ids[sorted(near)]])
 
     def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float, detail: str = "") -> None:
         if hit is not None:

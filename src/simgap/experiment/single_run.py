@@ -16,6 +16,7 @@ from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
+from simgap.cosim.interruptions import PLANNER_CRASHES, RunInterrupted, interruptions
 from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
@@ -53,6 +54,7 @@ class RunRequest:
     validate: bool = False                     # check the solution's validity (slow; after the run is saved;
                                                # the CLI's commands ask for it unless --no-validate)
     check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
+    run_timeout_s: float | None = None         # wall time the co-simulation may take (None: no limit)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -140,14 +142,18 @@ def execute(request: RunRequest, out: Path | None = None,
                          "settings": settings.model_dump(mode="json") if settings is not None else {}}
         setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id], dt)
         try:
-            planners[a.id] = planner_class.build(setup, settings)
-        except Exception as exc:       # the planner's own bug: this run fails, recorded, the batch goes on
+            with interruptions():
+                planners[a.id] = planner_class.build(setup, settings)
+        except RunInterrupted:
+            raise
+        except PLANNER_CRASHES as exc:  # the planner's own bug (or exit): this run fails, recorded, the batch goes on
             errors.append(PlannerError.of(exc, a.id, None))
     if errors:
         run = not_started(scenario, request.backend, agents, errors, request.cosim)
     else:
         backend = make_backend(request.backend, request.backend_settings)
-        run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed)
+        run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
+                       wall_time_limit_s=request.run_timeout_s)
     for outcome in run.agents:
         outcome.planner = planner_records[outcome.id]["name"]
         outcome.recorded_as = recorded_egos.get(outcome.id)

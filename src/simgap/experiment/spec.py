@@ -37,6 +37,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from simgap.control import DEFAULT_CONTROLLER, controller_names
 from simgap.sim.settings import realism_of
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
+from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.errors import InputError, validated
 from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import sample
@@ -116,7 +117,8 @@ class BatchSpec(BaseModel):
     planner_vehicle: str = Field(DEFAULT_VEHICLE, description="the vehicle the planner assumes it drives; the ideal "
                                  "world drives it too (a catalogue name or a data file beside the spec)")
     cosim: dict[str, Any] = Field(default_factory=dict)
-    run_timeout_s: float = Field(600.0, gt=0, description="a run taking longer is stopped and recorded as failed")
+    run_timeout_s: float = Field(DEFAULT_RUN_TIMEOUT_S, gt=0, allow_inf_nan=False,
+                                 description="wall time [s]: a run taking longer is stopped and recorded as failed")
 
 
 class ExperimentSpec(BatchSpec):

@@ -16,6 +16,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 SectionKind = Literal["straight", "curve", "clothoid", "junction"]
+MAX_ROAD_LENGTH_M = 20_000.0    # the longest road, and junction approach, simgap builds [m]
 
 
 class Straight(BaseModel):

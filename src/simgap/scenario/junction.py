@@ -15,6 +15,7 @@ import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletType, LineMarking
 
 from simgap.errors import InputError
+from simgap.scenario.geometry import MAX_ROAD_LENGTH_M
 
 
 @dataclass
@@ -63,9 +64,9 @@ def _offset(centre: np.ndarray, d: float) -> np.ndarray:
 
 def build_junction(arm_angles: list[float], approach_length: float, lane_width: float,
                    first_id: int, centre_marking: str = "solid") -> Junction:
-    if approach_length < 10.0:
-        raise InputError(f"approach length {approach_length} m is too short", field="approach_length",
-                         allowed=">= 10 m")
+    if not 10.0 <= approach_length <= MAX_ROAD_LENGTH_M:
+        raise InputError(f"approach length {approach_length:g} m is too {'short' if approach_length < 10 else 'long'}",
+                         field="approach_length", allowed=f"10 to {MAX_ROAD_LENGTH_M:g} m")
     w = lane_width
     c = 2.0 * w + 1.0                    # junction box half size: room for the turning lanelets
     junction = Junction([Arm(a) for a in arm_angles])

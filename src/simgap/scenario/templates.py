@@ -2,7 +2,8 @@
 
 A logical scenario (see `logical`) names one of these templates and spans a space over its
 parameters. Templates validate what only they can judge (a radius too small for the road, a
-road that crosses itself) and raise `InputError` naming the parameter.
+road that crosses itself, a road or junction approach longer than `MAX_ROAD_LENGTH_M`, 20 km) and
+raise `InputError` naming the parameter.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from pydantic import TypeAdapter, ValidationError
 
 from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
-from simgap.scenario.geometry import Arc, Segment, Straight, centre_line, self_intersects
+from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces,
+                                     self_intersects)
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road import LaneLayout, build_road
 
@@ -73,10 +75,16 @@ def _check_radii(segments: list[Segment], layout: LaneLayout) -> None:
                     allowed=f"> {inner + 1.0:g} m (inner half-width + 1 m)")
 
 
-def road_scenario(name: str, logical: str, params: dict[str, Any], segments: list[Segment]) -> ConcreteScenario:
-    """A single road from ``segments``; one agent from 10 m in to 10 m before the end."""
+def road_scenario(name: str, logical: str, params: dict[str, Any], segments: list[Segment],
+                  length_fields: str = "segments") -> ConcreteScenario:
+    """A single road from ``segments``; one agent from 10 m in to 10 m before the end. A road longer
+    than `MAX_ROAD_LENGTH_M` is refused naming ``length_fields``, the parameters its length is made of."""
     layout = _layout(params)
     _check_radii(segments, layout)
+    length = sum(piece_length for _, piece_length, _, _ in curvature_pieces(segments))
+    if length > MAX_ROAD_LENGTH_M:
+        raise InputError(f"the road would be {length:.4g} m long", field=length_fields,
+                         allowed=f"roads up to {MAX_ROAD_LENGTH_M:g} m")
     centre = centre_line(segments)
     if self_intersects(centre.xy) or any(
             self_intersects(centre.offset(d)) for d in (-layout.half_width_right, layout.half_width_left) if d):
@@ -103,12 +111,15 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
                             dict(road.section_by_id), blueprint=blueprint)
 
 
+CURVE_LENGTH_FIELDS = "straight_length, radius, angle, transition"
+
+
 def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
     """The paper's: straight, a turn of ``radius`` and ``angle`` (positive = left), straight."""
     segments = [Straight(length=p.get("straight_length", 100.0)),
                 Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
                 Straight(length=p.get("straight_length", 100.0))]
-    return road_scenario(name, logical, p, segments)
+    return road_scenario(name, logical, p, segments, CURVE_LENGTH_FIELDS)
 
 
 def s_curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
@@ -117,7 +128,7 @@ def s_curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
                 Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
                 Arc(radius=p["radius"], angle=-p["angle"], transition=p.get("transition", 0.0)),
                 Straight(length=p.get("straight_length", 50.0))]
-    return road_scenario(name, logical, p, segments)
+    return road_scenario(name, logical, p, segments, CURVE_LENGTH_FIELDS)
 
 
 _SEGMENTS = TypeAdapter(list[Straight | Arc])

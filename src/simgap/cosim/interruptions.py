@@ -1,0 +1,62 @@
+"""What stops a run from outside its planners: the user's Ctrl-C and the run's wall-clock limit.
+
+A planner that raises ``SystemExit`` or ``KeyboardInterrupt`` fails its planning cycle
+(`PLANNER_CRASHES`); the user's Ctrl-C must not be mistaken for one, so while `interruptions` is
+active it raises `RunInterrupted`, which the loop lets through. The wall-clock limit is a timer
+signal that raises `WallClockExceeded` wherever the run is, even in a ``plan()`` that never
+returns (once its Python code runs again). Signals reach only the main thread: elsewhere neither is
+installed, and the loop's check of the wall clock between steps remains. A planner that ends the
+process itself (``os._exit``) cannot be stopped in process.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from contextlib import contextmanager
+from typing import Iterator
+
+PLANNER_CRASHES = (Exception, SystemExit, KeyboardInterrupt)   # what a planner may raise: its cycle fails
+DEFAULT_RUN_TIMEOUT_S = 600.0   # wall time a run may take unless told otherwise [s] (simgap run, experiments)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The user pressed Ctrl-C."""
+
+
+class WallClockExceeded(BaseException):
+    """The run's wall-clock limit passed (a BaseException: a planner's ``except Exception`` does not swallow it)."""
+
+    def __init__(self, limit_s: float):
+        super().__init__(f"still running after {limit_s:g} s of wall time")
+        self.limit_s = limit_s
+
+
+@contextmanager
+def interruptions(wall_time_limit_s: float | None = None) -> Iterator[None]:
+    """Inside: Ctrl-C raises `RunInterrupted` (where it would raise KeyboardInterrupt), and
+    `WallClockExceeded` is raised once ``wall_time_limit_s`` after entering (None: no limit)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupted(signum, frame) -> None:
+        raise RunInterrupted()
+
+    def timed_out(signum, frame) -> None:
+        raise WallClockExceeded(wall_time_limit_s)
+
+    own_sigint = signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    if own_sigint:
+        signal.signal(signal.SIGINT, interrupted)
+    previous_alarm = signal.signal(signal.SIGALRM, timed_out) if wall_time_limit_s is not None else None
+    if wall_time_limit_s is not None:
+        signal.setitimer(signal.ITIMER_REAL, wall_time_limit_s)
+    try:
+        yield
+    finally:
+        if wall_time_limit_s is not None:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous_alarm or signal.SIG_DFL)
+        if own_sigint:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
