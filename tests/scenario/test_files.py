@@ -79,3 +79,15 @@ def test_a_phantom_obstacle_is_read_and_left_out_of_the_traffic(tmp_path):
 def test_a_missing_file_is_refused(tmp_path):
     with pytest.raises(InputError, match="no such scenario file"):
         load_scenario(tmp_path / "missing.xml")
+
+
+@pytest.mark.parametrize("dt", ["0", "-0.1", "nan", "inf"])
+def test_a_time_step_that_is_not_a_positive_number_is_refused(tmp_path, dt):
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    path = tmp_path / "dt.xml"
+    write_xml(concrete.scenario, concrete.problems, path)
+    path.write_text(path.read_text().replace('timeStepSize="0.1"', f'timeStepSize="{dt}"'))
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == "timeStepSize"
+    assert "> 0" in err.value.allowed
