@@ -112,3 +112,10 @@ def test_a_time_step_that_is_not_positive_is_refused_at_load(tmp_path, dt, field
         load_logical(spec)
     assert err.value.file == str(spec) and err.value.field == field
     assert "dt" in err.value.reason and "> 0" in err.value.reason
+
+
+@pytest.mark.parametrize("width", [0, -3, 1.0])
+def test_a_lane_too_narrow_for_a_vehicle_is_refused(width):
+    with pytest.raises(InputError) as err:
+        build_scenario("curve", {"radius": 50, "angle": 90, "lane_width": width})
+    assert err.value.field == "lane_width" and ">= 2" in err.value.allowed
