@@ -59,6 +59,7 @@ def run_cmd(
         if bar.live.is_started:
             bar.stop()
     report = None if no_report else build_experiment_report(out)
+    _say_unusable_rows(console, result.unusable_rows, "ran again")
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
     for key, reason in result.failures[:20]:
@@ -67,6 +68,12 @@ def run_cmd(
                   f"(simgap experiment query {out} \"SELECT ...\")")
     if report:
         console.print(f"report: [bold]{report}[/bold]")
+
+
+def _say_unusable_rows(console: Console, unusable_rows: dict[Path, str], then: str) -> None:
+    """One line per row file the store left out, with why, and what became of its run."""
+    for path, why in unusable_rows.items():
+        console.print(f"[yellow]skipped[/yellow] {escape(str(path))}: {escape(why)}; its run {then}")
 
 
 @experiment_app.command("status")
@@ -79,6 +86,7 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
 
     st = experiment_status(out)
     console = Console()
+    _say_unusable_rows(console, st.unusable_rows, "counts as left and runs again on resume")
     console.print(f"{st.total} runs: {len(st.ok)} done, {len(st.failed)} failed, {len(st.left)} left")
     for key, reason in st.failed:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
@@ -101,7 +109,9 @@ def query_cmd(
     """
     from simgap.experiment.store import ResultsStore
 
-    columns, rows = ResultsStore(out).query(sql)
+    store = ResultsStore(out)
+    columns, rows = store.query(sql)
+    _say_unusable_rows(Console(stderr=True), store.unusable_rows, "is left out and runs again on resume")
     if to_csv is not None:
         with to_csv.open("w", newline="") as fh:
             writer = csv.writer(fh)

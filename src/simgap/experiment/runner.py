@@ -48,6 +48,7 @@ class ExperimentResult:
     skipped: int
     wall_time_s: float
     failures: list[tuple[str, str]]
+    unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs ran again
 
 
 def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
@@ -127,6 +128,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
     store.prepare()
     clean_partial_runs(root)
     finished = store.finished_keys()
+    unusable_rows = store.unusable_rows
     todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
     progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
     failures: list[tuple[str, str]] = []
@@ -149,7 +151,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
         runner.run(todo, context, on_result)
     store.consolidate()
     return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                            progress.skipped, time.perf_counter() - start, failures)
+                            progress.skipped, time.perf_counter() - start, failures, unusable_rows)
 
 
 @dataclass
@@ -158,6 +160,7 @@ class Status:
     ok: list[str]
     failed: list[tuple[str, str]]
     left: list[str]
+    unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs are left
 
 
 def experiment_status(root: Path) -> Status:
@@ -168,10 +171,11 @@ def experiment_status(root: Path) -> Status:
     meta = json.loads(meta_path.read_text())
     spec = ExperimentSpec.model_validate(meta["spec"])
     logical = load_logical(meta.get("logical_ref", spec.logical))
-    rows = {r["key"]: r for r in ResultsStore(root).finished_rows()}
+    store = ResultsStore(root)
+    rows = {r["key"]: r for r in store.finished_rows()}
     spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
     keys = [j.key for _, runs in jobs(checked_experiment(spec, logical, spec_file)) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
     failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]
     left = [k for k in keys if k not in rows]
-    return Status(len(keys), ok, failed, left)
+    return Status(len(keys), ok, failed, left, store.unusable_rows)
