@@ -5,6 +5,7 @@ model, with errors that name the file and the field."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import tempfile
@@ -127,6 +128,25 @@ def read_model(path: str | Path, model: type[M], what: str, keys: str | None = N
     out); every problem is an `InputError` naming the file, the field and what is allowed."""
     raw = dict(defaults or {}) | read_yaml_mapping(path, what, keys, empty_ok)
     return validated(model, raw, file=path)
+
+
+WRITER_LOCK = ".writer.lock"   # the file in a directory that its one writer holds locked
+
+
+@contextmanager
+def sole_writer(path: str | Path, writer: str) -> Iterator[Path]:
+    """Hold ``path`` (made if missing) as its only writer while the block runs: a lock on a hidden
+    file in it, which the system releases when the process ends however it ends. A second
+    ``writer`` on the same directory is refused in one line instead of doing the same work."""
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    with open(path / WRITER_LOCK, "a") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"another {writer} is writing to this directory", file=path,
+                             allowed="wait until it ends, or another --out") from None
+        yield path
 
 
 @contextmanager

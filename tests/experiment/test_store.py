@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import shutil
 
+import pytest
 import yaml
 
+from simgap.errors import InputError
 from simgap.experiment.runner import experiment_status, run_experiment
 from simgap.experiment.store import ResultsStore, row_file_name
+from simgap.files import sole_writer
 
 THREE_RUNS = {"name": "three", "logical": "curve",
               "parameters": {"radius": {"values": [20, 50, 100]}, "angle": {"values": [30]}},
@@ -39,3 +42,12 @@ def test_a_cut_short_row_and_a_deleted_run_are_named_left_out_and_run_again(tmp_
     after = experiment_status(out)
     assert (len(after.ok), after.unusable_rows) == (3, {})
     assert (out / run_of_deleted / "run.json").is_file()
+
+
+def test_a_second_experiment_run_on_the_same_directory_is_refused_before_it_runs(tmp_path):
+    spec, out = tmp_path / "spec.yaml", tmp_path / "out"
+    spec.write_text(yaml.safe_dump(THREE_RUNS))
+    with sole_writer(out, "simgap experiment run"):          # the first one, still running
+        with pytest.raises(InputError, match="another simgap experiment run is writing to this directory"):
+            run_experiment(spec, out, workers=1)
+    assert not (out / "experiment.json").exists() and not (out / "runs").exists()

@@ -18,7 +18,7 @@ from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text, restore_directory
+from simgap.files import atomic_write_text, restore_directory, sole_writer
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -122,36 +122,37 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
         logical_ref = str((path.parent / logical_ref).resolve())
-    _claim(root, spec, logical_ref, path)
-    all_jobs, scenarios = plan(experiment, root)
-    store = ResultsStore(root)
-    store.prepare()
-    clean_partial_runs(root)
-    finished = store.finished_keys()
-    unusable_rows = store.unusable_rows
-    todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
-    progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
-    failures: list[tuple[str, str]] = []
-    if on_progress:
-        on_progress(progress)
-
-    def on_result(job: Job, row: RunRow) -> None:
-        store.write_row(row)
-        if row.status == "ok":
-            progress.done += 1
-        else:
-            progress.failed += 1
-            failures.append((job.key, row.failure))
+    with sole_writer(root, "simgap experiment run"):
+        _claim(root, spec, logical_ref, path)
+        all_jobs, scenarios = plan(experiment, root)
+        store = ResultsStore(root)
+        store.prepare()
+        clean_partial_runs(root)
+        finished = store.finished_keys()
+        unusable_rows = store.unusable_rows
+        todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
+        progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
+        failures: list[tuple[str, str]] = []
         if on_progress:
             on_progress(progress)
 
-    start = time.perf_counter()
-    context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
-    if todo:
-        runner.run(todo, context, on_result)
-    store.consolidate()
-    return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                            progress.skipped, time.perf_counter() - start, failures, unusable_rows)
+        def on_result(job: Job, row: RunRow) -> None:
+            store.write_row(row)
+            if row.status == "ok":
+                progress.done += 1
+            else:
+                progress.failed += 1
+                failures.append((job.key, row.failure))
+            if on_progress:
+                on_progress(progress)
+
+        start = time.perf_counter()
+        context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
+        if todo:
+            runner.run(todo, context, on_result)
+        store.consolidate()
+        return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
+                                progress.skipped, time.perf_counter() - start, failures, unusable_rows)
 
 
 @dataclass
