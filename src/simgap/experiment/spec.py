@@ -235,9 +235,23 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
                                              {"controller": controller} if controller is not None else {}),
                                              path, f"fidelities.{i}.settings"))
                          for vehicle, controller in combos])
+    _check_each_fidelity_once(variants, path)
     planners = planner_choices(spec, path)
     cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
     return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle)
+
+
+def _check_each_fidelity_once(variants: list[list[FidelityVariant]], path: Path) -> None:
+    """No two variants run as one fidelity: their runs would share a key, and one row."""
+    seen: dict[str, str] = {}
+    for i, fidelity_variants in enumerate(variants):
+        for variant in fidelity_variants:
+            label, where = variant.fidelity.label, f"fidelities.{i}"
+            if label in seen:
+                twice = f"names '{label}' twice" if seen[label] == where else f"runs as '{label}', as {seen[label]} does"
+                raise InputError(f"{twice}: their runs would be one", file=path, field=where,
+                                 allowed="each backend, vehicle and controller once")
+            seen[label] = where
 
 
 def planner_choices(spec: Any, spec_file: Path) -> list[PlannerChoice]:
