@@ -12,7 +12,7 @@ import tempfile
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterator, TypeVar
+from typing import Any, Callable, Hashable, Iterator, TypeVar
 
 import yaml
 from pydantic import BaseModel
@@ -104,17 +104,49 @@ def _set_aside(path: Path) -> Path:
     return path.with_name(f".{path.name}.old")
 
 
+class _StrictYamlLoader(yaml.SafeLoader):
+    """Safe YAML that also refuses a key given twice in one mapping (YAML keys are unique; PyYAML
+    would keep the last silently) and aliases (``*name``), which let a few hundred bytes expand
+    to gigabytes; a simgap input has no need of them."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            alias = self.peek_event()
+            raise yaml.MarkedYAMLError(problem=f"the alias *{alias.anchor}: simgap reads no aliases, write the "
+                                               "value out", problem_mark=alias.start_mark)
+        return super().compose_node(parent, index)
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        first_line: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if isinstance(key, Hashable) and key in first_line:
+                raise yaml.MarkedYAMLError(problem=f"the key '{key}' is given twice (first on line "
+                                                   f"{first_line[key]})", problem_mark=key_node.start_mark)
+            first_line.setdefault(key, key_node.start_mark.line + 1)
+        return super().construct_mapping(node, deep)
+
+
+def _yaml_problem(exc: yaml.YAMLError) -> str:
+    """A YAML error in one line: what is wrong, and where."""
+    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
+        mark = exc.problem_mark
+        return f"malformed YAML at line {mark.line + 1}, column {mark.column + 1}: {exc.problem}"
+    return "malformed YAML: " + " ".join(str(exc).split())
+
+
 def read_yaml_mapping(path: str | Path, what: str, keys: str | None = None, empty_ok: bool = False
                       ) -> dict[str, Any]:
     """The YAML mapping in ``path`` (an empty file too, if ``empty_ok``), or an `InputError` naming
-    the file (``what``: the kind of file; ``keys``: what such a mapping holds)."""
+    the file (``what``: the kind of file; ``keys``: what such a mapping holds). A key given twice
+    and an alias are refused (`_StrictYamlLoader`)."""
     path = Path(path)
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.load(path.read_text(), Loader=_StrictYamlLoader)
     except OSError as exc:
         raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
     except yaml.YAMLError as exc:
-        raise InputError(f"malformed YAML: {exc}", file=path) from None
+        raise InputError(_yaml_problem(exc), file=path) from None
     if raw is None and empty_ok:
         raw = {}
     if not isinstance(raw, dict):
