@@ -190,6 +190,10 @@ def test_unknown_or_missing_backend_and_vehicle_are_refused(tmp_path):
     assert_clean_error(simgap("run", xml, "--vehicle", "1=sedan", "--out", str(tmp_path / "r")),
                        "no vehicle given for planning problem 2")
     assert_clean_error(simgap("run", xml, "--vehicle", "tank", "--out", str(tmp_path / "r")), "unknown vehicle 'tank'")
+    assert_clean_error(simgap("run", xml, "--vehicle", "0=suv,1=sedan,2=sedan", "--out", str(tmp_path / "r")),
+                       "field 'vehicle': agent 0 is not in the scenario", "planning problem ids 1, 2")
+    assert_clean_error(simgap("run", xml, "--planner", "1=frenet,1=idm,2=idm", "--out", str(tmp_path / "r")),
+                       "field 'planner': agent 1 is given a planner twice")
     assert not (tmp_path / "r").exists()
 
 
