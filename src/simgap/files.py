@@ -22,6 +22,48 @@ from simgap.errors import InputError, validated
 M = TypeVar("M", bound=BaseModel)
 
 
+TEMPORARY_NAME_ROOM = 24    # bytes a temporary name beside a file or directory adds to its name
+
+
+def writable_directory(path: Path | None) -> Path | None:
+    """``path`` as a directory simgap can make and write in (None passes through): an existing
+    file there, a name longer than the file system holds (with the room temporary names beside it
+    need) and a folder that cannot be written (no permission, a read-only file system) are
+    refused in one line before any work."""
+    if path is None:
+        return None
+    existing = _deepest_existing(path.absolute())
+    if existing.exists() and not existing.is_dir():
+        raise InputError("is a file" if existing == path.absolute() else f"lies inside the file {existing}",
+                         file=path, allowed="a directory, new or existing")
+    longest = os.pathconf(existing, "PC_NAME_MAX") - TEMPORARY_NAME_ROOM
+    too_long = next((part for part in path.parts if len(os.fsencode(part)) > longest), None)
+    if too_long is not None:
+        raise InputError(f"a name in it is {len(os.fsencode(too_long))} bytes long", file=path,
+                         allowed=f"names of at most {longest} bytes (the file system's limit less room for "
+                                 "temporary names)")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise InputError(f"cannot be written: {exc.strerror} in {existing}", file=path,
+                         allowed="a folder you can write to") from None
+    return path
+
+
+def _deepest_existing(absolute: Path) -> Path:
+    """The deepest folder (or file) on the way to ``absolute`` that exists."""
+    existing = Path(absolute.anchor)
+    for part in absolute.parts[1:]:
+        try:
+            if not (existing / part).exists():
+                break
+        except OSError:              # a name too long to look up
+            break
+        existing = existing / part
+    return existing
+
+
 def atomic_write(path: str | Path, write: Callable[[Path], Any], keep_suffix: bool = False) -> Path:
     """Call ``write`` on a temporary file next to ``path``, then rename it into place. The
     temporary file is hidden and ends in ``.tmp`` (or, with ``keep_suffix``, in ``.tmp`` and the

@@ -288,3 +288,29 @@ def test_experiment_commands_refuse_bad_input_clearly(tmp_path):
     assert_clean_error(simgap("experiment", "run", "demo", "--out", str(tmp_path / "x"), "--address", "a:1"),
                        "--address is for the ray executor")
     assert not (tmp_path / "x" / "store").exists()
+
+
+def test_an_out_that_is_a_file_is_refused_by_every_command_before_any_work(tmp_path):
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    for command in (["generate", "curve"], ["experiment", "run", "demo"], ["search", "curve-gaps"], ["demo"],
+                    ["report", str(tmp_path)]):
+        proc = simgap(*command, "--out", str(notes))
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, command
+        assert_clean_error(proc, f"{notes}: is a file")
+    assert_clean_error(simgap("generate", "curve", "--out", str(tmp_path / ("d" * 300))), "300 bytes long")
+    assert notes.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_an_unknown_mujoco_gl_is_refused_in_one_line(tmp_path):
+    simgap("generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview", "--out", str(tmp_path))
+    xml = str(tmp_path / "curve_radius-50_angle-30.xml")
+    run = tmp_path / "run"
+    assert simgap("run", xml, "--no-validate", "--replan-every", "3", "--out", str(run)).returncode == 0
+    env = dict(os.environ, MUJOCO_GL="bogus")
+    for command in (["render", str(run), "--3d", "--out", str(tmp_path / "pictures")],
+                    ["run", xml, "--backend", "mujoco", "--out", str(tmp_path / "3d")]):
+        proc = subprocess.run(SIMGAP + command, capture_output=True, text=True, env=env, timeout=300)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, command
+        assert_clean_error(proc, "field 'MUJOCO_GL'", "invalid value for environment variable MUJOCO_GL: bogus")
+    assert not (tmp_path / "pictures").exists() and not (tmp_path / "3d").exists()

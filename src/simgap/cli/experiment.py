@@ -15,6 +15,7 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
+from simgap.files import writable_directory
 
 experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
                              no_args_is_help=True)
@@ -24,7 +25,8 @@ app.add_typer(experiment_app, name="experiment")
 @experiment_app.command("run")
 def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
-    out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
+    out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)",
+                             callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),

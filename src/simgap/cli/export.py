@@ -13,6 +13,7 @@ from rich.console import Console
 
 from simgap.cli.main import app
 from simgap.errors import InputError
+from simgap.files import writable_directory
 
 
 class Format(StrEnum):
@@ -24,7 +25,7 @@ class Format(StrEnum):
 def export_cmd(
     source: Path = typer.Argument(..., help="a run directory, a CommonRoad scenario (.xml), or with --violations "
                                             "a search directory"),
-    out: Path = typer.Option(..., "--out", "-o", help="directory to write into"),
+    out: Path = typer.Option(..., "--out", "-o", help="directory to write into", callback=writable_directory),
     format: Optional[str] = typer.Option(None, "--format", "-f",
                                          help="openscenario (a run: .xosc + .xodr) or opendrive (a scenario's "
                                               "road: .xodr); default: by SOURCE"),

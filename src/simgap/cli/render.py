@@ -10,12 +10,14 @@ from rich.console import Console
 
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_pictures_out, record_pictures
+from simgap.files import writable_directory
 
 
 @app.command()
 def render(
     run_dir: Path = typer.Argument(..., help="a run directory written by `simgap run`"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="where to write (default: the run directory)"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="where to write (default: the run directory)",
+                                       callback=writable_directory),
     frame_every: int = typer.Option(3, min=1, help="one animation frame every N steps"),
     three_d: bool = typer.Option(False, "--3d", help="also render the 3D world (chase, bird's-eye, animation)"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
@@ -28,6 +30,9 @@ def render(
 
     if three_d:
         from simgap.report import scene3d
+        from simgap.sim.mujoco.graphics import check_mujoco_gl
+
+        check_mujoco_gl()
         from simgap.sim.mujoco.replay import MujocoReplay
     folder = out or run_dir
     check_pictures_out(folder, list(scene2d.PICTURES) + (list(scene3d.PICTURES) if three_d else []), overwrite)

@@ -18,11 +18,11 @@ from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
-from simgap.files import read_model, read_yaml_mapping
+from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
-from simgap.sim.registry import backend_settings
+from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
@@ -32,7 +32,7 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
 @app.command()
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
-    out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
+    out: Path = typer.Option(..., "--out", "-o", help="run directory to write", callback=writable_directory),
     backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
@@ -94,6 +94,7 @@ def run(
                                                              **knob_cosim, **scoring)),
                          validate=not no_validate)
     check_run_out(out, request, overwrite)
+    preflight(request.backend, request.backend_settings)
     _execute(request, out, as_json)
 
 

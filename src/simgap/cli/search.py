@@ -13,13 +13,15 @@ from rich.table import Table
 
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
+from simgap.files import writable_directory
 
 
 @app.command("search")
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
     budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
-    out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)"),
+    out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)",
+                             callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
