@@ -51,3 +51,16 @@ def test_a_second_experiment_run_on_the_same_directory_is_refused_before_it_runs
         with pytest.raises(InputError, match="another simgap experiment run is writing to this directory"):
             run_experiment(spec, out, workers=1)
     assert not (out / "experiment.json").exists() and not (out / "runs").exists()
+
+
+def test_a_query_reads_the_runs_and_nothing_else(tmp_path):
+    spec, out = tmp_path / "spec.yaml", tmp_path / "out"
+    spec.write_text(yaml.safe_dump(THREE_RUNS | {"parameters": {"radius": {"values": [50]}, "angle": {"values": [30]}}}))
+    run_experiment(spec, out, workers=1)
+    store = ResultsStore(out)
+    assert store.query("SELECT status FROM runs")[1] == [("ok",)]
+    for sql in (f"COPY runs TO '{tmp_path / 'leak.csv'}'", "SELECT * FROM read_csv('/etc/hostname')",
+                "SET enable_external_access = true", f"ATTACH '{tmp_path / 'other.db'}'"):
+        with pytest.raises(InputError, match="query failed"):
+            store.query(sql)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "spec.yaml"]

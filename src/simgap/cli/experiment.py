@@ -100,7 +100,7 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
 @experiment_app.command("query")
 def query_cmd(
     out: Path = typer.Argument(..., help="experiment directory"),
-    sql: str = typer.Argument(..., help="DuckDB SQL over the view 'runs' (one row per run)"),
+    sql: str = typer.Argument(..., help="DuckDB SQL over the table 'runs' (one row per run)"),
     to_csv: Optional[Path] = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
 ) -> None:
     """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,

@@ -110,7 +110,8 @@ class ResultsStore:
         return atomic_write(self.root / "store" / "results.parquet", lambda tmp: pq.write_table(table, tmp))
 
     def connect(self):
-        """A DuckDB connection with the table ``runs`` (one row per run that `rows` reads)."""
+        """An in-memory DuckDB connection with the table ``runs`` (one row per run that `rows` reads),
+        closed to files and extensions: a query changes nothing in the store or elsewhere."""
         import duckdb
 
         files = list(self._usable_rows())
@@ -118,6 +119,8 @@ class ResultsStore:
             raise InputError("no finished runs in this experiment yet", file=self.root)
         con = duckdb.connect()
         con.execute("CREATE TABLE runs AS SELECT * FROM read_parquet(?, union_by_name=true)", [[str(p) for p in files]])
+        con.execute("SET enable_external_access = false")     # a query reads and writes no file, loads nothing
+        con.execute("SET lock_configuration = true")
         return con
 
     def query(self, sql: str) -> tuple[list[str], list[tuple]]:
@@ -128,6 +131,6 @@ class ResultsStore:
             cursor = con.execute(sql)
         except duckdb.Error as exc:
             raise InputError(f"query failed: {str(exc).splitlines()[0]}", field="SQL",
-                             allowed="DuckDB SQL over the view 'runs'") from None
+                             allowed="DuckDB SQL over the table 'runs'") from None
         columns = [d[0] for d in cursor.description] if cursor.description else []
         return columns, cursor.fetchall()
