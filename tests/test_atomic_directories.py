@@ -78,3 +78,12 @@ def test_a_foreign_file_by_the_set_aside_name_is_refused_and_kept(tmp_path):
     assert (target / "run.json").read_text() == "old"
     assert foreign.read_text() == "not simgap's"
     assert sorted(p.name for p in target.parent.iterdir()) == [".x.old", "x"]
+
+
+def test_a_swapped_in_directory_has_the_permissions_of_the_umask(tmp_path):
+    previous = os.umask(0o022)
+    try:
+        replace_directory(tmp_path / "run", lambda tmp: (tmp / "run.json").write_text("{}"))
+    finally:
+        os.umask(previous)
+    assert (tmp_path / "run").stat().st_mode & 0o777 == 0o755

@@ -109,7 +109,8 @@ def replace_directory(path: str | Path, build: Callable[[Path], Any]) -> Path:
         raise InputError(f"a file named {old.name} lies where the old directory would be set aside while the new one "
                          "moves in; it is not simgap's, so nothing was replaced", file=old,
                          allowed="remove or rename that file, or choose another destination")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}"
+    tmp.mkdir()                       # with the permissions of the user's umask, as any folder they make
     try:
         build(tmp)
         if path.exists():
