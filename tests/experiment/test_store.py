@@ -64,3 +64,13 @@ def test_a_query_reads_the_runs_and_nothing_else(tmp_path):
         with pytest.raises(InputError, match="query failed"):
             store.query(sql)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "spec.yaml"]
+
+
+def test_an_experiment_is_refused_in_a_folder_of_the_users_files(tmp_path):
+    spec, out = tmp_path / "spec.yaml", tmp_path / "thesis"
+    spec.write_text(yaml.safe_dump(THREE_RUNS))
+    out.mkdir()
+    (out / "chapter1.tex").write_text("mine")
+    with pytest.raises(InputError, match=r"holds chapter1.tex and no experiment.json"):
+        run_experiment(spec, out, workers=1)
+    assert sorted(p.name for p in out.iterdir()) == ["chapter1.tex"]

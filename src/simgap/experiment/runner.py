@@ -82,6 +82,18 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str, spec_file: Path) 
     atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
 
 
+def _check_experiment_directory(root: Path) -> None:
+    """``root`` is new, empty (but for hidden files) or an experiment's directory: a folder of the
+    user's files is not one to fill with scenarios, runs and a store."""
+    if (root / META).exists() or not root.is_dir():
+        return
+    theirs = sorted(p.name for p in root.iterdir() if not p.name.startswith("."))
+    if theirs:
+        more = f" (and {len(theirs) - 1} more)" if len(theirs) > 1 else ""
+        raise InputError(f"holds {theirs[0]}{more} and no {META}, so it is not an experiment's directory",
+                         file=root, allowed="a new or empty folder, or an experiment's own to resume it")
+
+
 def plan(experiment: Experiment, root: Path) -> tuple[list[Job], dict[str, str]]:
     """All the experiment's jobs, and the scenario file of each scenario (written if missing)."""
     all_jobs, scenarios = [], {}
@@ -122,6 +134,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
         logical_ref = str((path.parent / logical_ref).resolve())
+    _check_experiment_directory(root)
     with sole_writer(root, "simgap experiment run"):
         _claim(root, spec, logical_ref, path)
         all_jobs, scenarios = plan(experiment, root)
