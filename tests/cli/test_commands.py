@@ -314,3 +314,16 @@ def test_an_unknown_mujoco_gl_is_refused_in_one_line(tmp_path):
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, command
         assert_clean_error(proc, "field 'MUJOCO_GL'", "invalid value for environment variable MUJOCO_GL: bogus")
     assert not (tmp_path / "pictures").exists() and not (tmp_path / "3d").exists()
+
+
+def test_a_resumed_experiment_says_how_many_runs_failed_earlier_and_how_to_retry_them(tmp_path):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text("name: slow\nlogical: curve\nparameters: {radius: {values: [50]}, angle: {values: [30]}}\n"
+                    "fidelities: [{backend: ideal}]\nrun_timeout_s: 0.5\n")
+    out = tmp_path / "out"
+    first = simgap("experiment", "run", str(spec), "--out", str(out), "--no-report", "--no-validate")
+    assert first.returncode == 0 and "1 ran now (1 failed)" in first.stdout
+    resumed = simgap("experiment", "run", str(spec), "--out", str(out), "--no-report", "--no-validate")
+    assert "0 ran now (0 failed), 1 finished earlier" in resumed.stdout
+    assert (f"1 of the runs that finished earlier failed; to run them again: simgap experiment run {spec} "
+            f"--out {out} --retry-failed") in " ".join(resumed.stdout.split())

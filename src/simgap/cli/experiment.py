@@ -64,6 +64,9 @@ def run_cmd(
     _say_unusable_rows(console, result.unusable_rows, "ran again")
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
+    if result.skipped_failed:
+        console.print(f"  {result.skipped_failed} of the runs that finished earlier failed; to run them again: "
+                      f"simgap experiment run {escape(spec)} --out {escape(str(out))} --retry-failed")
     for key, reason in result.failures[:20]:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "

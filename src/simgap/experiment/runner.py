@@ -46,6 +46,7 @@ class ExperimentResult:
     ran: int
     failed: int
     skipped: int
+    skipped_failed: int                 # of the skipped: runs that failed earlier (--retry-failed runs them again)
     wall_time_s: float
     failures: list[tuple[str, str]]
     unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs ran again
@@ -144,6 +145,7 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
         finished = store.finished_keys()
         unusable_rows = store.unusable_rows
         todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
+        skipped_failed = 0 if retry_failed else sum(finished.get(j.key) == "failed" for j in all_jobs)
         progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
         failures: list[tuple[str, str]] = []
         if on_progress:
@@ -165,7 +167,8 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
             runner.run(todo, context, on_result)
         store.consolidate()
         return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                                progress.skipped, time.perf_counter() - start, failures, unusable_rows)
+                                progress.skipped, skipped_failed, time.perf_counter() - start, failures,
+                                unusable_rows)
 
 
 @dataclass
