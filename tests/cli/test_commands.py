@@ -327,3 +327,10 @@ def test_a_resumed_experiment_says_how_many_runs_failed_earlier_and_how_to_retry
     assert "0 ran now (0 failed), 1 finished earlier" in resumed.stdout
     assert (f"1 of the runs that finished earlier failed; to run them again: simgap experiment run {spec} "
             f"--out {out} --retry-failed") in " ".join(resumed.stdout.split())
+
+
+def test_tables_piped_into_a_file_are_printed_whole():
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    proc = subprocess.run(SIMGAP + ["vehicles"], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0
+    assert "understeer [deg/g]" in proc.stdout and "4.51x1.61" in proc.stdout and "…" not in proc.stdout

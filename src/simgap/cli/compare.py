@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cosim import Run
 from simgap.errors import InputError
@@ -107,7 +108,7 @@ def compare(
     if as_json:
         typer.echo(json.dumps(result, indent=2))
         return
-    console = Console()
+    console = output_console()
     table = Table(title=escape(f"{a.scenario_id}: {result['b']} against {result['a']}"))
     for col in ("agent", "metric", "max", "rms", "mean", "p95"):
         table.add_column(col, justify="left" if col in ("metric",) else "right", no_wrap=True)

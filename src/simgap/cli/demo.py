@@ -9,8 +9,8 @@ import time
 from pathlib import Path
 
 import typer
-from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.files import writable_directory
 
@@ -33,7 +33,7 @@ def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="wher
     from simgap.experiment.runner import run_experiment
     from simgap.report.site import build_experiment_report
 
-    console = Console()
+    console = output_console()
 
     def say(msg: str) -> None:
         console.print(f"[dim]{msg}[/dim]")

@@ -13,6 +13,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
@@ -44,7 +45,7 @@ def run_cmd(
     from simgap.experiment.runner import run_experiment
     from simgap.report.site import build_experiment_report
 
-    console = Console()
+    console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
     task = bar.add_task("runs", total=None, counts="")
@@ -90,7 +91,7 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
     from simgap.experiment.runner import experiment_status
 
     st = experiment_status(out)
-    console = Console()
+    console = output_console()
     _say_unusable_rows(console, st.unusable_rows, "counts as left and runs again on resume")
     console.print(f"{st.total} runs: {len(st.ok)} done, {len(st.failed)} failed, {len(st.left)} left")
     for key, reason in st.failed:
@@ -116,17 +117,17 @@ def query_cmd(
 
     store = ResultsStore(out)
     columns, rows = store.query(sql)
-    _say_unusable_rows(Console(stderr=True), store.unusable_rows, "is left out and runs again on resume")
+    _say_unusable_rows(output_console(stderr=True), store.unusable_rows, "is left out and runs again on resume")
     if to_csv is not None:
         with to_csv.open("w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(columns)
             writer.writerows(rows)
-        Console().print(f"{len(rows)} rows written to [bold]{to_csv}[/bold]")
+        output_console().print(f"{len(rows)} rows written to [bold]{to_csv}[/bold]")
         return
     table = Table()
     for c in columns:
         table.add_column(escape(c))
     for r in rows:
         table.add_row(*(f"{v:.4g}" if isinstance(v, float) else escape(str(v)) for v in r))
-    Console().print(table)
+    output_console().print(table)

@@ -11,6 +11,7 @@ from typing import Optional
 import typer
 from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.files import writable_directory
@@ -52,7 +53,7 @@ def export_cmd(
         except ValueError:
             raise InputError(f"unknown format '{format}'", field="--format",
                              allowed=", ".join(f.value for f in Format)) from None
-    console = Console()
+    console = output_console()
     if not source.exists():
         raise InputError("no such file or directory", file=source,
                          allowed="a run directory, a .xml scenario, or a search directory with --violations")

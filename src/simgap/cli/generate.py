@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.progress import track
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.files import writable_directory
@@ -39,7 +40,7 @@ def generate(
 
     Example: simgap generate curve --set radius=10 --set angle=90 --out scenarios/
     """
-    console = Console()
+    console = output_console()
     if list_:
         _print_builtins(console)
         return

@@ -6,8 +6,8 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_pictures_out, record_pictures
 from simgap.files import writable_directory
@@ -36,7 +36,7 @@ def render(
         from simgap.sim.mujoco.replay import MujocoReplay
     folder = out or run_dir
     check_pictures_out(folder, list(scene2d.PICTURES) + (list(scene3d.PICTURES) if three_d else []), overwrite)
-    console = Console()
+    console = output_console()
     with console.status("rendering the 2D scene"):
         written = scene2d.render_run(run_dir, out, frame_every)
     if three_d:

@@ -13,6 +13,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
@@ -122,7 +123,7 @@ def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
         if result.failure:
             raise typer.Exit(1)
         return
-    console = Console()
+    console = output_console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), console=console, transient=True) as bar:
         task = bar.add_task(f"{request.backend}: {Path(request.scenario).name}", total=1.0)

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
@@ -45,7 +46,7 @@ def search_cmd(
     from simgap.report.search_page import build_search_report
 
     limit = parse_budget(budget)
-    console = Console()
+    console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), console=console)
     tasks: dict[str, int] = {}
@@ -95,4 +96,4 @@ def status_cmd(out: Path = typer.Argument(..., help="search directory")) -> None
     """
     from simgap.experiment.search_results import search_results
 
-    _print(Console(), search_results(out).strategies)
+    _print(output_console(), search_results(out).strategies)
