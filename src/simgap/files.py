@@ -227,8 +227,8 @@ def sole_writer(path: str | Path, writer: str) -> Iterator[Path]:
 @contextmanager
 def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]:
     """A hidden directory in ``parent`` to build several files in before any of them is moved
-    into place (by the caller, each with an `os.replace`); removed afterwards with whatever was
-    left in it, so a failure leaves nothing half-written."""
+    into place (`publish`); removed afterwards with whatever was left in it, so a failure leaves
+    nothing half-written."""
     parent = Path(parent)
     parent.mkdir(parents=True, exist_ok=True)
     path = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent))
@@ -236,3 +236,13 @@ def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]
         yield path
     finally:
         shutil.rmtree(path, ignore_errors=True)
+
+
+def publish(staged: Path, out: Path, names: list[str]) -> list[Path]:
+    """Move the files ``names``, built in ``staged`` (a `staged_directory` in ``out``), into
+    ``out``, each by one rename so a reader sees it whole, in the order given (a file that refers
+    to another after it); returns where they are now."""
+    out.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        os.replace(staged / name, out / name)
+    return [out / name for name in names]
