@@ -8,11 +8,13 @@ Layout of an experiment directory::
     store/rows/KEY.parquet     one row per finished run (ok or failed), written atomically
     store/results.parquet      all rows in one file, rebuilt from the rows
     report/                    the HTML report
+    .writer.lock               locked by the one `simgap experiment run` writing here (`simgap.files.sole_writer`)
 
 A row is written (to a temporary file, then renamed) only after its run directory is complete,
 so a row always describes a whole run; a run killed half-way leaves no row and is run again on
-resume, and so is a run whose worker died under it (its row says so until then). Nothing else in
-the directory is read as a result.
+resume, and so is a run whose worker died under it (its row says so until then), a row file that
+cannot be read and a row whose run directory is gone. Nothing else in the directory is read as a
+result.
 """
 
 from __future__ import annotations
