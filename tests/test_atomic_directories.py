@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from simgap.errors import InputError
-from simgap.files import replace_directory, restore_directory
+from simgap.files import publish, replace_directory, restore_directory, staged_directory
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 
@@ -78,3 +78,22 @@ def test_a_foreign_file_by_the_set_aside_name_is_refused_and_kept(tmp_path):
     assert (target / "run.json").read_text() == "old"
     assert foreign.read_text() == "not simgap's"
     assert sorted(p.name for p in target.parent.iterdir()) == [".x.old", "x"]
+
+
+def test_a_swapped_in_directory_has_the_permissions_of_the_umask(tmp_path):
+    previous = os.umask(0o022)
+    try:
+        replace_directory(tmp_path / "run", lambda tmp: (tmp / "run.json").write_text("{}"))
+    finally:
+        os.umask(previous)
+    assert (tmp_path / "run").stat().st_mode & 0o777 == 0o755
+
+
+def test_files_built_in_a_staged_directory_are_published_whole_and_the_rest_removed(tmp_path):
+    with staged_directory(tmp_path, "export") as staged:
+        (staged / "road.xodr").write_text("<road/>")
+        (staged / "scene.xosc").write_text("<scene/>")
+        (staged / "scratch.txt").write_text("not published")
+        published = publish(staged, tmp_path / "out", ["road.xodr", "scene.xosc"])
+    assert published == [tmp_path / "out" / "road.xodr", tmp_path / "out" / "scene.xosc"]
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["out", "road.xodr", "scene.xosc"]

@@ -5,13 +5,14 @@ model, with errors that name the file and the field."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import tempfile
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterator, TypeVar
+from typing import Any, Callable, Hashable, Iterator, TypeVar
 
 import yaml
 from pydantic import BaseModel
@@ -19,6 +20,48 @@ from pydantic import BaseModel
 from simgap.errors import InputError, validated
 
 M = TypeVar("M", bound=BaseModel)
+
+
+TEMPORARY_NAME_ROOM = 24    # bytes a temporary name beside a file or directory adds to its name
+
+
+def writable_directory(path: Path | None) -> Path | None:
+    """``path`` as a directory simgap can make and write in (None passes through): an existing
+    file there, a name longer than the file system holds (with the room temporary names beside it
+    need) and a folder that cannot be written (no permission, a read-only file system) are
+    refused in one line before any work."""
+    if path is None:
+        return None
+    existing = _deepest_existing(path.absolute())
+    if existing.exists() and not existing.is_dir():
+        raise InputError("is a file" if existing == path.absolute() else f"lies inside the file {existing}",
+                         file=path, allowed="a directory, new or existing")
+    longest = os.pathconf(existing, "PC_NAME_MAX") - TEMPORARY_NAME_ROOM
+    too_long = next((part for part in path.parts if len(os.fsencode(part)) > longest), None)
+    if too_long is not None:
+        raise InputError(f"a name in it is {len(os.fsencode(too_long))} bytes long", file=path,
+                         allowed=f"names of at most {longest} bytes (the file system's limit less room for "
+                                 "temporary names)")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise InputError(f"cannot be written: {exc.strerror} in {existing}", file=path,
+                         allowed="a folder you can write to") from None
+    return path
+
+
+def _deepest_existing(absolute: Path) -> Path:
+    """The deepest folder (or file) on the way to ``absolute`` that exists."""
+    existing = Path(absolute.anchor)
+    for part in absolute.parts[1:]:
+        try:
+            if not (existing / part).exists():
+                break
+        except OSError:              # a name too long to look up
+            break
+        existing = existing / part
+    return existing
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], Any], keep_suffix: bool = False) -> Path:
@@ -66,7 +109,8 @@ def replace_directory(path: str | Path, build: Callable[[Path], Any]) -> Path:
         raise InputError(f"a file named {old.name} lies where the old directory would be set aside while the new one "
                          "moves in; it is not simgap's, so nothing was replaced", file=old,
                          allowed="remove or rename that file, or choose another destination")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    tmp = path.parent / f".{path.name}.{uuid.uuid4().hex[:8]}"
+    tmp.mkdir()                       # with the permissions of the user's umask, as any folder they make
     try:
         build(tmp)
         if path.exists():
@@ -103,17 +147,49 @@ def _set_aside(path: Path) -> Path:
     return path.with_name(f".{path.name}.old")
 
 
+class _StrictYamlLoader(yaml.SafeLoader):
+    """Safe YAML that also refuses a key given twice in one mapping (YAML keys are unique; PyYAML
+    would keep the last silently) and aliases (``*name``), which let a few hundred bytes expand
+    to gigabytes; a simgap input has no need of them."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            alias = self.peek_event()
+            raise yaml.MarkedYAMLError(problem=f"the alias *{alias.anchor}: simgap reads no aliases, write the "
+                                               "value out", problem_mark=alias.start_mark)
+        return super().compose_node(parent, index)
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        first_line: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if isinstance(key, Hashable) and key in first_line:
+                raise yaml.MarkedYAMLError(problem=f"the key '{key}' is given twice (first on line "
+                                                   f"{first_line[key]})", problem_mark=key_node.start_mark)
+            first_line.setdefault(key, key_node.start_mark.line + 1)
+        return super().construct_mapping(node, deep)
+
+
+def _yaml_problem(exc: yaml.YAMLError) -> str:
+    """A YAML error in one line: what is wrong, and where."""
+    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
+        mark = exc.problem_mark
+        return f"malformed YAML at line {mark.line + 1}, column {mark.column + 1}: {exc.problem}"
+    return "malformed YAML: " + " ".join(str(exc).split())
+
+
 def read_yaml_mapping(path: str | Path, what: str, keys: str | None = None, empty_ok: bool = False
                       ) -> dict[str, Any]:
     """The YAML mapping in ``path`` (an empty file too, if ``empty_ok``), or an `InputError` naming
-    the file (``what``: the kind of file; ``keys``: what such a mapping holds)."""
+    the file (``what``: the kind of file; ``keys``: what such a mapping holds). A key given twice
+    and an alias are refused (`_StrictYamlLoader`)."""
     path = Path(path)
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.load(path.read_text(), Loader=_StrictYamlLoader)
     except OSError as exc:
         raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
     except yaml.YAMLError as exc:
-        raise InputError(f"malformed YAML: {exc}", file=path) from None
+        raise InputError(_yaml_problem(exc), file=path) from None
     if raw is None and empty_ok:
         raw = {}
     if not isinstance(raw, dict):
@@ -129,11 +205,30 @@ def read_model(path: str | Path, model: type[M], what: str, keys: str | None = N
     return validated(model, raw, file=path)
 
 
+WRITER_LOCK = ".writer.lock"   # the file in a directory that its one writer holds locked
+
+
+@contextmanager
+def sole_writer(path: str | Path, writer: str) -> Iterator[Path]:
+    """Hold ``path`` (made if missing) as its only writer while the block runs: a lock on a hidden
+    file in it, which the system releases when the process ends however it ends. A second
+    ``writer`` on the same directory is refused in one line instead of doing the same work."""
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    with open(path / WRITER_LOCK, "a") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"another {writer} is writing to this directory", file=path,
+                             allowed="wait until it ends, or another --out") from None
+        yield path
+
+
 @contextmanager
 def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]:
     """A hidden directory in ``parent`` to build several files in before any of them is moved
-    into place (by the caller, each with an `os.replace`); removed afterwards with whatever was
-    left in it, so a failure leaves nothing half-written."""
+    into place (`publish`); removed afterwards with whatever was left in it, so a failure leaves
+    nothing half-written."""
     parent = Path(parent)
     parent.mkdir(parents=True, exist_ok=True)
     path = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent))
@@ -141,3 +236,13 @@ def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]
         yield path
     finally:
         shutil.rmtree(path, ignore_errors=True)
+
+
+def publish(staged: Path, out: Path, names: list[str]) -> list[Path]:
+    """Move the files ``names``, built in ``staged`` (a `staged_directory` in ``out``), into
+    ``out``, each by one rename so a reader sees it whole, in the order given (a file that refers
+    to another after it); returns where they are now."""
+    out.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        os.replace(staged / name, out / name)
+    return [out / name for name in names]

@@ -190,6 +190,10 @@ def test_unknown_or_missing_backend_and_vehicle_are_refused(tmp_path):
     assert_clean_error(simgap("run", xml, "--vehicle", "1=sedan", "--out", str(tmp_path / "r")),
                        "no vehicle given for planning problem 2")
     assert_clean_error(simgap("run", xml, "--vehicle", "tank", "--out", str(tmp_path / "r")), "unknown vehicle 'tank'")
+    assert_clean_error(simgap("run", xml, "--vehicle", "0=suv,1=sedan,2=sedan", "--out", str(tmp_path / "r")),
+                       "field 'vehicle': agent 0 is not in the scenario", "planning problem ids 1, 2")
+    assert_clean_error(simgap("run", xml, "--planner", "1=frenet,1=idm,2=idm", "--out", str(tmp_path / "r")),
+                       "field 'planner': agent 1 is given a planner twice")
     assert not (tmp_path / "r").exists()
 
 
@@ -371,3 +375,49 @@ def test_generate_refuses_a_road_longer_than_the_maximum(tmp_path, template, fix
     proc = simgap("generate", str(spec), "--no-preview", "--out", str(tmp_path / "out"))
     assert proc.returncode == 2
     assert_clean_error(proc, *fragments)
+
+
+def test_an_out_that_is_a_file_is_refused_by_every_command_before_any_work(tmp_path):
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    for command in (["generate", "curve"], ["experiment", "run", "demo"], ["search", "curve-gaps"], ["demo"],
+                    ["report", str(tmp_path)]):
+        proc = simgap(*command, "--out", str(notes))
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, command
+        assert_clean_error(proc, f"{notes}: is a file")
+    assert_clean_error(simgap("generate", "curve", "--out", str(tmp_path / ("d" * 300))), "300 bytes long")
+    assert notes.read_text() == "mine" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_an_unknown_mujoco_gl_is_refused_in_one_line(tmp_path):
+    simgap("generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview", "--out", str(tmp_path))
+    xml = str(tmp_path / "curve_radius-50_angle-30.xml")
+    run = tmp_path / "run"
+    assert simgap("run", xml, "--no-validate", "--replan-every", "3", "--out", str(run)).returncode == 0
+    env = dict(os.environ, MUJOCO_GL="bogus")
+    for command in (["render", str(run), "--3d", "--out", str(tmp_path / "pictures")],
+                    ["run", xml, "--backend", "mujoco", "--out", str(tmp_path / "3d")]):
+        proc = subprocess.run(SIMGAP + command, capture_output=True, text=True, env=env, timeout=300)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, command
+        assert_clean_error(proc, "field 'MUJOCO_GL'", "invalid value for environment variable MUJOCO_GL: bogus")
+    assert not (tmp_path / "pictures").exists() and not (tmp_path / "3d").exists()
+
+
+def test_a_resumed_experiment_says_how_many_runs_failed_earlier_and_how_to_retry_them(tmp_path):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text("name: slow\nlogical: curve\nparameters: {radius: {values: [50]}, angle: {values: [30]}}\n"
+                    "fidelities: [{backend: ideal}]\nrun_timeout_s: 0.5\n")
+    out = tmp_path / "out"
+    first = simgap("experiment", "run", str(spec), "--out", str(out), "--no-report", "--no-validate")
+    assert first.returncode == 0 and "1 ran now (1 failed)" in first.stdout
+    resumed = simgap("experiment", "run", str(spec), "--out", str(out), "--no-report", "--no-validate")
+    assert "0 ran now (0 failed), 1 finished earlier" in resumed.stdout
+    assert (f"1 of the runs that finished earlier failed; to run them again: simgap experiment run {spec} "
+            f"--out {out} --retry-failed") in " ".join(resumed.stdout.split())
+
+
+def test_tables_piped_into_a_file_are_printed_whole():
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    proc = subprocess.run(SIMGAP + ["vehicles"], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0
+    assert "understeer [deg/g]" in proc.stdout and "4.51x1.61" in proc.stdout and "…" not in proc.stdout

@@ -78,9 +78,10 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
     failed = rows["curve_radius-50_angle-30/mujoco/sedan"]
     assert failed["status"] == "failed" and "not a whole number of controller periods" in failed["failure"]
     # a failed run is finished too: resuming does not run it again, unless asked to
-    assert run_experiment(spec, tmp_path / "out", workers=1).ran == 0
+    resumed = run_experiment(spec, tmp_path / "out", workers=1)
+    assert (resumed.ran, resumed.skipped, resumed.skipped_failed) == (0, 2, 1)
     again = run_experiment(spec, tmp_path / "out", workers=1, retry_failed=True)
-    assert (again.ran, again.failed, again.skipped) == (1, 1, 1)
+    assert (again.ran, again.failed, again.skipped, again.skipped_failed) == (1, 1, 1, 0)
     assert len(ResultsStore(tmp_path / "out").rows()) == 2
 
 

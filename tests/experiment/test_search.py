@@ -30,6 +30,7 @@ from search_specs import LADDER, write
     ({"objective": "fun"}, "objective", "max_lateral_offset_m"),
     ({"failure": {"above": {"speed": 1}}}, "failure.above", "max_lane_excursion_m"),
     ({"strategies": ["annealing"]}, "strategies.0", "multi_fidelity"),
+    ({"strategies": ["grid", "grid"]}, "strategies", None),
     ({"ladder": [{"backend": "ideal"}, {"backend": "mujoco"}]}, "ladder", "dynamic"),   # multi_fidelity needs a screen
     ({"distinct_radius": 0}, "distinct_radius", None),
     ({"scenario_spread": 4}, "scenario_spread", None),

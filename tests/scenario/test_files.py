@@ -7,7 +7,9 @@ import pytest
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.prediction.prediction import Occupancy, SetBasedPrediction, TrajectoryPrediction
+from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, PhantomObstacle
+from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import InitialState, LateralState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
@@ -79,3 +81,60 @@ def test_a_phantom_obstacle_is_read_and_left_out_of_the_traffic(tmp_path):
 def test_a_missing_file_is_refused(tmp_path):
     with pytest.raises(InputError, match="no such scenario file"):
         load_scenario(tmp_path / "missing.xml")
+
+
+@pytest.mark.parametrize("dt", ["0", "-0.1", "nan", "inf"])
+def test_a_time_step_that_is_not_a_positive_number_is_refused(tmp_path, dt):
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    path = tmp_path / "dt.xml"
+    write_xml(concrete.scenario, concrete.problems, path)
+    path.write_text(path.read_text().replace('timeStepSize="0.1"', f'timeStepSize="{dt}"'))
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == "timeStepSize"
+    assert "> 0" in err.value.allowed
+
+
+def _curve_xml_with(tmp_path, old: str, new: str):
+    """The curve scenario's XML with the first ``old`` of its planning problem replaced by ``new``."""
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    path = tmp_path / "curve.xml"
+    write_xml(concrete.scenario, concrete.problems, path)
+    text = path.read_text()
+    start = text.index("<planningProblem")
+    assert old in text[start:]
+    path.write_text(text[:start] + text[start:].replace(old, new, 1))
+    return path
+
+
+VELOCITY = "<velocity>\n        <exact>0.0</exact>"
+ORIENTATION = "<orientation>\n        <exact>0.0</exact>"
+
+
+@pytest.mark.parametrize("old, new, field", [
+    (VELOCITY, VELOCITY.replace("0.0", "nan"), "velocity"),
+    (VELOCITY, VELOCITY.replace("0.0", "inf"), "velocity"),
+    (VELOCITY, VELOCITY.replace("0.0", "-3"), "velocity"),
+    (VELOCITY, VELOCITY.replace("0.0", "1e300"), "velocity"),
+    (ORIENTATION, ORIENTATION.replace("0.0", "nan"), "orientation"),
+    ("<time>\n        <exact>0</exact>", "<time>\n        <exact>700</exact>", "time"),   # the goal window ends at 600
+])
+def test_an_initial_state_no_vehicle_can_be_in_is_refused_naming_the_field(tmp_path, old, new, field):
+    path = _curve_xml_with(tmp_path, old, new)
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == f"planningProblem 1.initialState.{field}"
+
+
+def test_a_lanelet_without_width_is_refused_naming_it(tmp_path):
+    concrete = build_scenario("curve", {"radius": 20, "angle": 45})
+    bound = np.array([[0.0, 50.0], [10.0, 50.0]])
+    network = LaneletNetwork.create_from_lanelet_list(
+        [*concrete.scenario.lanelet_network.lanelets, Lanelet(bound, bound.copy(), bound.copy(), 999)])
+    scenario = Scenario(0.1)
+    scenario.add_objects(network)
+    path = tmp_path / "sliver.xml"
+    write_xml(scenario, concrete.problems, path)
+    with pytest.raises(InputError) as err:
+        load_scenario(path)
+    assert err.value.file == str(path) and err.value.field == "lanelet 999"

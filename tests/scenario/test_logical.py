@@ -94,3 +94,28 @@ def test_malformed_and_invalid_yaml(tmp_path):
     with pytest.raises(InputError) as err:
         load_logical(wrong)
     assert err.value.field == "parameters.radius"
+
+
+@pytest.mark.parametrize("dt, field", [
+    ("fixed: {dt: 0}", "fixed"),
+    ("fixed: {dt: -0.1}", "fixed"),
+    ("fixed: {dt: .nan}", "fixed"),
+    ("fixed: {dt: fast}", "fixed"),
+    ("parameters:\n  dt: {unit: s, min: 0, max: 0.2, default: 0.1}", "parameters"),
+])
+def test_a_time_step_that_is_not_positive_is_refused_at_load(tmp_path, dt, field):
+    spec = tmp_path / "dt.yaml"
+    parameters = "" if dt.startswith("parameters") else "parameters:\n"
+    spec.write_text(f"name: dt\ntemplate: curve\n{dt}\n{parameters}"
+                    "  radius: {unit: m, min: 5, max: 100, default: 50}\n")
+    with pytest.raises(InputError) as err:
+        load_logical(spec)
+    assert err.value.file == str(spec) and err.value.field == field
+    assert "dt" in err.value.reason and "> 0" in err.value.reason
+
+
+@pytest.mark.parametrize("width", [0, -3, 1.0])
+def test_a_lane_too_narrow_for_a_vehicle_is_refused(width):
+    with pytest.raises(InputError) as err:
+        build_scenario("curve", {"radius": 50, "angle": 90, "lane_width": width})
+    assert err.value.field == "lane_width" and ">= 2" in err.value.allowed

@@ -12,12 +12,14 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cosim import Run
 from simgap.errors import InputError
 from simgap.evaluate.closed_loop_score import score_drop, score_weights_of
 from simgap.evaluate.compare import compare_runs
 from simgap.evaluate.criticality import run_criticality
+from simgap.files import writable_directory
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.scenario import load_scenario, read_metadata
 
@@ -74,7 +76,8 @@ def _label(run: Run, run_dir: Path) -> str:
 def compare(
     run_a: Path = typer.Argument(..., help="reference run directory (e.g. the ideal run)"),
     run_b: Path = typer.Argument(..., help="run directory to compare with it"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="write d-over-s and v-over-t plots here"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="write d-over-s and v-over-t plots here",
+                                       callback=writable_directory),
     as_json: bool = typer.Option(False, "--json", help="print the metrics as JSON"),
 ) -> None:
     """Compare two runs of the same scenario: lateral displacement by arc length, errors by time.
@@ -105,7 +108,7 @@ def compare(
     if as_json:
         typer.echo(json.dumps(result, indent=2))
         return
-    console = Console()
+    console = output_console()
     table = Table(title=escape(f"{a.scenario_id}: {result['b']} against {result['a']}"))
     for col in ("agent", "metric", "max", "rms", "mean", "p95"):
         table.add_column(col, justify="left" if col in ("metric",) else "right", no_wrap=True)

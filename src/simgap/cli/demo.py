@@ -9,15 +9,17 @@ import time
 from pathlib import Path
 
 import typer
-from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
+from simgap.files import writable_directory
 
 RENDER_3D = "curve_radius-10_angle-90/mujoco-sedan"
 
 
 @app.command()
-def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="where to write everything")) -> None:
+def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="where to write everything",
+                                  callback=writable_directory)) -> None:
     """Run a small real experiment on built-in curve scenarios and write an HTML report.
 
     The built-in `demo` experiment: four curve scenarios of the paper's grid, ideal against
@@ -31,7 +33,7 @@ def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="wher
     from simgap.experiment.runner import run_experiment
     from simgap.report.site import build_experiment_report
 
-    console = Console()
+    console = output_console()
 
     def say(msg: str) -> None:
         console.print(f"[dim]{msg}[/dim]")

@@ -13,8 +13,10 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
+from simgap.files import writable_directory
 
 experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
                              no_args_is_help=True)
@@ -24,7 +26,8 @@ app.add_typer(experiment_app, name="experiment")
 @experiment_app.command("run")
 def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
-    out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)"),
+    out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)",
+                             callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
@@ -42,7 +45,7 @@ def run_cmd(
     from simgap.experiment.runner import run_experiment
     from simgap.report.site import build_experiment_report
 
-    console = Console()
+    console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
     task = bar.add_task("runs", total=None, counts="")
@@ -59,14 +62,24 @@ def run_cmd(
         if bar.live.is_started:
             bar.stop()
     report = None if no_report else build_experiment_report(out)
+    _say_unusable_rows(console, result.unusable_rows, "ran again")
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")
+    if result.skipped_failed:
+        console.print(f"  {result.skipped_failed} of the runs that finished earlier failed; to run them again: "
+                      f"simgap experiment run {escape(spec)} --out {escape(str(out))} --retry-failed")
     for key, reason in result.failures[:20]:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
                   f"(simgap experiment query {out} \"SELECT ...\")")
     if report:
         console.print(f"report: [bold]{report}[/bold]")
+
+
+def _say_unusable_rows(console: Console, unusable_rows: dict[Path, str], then: str) -> None:
+    """One line per row file the store left out, with why, and what became of its run."""
+    for path, why in unusable_rows.items():
+        console.print(f"[yellow]skipped[/yellow] {escape(str(path))}: {escape(why)}; its run {then}")
 
 
 @experiment_app.command("status")
@@ -78,7 +91,8 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
     from simgap.experiment.runner import experiment_status
 
     st = experiment_status(out)
-    console = Console()
+    console = output_console()
+    _say_unusable_rows(console, st.unusable_rows, "counts as left and runs again on resume")
     console.print(f"{st.total} runs: {len(st.ok)} done, {len(st.failed)} failed, {len(st.left)} left")
     for key, reason in st.failed:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
@@ -90,7 +104,7 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
 @experiment_app.command("query")
 def query_cmd(
     out: Path = typer.Argument(..., help="experiment directory"),
-    sql: str = typer.Argument(..., help="DuckDB SQL over the view 'runs' (one row per run)"),
+    sql: str = typer.Argument(..., help="DuckDB SQL over the table 'runs' (one row per run)"),
     to_csv: Optional[Path] = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
 ) -> None:
     """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,
@@ -101,17 +115,19 @@ def query_cmd(
     """
     from simgap.experiment.store import ResultsStore
 
-    columns, rows = ResultsStore(out).query(sql)
+    store = ResultsStore(out)
+    columns, rows = store.query(sql)
+    _say_unusable_rows(output_console(stderr=True), store.unusable_rows, "is left out and runs again on resume")
     if to_csv is not None:
         with to_csv.open("w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(columns)
             writer.writerows(rows)
-        Console().print(f"{len(rows)} rows written to [bold]{to_csv}[/bold]")
+        output_console().print(f"{len(rows)} rows written to [bold]{to_csv}[/bold]")
         return
     table = Table()
     for c in columns:
         table.add_column(escape(c))
     for r in rows:
         table.add_row(*(f"{v:.4g}" if isinstance(v, float) else escape(str(v)) for v in r))
-    Console().print(table)
+    output_console().print(table)

@@ -11,8 +11,10 @@ from typing import Optional
 import typer
 from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
+from simgap.files import writable_directory
 
 
 class Format(StrEnum):
@@ -24,7 +26,7 @@ class Format(StrEnum):
 def export_cmd(
     source: Path = typer.Argument(..., help="a run directory, a CommonRoad scenario (.xml), or with --violations "
                                             "a search directory"),
-    out: Path = typer.Option(..., "--out", "-o", help="directory to write into"),
+    out: Path = typer.Option(..., "--out", "-o", help="directory to write into", callback=writable_directory),
     format: Optional[str] = typer.Option(None, "--format", "-f",
                                          help="openscenario (a run: .xosc + .xodr) or opendrive (a scenario's "
                                               "road: .xodr); default: by SOURCE"),
@@ -51,7 +53,7 @@ def export_cmd(
         except ValueError:
             raise InputError(f"unknown format '{format}'", field="--format",
                              allowed=", ".join(f.value for f in Format)) from None
-    console = Console()
+    console = output_console()
     if not source.exists():
         raise InputError("no such file or directory", file=source,
                          allowed="a run directory, a .xml scenario, or a search directory with --violations")

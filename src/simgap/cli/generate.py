@@ -10,8 +10,10 @@ from rich.console import Console
 from rich.progress import track
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
+from simgap.files import writable_directory
 from simgap.scenario import builtin_names, load_logical, write_scenario
 
 
@@ -28,7 +30,8 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
 @app.command()
 def generate(
     logical: Optional[str] = typer.Argument(None, help="built-in logical scenario name or a YAML file"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files",
+                                       callback=writable_directory),
     set_: List[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable)"),
     preview: bool = typer.Option(True, "--preview/--no-preview", help="write a PNG preview per scenario"),
     list_: bool = typer.Option(False, "--list", help="list the built-in logical scenarios and their parameters"),
@@ -37,7 +40,7 @@ def generate(
 
     Example: simgap generate curve --set radius=10 --set angle=90 --out scenarios/
     """
-    console = Console()
+    console = output_console()
     if list_:
         _print_builtins(console)
         return

@@ -32,10 +32,7 @@ def check_run_out(out: Path, request: RunRequest, overwrite: bool) -> None:
         refuse(out, "a file")
     meta = out / "run.json"
     if not meta.exists():
-        others = sorted(p.name for p in out.iterdir())
-        if others:
-            more = f" (and {len(others) - 1} more)" if len(others) > 1 else ""
-            refuse(out, f"{others[0]}{more}, not a simgap run")
+        _refuse_foreign(out, "a simgap run")
         return
     try:
         held = json.loads(meta.read_text())
@@ -48,6 +45,14 @@ def check_run_out(out: Path, request: RunRequest, overwrite: bool) -> None:
     if not (_same_scenario(held, request.scenario) and held["backend"] == request.backend
             and agents == _requested_agents(request, list(agents))):
         refuse(out, there)
+
+
+def _refuse_foreign(out: Path, what: str) -> None:
+    """Refuse ``out`` unless it is empty (the command, writing ``what``, would replace it whole)."""
+    others = sorted(p.name for p in out.iterdir())
+    if others:
+        more = f" (and {len(others) - 1} more)" if len(others) > 1 else ""
+        refuse(out, f"{others[0]}{more}, not {what}")
 
 
 def _same_scenario(held: dict, scenario: Path) -> bool:
@@ -68,15 +73,18 @@ def _requested_agents(request: RunRequest, ids: list[int]) -> dict[int, tuple[st
 
 
 def check_report_out(out: Path, overwrite: bool) -> None:
-    """``out`` holds none of the report's files, or a report simgap wrote."""
-    existing = [name for name in REPORT_FILES if (out / name).exists()]
-    if overwrite or not existing:
+    """``out`` is new, empty, or holds a report simgap wrote: the report replaces the whole folder."""
+    if overwrite or not out.exists():
         return
     from simgap.report.site import GENERATOR
 
     index = out / "index.html"
-    if not (index.is_file() and GENERATOR in index.read_text(errors="replace")):
+    if index.is_file() and GENERATOR in index.read_text(errors="replace"):
+        return
+    existing = [name for name in REPORT_FILES if (out / name).exists()]
+    if existing:
         refuse(out, f"{existing[0]}, which simgap report did not write")
+    _refuse_foreign(out, "a simgap report")
 
 
 def check_pictures_out(out: Path, names: list[str], overwrite: bool) -> None:

@@ -7,6 +7,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.planning.registry import (BUILTIN_PLANNERS, ENTRY_POINT_GROUP, REQUIRED, PlannerClass, installed_planners,
                                       load_planner, planner_names, settings_fields)
@@ -41,7 +42,7 @@ def listing(ctx: typer.Context) -> None:
         table.add_row(escape(name), escape(planner.origin), escape(target),
                       str(len(settings_fields(model))) if model else "none")
         descriptions.append(f"{escape(name)}: {escape(planner.description)}")
-    console = Console()
+    console = output_console()
     console.print(table)
     console.print("\n".join(descriptions))
     console.print(f"installed planners: packages declaring the entry-point group '{ENTRY_POINT_GROUP}'; any class "
@@ -56,7 +57,7 @@ def show(ref: str = typer.Argument(..., help="planner name, module:Class or path
     Example: simgap planners show frenet
     """
     planner = load_planner(ref)
-    console = Console()
+    console = output_console()
     console.print(f"[bold]{escape(ref)}[/bold] — {escape(planner.origin)}: "
                   f"{escape(planner.cls.__module__)}.{escape(planner.cls.__qualname__)}")
     if planner.description:

@@ -6,16 +6,18 @@ import time
 from pathlib import Path
 
 import typer
-from rich.console import Console
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_report_out
+from simgap.files import writable_directory
 
 
 @app.command()
 def report(
     runs: Path = typer.Argument(..., help="a directory with run directories below it (an experiment, a demo, runs/)"),
-    out: Path = typer.Option(..., "--out", "-o", help="report directory to write (open its index.html)"),
+    out: Path = typer.Option(..., "--out", "-o", help="report directory to write (open its index.html)",
+                             callback=writable_directory),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
 ) -> None:
     """Write the HTML report of every run below RUNS: an overview page and a page per scenario.
@@ -25,7 +27,7 @@ def report(
     from simgap.report.site import build_report
 
     check_report_out(out, overwrite)
-    console = Console()
+    console = output_console()
     start = time.perf_counter()
     with console.status("building the report") as status:
         index = build_report(runs, out, say=lambda text: status.update(f"building the report: {text}"))

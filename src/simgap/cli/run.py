@@ -14,6 +14,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
@@ -21,12 +22,12 @@ from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.cosim.loop import MAX_SIMULATED_TIME_S
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
-from simgap.files import read_model, read_yaml_mapping
+from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.sim.protocol import Realism
-from simgap.sim.registry import backend_settings
+from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
@@ -36,7 +37,7 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
 @app.command()
 def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
-    out: Path = typer.Option(..., "--out", "-o", help="run directory to write"),
+    out: Path = typer.Option(..., "--out", "-o", help="run directory to write", callback=writable_directory),
     backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
@@ -107,6 +108,7 @@ def run(
                                                              **knob_cosim, **scoring)),
                          validate=not no_validate, run_timeout_s=run_timeout)
     check_run_out(out, request, overwrite)
+    preflight(request.backend, request.backend_settings)
     _execute(request, out, as_json)
 
 
@@ -134,7 +136,7 @@ def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
         if result.failure:
             raise typer.Exit(1)
         return
-    console = Console()
+    console = output_console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), console=console, transient=True) as bar:
         task = bar.add_task(f"{request.backend}: {Path(request.scenario).name}", total=1.0)

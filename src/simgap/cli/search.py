@@ -11,15 +11,18 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.experiment.ray_cluster import ADDRESS_HELP
+from simgap.files import writable_directory
 
 
 @app.command("search")
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
     budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
-    out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)"),
+    out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)",
+                             callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
@@ -43,7 +46,7 @@ def search_cmd(
     from simgap.report.search_page import build_search_report
 
     limit = parse_budget(budget)
-    console = Console()
+    console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), console=console)
     tasks: dict[str, int] = {}
@@ -93,4 +96,4 @@ def status_cmd(out: Path = typer.Argument(..., help="search directory")) -> None
     """
     from simgap.experiment.search_results import search_results
 
-    _print(Console(), search_results(out).strategies)
+    _print(output_console(), search_results(out).strategies)

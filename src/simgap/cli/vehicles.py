@@ -7,10 +7,10 @@ from typing import Optional
 
 import typer
 import yaml
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.vehicles import load_vehicle, vehicle_names
 from simgap.vehicles.constants import GRAVITY
@@ -47,7 +47,7 @@ def catalogue(ctx: typer.Context) -> None:
                       f"{p.max_power / 1000:.0f}", f"{p.tyre_friction:.2f}",
                       f"{round(math.degrees(p.understeer_gradient(v.wheelbase, v.rear_axle_to_center) * GRAVITY), 2) + 0.0:.2f}",
                       f"{math.degrees(p.steering.max_angle):.0f}")
-    console = Console()
+    console = output_console()
     console.print(table)
     console.print("\n".join(escape(d) for d in descriptions))
     console.print("data files: src/simgap/vehicles/data/NAME.yaml (units: SI); "
@@ -63,7 +63,7 @@ def show(name: str = typer.Argument(..., help="catalogue name or path of a vehic
     Example: simgap vehicles show sedan
     """
     v = load_vehicle(name)
-    console = Console()
+    console = output_console()
     if as_yaml:
         console.print(yaml.safe_dump(v.model_dump(), sort_keys=False), end="", markup=False, highlight=False)
         return

@@ -18,7 +18,7 @@ from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text, restore_directory
+from simgap.files import atomic_write_text, restore_directory, sole_writer
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -46,8 +46,10 @@ class ExperimentResult:
     ran: int
     failed: int
     skipped: int
+    skipped_failed: int                 # of the skipped: runs that failed earlier (--retry-failed runs them again)
     wall_time_s: float
     failures: list[tuple[str, str]]
+    unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs ran again
 
 
 def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
@@ -79,6 +81,18 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str, spec_file: Path) 
             "spec_results": relevant,
             "results_hash": spec.results_hash(), "versions": software_versions()}
     atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
+
+
+def _check_experiment_directory(root: Path) -> None:
+    """``root`` is new, empty (but for hidden files) or an experiment's directory: a folder of the
+    user's files is not one to fill with scenarios, runs and a store."""
+    if (root / META).exists() or not root.is_dir():
+        return
+    theirs = sorted(p.name for p in root.iterdir() if not p.name.startswith("."))
+    if theirs:
+        more = f" (and {len(theirs) - 1} more)" if len(theirs) > 1 else ""
+        raise InputError(f"holds {theirs[0]}{more} and no {META}, so it is not an experiment's directory",
+                         file=root, allowed="a new or empty folder, or an experiment's own to resume it")
 
 
 def plan(experiment: Experiment, root: Path) -> tuple[list[Job], dict[str, str]]:
@@ -121,35 +135,40 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
     logical_ref = spec.logical
     if logical_ref.endswith((".yaml", ".yml")) and not Path(logical_ref).is_absolute():
         logical_ref = str((path.parent / logical_ref).resolve())
-    _claim(root, spec, logical_ref, path)
-    all_jobs, scenarios = plan(experiment, root)
-    store = ResultsStore(root)
-    store.prepare()
-    clean_partial_runs(root)
-    finished = store.finished_keys()
-    todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
-    progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
-    failures: list[tuple[str, str]] = []
-    if on_progress:
-        on_progress(progress)
-
-    def on_result(job: Job, row: RunRow) -> None:
-        store.write_row(row)
-        if row.status == "ok":
-            progress.done += 1
-        else:
-            progress.failed += 1
-            failures.append((job.key, row.failure))
+    _check_experiment_directory(root)
+    with sole_writer(root, "simgap experiment run"):
+        _claim(root, spec, logical_ref, path)
+        all_jobs, scenarios = plan(experiment, root)
+        store = ResultsStore(root)
+        store.prepare()
+        clean_partial_runs(root)
+        finished = store.finished_keys()
+        unusable_rows = store.unusable_rows
+        todo = [j for j in all_jobs if j.key not in finished or (retry_failed and finished[j.key] != "ok")]
+        skipped_failed = 0 if retry_failed else sum(finished.get(j.key) == "failed" for j in all_jobs)
+        progress = Progress(total=len(all_jobs), skipped=len(all_jobs) - len(todo))
+        failures: list[tuple[str, str]] = []
         if on_progress:
             on_progress(progress)
 
-    start = time.perf_counter()
-    context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
-    if todo:
-        runner.run(todo, context, on_result)
-    store.consolidate()
-    return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
-                            progress.skipped, time.perf_counter() - start, failures)
+        def on_result(job: Job, row: RunRow) -> None:
+            store.write_row(row)
+            if row.status == "ok":
+                progress.done += 1
+            else:
+                progress.failed += 1
+                failures.append((job.key, row.failure))
+            if on_progress:
+                on_progress(progress)
+
+        start = time.perf_counter()
+        context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
+        if todo:
+            runner.run(todo, context, on_result)
+        store.consolidate()
+        return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
+                                progress.skipped, skipped_failed, time.perf_counter() - start, failures,
+                                unusable_rows)
 
 
 @dataclass
@@ -158,6 +177,7 @@ class Status:
     ok: list[str]
     failed: list[tuple[str, str]]
     left: list[str]
+    unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs are left
 
 
 def experiment_status(root: Path) -> Status:
@@ -168,10 +188,11 @@ def experiment_status(root: Path) -> Status:
     meta = json.loads(meta_path.read_text())
     spec = ExperimentSpec.model_validate(meta["spec"])
     logical = load_logical(meta.get("logical_ref", spec.logical))
-    rows = {r["key"]: r for r in ResultsStore(root).finished_rows()}
+    store = ResultsStore(root)
+    rows = {r["key"]: r for r in store.finished_rows()}
     spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
     keys = [j.key for _, runs in jobs(checked_experiment(spec, logical, spec_file)) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
     failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]
     left = [k for k in keys if k not in rows]
-    return Status(len(keys), ok, failed, left)
+    return Status(len(keys), ok, failed, left, store.unusable_rows)

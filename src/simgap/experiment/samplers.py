@@ -9,6 +9,7 @@ parameters are rounded. The same spec and seed give the same samples, in the sam
 from __future__ import annotations
 
 import itertools
+import math
 from typing import Any
 
 import numpy as np
@@ -38,6 +39,11 @@ def _unit_samples(kind: str, n: int, dims: int, seed: int) -> np.ndarray:
         return qmc.LatinHypercube(d=dims, seed=seed).random(n)
     engine = qmc.Sobol(d=dims, scramble=True, seed=seed)
     return engine.random(n)
+
+
+def grid_size(spec, logical: LogicalScenario) -> int:
+    """How many parameter sets the full grid of ``spec`` holds, without making them."""
+    return math.prod(len(_grid_span(spec, logical, n)) for n in logical.parameters)
 
 
 def sample(spec, logical: LogicalScenario) -> list[dict[str, Any]]:

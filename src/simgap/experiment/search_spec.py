@@ -35,7 +35,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from simgap.control import DEFAULT_CONTROLLER
 from simgap.cosim import REFERENCE, CosimSettings, Outcome
@@ -133,6 +133,14 @@ class SearchSpec(BatchSpec):
         Field(default_factory=lambda: list(STRATEGIES), min_length=1)
     grid_levels: int = Field(3, ge=2, le=20, description="values per dimension of the grid")
     lhs_samples: int = Field(500, ge=2, le=100_000, description="size of the Latin hypercube design")
+
+    @field_validator("strategies")
+    @classmethod
+    def _each_strategy_once(cls, strategies: list[str]) -> list[str]:
+        twice = next((s for i, s in enumerate(strategies) if s in strategies[:i]), None)
+        if twice is not None:
+            raise ValueError(f"'{twice}' is listed twice (allowed: each strategy once)")
+        return strategies
 
     def results_hash(self) -> str:
         return results_hash(results_relevant(self, {"name", "description", "run_timeout_s", "strategies"}))

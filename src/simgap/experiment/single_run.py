@@ -80,10 +80,14 @@ def parse_agent_map(text: str, what: str = "vehicle", example: str = "1=sedan,2=
     for item in text.split(","):
         key, _, name = item.partition("=")
         try:
-            mapping[int(key)] = name.strip()
+            agent = int(key)
         except ValueError:
             raise InputError(f"'{item}' is not AGENT_ID={what.upper()}", field=what,
                              allowed=f"a {what} for every agent, or {example}") from None
+        if agent in mapping:
+            raise InputError(f"agent {agent} is given a {what} twice", field=what,
+                             allowed=f"one {what} per agent, as {example}")
+        mapping[agent] = name.strip()
         if not name.strip():
             raise InputError(f"'{item}' names no {what}", field=what, allowed=f"a {what}, or {example}")
     return mapping
@@ -122,10 +126,20 @@ def parse_planners(text: str, settings_file: Path | None = None) -> PlannerAssig
     return {aid: choices[ref] for aid, ref in parsed.items()}
 
 
+def _check_agents_assigned_exist(request: RunRequest, agent_ids: list[int]) -> None:
+    """A per-agent vehicle or planner names only agents (planning problems) of the scenario."""
+    for what, assignment in (("vehicle", request.vehicles), ("planner", request.planner)):
+        unknown = sorted(set(assignment) - set(agent_ids)) if isinstance(assignment, dict) else []
+        if unknown:
+            raise InputError(f"agent {unknown[0]} is not in the scenario", file=request.scenario, field=what,
+                             allowed="planning problem ids " + ", ".join(map(str, agent_ids)))
+
+
 def execute(request: RunRequest, out: Path | None = None,
             progress: Callable[[float], None] | None = None) -> Run:
     """Run ``request``; write the run directory to ``out`` when given."""
     scenario, problems = load_scenario(request.scenario)
+    _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
     scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
     if isinstance(request.vehicles, str):

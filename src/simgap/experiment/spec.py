@@ -21,6 +21,8 @@ Example (the built-in `demo`)::
     cosim: {replan_every: 1}
 
 A wrong key, type or range is an `InputError` naming the file, the field path and what is allowed.
+An experiment samples at most `MAX_SCENARIOS` concrete scenarios: every one is written (about
+160 kB of CommonRoad XML) before the first run.
 """
 
 from __future__ import annotations
@@ -40,13 +42,15 @@ from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.errors import InputError, validated
 from simgap.experiment.job import Job, JobId
-from simgap.experiment.samplers import sample
+from simgap.experiment.samplers import grid_size, sample
 from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
 from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehicle_names
 
+
+MAX_SCENARIOS = 10_000      # concrete scenarios per experiment: about 1.6 GB of files, minutes to write
 
 # spec fields newer than stored results, and their defaults
 ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [PlannerChoice().model_dump()]}
@@ -79,7 +83,7 @@ class SamplerSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     kind: Literal["grid", "random", "lhs", "sobol"] = "grid"
-    samples: int | None = Field(None, ge=1, le=100_000, description="number of samples (not for grid)")
+    samples: int | None = Field(None, ge=1, le=MAX_SCENARIOS, description="number of samples (not for grid)")
     seed: int = 0
 
     @model_validator(mode="after")
@@ -223,6 +227,9 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
     for name, rng in spec.parameters.items():
         values = (rng.values or []) + [x for x in (rng.min, rng.max) if x is not None]
         check_parameter(logical, name, min(values), max(values), path)
+    if spec.sampler.kind == "grid" and (size := grid_size(spec, logical)) > MAX_SCENARIOS:
+        raise InputError(f"the grid spans {size:,} scenarios", file=path, field="parameters",
+                         allowed=f"at most {MAX_SCENARIOS:,} per experiment: fewer values, or a random sampler")
     check_vehicles([spec.planner_vehicle], path, "planner_vehicle")
     planner_vehicle = vehicle_ref(spec.planner_vehicle, path)
     variants = []
@@ -240,9 +247,23 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
             fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller, realism_of(settings))
             fidelity_variants.append(FidelityVariant(fidelity, vehicle, settings))
         variants.append(fidelity_variants)
+    _check_each_fidelity_once(variants, path)
     planners = planner_choices(spec, path)
     cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
     return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle)
+
+
+def _check_each_fidelity_once(variants: list[list[FidelityVariant]], path: Path) -> None:
+    """No two variants run as one fidelity: their runs would share a key, and one row."""
+    seen: dict[str, str] = {}
+    for i, fidelity_variants in enumerate(variants):
+        for variant in fidelity_variants:
+            label, where = variant.fidelity.label, f"fidelities.{i}"
+            if label in seen:
+                twice = f"names '{label}' twice" if seen[label] == where else f"runs as '{label}', as {seen[label]} does"
+                raise InputError(f"{twice}: their runs would be one", file=path, field=where,
+                                 allowed="each backend, vehicle and controller once")
+            seen[label] = where
 
 
 def planner_choices(spec: Any, spec_file: Path) -> list[PlannerChoice]:

@@ -8,11 +8,13 @@ Layout of an experiment directory::
     store/rows/KEY.parquet     one row per finished run (ok or failed), written atomically
     store/results.parquet      all rows in one file, rebuilt from the rows
     report/                    the HTML report
+    .writer.lock               locked by the one `simgap experiment run` writing here (`simgap.files.sole_writer`)
 
 A row is written (to a temporary file, then renamed) only after its run directory is complete,
 so a row always describes a whole run; a run killed half-way leaves no row and is run again on
-resume, and so is a run whose worker died under it (its row says so until then). Nothing else in
-the directory is read as a result.
+resume, and so is a run whose worker died under it (its row says so until then), a row file that
+cannot be read and a row whose run directory is gone. Nothing else in the directory is read as a
+result.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ class ResultsStore:
     def __init__(self, root: Path):
         self.root = Path(root)
         self.rows_dir = self.root / "store" / "rows"
+        self.unusable_rows: dict[Path, str] = {}     # row file -> why it was left out, as the last read found
 
     def prepare(self) -> None:
         """Make the store's folder and remove what writers killed mid-write left anywhere under
@@ -60,12 +63,31 @@ class ResultsStore:
     def row_files(self) -> list[Path]:
         return sorted(p for p in self.rows_dir.glob("*.parquet") if not p.name.startswith("."))
 
-    def rows(self) -> list[dict[str, Any]]:
-        """Every row as stored: column -> value (for queries and tools; `run_rows` types them)."""
-        out = []
+    def _usable_rows(self) -> dict[Path, list[dict[str, Any]]]:
+        """The rows of every row file that stands for a run, by file. A file that cannot be read
+        (cut short by a full disk or a crash of the machine) and a row whose run directory is gone
+        stand for nothing: they are left out and named in ``unusable_rows``, so their jobs count as
+        not run and run again on resume (whose new row replaces the file)."""
+        self.unusable_rows = {}
+        usable = {}
         for path in self.row_files():
-            out.extend(pq.read_table(path).to_pylist())
-        return out
+            try:
+                rows = pq.read_table(path).to_pylist()
+            except (pa.ArrowException, OSError) as exc:
+                self.unusable_rows[path] = f"cannot be read ({str(exc).splitlines()[0]})"
+                continue
+            gone = next((r["run_dir"] for r in rows if r.get("run_dir")
+                         and not (self.root / r["run_dir"] / "run.json").is_file()), None)
+            if gone is not None:
+                self.unusable_rows[path] = f"its run directory {gone} is gone"
+                continue
+            usable[path] = rows
+        return usable
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every row that stands for a run, as stored: column -> value (for queries and tools;
+        `run_rows` types them)."""
+        return [row for rows in self._usable_rows().values() for row in rows]
 
     def run_rows(self) -> list[RunRow]:
         """Every row, typed (`RunRow.from_columns`)."""
@@ -90,14 +112,17 @@ class ResultsStore:
         return atomic_write(self.root / "store" / "results.parquet", lambda tmp: pq.write_table(table, tmp))
 
     def connect(self):
-        """A DuckDB connection with the view ``runs`` (one row per run)."""
+        """An in-memory DuckDB connection with the table ``runs`` (one row per run that `rows` reads),
+        closed to files and extensions: a query changes nothing in the store or elsewhere."""
         import duckdb
 
-        if not self.row_files():
+        files = list(self._usable_rows())
+        if not files:
             raise InputError("no finished runs in this experiment yet", file=self.root)
         con = duckdb.connect()
-        pattern = str(self.rows_dir / "*.parquet").replace("'", "''")
-        con.execute(f"CREATE VIEW runs AS SELECT * FROM read_parquet('{pattern}', union_by_name=true)")
+        con.execute("CREATE TABLE runs AS SELECT * FROM read_parquet(?, union_by_name=true)", [[str(p) for p in files]])
+        con.execute("SET enable_external_access = false")     # a query reads and writes no file, loads nothing
+        con.execute("SET lock_configuration = true")
         return con
 
     def query(self, sql: str) -> tuple[list[str], list[tuple]]:
@@ -108,6 +133,6 @@ class ResultsStore:
             cursor = con.execute(sql)
         except duckdb.Error as exc:
             raise InputError(f"query failed: {str(exc).splitlines()[0]}", field="SQL",
-                             allowed="DuckDB SQL over the view 'runs'") from None
+                             allowed="DuckDB SQL over the table 'runs'") from None
         columns = [d[0] for d in cursor.description] if cursor.description else []
         return columns, cursor.fetchall()

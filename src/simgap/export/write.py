@@ -8,7 +8,6 @@ the user's input.
 
 from __future__ import annotations
 
-import os
 import re
 import time
 from dataclasses import dataclass, field
@@ -21,7 +20,7 @@ from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
 from simgap.export.openscenario import OpenScenarioVersion, description, openscenario, road_users
-from simgap.files import staged_directory
+from simgap.files import publish, staged_directory
 from simgap.scenario import load_scenario, read_metadata
 from simgap.scenario.blueprint import blueprint_of
 from simgap.sim.settings import DRY_ROAD_FRICTION
@@ -80,13 +79,6 @@ def _check_road(roads: RoadNetwork, path: Path, network: LaneletNetwork, result:
                                      f"lanelets (at most {bound:.3f} m allowed)")
 
 
-def _publish(staged: Path, out: Path, names: list[str]) -> list[Path]:
-    out.mkdir(parents=True, exist_ok=True)
-    for name in names:
-        os.replace(staged / name, out / name)
-    return [out / name for name in names]
-
-
 def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = None) -> Export:
     """The road network of a CommonRoad scenario as ``NAME.xodr`` in ``out``."""
     started = time.perf_counter()
@@ -97,7 +89,7 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
         roads, path = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
         _check_road(roads, path, scenario.lanelet_network, result)
-        result.files = _publish(staged, out, [path.name])
+        result.files = publish(staged, out, [path.name])
     result.seconds = time.perf_counter() - started
     return result
 
@@ -144,6 +136,6 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
         if result.trajectory_error_m > TRAJECTORY_TOLERANCE_M:
             raise checks.CheckFailed(f"{osc_path.name}: a trajectory vertex parses back "
                                      f"{result.trajectory_error_m:.4f} m from the run's")
-        result.files = _publish(staged, out, [road_path.name, osc_path.name])
+        result.files = publish(staged, out, [road_path.name, osc_path.name])
     result.seconds = time.perf_counter() - started
     return result

@@ -63,8 +63,8 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     (real time, one frame every ``frame_every`` steps) into ``out_dir``."""
     run_dir = Path(run_dir)
     out_dir = Path(out_dir or run_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     scenario, problems, run = load_driven(run_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
     limits = plot_limits(scenario, margin=10.0)
     size = figure_size(limits, width=10.0)
     last = max(len(t) for t in run.driven.values()) - 1

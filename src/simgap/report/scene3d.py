@@ -72,8 +72,8 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, frame_every: 
     ``side_by_side.png`` into ``out_dir`` (None: the run directory), the run replayed in ``world``."""
     run_dir = Path(run_dir)
     out_dir = Path(out_dir or run_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     scenario, problems, run = load_driven(run_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
     replay = _replay(scenario, run, world)
     first = run.agents[0].id
     step = _instant(run)

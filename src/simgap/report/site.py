@@ -20,9 +20,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from simgap.errors import InputError
 from simgap.evaluate.criticality import run_criticality
 from simgap.evaluate.errors import lateral_profile
-from simgap.files import atomic_write_text
+from simgap.files import atomic_write_text, replace_directory
 from simgap.evaluate.route_centre import route_centre
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import ResultsStore
@@ -316,10 +317,21 @@ def _store_section(rows: list[RunRow]) -> list[str]:
 
 def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None,
                  store_rows: list[RunRow] | None = None) -> Path:
-    """Write the report of every run below ``root`` into ``out``; returns ``out/index.html``.
-    ``store_rows`` (an experiment's results store) adds what the store holds, failures included."""
+    """Write the report of every run below ``root`` as the directory ``out``; returns
+    ``out/index.html``. ``store_rows`` (an experiment's results store) adds what the store holds,
+    failures included. The report is built beside ``out`` and swapped into its place whole
+    (`simgap.files.replace_directory`), so a report killed half-way leaves the previous one."""
     root, out = Path(root), Path(out)
+    if out.resolve() == root.resolve() or out.resolve() in root.resolve().parents:
+        raise InputError("the report would replace the runs it draws", file=out,
+                         allowed="a folder outside the runs' folder, e.g. a sibling 'report'")
     groups = collect(root)
+    replace_directory(out, lambda tmp: _write_report(root, groups, tmp, say, store_rows))
+    return out / "index.html"
+
+
+def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Callable[[str], None],
+                  store_rows: list[RunRow] | None) -> None:
     assets = out / "assets"
     assets.mkdir(parents=True, exist_ok=True)
     (out / "report.css").write_text(STYLE)
@@ -366,7 +378,7 @@ def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: N
              "<h2>Scenarios, largest gap first</h2>", table(_ranking_rows(groups, params))]
     if store_rows is not None:
         body += _store_section(store_rows)
-    return page(out / "index.html", "simgap report", body, "")
+    page(out / "index.html", "simgap report", body, "")
 
 
 def _planning_row(entries) -> dict:

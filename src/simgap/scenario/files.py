@@ -16,6 +16,7 @@ from commonroad.scenario.scenario import Location, Scenario
 
 from simgap.errors import InputError
 from simgap.files import atomic_write, atomic_write_text
+from simgap.scenario.physical_bounds import check_lanelets, check_planning_problems, check_time_step
 from simgap.scenario.templates import ConcreteScenario
 
 
@@ -72,10 +73,14 @@ def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenar
     except Exception as exc:  # the reader raises many kinds on malformed input
         raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
                          file=path, allowed=f"CommonRoad XML ({' or '.join(READ_FORMATS)} format)") from None
+    check_time_step(float(scenario.dt), file=path, field="timeStepSize")
+    check_lanelets(scenario.lanelet_network, path)
     _check_obstacles_are_placed(scenario, path)
     if needs_problems and (problems is None or not problems.planning_problem_dict):
         raise InputError("the scenario has no planning problems, so there is no agent to run",
                          file=path, field="planningProblem", allowed="one or more planning problems")
+    if problems is not None:
+        check_planning_problems(problems, path)
     return scenario, problems
 
 

@@ -21,15 +21,17 @@ parameter that spans more than one value or differs from its default, in declara
 from __future__ import annotations
 
 import itertools
+import math
 import re
 from importlib import resources
 from pathlib import Path
 from typing import Any, Iterator
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from simgap.errors import InputError
 from simgap.files import read_model
+from simgap.scenario.physical_bounds import TIME_STEP_ALLOWED
 from simgap.scenario.templates import TEMPLATES, ConcreteScenario
 
 
@@ -88,6 +90,22 @@ class LogicalScenario(BaseModel):
         if self.template not in TEMPLATES:
             raise ValueError(f"unknown template '{self.template}' (allowed: {', '.join(TEMPLATES)})")
         return self
+
+    @field_validator("fixed")
+    @classmethod
+    def _fixed_time_step(cls, fixed: dict[str, Any]) -> dict[str, Any]:
+        dt = fixed.get("dt", 0.1)
+        if not (isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt is {dt!r} (allowed: {TIME_STEP_ALLOWED})")
+        return fixed
+
+    @field_validator("parameters")
+    @classmethod
+    def _time_step_parameter(cls, parameters: dict[str, Parameter]) -> dict[str, Parameter]:
+        dt = parameters.get("dt")
+        if dt is not None and not (dt.min > 0 and math.isfinite(dt.max)):
+            raise ValueError(f"dt spans {dt.min:g} to {dt.max:g} s (allowed: {TIME_STEP_ALLOWED})")
+        return parameters
 
     # ---------------------------------------------------------------- sampling
     def pinned(self, assignments: dict[str, str], source: str = "--set") -> dict[str, float]:

@@ -9,6 +9,7 @@ raise `InputError` naming the parameter.
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -22,6 +23,7 @@ from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces,
                                      self_intersects)
+from simgap.scenario.physical_bounds import MIN_LANE_WIDTH
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road import LaneLayout, build_road
 
@@ -59,9 +61,16 @@ def _layout(p: dict[str, Any]) -> LaneLayout:
     lanes = int(p.get("lanes", 1))
     if not 1 <= lanes <= 3:
         raise InputError(f"{lanes} lanes per direction", field="lanes", allowed="1, 2 or 3")
-    return LaneLayout(lanes_per_direction=lanes, lane_width=float(p.get("lane_width", 3.0)),
+    return LaneLayout(lanes_per_direction=lanes, lane_width=_lane_width(p),
                       two_way=bool(p.get("two_way", True)),
                       centre_marking=str(p.get("centre_marking", "solid")))
+
+
+def _lane_width(p: dict[str, Any]) -> float:
+    width = p.get("lane_width", 3.0)
+    if not (isinstance(width, (int, float)) and MIN_LANE_WIDTH <= width < math.inf):
+        raise InputError(f"lane width {width!r}", field="lane_width", allowed=f"a number of m >= {MIN_LANE_WIDTH:g}")
+    return float(width)
 
 
 def _check_radii(segments: list[Segment], layout: LaneLayout) -> None:
@@ -159,7 +168,7 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
     if not 2 <= agents <= max_agents:
         raise InputError(f"{agents} agents", field="agents", allowed=f"2 to {max_agents}")
     approach = float(p.get("approach_length", 50.0))
-    blueprint = JunctionBlueprint(arm_angles=arms, approach_length=approach, lane_width=float(p.get("lane_width", 3.0)),
+    blueprint = JunctionBlueprint(arm_angles=arms, approach_length=approach, lane_width=_lane_width(p),
                                   centre_marking=str(p.get("centre_marking", "solid")), first_id=LANELET_ID_START)
     junction = blueprint.rebuild()
     dt = float(p.get("dt", 0.1))

@@ -12,11 +12,12 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.vehicles.actuators import Actuators
+from simgap.vehicles.constants import MAX_LENGTH, MAX_SPEED, MAX_WIDTH
 from simgap.vehicles.physics import VehiclePhysics
 
 DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
@@ -30,7 +31,7 @@ class VehicleLimits(BaseModel):
     max_steer: float = Field(gt=0, description="max road-wheel steering angle [rad]")
     max_steer_rate: float = Field(gt=0, description="max steering rate [rad/s]")
     max_accel: float = Field(gt=0, description="max longitudinal acceleration magnitude [m/s^2]")
-    max_speed: float = Field(gt=0, description="max speed [m/s]")
+    max_speed: float = Field(gt=0, le=MAX_SPEED, description="max speed [m/s]")
     v_switch: float = Field(gt=0, description="speed above which acceleration is power-limited [m/s]")
 
 
@@ -42,10 +43,10 @@ class Vehicle(BaseModel):
     name: str
     description: str = ""
     source: str = Field("", description="where the numbers come from")
-    length: float = Field(gt=0, description="body length [m]")
-    width: float = Field(gt=0, description="body width [m]")
-    wheelbase: float = Field(gt=0, description="front to rear axle [m]")
-    rear_axle_to_center: float = Field(gt=0, description="rear axle to the vehicle centre [m]")
+    length: float = Field(gt=0, le=MAX_LENGTH, description="body length [m]")
+    width: float = Field(gt=0, le=MAX_WIDTH, description="body width [m]")
+    wheelbase: float = Field(gt=0, description="front to rear axle [m], at most the length")
+    rear_axle_to_center: float = Field(gt=0, description="rear axle to the vehicle centre [m], less than the wheelbase")
     limits: VehicleLimits
     commonroad_vehicle_type: Literal[1, 2, 3] | None = Field(
         None, description="the CommonRoad vehicle type (parameter set) this vehicle is, when it is one: 1 Ford "
@@ -55,6 +56,23 @@ class Vehicle(BaseModel):
         None, description="dead times and lags of the steering, drive and brakes (None: they act at once)")
     controllers: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="controller gains by controller name, overriding defaults")
+
+    @field_validator("wheelbase")
+    @classmethod
+    def _axles_on_the_body(cls, wheelbase: float, info: ValidationInfo) -> float:
+        length = info.data.get("length")
+        if length is not None and wheelbase > length:
+            raise ValueError(f"{wheelbase:g} m, longer than the vehicle (allowed: <= length, {length:g} m)")
+        return wheelbase
+
+    @field_validator("rear_axle_to_center")
+    @classmethod
+    def _centre_between_the_axles(cls, rear_axle_to_center: float, info: ValidationInfo) -> float:
+        wheelbase = info.data.get("wheelbase")
+        if wheelbase is not None and rear_axle_to_center >= wheelbase:
+            raise ValueError(f"{rear_axle_to_center:g} m puts the centre outside the wheelbase "
+                             f"(allowed: < wheelbase, {wheelbase:g} m)")
+        return rear_axle_to_center
 
     @property
     def front_axle_to_center(self) -> float:

@@ -26,7 +26,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.vehicles.constants import GRAVITY
+from simgap.vehicles.constants import GRAVITY, MAX_MASS, MAX_POWER
 from simgap.vehicles.tyres import Tyres
 
 
@@ -63,7 +63,7 @@ class VehiclePhysics(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    mass: float = Field(gt=0, description="total mass [kg]")
+    mass: float = Field(gt=0, le=MAX_MASS, description="total mass [kg]")
     inertia_roll: float = Field(gt=0, description="sprung-mass inertia about x [kg m^2]")
     inertia_pitch: float = Field(gt=0, description="sprung-mass inertia about y [kg m^2]")
     inertia_yaw: float = Field(gt=0, description="whole-vehicle inertia about z [kg m^2]")
@@ -80,7 +80,7 @@ class VehiclePhysics(BaseModel):
     tyres: Tyres = Field(description="the tyres: Magic Formula coefficients, radial stiffness, relaxation lengths")
     steering: Steering
     max_drive_torque: float = Field(gt=0, description="summed drive torque at the wheels [N m]")
-    max_power: float = Field(gt=0, description="max power at the wheels [W]")
+    max_power: float = Field(gt=0, le=MAX_POWER, description="max power at the wheels [W]")
     driven_axles: Literal["front", "rear", "all"] = Field(description="which wheels are driven")
     drive_front_share: float = Field(0.5, ge=0, le=1, description="front share of drive torque when all wheels are driven [-]")
     max_brake_torque: float = Field(gt=0, description="summed brake torque of all wheels [N m]")

@@ -1,0 +1,69 @@
+"""A report or a picture is written whole or not at all: a report build that dies half-way
+leaves the previous report (or none) and the next build needs no --overwrite; a corrupt run
+leaves no empty picture folder."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+import simgap.report.site as site
+from simgap.cli.outputs import check_report_out
+from simgap.cosim import CosimSettings
+from simgap.errors import InputError
+from simgap.experiment.single_run import RunRequest, execute
+from simgap.report.scene2d import render_run
+from simgap.scenario import build_scenario
+from simgap.scenario.files import write_scenario
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("written-whole")
+    xml = write_scenario(build_scenario("curve", {"radius": 40, "angle": 30}), root / "scenarios", preview=False)
+    execute(RunRequest(scenario=xml, cosim=CosimSettings(replan_every=3, max_time_s=4.0), validate=False),
+            root / "runs" / xml.stem / "ideal")
+    return root / "runs"
+
+
+def test_a_report_build_that_dies_half_way_leaves_the_previous_report(runs, tmp_path, monkeypatch):
+    out = tmp_path / "report"
+    first = site.build_report(runs, out).read_text()
+    page = site.page
+
+    def die_at_the_index(path, *args):
+        if path.name == "index.html":
+            raise KeyboardInterrupt            # the user's Ctrl-C, after the assets and scenario pages
+        return page(path, *args)
+
+    monkeypatch.setattr(site, "page", die_at_the_index)
+    with pytest.raises(KeyboardInterrupt):
+        site.build_report(runs, out)
+    with pytest.raises(KeyboardInterrupt):
+        site.build_report(runs, tmp_path / "new")
+    monkeypatch.setattr(site, "page", page)
+    assert (out / "index.html").read_text() == first
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]      # no half report, no temporaries
+    check_report_out(out, overwrite=False)                               # the next build may replace it
+    assert site.build_report(runs, out).read_text() == first
+
+
+def test_a_report_is_refused_where_it_would_replace_what_it_did_not_write(runs, tmp_path):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="holds notes.txt, not a simgap report"):
+        check_report_out(mine, overwrite=False)
+    with pytest.raises(InputError, match="would replace the runs it draws"):
+        site.build_report(runs, runs.parent)
+    assert (mine / "notes.txt").read_text() == "mine"
+
+
+def test_a_corrupt_run_leaves_no_picture_folder(runs, tmp_path):
+    corrupt = tmp_path / "corrupt"
+    shutil.copytree(next(runs.rglob("run.json")).parent, corrupt)
+    (corrupt / "run.json").write_text("{cut short")
+    with pytest.raises(InputError, match="cannot read run"):
+        render_run(corrupt, tmp_path / "pictures")
+    assert not (tmp_path / "pictures").exists()
