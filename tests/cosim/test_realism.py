@@ -77,7 +77,7 @@ def test_a_plain_physical_run_drives_the_real_car_and_says_so(sharp_curve):
 
 
 def test_measured_latency_delays_a_slow_planners_plan(sharp_curve):
-    exact = {"sensing": {"profile": "perfect"}}
+    exact = {"sensing": {"profile": "perfect"}, "max_time_s": 4.0}
     prompt, _ = drive(sharp_curve, "dynamic", cosim=exact)
     slow, _ = drive(sharp_curve, "dynamic", cosim=exact, slow=0.15)
     # a plan made within its 0.1 s cycle drives from the next; one that overran it, a cycle later

@@ -455,7 +455,9 @@ class _CoSimulation:
                 planner_exceptions=p.exceptions, **planning_time_stats(p.call_times), planning_over_budget=p.over_budget,
                 plan_latency_mean_s=round(float(np.mean(p.latencies)), 6) if p.latencies else None,
                 plan_latency_max_s=round(max(p.latencies), 6) if p.latencies else None))
-        settings = {"cosim": self.settings.model_dump(mode="json"), "realism": self.realism.value}
+        settings = {"cosim": self.settings.model_dump(mode="json"), "realism": self.realism.value,
+                    "sensing_accuracy": next(iter(self.progress_of.values())).localisation.accuracy.model_dump(mode="json")
+                    if self.progress_of else None}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
             driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)

@@ -107,9 +107,22 @@ class TrackedBackend:
         self._actuators = {a.id: self.tracking.actuators(a.vehicle) for a in agents}
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
         for a in agents:
-            if a.vehicle.actuators is None and a.id in self._controllers and self.realism is Realism.REAL:
-                self.notes.append(f"agent {a.id}: vehicle {a.vehicle.name} has no actuators in its data file; "
-                                  "they act at once")
+            if a.id in self._controllers:
+                self.notes.append(self._actuator_note(a))
+
+    def _actuator_note(self, agent: Agent) -> str:
+        """What ``agent``'s actuators were, for the run record."""
+        act = self._actuators[agent.id]
+        if act.ideal:
+            missing = self.realism is Realism.REAL and agent.vehicle.actuators is None
+            return (f"agent {agent.id}: actuators act at once"
+                    + (f" (vehicle {agent.vehicle.name} has none in its data file)" if missing else ""))
+        parts = [f"{name} {c.dead_time:g} s dead time" + (f" + lag {c.time_constant:g} s" if c.order == 1 else
+                                                          f" + 2nd-order lag {c.natural_frequency:g} rad/s, "
+                                                          f"zeta {c.damping_ratio:g}" if c.order == 2 else "")
+                 for name, c in (("steering", act.steering), ("drive", act.drive), ("brake", act.brake))]
+        compensation = "compensated" if self.tracking.delay_compensation else "not compensated"
+        return f"agent {agent.id}: actuators {', '.join(parts)}; {compensation} by the controller"
 
     def fit_rates(self, settings: TrackingSettings, dt: float) -> TrackingSettings:
         """``settings`` with a controller rate that divides the scenario's step ``dt``: the one set,

@@ -239,7 +239,9 @@ def test_controller_drives_the_sharp_curve_in_the_fake_server():
 def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
     servers = []
     concrete = build_scenario("curve", {"radius": 30, "angle": 90})
-    run, _ = _run(concrete, servers, driver="script_ai")
+    # the perfect machine: each plan goes to the script AI at the step it is made (a real car's
+    # plans arrive a planning cycle later: test_a_plan_reaches_the_script_ai_after_its_latency)
+    run, _ = _run(concrete, servers, driver="script_ai", realism="ideal")
     server = servers[0]
     assert run.agents[0].outcome == "goal_reached", run.events
     assert "control" not in server.calls
@@ -251,6 +253,17 @@ def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
     x0, y0 = plan.x[0], plan.y[0]
     assert math.hypot(script[0]["x"] - x0, script[0]["y"] - y0) == pytest.approx(
         math.hypot(REF_OFFSET[0], REF_OFFSET[1]), abs=1e-6)
+
+
+def test_a_plan_reaches_the_script_ai_after_its_latency():
+    servers = []
+    run, _ = _run(build_scenario("curve", {"radius": 30, "angle": 90}), servers, driver="script_ai")
+    scripts, plans = servers[0].scripts, run.plans[1]
+    assert run.agents[0].outcome == "goal_reached", run.events
+    # the first plan drives at once; each later one from the step after it was made (measured latency: one cycle)
+    assert run.agents[0].plan_latency_max_s == pytest.approx(0.1)
+    first_waypoints = [(round(s[0]["x"], 6), round(s[0]["y"], 6)) for _, s in scripts]
+    assert len(set(first_waypoints)) == len(plans) == len(scripts)
 
 
 def test_moving_start_is_approached_and_recorded():
