@@ -34,6 +34,7 @@ from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxe
                                    plot_paths_from_above, runtime_table)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
+from simgap.sim.protocol import Realism
 
 PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.gif", "run.gif")
 
@@ -134,6 +135,31 @@ def _slug(text: str) -> str:
 
 
 # ------------------------------------------------------------------------------ heatmaps
+def _realism_note(groups, fidelities: list[str]) -> str:
+    """How real each physical world's cars were, as their run records say."""
+    items = []
+    for fidelity in fidelities:
+        run = next((g.runs[fidelity].run for g in groups if fidelity in g.runs), None)
+        if run is None or fidelity == REFERENCE:
+            continue
+        if run.realism is Realism.IDEAL:
+            items.append(f"<li>{html.escape(fidelity)}: a perfect machine (realism ideal): actuators that act at once, "
+                         "the exact state observed, plans that take no time</li>")
+            continue
+        accuracy = run.settings.get("sensing_accuracy") or {}
+        cosim = run.settings.get("cosim") or {}
+        actuators = [n.split(": ", 1)[1] for n in run.settings.get("backend_notes", []) if ": actuators" in n][:1]
+        latencies = [a.plan_latency_mean_s for a in run.agents if a.plan_latency_mean_s is not None]
+        items.append(
+            f"<li>{html.escape(fidelity)}: the real car (realism real): {html.escape(actuators[0] if actuators else 'actuators as its vehicle file')}; "
+            f"localisation {html.escape(str((cosim.get('sensing') or {}).get('profile', '')))} "
+            f"(drift {accuracy.get('position_drift_m', 0):g} m, {accuracy.get('heading_drift_deg', 0):g} deg, "
+            f"estimate {accuracy.get('latency_s', 0):g} s old); plan latency {html.escape(str(cosim.get('latency')))}"
+            + (f" ({1000 * sum(latencies) / len(latencies):.0f} ms on average in its first run)" if latencies else "")
+            + "</li>")
+    return f"<p>The physical worlds' cars:</p><ul>{''.join(items)}</ul>" if items else ""
+
+
 def _varying_parameters(groups: Sequence[ScenarioGroup]) -> list[str]:
     """Numeric parameters that take more than one value, most values first."""
     values: dict[str, set] = {}
@@ -350,6 +376,7 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
     body = [f"<p>{n_scenarios} scenarios × {len(fidelities)} fidelities ({', '.join(map(html.escape, fidelities))}) "
             f"× {len(planners)} planner{'s' if len(planners) > 1 else ''} ({', '.join(map(html.escape, planners))}): "
             f"{n_runs} runs from <code>{html.escape(str(root))}</code>; {n_failed} did not reach every goal.</p>",
+            _realism_note(groups, fidelities),
             "<h2>Headline numbers</h2>",
             "<p>max |d|: the largest lateral displacement of a run against the ideal run of its scenario with the "
             "same planner, at equal arc length along the route's lane centre.</p>",
