@@ -1,11 +1,15 @@
 """`simgap NAME` imports only NAME's module: the map from command names to modules is whole, and a
-command registered alone is still called by its name."""
+command registered alone is still called by its name; a machine that fails the command (a full
+disk) is one line, not a traceback."""
 
 from __future__ import annotations
 
+import errno
+import os
 import subprocess
 import sys
 
+import pytest
 from typer.main import get_command
 
 from simgap.cli.main import COMMANDS, _register, app
@@ -29,3 +33,32 @@ def test_a_command_registered_alone_is_still_called_by_its_name_and_help_lists_e
     assert all(name in helped.stdout for name in COMMANDS)
     unknown = subprocess.run([sys.executable, "-m", "simgap", "nosuch"], capture_output=True, text=True, timeout=120)
     assert unknown.returncode == 2 and "No such command" in unknown.stderr and "Traceback" not in unknown.stderr
+
+
+@pytest.mark.parametrize("code, words", [(errno.ENOSPC, "no space left on the device"),
+                                         (errno.EROFS, "the file system is read-only")])
+def test_a_full_disk_is_one_line_and_exit_1(monkeypatch, capsys, code, words):
+    from simgap.cli import main as entry
+
+    def full(*args, **kwargs):
+        raise OSError(code, os.strerror(code), "/runs/r1/run.json")
+
+    monkeypatch.setattr(entry, "app", full)
+    monkeypatch.setattr(entry, "_register", lambda argv: None)
+    with pytest.raises(SystemExit) as ended:
+        entry.main()
+    assert ended.value.code == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and words in err and "/runs/r1/run.json" in err and "Traceback" not in err
+
+
+def test_other_os_errors_are_not_hidden(monkeypatch):
+    from simgap.cli import main as entry
+
+    def broken(*args, **kwargs):
+        raise OSError(errno.EIO, "I/O error")
+
+    monkeypatch.setattr(entry, "app", broken)
+    monkeypatch.setattr(entry, "_register", lambda argv: None)
+    with pytest.raises(OSError):
+        entry.main()

@@ -123,3 +123,11 @@ def test_impossible_sensing_and_latency_are_refused():
                 {"latency": "sometimes"}):
         with pytest.raises(ValidationError):
             CosimSettings(**bad)
+
+
+def test_the_readme_table_of_sensing_profiles_is_the_profile_table():
+    from pathlib import Path
+
+    from simgap.cosim.sensing import profile_table
+
+    assert profile_table() in (Path(__file__).parents[2] / "README.md").read_text()

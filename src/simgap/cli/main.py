@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import importlib
 import sys
 
@@ -44,4 +45,17 @@ def main() -> None:
     except InputError as err:
         typer.secho(f"error: {err.describe()}", err=True, fg="red")
         sys.exit(2)
+    except OSError as err:
+        if err.errno not in ENVIRONMENT_ERRORS:
+            raise
+        where = f" writing {err.filename}" if err.filename else ""
+        typer.secho(f"error: {ENVIRONMENT_ERRORS[err.errno]}{where}; nothing half-written was kept: free the space "
+                    "or choose another --out, then run the command again", err=True, fg="red")
+        sys.exit(1)
+
+
+# failures of the machine, not of the input: one line and exit 1 (what was being written is cleaned up
+# by the atomic writes of `simgap.files`)
+ENVIRONMENT_ERRORS = {errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
+                      errno.EROFS: "the file system is read-only"}
 
