@@ -222,7 +222,12 @@ class Exits:
         raise self.exc
 
 
-@pytest.mark.parametrize("exc, text", [(SystemExit(3), "SystemExit: 3"), (KeyboardInterrupt(), "KeyboardInterrupt")])
+class OwnBaseException(BaseException):
+    """What a planner's author may raise: not an Exception."""
+
+
+@pytest.mark.parametrize("exc, text", [(SystemExit(3), "SystemExit: 3"), (KeyboardInterrupt(), "KeyboardInterrupt"),
+                                       (OwnBaseException("mine"), "OwnBaseException: mine")])
 def test_a_planner_that_exits_or_interrupts_fails_its_cycles_not_the_process(exc, text):
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Exits(exc)}, CosimSettings(planner_failure_limit=2))
     (agent,) = result.agents

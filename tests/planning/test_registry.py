@@ -215,3 +215,11 @@ def test_a_planner_per_agent(tmp_path):
     assert all(a.planning_calls == 20 for a in run.agents)
     with pytest.raises(InputError, match="no planner given for planning problem 3"):
         execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap}))
+
+
+def test_a_planner_file_that_exits_while_imported_is_refused(tmp_path):
+    exits = tmp_path / "exits.py"
+    exits.write_text("import sys\nsys.exit(4)\n\nclass Planner:\n    def plan(self, observed, t, world):\n        return None\n")
+    with pytest.raises(InputError) as err:
+        load_planner(f"{exits}:Planner", file="spec.yaml", field="planners.1")
+    assert "cannot import" in str(err.value) and "SystemExit: 4" in str(err.value)

@@ -101,9 +101,10 @@ def test_malformed_and_invalid_yaml(tmp_path):
     ("fixed: {dt: -0.1}", "fixed"),
     ("fixed: {dt: .nan}", "fixed"),
     ("fixed: {dt: fast}", "fixed"),
+    ("fixed: {dt: 1.0e-9}", "fixed"),
     ("parameters:\n  dt: {unit: s, min: 0, max: 0.2, default: 0.1}", "parameters"),
 ])
-def test_a_time_step_that_is_not_positive_is_refused_at_load(tmp_path, dt, field):
+def test_a_time_step_no_scenario_can_have_is_refused_at_load(tmp_path, dt, field):
     spec = tmp_path / "dt.yaml"
     parameters = "" if dt.startswith("parameters") else "parameters:\n"
     spec.write_text(f"name: dt\ntemplate: curve\n{dt}\n{parameters}"
@@ -111,7 +112,7 @@ def test_a_time_step_that_is_not_positive_is_refused_at_load(tmp_path, dt, field
     with pytest.raises(InputError) as err:
         load_logical(spec)
     assert err.value.file == str(spec) and err.value.field == field
-    assert "dt" in err.value.reason and "> 0" in err.value.reason
+    assert "dt" in err.value.reason and "0.01 to 10 s" in err.value.reason
 
 
 @pytest.mark.parametrize("width", [0, -3, 1.0])

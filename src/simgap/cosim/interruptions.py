@@ -1,8 +1,9 @@
 """What stops a run from outside its planners: the user's Ctrl-C and the run's wall-clock limit.
 
-A planner that raises ``SystemExit`` or ``KeyboardInterrupt`` fails its planning cycle
-(`PLANNER_CRASHES`); the user's Ctrl-C must not be mistaken for one, so while `interruptions` is
-active it raises `RunInterrupted`, which the loop lets through. The wall-clock limit is a timer
+Whatever a planner raises — ``SystemExit``, ``KeyboardInterrupt`` or a ``BaseException`` of its
+own — fails its planning cycle (`PLANNER_CRASHES`); what stops the run from outside must not be
+mistaken for one (`RUN_STOPS`): while `interruptions` is active the user's Ctrl-C raises
+`RunInterrupted`, which the loop lets through. The wall-clock limit is a timer
 signal that raises `WallClockExceeded` wherever the run is, even in a ``plan()`` that never
 returns (once its Python code runs again). Signals reach only the main thread: elsewhere neither is
 installed, and the loop's check of the wall clock between steps remains. A planner that ends the
@@ -16,7 +17,7 @@ import threading
 from contextlib import contextmanager
 from typing import Iterator
 
-PLANNER_CRASHES = (Exception, SystemExit, KeyboardInterrupt)   # what a planner may raise: its cycle fails
+PLANNER_CRASHES = BaseException     # what a planner may raise: its cycle fails (after RUN_STOPS are let through)
 DEFAULT_RUN_TIMEOUT_S = 600.0   # wall time a run may take unless told otherwise [s] (simgap run, experiments)
 
 
@@ -60,3 +61,6 @@ def interruptions(wall_time_limit_s: float | None = None) -> Iterator[None]:
             signal.signal(signal.SIGALRM, previous_alarm or signal.SIG_DFL)
         if own_sigint:
             signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+RUN_STOPS = (RunInterrupted, WallClockExceeded)     # what stops a run from outside its planners: let through

@@ -37,7 +37,7 @@ from commonroad.scenario.scenario import Scenario
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from simgap.cosim.interruptions import PLANNER_CRASHES, RunInterrupted, WallClockExceeded, interruptions
+from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
 from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, PROFILES
@@ -309,7 +309,7 @@ class _CoSimulation:
         self.planning_agent = p.agent.id
         try:
             plan = p.planner.plan(observed, t, world)
-        except RunInterrupted:
+        except RUN_STOPS:
             raise
         except PLANNER_CRASHES as exc:  # a planner that crashes (or exits) fails its cycle, not the run
             plan, reason = None, f"planner raised {type(exc).__name__}: {exc}"

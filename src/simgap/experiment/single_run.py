@@ -16,7 +16,7 @@ from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.cosim.interruptions import PLANNER_CRASHES, RunInterrupted, interruptions
+from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
 from simgap.export.driven_scenario import driven_scenario, scenario_xml
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
@@ -158,7 +158,7 @@ def execute(request: RunRequest, out: Path | None = None,
         try:
             with interruptions():
                 planners[a.id] = planner_class.build(setup, settings)
-        except RunInterrupted:
+        except RUN_STOPS:
             raise
         except PLANNER_CRASHES as exc:  # the planner's own bug (or exit): this run fails, recorded, the batch goes on
             errors.append(PlannerError.of(exc, a.id, None))

@@ -109,7 +109,7 @@ def load_planner(ref: str, *, file: str | Path | None = None, field: str = "plan
         dist = ep.dist.name if ep.dist is not None else "?"
         try:
             cls = ep.load()
-        except Exception as exc:      # a broken package: its import error, named
+        except (Exception, SystemExit) as exc:      # a broken package (or one that exits): its error, named
             raise InputError(f"installed planner '{ref}' ({ep.value}, from {dist}) cannot be loaded: "
                              f"{type(exc).__name__}: {exc}", file=file, field=field,
                              allowed=allowed_planners()) from None
@@ -131,7 +131,7 @@ def _import_class(target: str, ref: str, file: str | Path | None, field: str) ->
     try:
         module = _module_of_file(str(Path(where).resolve())) if where.endswith(".py") \
             else importlib.import_module(where)
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:      # a module that raises or exits while it is imported
         raise InputError(f"cannot import '{where}' for planner '{ref}': {type(exc).__name__}: {exc}",
                          file=file, field=field, allowed=allowed_planners()) from None
     if not hasattr(module, attr):

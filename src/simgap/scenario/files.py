@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import warnings
 from pathlib import Path
 from typing import Any
@@ -13,6 +15,7 @@ from commonroad.common.file_writer import CommonRoadFileWriter, OverwriteExistin
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.scenario import Location, Scenario
+from lxml import etree
 
 from simgap.errors import InputError
 from simgap.files import atomic_write, atomic_write_text
@@ -37,8 +40,16 @@ def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, sour
     """CommonRoad XML of ``scenario`` and ``problems`` at ``path`` (written atomically)."""
     writer = CommonRoadFileWriter(scenario, problems, author="simgap", affiliation="", source=source,
                                   tags=set(), location=Location(), decimal_precision=XML_PRECISION)
-    atomic_write(Path(path), lambda p: writer.write_to_file(str(p), OverwriteExistingFile.ALWAYS),
-                 keep_suffix=True)
+
+    def write(p: Path) -> None:
+        try:
+            writer.write_to_file(str(p), OverwriteExistingFile.ALWAYS)
+        except etree.SerialisationError as exc:      # lxml's word for a failed write: the disk's error
+            if "ENOSPC" in str(exc):
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path)) from None
+            raise
+
+    atomic_write(Path(path), write, keep_suffix=True)
 
 
 def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: bool = True) -> Path:

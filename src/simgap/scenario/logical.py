@@ -31,7 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from simgap.errors import InputError
 from simgap.files import read_model
-from simgap.scenario.physical_bounds import TIME_STEP_ALLOWED
+from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
 from simgap.scenario.templates import TEMPLATES, ConcreteScenario
 
 
@@ -95,7 +95,8 @@ class LogicalScenario(BaseModel):
     @classmethod
     def _fixed_time_step(cls, fixed: dict[str, Any]) -> dict[str, Any]:
         dt = fixed.get("dt", 0.1)
-        if not (isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt) and dt > 0):
+        if not (isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt)
+                and MIN_TIME_STEP_S <= dt <= MAX_TIME_STEP_S):
             raise ValueError(f"dt is {dt!r} (allowed: {TIME_STEP_ALLOWED})")
         return fixed
 
@@ -103,7 +104,7 @@ class LogicalScenario(BaseModel):
     @classmethod
     def _time_step_parameter(cls, parameters: dict[str, Parameter]) -> dict[str, Parameter]:
         dt = parameters.get("dt")
-        if dt is not None and not (dt.min > 0 and math.isfinite(dt.max)):
+        if dt is not None and not (dt.min >= MIN_TIME_STEP_S and dt.max <= MAX_TIME_STEP_S):
             raise ValueError(f"dt spans {dt.min:g} to {dt.max:g} s (allowed: {TIME_STEP_ALLOWED})")
         return parameters
 

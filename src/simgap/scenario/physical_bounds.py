@@ -15,14 +15,17 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from simgap.errors import InputError
 from simgap.vehicles.constants import MAX_SPEED
 
-TIME_STEP_ALLOWED = "a finite number of seconds > 0, e.g. 0.1"
+# recorded scenarios step 0.04-0.2 s; the controllers run at 50 Hz and up, so a step below their
+# period, or above a few seconds, is no scenario simgap can run (and a tiny one only fills memory)
+MIN_TIME_STEP_S, MAX_TIME_STEP_S = 0.01, 10.0
+TIME_STEP_ALLOWED = f"{MIN_TIME_STEP_S:g} to {MAX_TIME_STEP_S:g} s, e.g. 0.1"
 MIN_LANELET_WIDTH = 0.1     # m: a lanelet narrower than this everywhere carries no vehicle
 MIN_LANE_WIDTH = 2.0        # m: the narrowest lane a generated road has (road design guides: 2.5 m and up)
 
 
 def check_time_step(dt: float, *, file: str | Path | None, field: str) -> None:
-    """Refuse a scenario time step that is not a finite positive number of seconds."""
-    if not (math.isfinite(dt) and dt > 0):
+    """Refuse a scenario time step outside [MIN_TIME_STEP_S, MAX_TIME_STEP_S] (nan and inf included)."""
+    if not (math.isfinite(dt) and MIN_TIME_STEP_S <= dt <= MAX_TIME_STEP_S):
         raise InputError(f"time step {dt:g} s", file=file, field=field, allowed=TIME_STEP_ALLOWED)
 
 

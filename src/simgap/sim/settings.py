@@ -16,6 +16,7 @@ from simgap.vehicles.actuators import IDEAL_ACTUATORS, MAX_DEAD_TIME_S, MAX_TIME
 
 DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
 
+MAX_RATE_HZ = 5000.0        # Hz: as the physics' own limit (a controller no faster than its physics)
 ActuatorDelay = Annotated[float | None, Field(ge=0.0, le=MAX_DEAD_TIME_S)]
 ActuatorLag = Annotated[float | None, Field(ge=0.0, le=MAX_TIME_CONSTANT_S)]
 RoadFriction = Annotated[float, Field(ge=0.1, le=1.5, description="scales each tyre's friction [-]")]
@@ -41,7 +42,7 @@ class TrackingSettings(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     controller: str = Field(DEFAULT_CONTROLLER, description="tracking controller: pure_pursuit, stanley, lqr")
-    controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, description="controller rate [Hz]")
+    controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, le=MAX_RATE_HZ, description="controller rate [Hz]")
     controller_gains: dict[str, Any] = Field(default_factory=dict,
                                              description="gains over the controller's defaults and the vehicle's")
     realism: Realism = Field(Realism.REAL, description="real: the vehicle's actuators, a drifting localisation and "
