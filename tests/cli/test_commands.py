@@ -374,7 +374,7 @@ def test_generate_refuses_a_road_longer_than_the_maximum(tmp_path, template, fix
                     "parameters:\n  lane_width: {unit: m, min: 2.5, max: 5, default: 3.0}\n")
     proc = simgap("generate", str(spec), "--no-preview", "--out", str(tmp_path / "out"))
     assert proc.returncode == 2
-    assert_clean_error(proc, *fragments)
+    assert_clean_error(proc, f"{spec}: ", *fragments)
 
 
 def test_an_out_that_is_a_file_is_refused_by_every_command_before_any_work(tmp_path):

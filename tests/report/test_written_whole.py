@@ -64,6 +64,7 @@ def test_a_corrupt_run_leaves_no_picture_folder(runs, tmp_path):
     corrupt = tmp_path / "corrupt"
     shutil.copytree(next(runs.rglob("run.json")).parent, corrupt)
     (corrupt / "run.json").write_text("{cut short")
-    with pytest.raises(InputError, match="cannot read run"):
+    with pytest.raises(InputError, match="cannot read the run's record") as err:
         render_run(corrupt, tmp_path / "pictures")
+    assert err.value.file == str(corrupt / "run.json")
     assert not (tmp_path / "pictures").exists()

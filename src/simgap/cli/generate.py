@@ -52,8 +52,15 @@ def generate(
     combos = list(spec.grid(pins))
     written = []
     steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
+    where = logical if logical.endswith((".yaml", ".yml")) else None
     for params in steps:
-        written.append(write_scenario(spec.build(params), out, preview=preview))
+        try:
+            concrete = spec.build(params)
+        except InputError as err:       # a template's bound: name the logical scenario's file
+            if err.file is None and where is not None:
+                raise InputError(err.reason, file=where, field=err.field, allowed=err.allowed) from None
+            raise
+        written.append(write_scenario(concrete, out, preview=preview))
     console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
     for path in written[:5]:
         console.print(f"  {path.name}")

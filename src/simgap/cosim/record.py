@@ -267,9 +267,15 @@ class Run:
             raise InputError("not a run directory (no run.json)", file=run_dir)
         try:
             meta = json.loads(meta_path.read_text())
-            table = pq.read_table(run_dir / "trajectories.parquet").to_pydict()
+        except (OSError, ValueError) as exc:
+            raise InputError(f"cannot read the run's record: {exc}", file=meta_path,
+                             allowed="the run.json simgap wrote; run the scenario again") from None
+        trajectories = run_dir / "trajectories.parquet"
+        try:
+            table = pq.read_table(trajectories).to_pydict()
         except (OSError, ValueError, pa.ArrowException) as exc:
-            raise InputError(f"cannot read run: {exc}", file=run_dir) from None
+            raise InputError(f"cannot read the run's trajectories: {exc}", file=trajectories,
+                             allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
         dt = float(meta["dt"])
         driven: dict[int, Trajectory] = {}
         plans: dict[int, list[Trajectory]] = {}
