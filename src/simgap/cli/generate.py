@@ -53,14 +53,20 @@ def generate(
     written = []
     steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
     where = logical if logical.endswith((".yaml", ".yml")) else None
-    for params in steps:
-        try:
-            concrete = spec.build(params)
-        except InputError as err:       # a template's bound: name the logical scenario's file
-            if err.file is None and where is not None:
-                raise InputError(err.reason, file=where, field=err.field, allowed=err.allowed) from None
-            raise
-        written.append(write_scenario(concrete, out, preview=preview))
+    made_out = not out.exists()
+    try:
+        for params in steps:
+            try:
+                concrete = spec.build(params)
+            except InputError as err:       # a template's bound: name the logical scenario's file
+                if err.file is None and where is not None:
+                    raise InputError(err.reason, file=where, field=err.field, allowed=err.allowed) from None
+                raise
+            written.append(write_scenario(concrete, out, preview=preview))
+    except BaseException:
+        if made_out and out.is_dir() and not any(out.iterdir()):    # leave no empty folder of ours behind
+            out.rmdir()
+        raise
     console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
     for path in written[:5]:
         console.print(f"  {path.name}")
