@@ -1,5 +1,5 @@
 """Multi-fidelity search against the baselines, at equal wall-clock budget: the built-in
-`curve-gaps` search (the curve road under friction, actuator delay, observation noise, bank and
+`curve-gaps` search (the curve road under friction, actuator delays, localisation drift, bank and
 grade; ideal → single-track screen → MuJoCo) with each strategy on the same budget and workers,
 repeated over seeds (the spec's ``seed``: each strategy's own random choices).
 

@@ -53,7 +53,7 @@ def test_the_builtin_search_loads():
     search = load_search_spec("curve-gaps")
     spec, logical = search.spec, search.logical
     assert logical.name == "curve" and spec.ladder[-1].backend == "mujoco"
-    assert {"road_friction", "steer_delay", "position_noise", "road_bank"} <= set(spec.knobs)
+    assert {"road_friction", "steer_delay", "position_drift", "road_bank"} <= set(spec.knobs)
 
 
 @pytest.mark.parametrize("text, budget", [("20m", Budget(seconds=1200)), ("90s", Budget(seconds=90)),

@@ -40,7 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
 from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
-from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, PROFILES
+from simgap.cosim.sensing import PROFILES, Localisation, SensingProfile, SensingSettings
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, TrafficParticipant, World

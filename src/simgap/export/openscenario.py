@@ -9,7 +9,7 @@ its box, as in CommonRoad (its bounding box is centred on it; the axles lie at t
 from the centre). The road friction is the environment's friction scale factor; the goal regions
 end the story (every agent within its goal's circumscribed circle, and past the start of its goal
 time window), or the recorded time runs out. What OpenSCENARIO has no place for (actuator delays,
-observation noise, the goals' velocity and orientation windows) is said in the file's description.
+sensing and latency, the goals' velocity and orientation windows) is said in the file's description.
 """
 
 from __future__ import annotations
