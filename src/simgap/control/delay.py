@@ -2,8 +2,8 @@
 have when its command acts, not the one it measures now — as Autoware's MPC (``input_delay``,
 ``vehicle_model_steer_tau``) and openpilot's controls (``steerActuatorDelay``) do.
 
-`DelayCompensation` wraps any tracking controller. It mirrors the car's actuators
-(`simgap.vehicles.actuators.ActuatorResponses`) with the commands it has sent, and each period
+`DelayCompensation` wraps any tracking controller. It mirrors the car's steering actuator
+(`simgap.vehicles.actuators.ChannelResponse`) with the angles it has asked for, and each period
 predicts the measured state forward over the steering's effective delay (dead time + lag): the
 road-wheel angle from the requests already in flight, the pose by a kinematic single-track model,
 the speed with the measured acceleration. The wrapped controller then commands from that
@@ -17,7 +17,7 @@ import math
 
 from simgap.control.protocol import Command, Controller
 from simgap.trajectory import State, Trajectory
-from simgap.vehicles.actuators import Actuators, ActuatorResponses
+from simgap.vehicles.actuators import Actuators
 
 
 class DelayCompensation:
@@ -34,15 +34,15 @@ class DelayCompensation:
             2.0 * steering.damping_ratio / steering.natural_frequency if steering.order == 2 else 0.0
         self.lag_ticks = int(round(lag / self.period))
         self.horizon = (self.dead_ticks + self.lag_ticks) * self.period
-        self._mirror = ActuatorResponses(actuators, self.period)
+        self._steering = steering.response(self.period)
 
     def reset(self, state: State) -> None:
         self.controller.reset(state)
-        self._mirror = ActuatorResponses(self.actuators, self.period, state.steer)
+        self._steering = self.actuators.steering.response(self.period, state.steer)
 
     def command(self, measured: State, plan: Trajectory, t: float) -> Command:
         asked = self.controller.command(self.predict(measured), plan, t + self.horizon)
-        self._mirror.respond(asked.steer, asked.throttle, asked.brake)
+        self._steering.step(asked.steer)
         return asked
 
     def predict(self, measured: State) -> State:
@@ -69,7 +69,7 @@ class DelayCompensation:
     def _steering_ahead(self, n: int) -> tuple[float, float]:
         """The road-wheel angle ``n`` periods ahead and the sum of its tangents over them: the
         requests in flight, then the last one held (a first-order lag inline: a hot path)."""
-        response = self._mirror.steering
+        response = self._steering
         pending = response.in_flight
         held = pending[-1] if pending else response.output
         if response.order == 2:
