@@ -9,17 +9,12 @@ import time
 import numpy as np
 import pytest
 
-from simgap.cosim import CosimSettings, simulate
-from simgap.cosim.agents import agents_from_problems
-from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, PROFILES
-from simgap.evaluate.run_metrics import run_metrics
-from simgap.planning.frenet import FrenetPlanner
-from simgap.planning.protocol import PlannerSetup
+from concrete_runs import drive as drive_concrete
+from simgap.cosim import CosimSettings
+from simgap.cosim.sensing import PROFILES, Localisation, SensingProfile, SensingSettings
 from simgap.scenario import build_scenario
 from simgap.sim.protocol import Realism
-from simgap.sim.registry import backend_settings, make_backend
 from simgap.trajectory import State
-from simgap.vehicles import load_vehicle
 
 EXACT = {"sensing": {"profile": "perfect"}, "latency": 0.0}
 
@@ -41,17 +36,8 @@ class Slow:
 
 
 def drive(concrete, backend="mujoco", settings=None, cosim=None, seed=0, slow=0.0):
-    scenario, problems = concrete.scenario, concrete.problems
-    sedan = load_vehicle("sedan")
-    agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {}
-    for a in agents:
-        planner = FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan,
-                                                         scenario.lanelet_network))
-        planners[a.id] = Slow(planner, slow) if slow else planner
-    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings or {})), agents,
-                   planners, CosimSettings(**(cosim or {})), seed=seed)
-    return run, run_metrics(run, scenario, problems, 1.0)
+    return drive_concrete(concrete, backend, settings, cosim, seed,
+                          planner_of=(lambda planner: Slow(planner, slow)) if slow else (lambda planner: planner))
 
 
 def test_delay_compensation_reduces_the_peak_tracking_error(sharp_curve):

@@ -7,14 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from simgap.cosim import CosimSettings, simulate
-from simgap.cosim.agents import agents_from_problems
-from simgap.evaluate.run_metrics import run_metrics
-from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table, knob_value
-from simgap.planning.frenet import FrenetPlanner
-from simgap.planning.protocol import PlannerSetup
+from cosim.concrete_runs import drive as drive_concrete
+from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table
 from simgap.scenario import build_scenario
-from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
 
 
@@ -22,15 +17,7 @@ PERFECT_MACHINE = {"realism": "ideal"}     # each knob is measured against a car
 
 
 def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0):
-    scenario, problems = concrete.scenario, concrete.problems
-    settings = PERFECT_MACHINE | (settings or {})
-    sedan = load_vehicle("sedan")
-    agents = agents_from_problems(problems, scenario.dt, sedan)
-    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
-                for a in agents}
-    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
-                   CosimSettings(**(cosim or {})), seed=seed)
-    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings))
+    return drive_concrete(concrete, backend, PERFECT_MACHINE | (settings or {}), cosim, seed)
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,30 @@
+"""A concrete scenario driven by the Frenet planner in one backend: the run and its run metrics
+(the helper of the tests that measure what a reality setting does to the drive)."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from simgap.cosim import CosimSettings, simulate
+from simgap.cosim.agents import agents_from_problems
+from simgap.evaluate.run_metrics import run_metrics
+from simgap.experiment.knobs import knob_value
+from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
+from simgap.sim.registry import backend_settings, make_backend
+from simgap.vehicles import load_vehicle
+
+
+def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0,
+          planner_of: Callable = lambda planner: planner):
+    """``concrete`` in ``backend`` with the sedan; ``planner_of`` may wrap each agent's planner."""
+    scenario, problems = concrete.scenario, concrete.problems
+    settings = settings or {}
+    sedan = load_vehicle("sedan")
+    agents = agents_from_problems(problems, scenario.dt, sedan)
+    planners = {a.id: planner_of(FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan,
+                                                                        scenario.lanelet_network)))
+                for a in agents}
+    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
+                   CosimSettings(**(cosim or {})), seed=seed)
+    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings))
