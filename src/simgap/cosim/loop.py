@@ -109,13 +109,13 @@ class _AgentProgress:
     problem: PlanningProblem
     goal: Goal
     deadline: float
+    localisation: Localisation                  # what its planner sees of its car
     driven: list[State] = field(default_factory=list)
     plans: list[Trajectory] = field(default_factory=list)
     plan: Trajectory | None = None              # the newest plan (what the other agents see)
     in_force: Trajectory | None = None          # the plan the car follows
     arriving: list[tuple[float, Trajectory]] = field(default_factory=list)   # plans on their way: (when, plan)
     latencies: list[float] = field(default_factory=list)
-    localisation: Localisation | None = None
     plan_age: int = 0
     outcome: Outcome | None = None
     time_to_goal: float | None = None
@@ -210,12 +210,13 @@ class _CoSimulation:
         self.traffic: Traffic = make_traffic(scenario, settings.traffic)
         self.road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
         self.progress_of: dict[int, _AgentProgress] = {}
+        self.accuracy = settings.sensing.accuracy() if self.realism is Realism.REAL else PROFILES[SensingProfile.PERFECT]
         for a in agents:
             problem = problems.planning_problem_dict[a.id]
             goal = Goal.of(problem.goal, self.dt)
-            self.progress_of[a.id] = _AgentProgress(a, planners[a.id], problem, goal, deadline(goal, settings))
-            accuracy = settings.sensing.accuracy() if self.realism is Realism.REAL else PROFILES[SensingProfile.PERFECT]
-            self.progress_of[a.id].localisation = Localisation(accuracy, np.random.default_rng((seed, a.id)))
+            localisation = Localisation(self.accuracy, np.random.default_rng((seed, a.id)))
+            self.progress_of[a.id] = _AgentProgress(a, planners[a.id], problem, goal, deadline(goal, settings),
+                                                    localisation)
         self.horizon = max(p.deadline for p in self.progress_of.values())
         self.agents = agents
 
@@ -294,8 +295,7 @@ class _CoSimulation:
         settings, dt = self.settings, self.dt
         if not p.active:
             if p.plan is None or p.plan.t_end < t + dt:
-                p.plan = p.in_force = emergency_stop(state, dt, settings.emergency_decel, path=p.plan)
-                p.arriving = []
+                self._brake(p, state)
             return
         due = (p.plan is None or p.plan_age >= settings.replan_every
                or p.plan.t_end < t + dt or p.failures_in_row > 0)
@@ -363,6 +363,12 @@ class _CoSimulation:
         except InvalidPlan as exc:
             return None, f"invalid plan: {exc}"
 
+    def _brake(self, p: _AgentProgress, state: State) -> None:
+        """``p``'s car brakes in its lane now: the stack's own fallback, with no latency; plans on
+        their way are dropped."""
+        p.plan = p.in_force = emergency_stop(state, self.dt, self.settings.emergency_decel, path=p.plan)
+        p.arriving = []
+
     def _planner_raised(self, p: _AgentProgress, t: float, exc: BaseException) -> None:
         """Count the exception; keep the first few with their tracebacks for the run record."""
         p.exceptions += 1
@@ -374,9 +380,8 @@ class _CoSimulation:
         p.failures_in_row += 1
         self.events.append(Event(t, p.agent.id, "planner_no_solution", state.x, state.y,
                                  f"{reason}; braking in lane"))
-        if p.failures_in_row == 1:     # the car's own fallback: it acts at once
-            p.plan = p.in_force = emergency_stop(state, self.dt, self.settings.emergency_decel, path=p.plan)
-            p.arriving = []
+        if p.failures_in_row == 1:
+            self._brake(p, state)
         p.plan_age = 0
         if p.failures_in_row >= self.settings.planner_failure_limit:
             self._finish(p, Outcome.PLANNER_FAILURE, state,
@@ -456,8 +461,7 @@ class _CoSimulation:
                 plan_latency_mean_s=round(float(np.mean(p.latencies)), 6) if p.latencies else None,
                 plan_latency_max_s=round(max(p.latencies), 6) if p.latencies else None))
         settings = {"cosim": self.settings.model_dump(mode="json"), "realism": self.realism.value,
-                    "sensing_accuracy": next(iter(self.progress_of.values())).localisation.accuracy.model_dump(mode="json")
-                    if self.progress_of else None}
+                    "sensing_accuracy": self.accuracy.model_dump(mode="json")}
         return Run(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
             driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
