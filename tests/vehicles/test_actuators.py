@@ -54,3 +54,10 @@ def test_a_lag_needs_one_form():
 def test_dead_time_holds_the_starting_value_and_rounds_to_periods():
     response = ActuatorChannel(dead_time=0.03).response(0.01, initial=0.25)
     assert [response.step(v) for v in (1.0, 2.0, 3.0, 4.0, 5.0)] == [0.25, 0.25, 0.25, 1.0, 2.0]
+
+
+def test_a_channel_says_what_it_is_in_a_line():
+    assert ActuatorChannel(dead_time=0.12, time_constant=0.1).summary() == "0.12 s dead time + lag 0.1 s"
+    assert ActuatorChannel(dead_time=0.05, natural_frequency=20, damping_ratio=0.7).summary() == \
+        "0.05 s dead time + 2nd-order lag 20 rad/s, zeta 0.7"
+    assert ActuatorChannel().summary() == "0 s dead time"

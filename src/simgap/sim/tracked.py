@@ -117,10 +117,8 @@ class TrackedBackend:
             missing = self.realism is Realism.REAL and agent.vehicle.actuators is None
             return (f"agent {agent.id}: actuators act at once"
                     + (f" (vehicle {agent.vehicle.name} has none in its data file)" if missing else ""))
-        parts = [f"{name} {c.dead_time:g} s dead time" + (f" + lag {c.time_constant:g} s" if c.order == 1 else
-                                                          f" + 2nd-order lag {c.natural_frequency:g} rad/s, "
-                                                          f"zeta {c.damping_ratio:g}" if c.order == 2 else "")
-                 for name, c in (("steering", act.steering), ("drive", act.drive), ("brake", act.brake))]
+        parts = [f"{name} {channel.summary()}"
+                 for name, channel in (("steering", act.steering), ("drive", act.drive), ("brake", act.brake))]
         compensation = "compensated" if self.tracking.delay_compensation else "not compensated"
         return f"agent {agent.id}: actuators {', '.join(parts)}; {compensation} by the controller"
 

@@ -64,6 +64,14 @@ class ActuatorChannel(BaseModel):
             changes |= {"time_constant": time_constant, "natural_frequency": None, "damping_ratio": None}
         return self.model_copy(update=changes) if changes else self
 
+    def summary(self) -> str:
+        """``0.12 s dead time + lag 0.1 s``, in a line."""
+        if self.order == 2:
+            lag = f" + 2nd-order lag {self.natural_frequency:g} rad/s, zeta {self.damping_ratio:g}"
+        else:
+            lag = f" + lag {self.time_constant:g} s" if self.order == 1 else ""
+        return f"{self.dead_time:g} s dead time{lag}"
+
     def response(self, period: float, initial: float = 0.0) -> "ChannelResponse":
         return ChannelResponse(self, period, initial)
 
