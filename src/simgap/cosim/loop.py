@@ -43,7 +43,7 @@ from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_
 from simgap.cosim.sensing import PROFILES, Localisation, SensingProfile, SensingSettings
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
-from simgap.planning.protocol import Planner, TrafficParticipant, World
+from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
 from simgap.scenario.goal import Goal
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged, PlanHandover, PlanInForce, Realism
@@ -311,6 +311,11 @@ class _CoSimulation:
             plan = p.planner.plan(observed, t, world)
         except RUN_STOPS:
             raise
+        except PlannerUnavailable as exc:   # its process is gone for good: the agent is given up
+            self.planning_agent = None
+            p.call_times.append(time.perf_counter() - clock)
+            self._planner_failed(p, state, t, str(exc) or "the planner is unavailable", give_up=True)
+            return
         except PLANNER_CRASHES as exc:  # a planner that crashes (or exits) fails its cycle, not the run
             plan, reason = None, f"planner raised {type(exc).__name__}: {exc}"
             self._planner_raised(p, t, exc)
@@ -375,7 +380,9 @@ class _CoSimulation:
         if len(self.planner_errors) < RECORDED_PLANNER_ERRORS:
             self.planner_errors.append(PlannerError.of(exc, p.agent.id, t))
 
-    def _planner_failed(self, p: _AgentProgress, state: State, t: float, reason: str) -> None:
+    def _planner_failed(self, p: _AgentProgress, state: State, t: float, reason: str, give_up: bool = False) -> None:
+        """A cycle without a plan: brake in lane; after `planner_failure_limit` in a row (or at
+        once, ``give_up``: the planner can plan no more) the agent is given up."""
         p.failures += 1
         p.failures_in_row += 1
         self.events.append(Event(t, p.agent.id, "planner_no_solution", state.x, state.y,
@@ -383,7 +390,9 @@ class _CoSimulation:
         if p.failures_in_row == 1:
             self._brake(p, state)
         p.plan_age = 0
-        if p.failures_in_row >= self.settings.planner_failure_limit:
+        if give_up:
+            self._finish(p, Outcome.PLANNER_FAILURE, state, f"the planner is unavailable: {reason}")
+        elif p.failures_in_row >= self.settings.planner_failure_limit:
             self._finish(p, Outcome.PLANNER_FAILURE, state,
                          f"{p.failures_in_row} consecutive cycles without a plan; last: {reason}")
 

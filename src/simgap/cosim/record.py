@@ -77,8 +77,10 @@ class PlannerError:
 
     @classmethod
     def of(cls, exc: BaseException, agent_id: int, t: float | None) -> "PlannerError":
+        trace = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+        remote = getattr(exc, "remote_traceback", "")     # a planner in its own process: its own traceback too
         return cls(agent_id, t, type(exc).__name__, str(exc),
-                   "".join(traceback.format_exception(type(exc), exc, exc.__traceback__)))
+                   trace + (f"\nThe planner's process reported:\n{remote}" if remote else ""))
 
 
 @dataclass(frozen=True)

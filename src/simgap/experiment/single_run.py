@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -17,7 +18,7 @@ from pydantic import BaseModel
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
-from simgap.export.driven_scenario import driven_scenario, scenario_xml
+from simgap.export.driven_scenario import driven_scenario
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import run_metrics
 from simgap.evaluate.run_scores import check_run_solution, score_run
@@ -26,7 +27,9 @@ from simgap.evaluate.validity import SolutionCheckCache
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
+from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import road_friction
@@ -74,7 +77,7 @@ def software_versions() -> dict[str, str]:
 def parse_agent_map(text: str, what: str = "vehicle", example: str = "1=sedan,2=suv") -> str | dict[int, str]:
     """``NAME`` (every agent) or ``1=NAME,2=OTHER`` (per planning problem id), for ``--vehicle``
     and ``--planner``."""
-    if "=" not in text:
+    if "=" not in text or PlannerTarget.parse(text.strip()) is not None:     # a command may hold "=" and ","
         return text.strip()
     mapping = {}
     for item in text.split(","):
@@ -93,9 +96,11 @@ def parse_agent_map(text: str, what: str = "vehicle", example: str = "1=sedan,2=
     return mapping
 
 
-def parse_planners(text: str, settings_file: Path | None = None) -> PlannerAssignment:
+def parse_planners(text: str, settings_file: Path | None = None, isolate: bool = False,
+                   process: ProcessLimits | None = None) -> PlannerAssignment:
     """``--planner`` and ``--planner-config`` as a planner assignment, every planner loaded and its
-    settings validated (errors name the file and the field).
+    settings validated (errors name the file and the field); ``isolate`` runs every planner class
+    in a process of its own, ``process`` limits every planner in its own process.
 
     The settings file holds the settings of the planner when one planner drives every agent (or
     every agent named); with several different planners, it maps each planner, as ``--planner``
@@ -118,7 +123,9 @@ def parse_planners(text: str, settings_file: Path | None = None) -> PlannerAssig
                 settings[ref] = values
     choices = {}
     for ref in refs:
-        choice = PlannerChoice(planner=ref, settings=settings[ref])
+        own_process = isolate and PlannerTarget.parse(ref) is None
+        choice = PlannerChoice(planner=ref, settings=settings[ref], isolate=own_process,
+                               process=process or ProcessLimits())
         choice.load(file=settings_file, settings_field="" if len(refs) == 1 else ref)
         choices[ref] = choice
     if isinstance(parsed, str):
@@ -149,25 +156,34 @@ def execute(request: RunRequest, out: Path | None = None,
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     planners, errors, planner_records = {}, [], {}
-    for a in agents:
-        choice = planner_of(request.planner, a.id, [b.id for b in agents])
-        planner_class, settings = choice.load()
-        planner_records[a.id] = {"name": choice.name, "planner": choice.planner,
-                         "settings": settings.model_dump(mode="json") if settings is not None else {}}
-        setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network, problems.planning_problem_dict[a.id], dt)
-        try:
-            with interruptions():
-                planners[a.id] = planner_class.build(setup, settings)
-        except RUN_STOPS:
-            raise
-        except PLANNER_CRASHES as exc:  # the planner's own bug (or exit): this run fails, recorded, the batch goes on
-            errors.append(PlannerError.of(exc, a.id, None))
-    if errors:
-        run = not_started(scenario, request.backend, agents, errors, request.cosim)
-    else:
-        backend = make_backend(request.backend, request.backend_settings)
-        run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
-                       wall_time_limit_s=request.run_timeout_s)
+    with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
+        for a in agents:
+            choice = planner_of(request.planner, a.id, [b.id for b in agents])
+            planner_class, settings = choice.load()
+            planner_records[a.id] = {"name": choice.name, "planner": choice.planner, "settings":
+                                     settings.model_dump(mode="json") if isinstance(settings, BaseModel) else
+                                     dict(settings or {})}
+            setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network,
+                                 problems.planning_problem_dict[a.id], dt)
+            try:
+                with interruptions():
+                    planners[a.id] = planner_class.build(setup, settings)
+            except RUN_STOPS:
+                raise
+            except PLANNER_CRASHES as exc:  # the planner's own bug (or exit): this run fails, recorded, the batch goes on
+                errors.append(PlannerError.of(exc, a.id, None))
+                continue
+            if callable(getattr(planners[a.id], "close", None)):
+                closing.callback(planners[a.id].close)
+        if errors:
+            run = not_started(scenario, request.backend, agents, errors, request.cosim)
+        else:
+            backend = make_backend(request.backend, request.backend_settings)
+            run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
+                           wall_time_limit_s=request.run_timeout_s)
+        for aid, planner in planners.items():
+            if callable(getattr(planner, "record", None)):
+                planner_records[aid]["process"] = planner.record()
     for outcome in run.agents:
         outcome.planner = planner_records[outcome.id]["name"]
         outcome.recorded_as = recorded_egos.get(outcome.id)

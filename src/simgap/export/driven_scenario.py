@@ -4,11 +4,8 @@ its driven trajectory, as CommonRoad XML (so any CommonRoad tool can replay or e
 from __future__ import annotations
 
 import copy
-import tempfile
-from pathlib import Path
 
 from commonroad.geometry.shape import Rectangle
-from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.scenario import Scenario
@@ -16,7 +13,6 @@ from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 
 from simgap.cosim.record import AGENT_ID_OFFSET, Run
-from simgap.scenario.files import write_xml
 from simgap.sim.protocol import Agent
 
 
@@ -38,11 +34,3 @@ def driven_scenario(scenario: Scenario, agents: list[Agent], run: Run) -> Scenar
         driven.add_objects(DynamicObstacle(AGENT_ID_OFFSET + agent.id, ObstacleType.CAR, shape,
                                            init, prediction))
     return driven
-
-
-def scenario_xml(scenario: Scenario, problems: PlanningProblemSet) -> str:
-    """Serialise a scenario and its planning problems to CommonRoad XML text."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "scenario.xml"
-        write_xml(scenario, problems, path)
-        return path.read_text()

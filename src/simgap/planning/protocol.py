@@ -50,6 +50,11 @@ class Planner(Protocol):
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None: ...
 
 
+class PlannerUnavailable(Exception):
+    """Raised by ``plan`` when the planner can plan no more (its process is gone and was not
+    restarted): the loop gives the agent up as a planner failure, with this reason."""
+
+
 @dataclass(frozen=True)
 class PlannerSetup:
     """What a planner is built from, once per agent, before the first cycle.

@@ -1,6 +1,6 @@
 """The planner registry: which planner class a name or a reference means, and its settings.
 
-A planner is named in one of three ways:
+A planner class is named in one of three ways:
 
 * a built-in name (`BUILTIN_PLANNERS`, one line per planner, imported on first use);
 * the name of an installed planner: a package declares its class in the entry-point group
@@ -8,6 +8,10 @@ A planner is named in one of three ways:
   ``time_gap = "time_gap_planner:TimeGapPlanner"``);
 * a reference to any class: ``my_pkg.module:MyPlanner`` (an importable module) or
   ``path/to/file.py:MyPlanner`` (a Python file, imported by its path).
+
+A planner in a process of its own is named ``exec:COMMAND ARGS`` (simgap starts it) or by its
+address, ``tcp://HOST:PORT`` or ``ipc://PATH`` (`simgap.planning.remote`); ``isolate`` runs a
+planner class that way (`PlannerChoice`).
 
 A built-in name wins over an installed planner of the same name. A class qualifies when it has a
 ``plan`` method and a constructor that takes ``()``, ``(setup)`` or ``(setup, settings)``
@@ -35,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.errors import InputError, validated
 from simgap.planning.protocol import Planner, PlannerSetup
+from simgap.planning.remote import IsolatedPlannerClass, PlannerTarget, ProcessLimits, RemotePlannerClass
 
 BUILTIN_PLANNERS: dict[str, str] = {
     "frenet": "simgap.planning.frenet:FrenetPlanner",
@@ -196,7 +201,11 @@ def _constructor_arguments(cls: type, fewest: int) -> int | None:
 
 
 def default_label(ref: str) -> str:
-    """How a planner is named where no label is given: its name, or its class's name."""
+    """How a planner is named where no label is given: its name, its class's name, or for a planner
+    in its own process its script's or program's name (or its address)."""
+    target = PlannerTarget.parse(ref)
+    if target is not None:
+        return target.label
     return ref.rpartition(":")[2] if ":" in ref else ref
 
 
@@ -207,11 +216,16 @@ class PlannerChoice(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    planner: str = Field(DEFAULT_PLANNER, min_length=1, description="a planner name, module:Class or "
-                         "path/to/file.py:Class")
+    planner: str = Field(DEFAULT_PLANNER, min_length=1, description="a planner name, module:Class, "
+                         "path/to/file.py:Class, or a planner in its own process: exec:COMMAND ARGS (simgap starts "
+                         "it) or tcp://HOST:PORT / ipc://PATH (it runs already)")
     settings: dict[str, Any] = Field(default_factory=dict, description="the planner's settings")
     label: str | None = Field(None, pattern=LABEL, description="its name in job keys, the store and the report "
-                              "(default: the planner's name, or its class's name)")
+                              "(default: the planner's name, its class's name, or its program's)")
+    isolate: bool = Field(False, description="run a planner class in a process of its own (over the planner "
+                          "protocol), so that a hang or a crash costs its agent, never the batch")
+    process: ProcessLimits = Field(default_factory=ProcessLimits, description="deadlines and restarts of a planner "
+                                   "in its own process (exec:, an address, or isolate)")
 
     @model_validator(mode="before")
     @classmethod
@@ -222,11 +236,26 @@ class PlannerChoice(BaseModel):
     def name(self) -> str:
         return self.label or default_label(self.planner)
 
+    @property
+    def in_own_process(self) -> bool:
+        return self.isolate or PlannerTarget.parse(self.planner) is not None
+
     def load(self, *, file: str | Path | None = None, field: str = "planner",
-             settings_field: str | None = None) -> tuple[PlannerClass, BaseModel | None]:
-        """The class and its validated settings; errors name ``file`` and ``field`` (a bad setting:
-        ``settings_field`` and the setting's path; default ``FIELD.settings``)."""
-        planner = load_planner(self.planner, file=file, field=field)
+             settings_field: str | None = None) -> tuple[PlannerFactory, Any]:
+        """What builds the planners and their checked settings; errors name ``file`` and ``field``
+        (a bad setting: ``settings_field`` and the setting's path; default ``FIELD.settings``).
+        A planner in its own process checks its settings itself, when it is initialised."""
+        target = PlannerTarget.parse(self.planner)
+        if target is not None:
+            if self.isolate:
+                raise InputError(f"'{self.planner}' runs in its own process already; isolate is for planner "
+                                 "classes", file=file, field="isolate", allowed="false for exec: and addresses")
+            target.check(file, field)
+            planner: PlannerFactory = RemotePlannerClass(self.planner, target, self.process)
+        else:
+            planner = load_planner(self.planner, file=file, field=field)
+            if self.isolate:
+                planner = IsolatedPlannerClass(planner, self.process)
         prefix = f"{field}.settings" if settings_field is None else settings_field or None
         return planner, planner.settings(self.settings, file=file, prefix=prefix)
 
@@ -237,6 +266,10 @@ class PlannerChoice(BaseModel):
             return self
         return self.model_copy(update={"planner": f"{(folder / where).resolve()}:{attr}"})
 
+
+#: what builds an agent's planner: a class of the registry, the same in a process of its own, or a
+#: planner that is one already (each has ``ref``, ``origin``, ``description``, ``settings`` and ``build``)
+PlannerFactory = Union[PlannerClass, IsolatedPlannerClass, RemotePlannerClass]
 
 #: the planner of every agent, or one per agent (planning problem id)
 PlannerAssignment = Union[PlannerChoice, Mapping[int, PlannerChoice]]

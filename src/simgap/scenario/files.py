@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import tempfile
 import warnings
 from pathlib import Path
 from typing import Any
@@ -50,6 +51,14 @@ def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, sour
             raise
 
     atomic_write(Path(path), write, keep_suffix=True)
+
+
+def scenario_xml(scenario: Scenario, problems: PlanningProblemSet) -> str:
+    """``scenario`` and ``problems`` as CommonRoad XML text (as `write_xml` writes them)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "scenario.xml"
+        write_xml(scenario, problems, path)
+        return path.read_text()
 
 
 def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: bool = True) -> Path:

@@ -1,0 +1,464 @@
+"""Planners in a process of their own, behind simgap's planner protocol.
+
+The protocol (``planner-protocol/simgap_planner.proto``) is ZeroMQ request/reply with protobuf
+messages: the planner binds a REP socket, simgap connects a REQ socket and, per agent, sends
+Initialize, then one Plan per planning cycle, then Close. ZeroMQ rather than gRPC: a round trip
+costs tens of microseconds (the per-cycle budget is milliseconds), the library is one system
+package in every language (libzmq), a planner needs no generated service stubs, only the
+messages, and the request/reply pattern with a deadline is the one Autoware's
+scenario_simulator_v2 uses to hold simulators in lockstep.
+
+A `RemotePlanner` is a `Planner` like any other to the loop, which waits for each answer before
+simulated time moves on (lockstep). It reaches its planner in one of two ways
+(`PlannerTarget`): a command that simgap starts (any interpreter, virtual environment or
+language; it gets its endpoint in ``SIMGAP_PLANNER_ENDPOINT``), or the address of a planner that
+runs on its own. What a planner may do wrong, and what follows:
+
+* no Ready within ``startup_timeout_s``, an Error for Initialize, another protocol major version:
+  the constructor raises `PlannerStartFailed` (the run fails, recorded, before it starts);
+* no answer within ``deadline_s``: that cycle fails ("missed its deadline"); the late answer is
+  dropped when it comes;
+* an Error reply: the cycle fails as a planner that raised (`RemotePlannerError`, with the
+  planner's own traceback);
+* a reply that is not a valid plan (not a protobuf Reply, columns of unequal length, more than
+  `MAX_PLAN_STATES` states; NaNs, wrong grid and wrong start are the loop's `executable_plan`
+  checks): the cycle fails ("invalid plan");
+* its process ends (an exit, a crash, a segfault): the cycle fails and the planner is restarted
+  (``restarts`` times per agent and run), after which `PlannerUnavailable` ends the agent as a
+  planner failure.
+
+`IsolatedPlannerClass` runs a Python planner class of simgap's registry the same way, in a child
+process of simgap's own interpreter (`simgap.planning.isolated`): a hang or a segfault in a
+plugin costs its agent, never the batch.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import itertools
+import json
+import math
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import zmq
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
+from pydantic import BaseModel, ConfigDict, Field
+from simgap_planner import simgap_planner_pb2 as pb
+from simgap_planner.messages import (
+    PROTOCOL_VERSION,
+    column_bytes,
+    trajectory_columns,
+    trajectory_message,
+)
+from simgap_planner.server import ENDPOINT_VARIABLE
+
+from simgap.errors import InputError
+from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
+from simgap.planning.reference_path import route_centre_line
+from simgap.scenario.files import scenario_xml
+from simgap.trajectory import STATE_FIELDS, State, Trajectory
+
+EXEC_PREFIX = "exec:"
+ADDRESS_SCHEMES = ("tcp://", "ipc://")
+MAX_PLAN_STATES = 100_000           # a reply with more states is refused, not cut
+POLL_SLICE_S = 0.05                 # how often a wait checks that a started planner still runs [s]
+STDERR_TAIL = 2000                  # characters of a dead planner's stderr kept in the reason
+
+
+class ProcessLimits(BaseModel):
+    """How long a planner in a process of its own may take, and how often it may be restarted."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    deadline_s: float = Field(1.0, gt=0, le=60, description="wall time a planning call may take before its cycle "
+                              "fails [s] (the answer, when it comes, is dropped)")
+    startup_timeout_s: float = Field(60.0, gt=0, le=600, description="wall time from starting (or connecting to) "
+                                     "the planner to its Ready [s]")
+    restarts: int = Field(1, ge=0, le=10, description="times a started planner whose process ended is restarted, "
+                          "per agent and run, before its agent is given up")
+
+
+@dataclass(frozen=True)
+class PlannerTarget:
+    """Where a planner runs: a command simgap starts, or the address of a running planner."""
+
+    command: tuple[str, ...] = ()
+    address: str | None = None
+
+    @classmethod
+    def parse(cls, ref: str) -> "PlannerTarget | None":
+        """``exec:COMMAND ARGS`` or ``tcp://HOST:PORT`` / ``ipc://PATH``; None for any other reference."""
+        if ref.startswith(EXEC_PREFIX):
+            try:
+                command = tuple(shlex.split(ref[len(EXEC_PREFIX):]))
+            except ValueError as exc:
+                raise InputError(f"'{ref}' is not a command ({exc})", field="planner",
+                                 allowed="exec:PROGRAM ARGS, quoted as in a shell") from None
+            if not command:
+                raise InputError("'exec:' names no command", field="planner", allowed="exec:PROGRAM ARGS")
+            return cls(command=command)
+        if ref.startswith(ADDRESS_SCHEMES):
+            return cls(address=ref)
+        return None
+
+    @property
+    def label(self) -> str:
+        """A name for job keys and reports: the script's or program's stem, or the address."""
+        if self.address is not None:
+            return re.sub(r"[^A-Za-z0-9_.-]+", "-", self.address.split("://", 1)[1]).strip("-.") or "remote"
+        scripts = [a for a in self.command[1:] if a.endswith(".py")]
+        return re.sub(r"[^A-Za-z0-9_.-]+", "-", Path(scripts[0] if scripts else self.command[0]).stem) or "remote"
+
+    def check(self, file: str | Path | None = None, field_name: str = "planner") -> None:
+        """A command's program exists (on PATH or as a file)."""
+        if self.command and shutil.which(self.command[0]) is None:
+            raise InputError(f"no program '{self.command[0]}' to start the planner with", file=file, field=field_name,
+                             allowed="exec:PROGRAM ARGS with PROGRAM on PATH or a path to an executable file")
+
+
+class PlannerStartFailed(RuntimeError):
+    """The planner did not become ready: it could not be started, did not answer, or refused."""
+
+
+class RemotePlannerError(RuntimeError):
+    """The planner answered a planning request with an error; ``remote_traceback`` is its own."""
+
+    def __init__(self, kind: str, message: str, remote_traceback: str):
+        super().__init__(f"{kind}: {message}" if message else kind)
+        self.kind, self.remote_traceback = kind, remote_traceback
+
+
+class _NoAnswer(Exception):
+    """No reply within the time allowed (the planner may still be working)."""
+
+
+class _Gone(Exception):
+    """The started planner's process has ended."""
+
+
+def _setup_xml(setup: PlannerSetup) -> str:
+    """The CommonRoad XML of the setup's lanelet network and planning problem."""
+    scenario = Scenario(setup.dt)
+    scenario.add_objects(setup.lanelet_network)
+    return scenario_xml(scenario, PlanningProblemSet([setup.planning_problem]))
+
+
+def initialize_message(setup: PlannerSetup, settings_json: str):
+    """The Initialize request of ``setup`` (the planner's settings as a JSON object)."""
+    request = pb.Request()
+    init = request.initialize
+    init.protocol_version = PROTOCOL_VERSION
+    init.agent_id = setup.agent_id
+    init.dt = setup.dt
+    v, limits = setup.vehicle, setup.vehicle.limits
+    init.vehicle.name, init.vehicle.length, init.vehicle.width = v.name, v.length, v.width
+    init.vehicle.wheelbase, init.vehicle.rear_axle_to_center = v.wheelbase, v.rear_axle_to_center
+    init.vehicle.max_steer, init.vehicle.max_steer_rate = limits.max_steer, limits.max_steer_rate
+    init.vehicle.max_accel, init.vehicle.max_speed, init.vehicle.v_switch = \
+        limits.max_accel, limits.max_speed, limits.v_switch
+    init.vehicle.commonroad_vehicle_type = v.commonroad_vehicle_type or 0
+    init.vehicle.json = v.model_dump_json()
+    init.commonroad_xml = _setup_xml(setup)
+    try:
+        route, _ = route_centre_line(setup.lanelet_network, setup.planning_problem)
+    except Exception:           # no route to the goal: the planner gets the map and the problem alone
+        route = np.zeros((0, 2))
+    init.route.x, init.route.y = column_bytes(route[:, 0]), column_bytes(route[:, 1])
+    init.settings_json = settings_json
+    return request
+
+
+def _libc_prctl():
+    with contextlib.suppress(Exception):
+        return ctypes.CDLL(None).prctl if sys.platform.startswith("linux") else None
+    return None
+
+
+_PRCTL = _libc_prctl()      # looked up here: the child between fork and exec only calls it
+
+
+def _die_with_parent() -> None:         # pragma: no cover - runs in the child before exec
+    """A started planner ends when simgap's process does (Linux), never left behind."""
+    _PRCTL(1, signal.SIGKILL)           # PR_SET_PDEATHSIG
+
+
+@dataclass
+class _Connection:
+    """A REQ socket to a planner, and the process simgap started for it (None for an address)."""
+
+    endpoint: str
+    process: subprocess.Popen | None = None
+    folder: Path | None = None
+    socket: Any = None
+    ids: Any = field(default_factory=lambda: itertools.count(1))
+
+    @classmethod
+    def open(cls, target: PlannerTarget) -> "_Connection":
+        if target.address is not None:
+            connection = cls(target.address)
+        else:
+            folder = Path(tempfile.mkdtemp(prefix="simgap-planner-"))
+            endpoint = f"ipc://{folder}/planner.sock"
+            stderr = open(folder / "stderr.txt", "wb")
+            try:
+                process = subprocess.Popen(
+                    target.command, stdin=subprocess.DEVNULL, stdout=stderr, stderr=stderr,
+                    env={**os.environ, ENDPOINT_VARIABLE: endpoint}, start_new_session=True,
+                    preexec_fn=_die_with_parent if _PRCTL is not None else None)
+            except OSError as exc:
+                shutil.rmtree(folder, ignore_errors=True)
+                raise PlannerStartFailed(f"cannot start {shlex.join(target.command)}: {exc}") from None
+            finally:
+                stderr.close()
+            connection = cls(endpoint, process, folder)
+        socket = zmq.Context.instance().socket(zmq.REQ)
+        socket.setsockopt(zmq.REQ_RELAXED, 1)         # a new request after one that got no answer …
+        socket.setsockopt(zmq.REQ_CORRELATE, 1)       # … whose late answer is then dropped
+        socket.setsockopt(zmq.LINGER, 0)
+        connection.socket = socket
+        try:
+            socket.connect(connection.endpoint)
+        except zmq.ZMQError as exc:
+            connection.close()
+            raise PlannerStartFailed(f"cannot connect to {connection.endpoint}: {exc}") from None
+        return connection
+
+    def call(self, request, timeout_s: float):
+        """The reply to ``request`` (its ``id`` set here) within ``timeout_s``."""
+        request.id = next(self.ids)
+        self.socket.send(request.SerializeToString())
+        end = time.perf_counter() + timeout_s
+        while True:
+            left = end - time.perf_counter()
+            if left <= 0:
+                raise _NoAnswer()
+            wait = left if self.process is None else min(left, POLL_SLICE_S)
+            if self.socket.poll(max(1, math.ceil(wait * 1000)), zmq.POLLIN):
+                raw = self.socket.recv()
+                try:
+                    return pb.Reply.FromString(raw)
+                except Exception as exc:        # protobuf's DecodeError, or worse on garbage
+                    raise ValueError(f"not a planner reply ({len(raw)} bytes: {type(exc).__name__})") from None
+            if self.process is not None and self.process.poll() is not None:
+                raise _Gone(self.exit_reason())
+
+    def exit_reason(self) -> str:
+        code = self.process.returncode
+        how = f"was killed by {signal.Signals(-code).name}" if code < 0 and -code in signal.Signals._value2member_map_ \
+            else f"exited with code {code}"
+        tail = ""
+        with contextlib.suppress(OSError):
+            text = (self.folder / "stderr.txt").read_text(errors="replace").strip()
+            if text:
+                tail = f"; its output ends: {text[-STDERR_TAIL:]}"
+        return f"the planner process {how}{tail}"
+
+    def close(self, request=None) -> None:
+        """Send ``request`` (Close) when given and the peer lives; end a started process."""
+        if request is not None and (self.process is None or self.process.poll() is None):
+            with contextlib.suppress(Exception):
+                self.call(request, 0.5)
+        self.socket.close(linger=0)
+        if self.process is not None:
+            if self.process.poll() is None:
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.process.wait(0.5)
+            if self.process.poll() is None:
+                os.killpg(self.process.pid, signal.SIGKILL) if _own_group(self.process) else self.process.kill()
+                self.process.wait()
+            shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _own_group(process: subprocess.Popen) -> bool:
+    with contextlib.suppress(OSError):
+        return os.getpgid(process.pid) == process.pid
+    return False
+
+
+class RemotePlanner:
+    """A planner in a process of its own (see the module): the loop's `Planner` on the protocol."""
+
+    def __init__(self, setup: PlannerSetup, target: PlannerTarget, settings_json: str = "{}",
+                 limits: ProcessLimits | None = None):
+        self.setup, self.target, self.limits = setup, target, limits or ProcessLimits()
+        self._init = initialize_message(setup, settings_json)
+        self.restarts = self.deadline_misses = 0
+        self.name = self.protocol_version = ""
+        self.failure_reason = ""
+        self._connection: _Connection | None = None
+        self._session = 0
+        self._start()
+
+    def _start(self) -> None:
+        connection = _Connection.open(self.target)
+        try:
+            reply = connection.call(self._init, self.limits.startup_timeout_s)
+        except _NoAnswer:
+            connection.close()
+            raise PlannerStartFailed(f"no answer to Initialize within {self.limits.startup_timeout_s:g} s "
+                                     f"(startup_timeout_s) from {self.where}") from None
+        except (_Gone, ValueError) as exc:
+            connection.close()
+            raise PlannerStartFailed(f"{exc} before it was ready ({self.where})") from None
+        body = reply.WhichOneof("body")
+        if body != "ready":
+            connection.close()
+            detail = f"{reply.error.type}: {reply.error.message}" if body == "error" else f"a {body} reply"
+            trace = f"\n{reply.error.traceback}" if body == "error" and reply.error.traceback else ""
+            raise PlannerStartFailed(f"the planner refused Initialize: {detail}{trace}")
+        self._connection, self._session = connection, reply.ready.session
+        self.name, self.protocol_version = reply.ready.planner, reply.ready.protocol_version
+
+    @property
+    def where(self) -> str:
+        return self.target.address or shlex.join(self.target.command)
+
+    def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
+        if self._connection is None:
+            raise PlannerUnavailable(self.failure_reason)
+        request = self._plan_request(observed, t, world)
+        try:
+            reply = self._connection.call(request, self.limits.deadline_s)
+        except _NoAnswer:
+            self.deadline_misses += 1
+            return self._fail(f"missed its deadline: no answer within {self.limits.deadline_s:g} s")
+        except ValueError as exc:
+            return self._fail(f"invalid plan: {exc}")
+        except _Gone as exc:
+            return self._restart(str(exc))
+        body = reply.WhichOneof("body")
+        if body == "error" and reply.error.type == "InvalidPlan":
+            return self._fail(f"invalid plan: {reply.error.message}")
+        if body == "error":
+            raise RemotePlannerError(reply.error.type or "Error", reply.error.message, reply.error.traceback)
+        if body != "plan":
+            return self._fail(f"invalid plan: a {body or 'empty'} reply to a planning request")
+        if reply.plan.WhichOneof("result") != "trajectory":
+            return self._fail(reply.plan.no_plan or "no plan")
+        return self._trajectory(reply.plan.trajectory)
+
+    def _plan_request(self, observed: State, t: float, world: World):
+        request = pb.Request()
+        plan = request.plan
+        plan.session, plan.t = self._session, t
+        for name in STATE_FIELDS:
+            setattr(plan.observed, name, getattr(observed, name))
+        for participant in world.traffic:
+            message = plan.traffic.add()
+            message.id, message.length, message.width = participant.id, participant.length, participant.width
+            trajectory_message(participant.prediction, message.prediction)
+        return request
+
+    def _trajectory(self, message) -> Trajectory | None:
+        if len(message.t) > MAX_PLAN_STATES * 8:
+            return self._fail(f"invalid plan: {len(message.t) // 8} states (at most {MAX_PLAN_STATES})")
+        try:
+            columns = trajectory_columns(message)
+        except ValueError as exc:
+            return self._fail(f"invalid plan: {exc}")
+        lengths = {name: len(values) for name, values in columns.items()}
+        if len(set(lengths.values())) != 1:
+            return self._fail("invalid plan: columns of unequal length (" +
+                              ", ".join(f"{k} {n}" for k, n in lengths.items()) + ")")
+        if lengths["t"] == 0:
+            return self._fail("invalid plan: no states")
+        self.failure_reason = ""
+        return Trajectory(message.dt, **columns)
+
+    def _fail(self, reason: str) -> None:
+        self.failure_reason = reason
+        return None
+
+    def _restart(self, reason: str) -> None:
+        """The planner's process ended: restart it when restarts are left, else give the agent up."""
+        self._connection.close()
+        self._connection = None
+        if self.restarts >= self.limits.restarts:
+            self.failure_reason = f"{reason} (restarted {self.restarts} time(s), no restart left)"
+            raise PlannerUnavailable(self.failure_reason)
+        self.restarts += 1
+        try:
+            self._start()
+        except PlannerStartFailed as exc:
+            self.failure_reason = f"{reason}; restarting it failed: {exc}"
+            raise PlannerUnavailable(self.failure_reason) from None
+        return self._fail(f"{reason}; restarted")
+
+    def close(self) -> None:
+        """Close the session and end a started process (the loop's runs call this once, at the end)."""
+        if self._connection is not None:
+            request = pb.Request()
+            request.close.session = self._session
+            self._connection.close(request)
+            self._connection = None
+
+    def record(self) -> dict[str, Any]:
+        """What run.json keeps of the planner's process."""
+        return {"target": self.where, "planner": self.name, "protocol_version": self.protocol_version,
+                "deadline_s": self.limits.deadline_s, "deadline_misses": self.deadline_misses,
+                "restarts": self.restarts}
+
+
+@dataclass(frozen=True)
+class RemotePlannerClass:
+    """An out-of-process planner as the registry hands it out: ``build`` starts (or connects to)
+    it for one agent. Its settings go to the planner as they are given; it checks them itself."""
+
+    ref: str
+    target: PlannerTarget
+    limits: ProcessLimits = ProcessLimits()
+    origin: str = "process"
+
+    @property
+    def description(self) -> str:
+        return f"a planner in its own process ({self.target.address or shlex.join(self.target.command)})"
+
+    def settings(self, values: Mapping[str, Any] | None, **_: Any) -> dict[str, Any]:
+        return dict(values or {})
+
+    def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
+        return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
+
+
+@dataclass(frozen=True)
+class IsolatedPlannerClass:
+    """A planner class of the registry run in a child process of simgap's interpreter: its
+    settings are checked here by its ``Settings`` model (a bad field fails before any run), its
+    planners are built and asked over the protocol (`simgap.planning.isolated`)."""
+
+    planner: Any                     # the registry's PlannerClass
+    limits: ProcessLimits = ProcessLimits()
+
+    @property
+    def ref(self) -> str:
+        return self.planner.ref
+
+    @property
+    def origin(self) -> str:
+        return f"{self.planner.origin}, isolated"
+
+    @property
+    def description(self) -> str:
+        return self.planner.description
+
+    def settings(self, values: Mapping[str, Any] | None, **kwargs: Any):
+        return self.planner.settings(values, **kwargs)
+
+    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> RemotePlanner:
+        target = PlannerTarget(command=(sys.executable, "-m", "simgap.planning.isolated", self.planner.ref))
+        settings_json = settings.model_dump_json() if settings is not None else "{}"
+        return RemotePlanner(setup, target, settings_json, self.limits)
