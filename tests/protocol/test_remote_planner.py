@@ -170,3 +170,17 @@ def test_a_batch_with_hostile_planners_records_every_run_and_finishes(tmp_path):
     assert rows["keep_lane"]["outcome"] == "goal_reached"
     assert {rows[b]["outcome"] for b in ("hang", "segfault", "dict")} == {"planner_failure"}
     assert len(list((out / "runs").rglob("run.json"))) == 4
+
+
+def test_experiments_stored_before_planners_had_process_settings_still_resume(tmp_path):
+    """A spec's results hash (what a stored experiment resumes by) is unchanged by the planner fields
+    `isolate` and `process` at their defaults; set, they count."""
+    from simgap.experiment.spec import load_spec
+
+    spec = tmp_path / "spec.yaml"
+    body = ("name: h\nlogical: curve\nparameters:\n  radius: {values: [30]}\n  angle: {values: [45]}\n"
+            "sampler: {kind: grid}\nfidelities:\n  - backend: ideal\nplanners:\n")
+    spec.write_text(body + "  - frenet\n  - {planner: idm, label: traffic}\n")
+    assert load_spec(spec).spec.results_hash() == "ab73a6ac35f8f042"     # as stored by simgap before them
+    spec.write_text(body + "  - {planner: frenet, isolate: true}\n  - {planner: idm, label: traffic}\n")
+    assert load_spec(spec).spec.results_hash() != "ab73a6ac35f8f042"

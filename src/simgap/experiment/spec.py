@@ -45,6 +45,7 @@ from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import grid_size, sample
 from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
+from simgap.planning.remote import ProcessLimits
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
 from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehicle_names
@@ -53,7 +54,10 @@ from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehi
 MAX_SCENARIOS = 10_000      # concrete scenarios per experiment: about 1.6 GB of files, minutes to write
 
 # spec fields newer than stored results, and their defaults
-ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [PlannerChoice().model_dump()]}
+ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [{"planner": DEFAULT_PLANNER, "settings": {},
+                                                                    "label": None}]}
+# fields of a planner newer than stored results, and their defaults
+ADDED_PLANNER_FIELDS = {"isolate": False, "process": ProcessLimits().model_dump()}
 PLANNERS_DESCRIPTION = ("the planners every run is made with (each a dimension value): a name, module:Class, "
                         "path/to/file.py:Class (relative to the spec), or {planner, settings, label}")
 LEGACY_PLANNER_DESCRIPTION = "the frenet planner's settings (older specs; now: planners: [{planner: frenet, settings: ...}])"
@@ -143,6 +147,10 @@ def results_relevant(spec: BaseModel, exclude: set[str]) -> dict[str, Any]:
     """The fields of ``spec`` that change results. A field added since results were first stored
     counts only when it differs from its default, so that existing directories still resume."""
     relevant = spec.model_dump(exclude=exclude)
+    for choice in relevant.get("planners") or []:
+        for name, default in ADDED_PLANNER_FIELDS.items():
+            if choice.get(name) == default:
+                choice.pop(name)
     for name, default in ADDED_FIELDS.items():
         if relevant.get(name) == default:
             relevant.pop(name, None)

@@ -117,11 +117,15 @@ class PlannerTarget:
 
     @property
     def label(self) -> str:
-        """A name for job keys and reports: the script's or program's stem, or the address."""
+        """A name for job keys and reports: the script's, module's or program's name, or the address."""
         if self.address is not None:
-            return re.sub(r"[^A-Za-z0-9_.-]+", "-", self.address.split("://", 1)[1]).strip("-.") or "remote"
-        scripts = [a for a in self.command[1:] if a.endswith(".py")]
-        return re.sub(r"[^A-Za-z0-9_.-]+", "-", Path(scripts[0] if scripts else self.command[0]).stem) or "remote"
+            name = self.address.split("://", 1)[1]
+        elif "-m" in self.command[1:-1]:
+            name = self.command[self.command.index("-m", 1) + 1]
+        else:
+            scripts = [a for a in self.command[1:] if a.endswith(".py")]
+            name = Path(scripts[0] if scripts else self.command[0]).stem
+        return re.sub(r"[^A-Za-z0-9_.-]+", "-", name).strip("-.") or "remote"
 
     def check(self, file: str | Path | None = None, field_name: str = "planner") -> None:
         """A command's program exists (on PATH or as a file)."""
