@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
+from simgap.sim.mujoco.car import COLLISION_GROUP
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State, Trajectory
@@ -30,7 +31,7 @@ class MujocoReplay:
         self.driven, self.dt = driven, dt
         self.world: World = build_world(scenario, [Agent(aid, vehicles[aid], driven[aid][0]) for aid in driven])
         self._options = mujoco.MjvOption()
-        self._options.geomgroup[3] = 0          # tyre contact spheres
+        self._options.geomgroup[COLLISION_GROUP] = 0          # the cars' collision boxes
 
     def stills(self, step: int, agent_id: int, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
         """(chase camera behind ``agent_id``, bird's-eye view) at ``step``, ``size`` = (width, height)."""
