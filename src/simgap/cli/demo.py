@@ -68,4 +68,4 @@ def _draw(out: Path, say) -> None:
         from simgap.sim.mujoco.replay import MujocoReplay
 
         say(f"rendering {RENDER_3D} in 3D")
-        render_run_3d(sharp, None, 5, MujocoReplay)
+        render_run_3d(sharp, None, MujocoReplay)

@@ -90,6 +90,7 @@ class CarIndex:
     steer_qpos: tuple[int, int] = (-1, -1)
     steer_actuators: tuple[int, int] = (-1, -1)
     spin_dofs: list[int] = field(default_factory=list)         # in CORNERS order
+    spin_qpos: list[int] = field(default_factory=list)         # in CORNERS order: each wheel's roll angle
     suspension_qpos: list[int] = field(default_factory=list)   # in CORNERS order
     drive_actuators: list[int] = field(default_factory=list)   # in CORNERS order (-1: not driven)
     wheel_bodies: list[int] = field(default_factory=list)      # in CORNERS order
@@ -122,6 +123,7 @@ class CarIndex:
         self.steer_qpos = tuple(int(model.joint(f"{p}steer_{c}").qposadr[0]) for c in CORNERS[:2])
         self.steer_actuators = tuple(model.actuator(f"{p}steer_{c}").id for c in CORNERS[:2])
         self.spin_dofs = [int(model.joint(f"{p}spin_{c}").dofadr[0]) for c in CORNERS]
+        self.spin_qpos = [int(model.joint(f"{p}spin_{c}").qposadr[0]) for c in CORNERS]
         self.suspension_qpos = [int(model.joint(f"{p}suspension_{c}").qposadr[0]) for c in CORNERS]
         self.drive_actuators = []
         for c in CORNERS:
