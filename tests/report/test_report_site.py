@@ -7,11 +7,13 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.report.scene2d import render_run
+from simgap.report.scene3d import write_video
 from simgap.report.site import build_report
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
@@ -31,6 +33,8 @@ def report(tmp_path_factory):
             run_dir = root / "runs" / xml.stem / backend
             execute(RunRequest(scenario=xml, backend=backend, vehicles=vehicle, cosim=cosim, validate=True), run_dir)
     render_run(root / "runs" / xml.stem / "mujoco", animation=False)
+    write_video(root / "runs" / xml.stem / "mujoco" / "scene3d.mp4",         # as `simgap render --3d` leaves it
+                (np.full((180, 320, 3), 10 * k, dtype=np.uint8) for k in range(10)), fps=5)
     index = build_report(root / "runs", root / "report")
     return index
 
@@ -66,6 +70,10 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref
     assert not any("http://" in p.read_text() or "https://" in p.read_text() for p in pages)
+    # a run's 3D video plays in its scenario's page
+    videos = [(p, ref) for p in pages for ref in re.findall(r"<video src='([^']+)'", p.read_text())]
+    assert [(p.parent.name, Path(ref).name) for p, ref in videos] == [("scenarios", "mujoco-city_scene3d.mp4")]
+    assert (videos[0][0].parent / videos[0][1]).stat().st_size > 1000
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
@@ -78,6 +86,8 @@ def test_every_page_loads_in_chromium_without_console_errors_and_with_its_images
         match = re.search(r'data-images="([^"]*)"', dom)
         assert match, f"{page.name}: the page did not finish loading"
         assert match.group(1).startswith("ok "), f"{page.name}: {match.group(1)}"
+        videos = re.search(r'data-videos="([^"]*)"', dom)
+        assert videos and videos.group(1).startswith("ok "), f"{page.name}: {videos and videos.group(1)}"
         images = int(match.group(1).split()[1])
         assert images >= (1 if page == report else 4), page.name       # heatmap; d, v, paths, boxes
     scenario_pages = [p.read_text() for p in pages[1:]]

@@ -1,4 +1,4 @@
-"""3D pictures of a run, rendered offscreen on the CPU."""
+"""3D pictures and the chase-camera video of a run, rendered offscreen on the CPU."""
 
 from __future__ import annotations
 
@@ -7,19 +7,25 @@ import numpy as np
 
 from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.report.scene3d import ANIMATION, STILL, render_run_3d
+from simgap.report.scene3d import STILL, VIDEO, render_run_3d
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
 from simgap.sim.mujoco.replay import MujocoReplay
 
 
-def test_a_run_renders_in_3d_chase_birdseye_animation_and_side_by_side(tmp_path):
+def _first_car(frame: np.ndarray) -> np.ndarray:
+    """Where the first agent's car (painted blue) is in a frame: its pixels."""
+    r, g, b = (frame[..., i].astype(int) for i in range(3))
+    return (b > 120) & (r < 50) & (b > g + 30)
+
+
+def test_a_run_renders_in_3d_chase_birdseye_video_and_side_by_side(tmp_path):
     xml = write_scenario(build_scenario("t-junction", {}), tmp_path, preview=False)
     execute(RunRequest(scenario=xml, backend="ideal", cosim=CosimSettings(replan_every=3, max_time_s=4.0)),
             tmp_path / "run")
-    written = render_run_3d(tmp_path / "run", tmp_path / "pictures", frame_every=5, world=MujocoReplay)
+    written = render_run_3d(tmp_path / "run", tmp_path / "pictures", world=MujocoReplay, fps=5)
     names = sorted(p.name for p in written)
-    assert names == ["scene3d.gif", "scene3d_birdseye.png", "scene3d_chase.png", "side_by_side.png"]
+    assert names == ["scene3d.mp4", "scene3d_birdseye.png", "scene3d_chase.png", "side_by_side.png"]
     chase = imageio.imread(tmp_path / "pictures" / "scene3d_chase.png")
     birdseye = imageio.imread(tmp_path / "pictures" / "scene3d_birdseye.png")
     assert chase.shape[:2] == (STILL[1], STILL[0]) and birdseye.shape == chase.shape
@@ -28,6 +34,17 @@ def test_a_run_renders_in_3d_chase_birdseye_animation_and_side_by_side(tmp_path)
         grey = (np.abs(image[..., 0].astype(int) - image[..., 1]) < 8) & (image[..., 0] > 80) & (image[..., 0] < 140)
         assert grey.mean() > 0.02                         # asphalt is in the picture
     assert np.abs(chase.astype(int) - birdseye).mean() > 10
-    frames = imageio.mimread(tmp_path / "pictures" / "scene3d.gif")
-    assert len(frames) == 41 // 5 + 1 and frames[0].shape[:2] == (ANIMATION[1], ANIMATION[0])
     assert imageio.imread(tmp_path / "pictures" / "side_by_side.png").std() > 20
+
+    reader = imageio.get_reader(tmp_path / "pictures" / "scene3d.mp4", format="FFMPEG")
+    meta = reader.get_meta_data()
+    assert meta["codec"] == "h264" and meta["fps"] == 5 and tuple(meta["size"]) == VIDEO
+    frames = [frame for frame in reader]
+    assert len(frames) == 4 * 5 + 1                       # the run's 4 s, its first and last state
+    height, width = frames[0].shape[:2]
+    for frame in frames:
+        car = _first_car(frame)
+        assert car.mean() > 0.01                          # the car is in every frame ...
+        rows, cols = np.nonzero(car)
+        assert abs(cols.mean() / width - 0.5) < 0.15 and abs(rows.mean() / height - 0.5) < 0.2   # ... near its centre
+    assert np.abs(frames[-1].astype(int) - frames[0]).mean() > 5      # while the world moves past

@@ -18,13 +18,15 @@ def render(
     run_dir: Path = typer.Argument(..., help="a run directory written by `simgap run`"),
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="where to write (default: the run directory)",
                                        callback=writable_directory),
-    frame_every: int = typer.Option(3, min=1, help="one animation frame every N steps"),
-    three_d: bool = typer.Option(False, "--3d", help="also render the 3D world (chase, bird's-eye, animation)"),
+    frame_every: int = typer.Option(3, min=1, help="one frame of the 2D animation every N steps"),
+    three_d: bool = typer.Option(False, "--3d", help="also render the 3D world: chase camera and bird's-eye "
+                                 "pictures, a chase-camera video (MP4) of the whole run, 3D beside 2D"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
 ) -> None:
-    """Draw the final scene with every agent's driven path (PNG) and an animation (GIF).
+    """Draw the final scene with every agent's driven path (PNG) and an animation (GIF); with
+    --3d, the run replayed in the MuJoCo world, offscreen, and filmed from behind the first agent's car.
 
-    Example: simgap render runs/c10
+    Example: simgap render runs/c10 --3d
     """
     from simgap.report import scene2d
 
@@ -40,8 +42,10 @@ def render(
     with console.status("rendering the 2D scene"):
         written = scene2d.render_run(run_dir, out, frame_every)
     if three_d:
-        with console.status("rendering the 3D world offscreen"):
-            written += scene3d.render_run_3d(run_dir, out, frame_every, MujocoReplay)
+        with console.status("rendering the 3D world offscreen") as status:
+            written += scene3d.render_run_3d(
+                run_dir, out, MujocoReplay,
+                on_frame=lambda done, total: status.update(f"rendering the 3D video offscreen: frame {done} of {total}"))
     record_pictures(folder, run_dir, written)
     for path in written:
         console.print(f"wrote [bold]{path}[/bold]")

@@ -1,6 +1,7 @@
 """3D pictures of a finished run: a chase camera and a bird's-eye view at the run's most
-demanding instant, a chase-camera animation, and the 3D and the 2D CommonRoad scene side by side
-at that instant (the paper's Figure 1).
+demanding instant, a chase-camera video of the whole run (MP4, H.264, encoded by the ffmpeg that
+the imageio-ffmpeg wheel carries), and the 3D and the 2D CommonRoad scene side by side at that
+instant (the paper's Figure 1).
 
 The 3D world is a replay: rebuilt from the run's ``driven.xml`` (lanelets and recorded traffic;
 the agents, stored there as obstacles, are taken out) with every car posed on its driven
@@ -13,7 +14,7 @@ from __future__ import annotations
 
 import copy
 from pathlib import Path
-from typing import Callable, Mapping, Protocol, Sequence
+from typing import Callable, Iterator, Mapping, Protocol, Sequence
 
 import imageio.v2 as imageio
 import matplotlib
@@ -25,14 +26,17 @@ from commonroad.scenario.scenario import Scenario  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
 from simgap.cosim.record import AGENT_ID_OFFSET, Run  # noqa: E402
+from simgap.files import atomic_write  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 from simgap.trajectory import Trajectory  # noqa: E402
 from simgap.vehicles import Vehicle  # noqa: E402
 
 STILL = (1280, 720)
-ANIMATION = (640, 360)
-PICTURES = ("scene3d_chase.png", "scene3d_birdseye.png", "scene3d.gif", "side_by_side.png")   # what it writes
+VIDEO = (1280, 720)
+VIDEO_FPS = 25
+VIDEO_QUALITY = 23        # x264's constant rate factor: lower is better and larger
+PICTURES = ("scene3d_chase.png", "scene3d_birdseye.png", "scene3d.mp4", "side_by_side.png")   # what it writes
 
 
 class Replay3D(Protocol):
@@ -42,8 +46,9 @@ class Replay3D(Protocol):
         """(chase camera behind ``agent_id``, bird's-eye view) at ``step``, ``size`` = (width, height)."""
         ...
 
-    def frames(self, steps: Sequence[int], agent_id: int, size: tuple[int, int]) -> list[np.ndarray]:
-        """The chase camera behind ``agent_id`` at each of ``steps``."""
+    def chase_frames(self, times: Sequence[float], agent_id: int, size: tuple[int, int]) -> Iterator[np.ndarray]:
+        """The chase camera behind ``agent_id`` at each of ``times`` (seconds from the run's first
+        state, evenly spaced), one frame at a time."""
         ...
 
 
@@ -67,9 +72,11 @@ def _instant(run: Run) -> int:
     return int(np.argmax(np.abs(driven.yaw_rate))) if len(driven) else 0
 
 
-def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, frame_every: int, world: ReplayWorld) -> list[Path]:
-    """Write ``scene3d_chase.png``, ``scene3d_birdseye.png``, ``scene3d.gif`` and
-    ``side_by_side.png`` into ``out_dir`` (None: the run directory), the run replayed in ``world``."""
+def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: ReplayWorld, fps: int = VIDEO_FPS,
+                  on_frame: Callable[[int, int], None] | None = None) -> list[Path]:
+    """Write ``scene3d_chase.png``, ``scene3d_birdseye.png``, ``scene3d.mp4`` (``fps`` frames a
+    second of the run) and ``side_by_side.png`` into ``out_dir`` (None: the run directory), the run
+    replayed in ``world``; ``on_frame(done, total)`` after each frame of the video."""
     run_dir = Path(run_dir)
     out_dir = Path(out_dir or run_dir)
     scenario, problems, run = load_driven(run_dir)
@@ -84,14 +91,34 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, frame_every: 
         imageio.imwrite(out_dir / name, image)
         written.append(out_dir / name)
 
-    last = max(len(t) for t in run.driven.values()) - 1
-    frames = replay.frames(range(0, last + 1, frame_every), first, ANIMATION)
-    gif = out_dir / PICTURES[2]
-    imageio.mimsave(gif, frames, duration=1000 * frame_every * run.dt, loop=0)
-    written.append(gif)
+    duration = (max(len(t) for t in run.driven.values()) - 1) * run.dt
+    times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
+    frames = replay.chase_frames(times, first, VIDEO)
+    if on_frame is not None:
+        frames = _counted(frames, len(times), on_frame)
+    written.append(write_video(out_dir / PICTURES[2], frames, fps))
 
     written.append(_side_by_side(out_dir / PICTURES[3], chase, scenario, problems, run, step))
     return written
+
+
+def _counted(frames: Iterator[np.ndarray], total: int, on_frame: Callable[[int, int], None]) -> Iterator[np.ndarray]:
+    for done, frame in enumerate(frames, 1):
+        yield frame
+        on_frame(done, total)
+
+
+def write_video(path: Path, frames: Iterator[np.ndarray], fps: int) -> Path:
+    """An MP4 (H.264, yuv420p: what browsers play) of ``frames``, written whole or not at all."""
+    def encode(tmp: Path) -> None:
+        with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=None,
+                                pixelformat="yuv420p", macro_block_size=16,
+                                output_params=["-crf", str(VIDEO_QUALITY), "-preset", "veryfast",
+                                               "-movflags", "+faststart"]) as video:
+            for frame in frames:
+                video.append_data(frame)
+
+    return atomic_write(path, encode, keep_suffix=True)
 
 
 def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: Run, step: int) -> Path:

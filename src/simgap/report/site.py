@@ -5,7 +5,7 @@ lateral displacement over the scenario parameters (the planners side by side; ho
 values), the runtime table, the time per planning call, outcomes, and the scenarios ranked by their
 largest gap. ``scenarios/NAME.html`` — one page per scenario (and planner, when runs have several): parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
 s and v over t (wheel to zoom, drag to pan, double-click to reset), the paths from above, error
-box plots, criticality of agent pairs, and the run's 2D and 3D pictures where they exist.
+box plots, criticality of agent pairs, and the run's 2D and 3D pictures and its 3D video where they exist.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
 from simgap.sim.protocol import Realism
 
-PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.gif", "run.gif")
+PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.mp4", "run.gif")
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; padding: 0 1em; }
@@ -47,7 +47,7 @@ th { background: #eee; } td.text { text-align: left; }
 figure { display: inline-block; margin: 0 1em 1em 0; vertical-align: top; max-width: 100%; }
 figure.half { max-width: 48%; }
 figcaption { font-size: 0.85em; color: #555; }
-img { max-width: 100%; border: 1px solid #ddd; }
+img, video { max-width: 100%; border: 1px solid #ddd; }
 .zoom { overflow: hidden; border: 1px solid #ddd; cursor: zoom-in; }
 .zoom img { border: none; transform-origin: 0 0; display: block; }
 table.heatmap td { text-align: center; min-width: 3.2em; }
@@ -77,6 +77,17 @@ window.addEventListener('load', function () {
   var missing = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
   document.body.setAttribute('data-images', missing.length ? 'missing: ' + missing.map(function (i) { return i.getAttribute('src'); }).join(' ') : 'ok ' + document.images.length);
 });
+(function () {
+  var videos = Array.prototype.slice.call(document.querySelectorAll('video')), failed = [], left = videos.length;
+  function report() { document.body.setAttribute('data-videos', failed.length ? 'missing: ' + failed.join(' ') : 'ok ' + videos.length); }
+  function settle(video, ok) { if (!ok) { failed.push(video.getAttribute('src')); } if (--left === 0) { report(); } }
+  if (!left) { report(); }
+  videos.forEach(function (video) {
+    if (video.readyState >= 1) { settle(video, true); return; }
+    video.addEventListener('loadedmetadata', function () { settle(video, true); }, {once: true});
+    video.addEventListener('error', function () { settle(video, false); }, {once: true});
+  });
+})();
 """
 
 BAD_OUTCOMES = tuple(o.value for o in Outcome if o != Outcome.GOAL_REACHED) + ("failed",)   # "failed": a run that failed
@@ -115,6 +126,13 @@ def figure(src: str, caption: str, zoom: bool = False, half: bool = False) -> st
         img = f"<div class='zoom' title='wheel: zoom, drag: pan, double-click: reset'>{img}</div>"
     cls = " class='half'" if half else ""
     return f"<figure{cls}>{img}<figcaption>{html.escape(caption)}</figcaption></figure>"
+
+
+def video(src: str, caption: str, half: bool = False) -> str:
+    """A video that plays in the page (muted, looped, with its controls), captioned like a figure."""
+    cls = " class='half'" if half else ""
+    return (f"<figure{cls}><video src='{html.escape(src)}' controls muted loop playsinline preload='metadata' "
+            f"title='{html.escape(caption)}'></video><figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
 GENERATOR = "<meta name='generator' content='simgap'>"       # marks every page simgap writes
@@ -311,7 +329,7 @@ def _scenario_figures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
 
 
 def _pictures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
-    """The pictures each run directory holds (scene, animation, 3D), copied beside the page."""
+    """The pictures each run directory holds (scene, animation, 3D pictures and video), copied beside the page."""
     pictures = []
     for fidelity, entry in group.runs.items():
         for pic in PICTURES:
@@ -319,8 +337,9 @@ def _pictures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
             if src.exists():
                 target = adir / f"{_slug(fidelity)}_{pic}"
                 shutil.copyfile(src, target)
-                pictures.append(figure(rel + target.name, f"{fidelity}: {pic.rsplit('.', 1)[0].replace('_', ' ')}",
-                                       half=True))
+                show = video if target.suffix == ".mp4" else figure
+                pictures.append(show(rel + target.name, f"{fidelity}: {pic.rsplit('.', 1)[0].replace('_', ' ')}",
+                                     half=True))
     return pictures
 
 

@@ -13,7 +13,8 @@ angles of the requested road-wheel angle, after the rate and angle limits of the
 system); drive torque through motors on the driven wheels' spin joints; brakes as dry friction
 on every spin joint (MuJoCo's ``frictionloss``, solved implicitly, so a braked car holds still).
 Tyre-road forces: not MuJoCo contacts but slip-based tyres (`simgap.sim.mujoco.tyre`) applied
-at each wheel's contact patch every physics step; the wheels' geoms only draw.
+at each wheel's contact patch every physics step; the wheels' geoms only draw. How the body and
+the wheels look: `simgap.sim.mujoco.car_body`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from simgap.sim.mujoco.car_body import WAIST, add_body_look, add_wheel_look
 from simgap.sim.mujoco.tyre import Wheel
 from simgap.vehicles import Vehicle
 from simgap.vehicles.constants import GRAVITY
@@ -35,6 +37,7 @@ STEER_ARMATURE = 2.0        # kg m^2 reflected inertia of the steering rack at e
 STEER_KP = 6.0e4            # N m/rad steering servo stiffness at each wheel
 STEER_KV = 1.2e3            # N m s/rad steering servo damping
 ROLLING_BRAKE_SPEED = 0.5   # m/s: below this the rolling resistance torque fades in
+COLLISION_GROUP = 3         # geom group of the shapes that collide and are not drawn
 
 
 def requires_physics(vehicle: Vehicle) -> VehiclePhysics:
@@ -87,6 +90,7 @@ class CarIndex:
     steer_qpos: tuple[int, int] = (-1, -1)
     steer_actuators: tuple[int, int] = (-1, -1)
     spin_dofs: list[int] = field(default_factory=list)         # in CORNERS order
+    spin_qpos: list[int] = field(default_factory=list)         # in CORNERS order: each wheel's roll angle
     suspension_qpos: list[int] = field(default_factory=list)   # in CORNERS order
     drive_actuators: list[int] = field(default_factory=list)   # in CORNERS order (-1: not driven)
     wheel_bodies: list[int] = field(default_factory=list)      # in CORNERS order
@@ -119,6 +123,7 @@ class CarIndex:
         self.steer_qpos = tuple(int(model.joint(f"{p}steer_{c}").qposadr[0]) for c in CORNERS[:2])
         self.steer_actuators = tuple(model.actuator(f"{p}steer_{c}").id for c in CORNERS[:2])
         self.spin_dofs = [int(model.joint(f"{p}spin_{c}").dofadr[0]) for c in CORNERS]
+        self.spin_qpos = [int(model.joint(f"{p}spin_{c}").qposadr[0]) for c in CORNERS]
         self.suspension_qpos = [int(model.joint(f"{p}suspension_{c}").qposadr[0]) for c in CORNERS]
         self.drive_actuators = []
         for c in CORNERS:
@@ -172,17 +177,14 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
     unsprung_yaw = sum(ph.wheel_mass * (x * x + y * y) for x, y in corners.values())
     chassis.inertia = [ph.inertia_roll, ph.inertia_pitch, max(ph.inertia_yaw - unsprung_yaw, 0.5 * ph.inertia_yaw)]
 
-    # lower body: a box from the wheel centres' height to the waist line; it collides with
-    # other cars and traffic. The cabin above it is only drawn.
-    bottom, waist, roof = r - h, 0.58 * ph.height - h, ph.height - h
+    # the collision shape: a box from the wheel centres' height to the waist line; it collides with
+    # other cars and traffic, in geom group 3, which pictures leave out. What is drawn: `car_body`.
+    bottom, waist = r - h, WAIST * ph.height - h
     chassis.add_geom(name=f"{prefix}body", type=mujoco.mjtGeom.mjGEOM_BOX,
                      size=[vehicle.length / 2, vehicle.width / 2, (waist - bottom) / 2],
                      pos=[0, 0, (waist + bottom) / 2], rgba=list(rgba), contype=1, conaffinity=1,
-                     mass=0)
-    chassis.add_geom(name=f"{prefix}cabin", type=mujoco.mjtGeom.mjGEOM_BOX,
-                     size=[vehicle.length * 0.27, vehicle.width * 0.43, (roof - waist) / 2],
-                     pos=[-0.06 * vehicle.length, 0, (roof + waist) / 2],
-                     rgba=[0.16, 0.19, 0.24, 1.0], contype=0, conaffinity=0, mass=0)
+                     mass=0, group=COLLISION_GROUP)
+    add_body_look(spec, chassis, prefix, vehicle, ph, rgba)
 
     for corner, (x, y) in corners.items():
         front = corner.startswith("front")
@@ -209,13 +211,7 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
         wheel.mass = ph.wheel_mass - UPRIGHT_MASS
         wheel.inertia = [ph.wheel_inertia * 0.55, ph.wheel_inertia, ph.wheel_inertia * 0.55]
         wheel.add_joint(name=f"{prefix}spin_{corner}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
-        wheel.add_geom(name=f"{prefix}tyre_look_{corner}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                       size=[r, ph.wheel_width / 2, 0], quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0],
-                       rgba=[0.08, 0.08, 0.08, 1.0], contype=0, conaffinity=0, mass=0)
-        wheel.add_geom(name=f"{prefix}rim_{corner}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                       size=[0.6 * r, ph.wheel_width / 2 + 0.005, 0],
-                       quat=[math.sqrt(0.5), math.sqrt(0.5), 0, 0],
-                       rgba=[0.75, 0.75, 0.78, 1.0], contype=0, conaffinity=0, mass=0)
+        add_wheel_look(wheel, prefix, corner, ph)
 
         if front:
             act = spec.add_actuator(name=f"{prefix}steer_{corner}", target=f"{prefix}steer_{corner}",
