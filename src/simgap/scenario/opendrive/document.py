@@ -209,12 +209,12 @@ class _Reader:
         parts: dict[str, list[etree._Element]] = {}
         for child in self.children(el):
             parts.setdefault(child.tag, []).append(child)
-        if "planView" not in parts or "lanes" not in parts:
-            raise self.refuse(el, "a road needs a planView and lanes", "a road with <planView> and <lanes>")
+        lane_children = self.children(parts["lanes"][0]) if "lanes" in parts else []
+        if "planView" not in parts or not any(c.tag == "laneSection" for c in lane_children):
+            raise self.refuse(el, "a road needs a planView and lanes in a lane section",
+                              "a road with <planView> and <lanes> holding a <laneSection>")
         link = parts.get("link", [None])[0]
         junction = el.get("junction", "-1")
-        lanes = parts["lanes"][0]
-        lane_children = self.children(lanes)
         types = parts.get("type", [])
         return Road(
             id=str(el.get("id")), length=self.number(el, "length"),
@@ -223,10 +223,10 @@ class _Reader:
             road_type=types[0].get("type") if types else None,
             predecessor=self.road_link(link, "predecessor"), successor=self.road_link(link, "successor"),
             geometries=self.geometries(parts["planView"][0]),
-            lane_offsets=tuple(self.poly3(o) for o in lane_children if o.tag == "laneOffset"),
+            lane_offsets=_in_order(self.poly3(o) for o in lane_children if o.tag == "laneOffset"),
             sections=tuple(self.section(sec) for sec in lane_children if sec.tag == "laneSection"),
-            elevation=tuple(self.poly3(e) for p in parts.get("elevationProfile", []) for e in self.children(p)),
-            superelevation=tuple(self.poly3(e) for p in parts.get("lateralProfile", []) for e in self.children(p)))
+            elevation=_in_order(self.poly3(e) for p in parts.get("elevationProfile", []) for e in self.children(p)),
+            superelevation=_in_order(self.poly3(e) for p in parts.get("lateralProfile", []) for e in self.children(p)))
 
     def road_link(self, link: etree._Element | None, which: str) -> RoadLink | None:
         el = link.find(which) if link is not None else None
@@ -271,7 +271,7 @@ class _Reader:
                                     self.number(g, "hdg"), length, values))
         if not out:
             raise self.refuse(plan_view, "no geometry of positive length", "one or more <geometry>")
-        return tuple(out)
+        return tuple(sorted(out, key=lambda g: g.s))
 
     def section(self, el: etree._Element) -> LaneSection:
         if el.get("singleSide", "false") == "true":
@@ -302,7 +302,7 @@ class _Reader:
                for which in ("predecessor", "successor")}
         direction = el.get("direction", "standard")
         return Lane(id=int(self.number(el, "id")), type=el.get("type", "none"),
-                    widths=tuple(self.poly3(w, "sOffset") for w in children if w.tag == "width"),
+                    widths=_in_order(self.poly3(w, "sOffset") for w in children if w.tag == "width"),
                     predecessors=ids["predecessor"], successors=ids["successor"], marks=self.marks(el),
                     reversed=direction == "reversed", both_ways=direction == "both")
 
@@ -318,6 +318,11 @@ class _Reader:
             links = tuple((int(self.number(k, "from")), int(self.number(k, "to"))) for k in self.children(c))
             connections.append(Connection(str(c.get("incomingRoad")), str(road), contact, links))
         return Junction(str(el.get("id")), tuple(connections))
+
+
+def _in_order(records) -> tuple[Poly3, ...]:
+    """Records by station (of equal ones, the last in the file counts: see `piecewise`)."""
+    return tuple(sorted(records, key=lambda r: r.s))
 
 
 def read_document(path: str | Path) -> OpenDriveDocument:

@@ -12,6 +12,7 @@ t sin(superelevation) above its elevation (as libOpenDRIVE and ASAM's t axis hav
 from __future__ import annotations
 
 import bisect
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -161,11 +162,13 @@ def lane_centre(road: Road, section: int, lane_id: int, s: float) -> np.ndarray:
     return _in_plane(reference_poses(road.geometries, at), piecewise(road.superelevation, at), 0.5 * (low + high))[0]
 
 
-def lane_strips(road: Road, piece: Piece) -> dict[int, LaneStrip]:
-    """Every lane of the piece's section over the piece, by lane id."""
+def lane_strips(road: Road, piece: Piece, wanted: Callable[[Lane], bool]) -> dict[int, LaneStrip]:
+    """The ``wanted`` lanes of the piece's section over the piece, by lane id (their borders alone
+    choose the vertices)."""
     section = road.sections[piece.section]
     s = _stations(road, section, piece)
-    edges = lane_edges(road, section, s)
+    ids = {lane.id for lane in section.lanes if wanted(lane)}
+    edges = {lid: pair for lid, pair in lane_edges(road, section, s).items() if lid in ids}
     if not edges:
         return {}
     poses, roll = reference_poses(road.geometries, s), piecewise(road.superelevation, s)

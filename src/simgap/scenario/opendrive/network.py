@@ -190,8 +190,8 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
         for piece in road_pieces(road):
             pieces_in[(road.id, piece.section)] = piece.index + 1
             section_start = road.sections[piece.section].s
-            for lane_id, strip in sorted(lane_strips(road, piece).items()):
-                if not _drivable(strip.lane) or strip.widest < MIN_LANELET_WIDTH:
+            for lane_id, strip in sorted(lane_strips(road, piece, _drivable).items()):
+                if strip.widest < MIN_LANELET_WIDTH:
                     continue
                 drafts[(road.id, piece.section, lane_id, piece.index)] = _Draft(
                     road, strip, piece, _forward(road, strip.lane),

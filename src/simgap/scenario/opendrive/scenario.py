@@ -37,7 +37,8 @@ class ProblemSettings(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     initial_speed: float = Field(0.0, ge=0.0, le=MAX_SPEED, description="speed at the start [m/s]")
-    time_limit: float = Field(60.0, gt=0.0, le=600.0, description="time to reach the goal [s]")
+    time_limit: float = Field(60.0, gt=0.0, le=600.0, description="time to reach the goal [s] (no run simulates "
+                                                                   "longer: cosim's MAX_SIMULATED_TIME_S)")
     dt: float = Field(0.1, ge=MIN_TIME_STEP_S, le=MAX_TIME_STEP_S, description="time step [s]")
 
 
