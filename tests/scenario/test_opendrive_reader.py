@@ -205,6 +205,7 @@ def test_pieces_follow_the_reference_lines_kinds():
     ('<width sOffset="0.0" a="3.2" b="0.0" c="0.0" d="0.0"/>', '<border sOffset="0" a="3.2" b="0" c="0" d="0"/>',
      "lanes given by <width>"),
     ('<planView>', '<planView><geometry s="0" x="0" y="0" hdg="0" length="x"><line/></geometry>', "a number"),
+    ('length="400"', 'length="4e7"', "roads longer than 0 m and up to 20000 m"),
 ])
 def test_what_is_not_read_is_refused_naming_the_file_the_element_and_what_is_supported(tmp_path, change, element,
                                                                                       allowed):

@@ -21,6 +21,7 @@ from lxml import etree
 from pydantic import BaseModel, ConfigDict
 
 from simgap.errors import InputError
+from simgap.scenario.geometry import MAX_ROAD_LENGTH_M
 
 GeometryKind = Literal["line", "arc", "spiral", "poly3", "paramPoly3"]
 ContactPoint = Literal["start", "end"]
@@ -213,11 +214,14 @@ class _Reader:
         if "planView" not in parts or not any(c.tag == "laneSection" for c in lane_children):
             raise self.refuse(el, "a road needs a planView and lanes in a lane section",
                               "a road with <planView> and <lanes> holding a <laneSection>")
+        length = self.number(el, "length")
+        if not 0.0 < length <= MAX_ROAD_LENGTH_M:
+            raise self.refuse(el, f"length {length:g} m", f"roads longer than 0 m and up to {MAX_ROAD_LENGTH_M:g} m")
         link = parts.get("link", [None])[0]
         junction = el.get("junction", "-1")
         types = parts.get("type", [])
         return Road(
-            id=str(el.get("id")), length=self.number(el, "length"),
+            id=str(el.get("id")), length=length,
             junction=None if junction == "-1" else junction,
             left_hand_traffic=el.get("rule", "RHT") == "LHT",
             road_type=types[0].get("type") if types else None,

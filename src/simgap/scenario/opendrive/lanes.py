@@ -57,9 +57,11 @@ class LaneStrip:
 
 
 def section_ends(road: Road) -> list[tuple[float, float]]:
-    """(start, end) station of each lane section (the last ends with the road)."""
+    """(start, end) station of each lane section (the last ends with the road, or with its
+    reference line where the geometries end first)."""
+    end = min(road.length, road.geometries[-1].s + road.geometries[-1].length)
     starts = [sec.s for sec in road.sections]
-    return [(s0, min(s1, road.length)) for s0, s1 in zip(starts, starts[1:] + [road.length])]
+    return [(s0, min(s1, end)) for s0, s1 in zip(starts, starts[1:] + [end])]
 
 
 def _piece_kind(road: Road, s0: float, s1: float) -> SectionKind:
