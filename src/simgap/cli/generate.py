@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import List, Optional
 
@@ -29,21 +30,35 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
 
 @app.command()
 def generate(
-    logical: Optional[str] = typer.Argument(None, help="built-in logical scenario name or a YAML file"),
+    logical: Optional[str] = typer.Argument(None, help="built-in logical scenario name, a YAML file, or an "
+                                                    "OpenDRIVE road (.xodr, with --start and --goal)"),
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files",
                                        callback=writable_directory),
-    set_: List[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable)"),
+    set_: List[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable); on an OpenDRIVE "
+                                   "road: initial_speed (m/s), time_limit (s), dt (s)"),
+    start: Optional[str] = typer.Option(None, "--start", help="OpenDRIVE road: where the agent starts, "
+                                        "ROAD:LANE:S (road id, lane id, station along the road in m) or X,Y"),
+    goal: Optional[str] = typer.Option(None, "--goal", help="OpenDRIVE road: the centre of the goal area, "
+                                       "ROAD:LANE:S or X,Y (ahead of the start along the lanes' links)"),
     preview: bool = typer.Option(True, "--preview/--no-preview", help="write a PNG preview per scenario"),
     list_: bool = typer.Option(False, "--list", help="list the built-in logical scenarios and their parameters"),
 ) -> None:
     """Generate one CommonRoad scenario per parameter combination (full grid).
 
     Example: simgap generate curve --set radius=10 --set angle=90 --out scenarios/
+    (an OpenDRIVE road: simgap generate road.xodr --start 2:-2:30 --goal 4:1:80 --out scenarios/)
     """
     console = output_console()
     if list_:
         _print_builtins(console)
         return
+    if logical is not None and logical.endswith(".xodr"):
+        _from_opendrive(console, Path(logical), start, goal, _parse_sets(set_), out, preview)
+        return
+    if start is not None or goal is not None:
+        raise InputError("--start and --goal place an agent on an OpenDRIVE road",
+                         field="--start" if start is not None else "--goal",
+                         allowed="a .xodr file as LOGICAL (a logical scenario places its agents itself)")
     if logical is None or out is None:
         raise InputError("LOGICAL and --out are required (or use --list)", field="LOGICAL",
                          allowed=", ".join(builtin_names()) + ", or a .yaml path")
@@ -72,6 +87,24 @@ def generate(
         console.print(f"  {path.name}")
     if len(written) > 5:
         console.print(f"  … and {len(written) - 5} more")
+
+
+def _from_opendrive(console: Console, road: Path, start: str | None, goal: str | None, pins: dict[str, str],
+                    out: Path | None, preview: bool) -> None:
+    """One scenario on an OpenDRIVE road: its lanelets, one agent from ``start`` to ``goal``."""
+    from simgap.scenario.opendrive.scenario import PLACE_FORMS, opendrive_scenario
+
+    for option, value in (("--start", start), ("--goal", goal), ("--out", out)):
+        if value is None:
+            raise InputError(f"an OpenDRIVE road needs {option}", field=option,
+                             allowed=PLACE_FORMS if option != "--out" else "a directory to write into")
+    started = time.perf_counter()
+    concrete = opendrive_scenario(road, start, goal, pins)
+    xml = write_scenario(concrete, out, preview=preview)
+    problem = next(iter(concrete.problems.planning_problem_dict.values()))
+    console.print(f"wrote [bold]{xml}[/bold]: {len(concrete.opendrive.lanelets)} lanelets from {road.name} "
+                  f"({time.perf_counter() - started:.2f} s), one agent from "
+                  f"({problem.initial_state.position[0]:.1f}, {problem.initial_state.position[1]:.1f})")
 
 
 def _print_builtins(console: Console) -> None:

@@ -23,6 +23,7 @@ from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces,
                                      self_intersects)
+from simgap.scenario.opendrive.origin import OpenDriveOrigin
 from simgap.scenario.physical_bounds import MIN_LANE_WIDTH
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road import LaneLayout, build_road
@@ -42,14 +43,19 @@ class ConcreteScenario:
     sections: dict[int, str] = field(default_factory=dict)   # lanelet id -> straight|curve|clothoid|junction
     units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
     blueprint: RoadBlueprint | JunctionBlueprint | None = None   # what the road network was built from
+    opendrive: OpenDriveOrigin | None = None     # the OpenDRIVE file its lanelets were read from, and its relief
 
     def metadata(self) -> dict[str, Any]:
-        return {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
+        meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
                 "sections": {str(k): v for k, v in sorted(self.sections.items())},
                 "blueprint": self.blueprint.model_dump(mode="json") if self.blueprint else None}
+        if self.opendrive is not None:
+            meta["opendrive"] = self.opendrive.model_dump(mode="json", exclude_none=True)
+        return meta
 
 
-def _scenario(name: str, dt: float, network: LaneletNetwork) -> Scenario:
+def scenario_of(name: str, dt: float, network: LaneletNetwork) -> Scenario:
+    """A CommonRoad scenario named after ``name`` (its map name and a map id from it) holding ``network``."""
     map_name = re.sub(r"[^A-Za-z0-9]", "", name.title())[:60] or "Simgap"
     map_id = int(hashlib.sha1(name.encode()).hexdigest(), 16) % 9999 + 1
     scenario = Scenario(dt, scenario_id=ScenarioID(country_id="ZAM", map_name=map_name, map_id=map_id))
@@ -102,7 +108,7 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
     road = build_road(centre, layout, LANELET_ID_START)
     dt = float(params.get("dt", 0.1))
     network = LaneletNetwork.create_from_lanelet_list(road.lanelets)
-    scenario = _scenario(name, dt, network)
+    scenario = scenario_of(name, dt, network)
     lane = road.forward[layout.lanes_per_direction - 1]       # the rightmost lane
     start_s = float(params.get("start_offset", 10.0))
     goal_before_end = float(params.get("goal_offset", 10.0))
@@ -172,7 +178,7 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
                                   centre_marking=str(p.get("centre_marking", "solid")), first_id=LANELET_ID_START)
     junction = blueprint.rebuild()
     dt = float(p.get("dt", 0.1))
-    scenario = _scenario(name, dt, LaneletNetwork.create_from_lanelet_list(junction.lanelets))
+    scenario = scenario_of(name, dt, LaneletNetwork.create_from_lanelet_list(junction.lanelets))
     network = scenario.lanelet_network
     stagger = float(p.get("stagger", 8.0))
     problems = []

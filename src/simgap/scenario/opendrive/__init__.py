@@ -1,0 +1,7 @@
+"""OpenDRIVE road networks in: an .xodr file read into a CommonRoad lanelet network (`network`),
+keeping each road's elevation and superelevation (`origin`), and a scenario on it from a start and
+a goal (`scenario`).
+
+The reader is simgap's own, on lxml (`document`), with the reference line's geometry evaluated in
+`reference_line` and the lanes' borders sampled in `lanes`.
+"""

@@ -1,0 +1,164 @@
+"""A scenario on an OpenDRIVE road: one agent from a start to a goal, each given as a place on a
+lane (``ROAD:LANE:S``: road id, lane id, station along the road's reference line) or as a point
+(``X,Y``: the driving lane under it). The goal is a 10 m x lane-width rectangle centred there,
+along the lane, to be reached within the time limit; it must lie ahead of the start along the
+lanes' links (successors and lane changes the same way).
+"""
+
+from __future__ import annotations
+
+import re
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import shapely
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+from pydantic import BaseModel, ConfigDict, Field
+
+from simgap.errors import InputError, validated
+from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
+from simgap.scenario.opendrive.lanes import lane_centre
+from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S
+from simgap.scenario.problem import planning_problem
+from simgap.scenario.road_frame import PathFrame
+from simgap.scenario.templates import ConcreteScenario, scenario_of
+from simgap.vehicles.constants import MAX_SPEED
+
+PLACE_FORMS = "ROAD:LANE:S (road id, lane id, station along the road [m]) or X,Y (a point on a driving lane)"
+_PLACE = re.compile(r"^(?P<road>[^:]+):(?P<lane>-?\d+):(?P<s>[-+0-9.eE]+)$")
+_POINT = re.compile(r"^(?P<x>[-+0-9.eE]+),(?P<y>[-+0-9.eE]+)$")
+
+
+class ProblemSettings(BaseModel):
+    """What ``--set`` may pin for a scenario on an OpenDRIVE road."""
+
+    model_config = ConfigDict(extra="forbid")
+    initial_speed: float = Field(0.0, ge=0.0, le=MAX_SPEED, description="speed at the start [m/s]")
+    time_limit: float = Field(60.0, gt=0.0, le=600.0, description="time to reach the goal [s] (no run simulates "
+                                                                   "longer: cosim's MAX_SIMULATED_TIME_S)")
+    dt: float = Field(0.1, ge=MIN_TIME_STEP_S, le=MAX_TIME_STEP_S, description="time step [s]")
+
+
+UNITS = {"initial_speed": "m/s", "time_limit": "s", "dt": "s"}
+
+
+@dataclass(frozen=True)
+class LanePlace:
+    """A place on a lanelet: the lanelet and the distance along its centre line [m]."""
+
+    lanelet: Lanelet
+    s: float
+
+
+def _number(text: str, option: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError(f"'{text}' is not a number", field=option, allowed=PLACE_FORMS) from None
+
+
+def _on_lanelet(lanelet: Lanelet, point: np.ndarray) -> LanePlace:
+    s, _ = PathFrame(lanelet.center_vertices).project(point)
+    return LanePlace(lanelet, float(np.clip(s[0], 0.0, lanelet.distance[-1])))
+
+
+def _by_lane(roads: OpenDriveNetwork, road_id: str, lane_id: int, station: float, option: str) -> LanePlace:
+    road = roads.document.roads.get(road_id)
+    places = roads.origin.lanelets
+    with_lanelets = sorted({p.road for p in places.values()}, key=lambda r: (len(r), r))
+    if road is None or road_id not in with_lanelets:
+        raise InputError(f"road '{road_id}' has no driving lane", field=option,
+                         allowed="roads " + ", ".join(with_lanelets[:20]) + (" ..." if len(with_lanelets) > 20 else ""))
+    lanes = sorted({p.lane for p in places.values() if p.road == road_id})
+    if lane_id not in lanes:
+        raise InputError(f"lane {lane_id} of road {road_id} is no driving lane", field=option,
+                         allowed=f"lanes {', '.join(map(str, lanes))} of road {road_id}")
+    found = [(lid, p) for lid, p in places.items() if p.road == road_id and p.lane == lane_id
+             and p.s_start - 1e-9 <= station <= p.s_end + 1e-9]
+    if not found:
+        spans = sorted((p.s_start, p.s_end) for p in places.values() if p.road == road_id and p.lane == lane_id)
+        raise InputError(f"station {station:g} m is not on lane {lane_id} of road {road_id}", field=option,
+                         allowed=", ".join(f"{a:.1f} to {b:.1f} m" for a, b in _merged(spans)))
+    lanelet_id, place = found[0]
+    point = lane_centre(road, place.section, lane_id, station)
+    return _on_lanelet(roads.lanelets.find_lanelet_by_id(lanelet_id), point)
+
+
+def _merged(spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    out: list[tuple[float, float]] = []
+    for a, b in spans:
+        if out and a <= out[-1][1] + 1e-6:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def _by_point(network: LaneletNetwork, point: np.ndarray, option: str,
+              prefer: set[int] | None = None) -> LanePlace:
+    """The lanelet under ``point``: of several (a junction's), one in ``prefer`` (those reachable
+    from the start), then the one whose centre line is nearest."""
+    under = [l for l in network.lanelets if l.polygon.shapely_object.buffer(1e-6).contains(shapely.Point(point))]
+    if not under:
+        nearest = min(network.lanelets, key=lambda l: l.polygon.shapely_object.distance(shapely.Point(point)))
+        gap = nearest.polygon.shapely_object.distance(shapely.Point(point))
+        raise InputError(f"the point ({point[0]:g}, {point[1]:g}) is on no driving lane (the nearest lanelet, "
+                         f"{nearest.lanelet_id}, is {gap:.1f} m away)", field=option, allowed=PLACE_FORMS)
+
+    def rank(lanelet: Lanelet) -> tuple[bool, float]:
+        _, d = PathFrame(lanelet.center_vertices).project(point)
+        return (prefer is not None and lanelet.lanelet_id not in prefer, abs(float(d[0])))
+
+    return _on_lanelet(min(under, key=rank), point)
+
+
+def lane_place(roads: OpenDriveNetwork, text: str, option: str, prefer: set[int] | None = None) -> LanePlace:
+    """The place ``text`` names (see `PLACE_FORMS`)."""
+    text = text.strip()
+    if (m := _PLACE.match(text)) is not None:
+        return _by_lane(roads, m["road"], int(m["lane"]), _number(m["s"], option), option)
+    if (m := _POINT.match(text)) is not None:
+        return _by_point(roads.lanelets, np.array([_number(m["x"], option), _number(m["y"], option)]), option, prefer)
+    raise InputError(f"'{text}' names no place", field=option, allowed=PLACE_FORMS)
+
+
+def reachable(network: LaneletNetwork, start: int) -> set[int]:
+    """The lanelets a car on ``start`` can reach: along successors, and changing lanes the same way."""
+    seen, queue = {start}, deque([start])
+    while queue:
+        lanelet = network.find_lanelet_by_id(queue.popleft())
+        ahead = list(lanelet.successor)
+        ahead += [n for n, same in ((lanelet.adj_left, lanelet.adj_left_same_direction),
+                                    (lanelet.adj_right, lanelet.adj_right_same_direction)) if n is not None and same]
+        for n in ahead:
+            if n not in seen:
+                seen.add(n)
+                queue.append(n)
+    return seen
+
+
+def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, str] | None = None,
+                       roads: OpenDriveNetwork | None = None) -> ConcreteScenario:
+    """One agent from ``start`` to ``goal`` on the OpenDRIVE road at ``path`` (``pins``: NAME=VALUE
+    settings of `ProblemSettings`; ``roads``: the file already read)."""
+    path = Path(path)
+    settings = validated(ProblemSettings, pins or {}, prefix="--set")
+    roads = roads or opendrive_network(path)
+    begin = lane_place(roads, start, "--start")
+    ahead = reachable(roads.lanelets, begin.lanelet.lanelet_id)
+    end = lane_place(roads, goal, "--goal", prefer=ahead)
+    goal_id = end.lanelet.lanelet_id
+    if goal_id not in ahead or (goal_id == begin.lanelet.lanelet_id and end.s <= begin.s):
+        raise InputError(f"the goal (lanelet {goal_id}, road {roads.origin.lanelets[goal_id].road} lane "
+                         f"{roads.origin.lanelets[goal_id].lane}) is not ahead of the start along the lanes' links",
+                         field="--goal", allowed="a place reached from the start by following the lanes' "
+                                                 "successors and lane changes the same way")
+    problem = planning_problem(1, (begin.lanelet, begin.s), (end.lanelet, end.s),
+                               initial_speed=settings.initial_speed, time_limit_s=settings.time_limit, dt=settings.dt)
+    name = re.sub(r"[^A-Za-z0-9_-]+", "_", path.stem).strip("_") or "opendrive"
+    parameters = {"source": path.name, "start": start, "goal": goal, **settings.model_dump()}
+    return ConcreteScenario(name, "opendrive", parameters, scenario_of(name, settings.dt, roads.lanelets),
+                            PlanningProblemSet([problem]), dict(roads.sections), dict(UNITS), opendrive=roads.origin)
