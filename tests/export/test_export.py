@@ -71,7 +71,7 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
     xodr, xosc = export.files
     assert (xodr.name, xosc.name) == (f"{concrete.name}_dynamic.xodr", f"{concrete.name}_dynamic.xosc")
     assert checks.declared_version(xodr) == ("OpenDRIVE", 1, 7) and checks.schema_errors(xodr)[1] == []
-    assert checks.declared_version(xosc) == ("OpenSCENARIO", 1, 0) and checks.schema_errors(xosc)[1] == []
+    assert checks.declared_version(xosc) == ("OpenSCENARIO", 1, 2) and checks.schema_errors(xosc)[1] == []
     road = ET.parse(xodr).getroot().find("road")
     kinds = [g[0].tag for g in road.find("planView")]
     assert kinds == ["line", "spiral", "arc", "spiral", "line"]          # the segments, not a fit
@@ -86,8 +86,8 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
     assert export.trajectory_error_m < 0.01
     assert ET.parse(xosc).getroot().find(".//RoadCondition").get("frictionScaleFactor") == "0.6"
     assert_replays(xosc, Run.load(run_dir))
-    # later OpenSCENARIO versions on request, each valid against its own schema
-    for version in (OpenScenarioVersion.V1_1, OpenScenarioVersion.V1_2, OpenScenarioVersion.V1_3):
+    # other OpenSCENARIO versions on request, each valid against its own schema
+    for version in (OpenScenarioVersion.V1_0, OpenScenarioVersion.V1_1, OpenScenarioVersion.V1_3):
         later = export_run(run_dir, tmp_path / version.value, version).files[1]
         assert checks.declared_version(later) == ("OpenSCENARIO", 1, version.minor)
         assert checks.schema_errors(later)[1] == []

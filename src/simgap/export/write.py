@@ -19,7 +19,7 @@ from simgap.cosim.record import Run
 from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
-from simgap.export.openscenario import OpenScenarioVersion, description, openscenario, road_users
+from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, description, openscenario, road_users
 from simgap.files import publish, staged_directory
 from simgap.scenario import load_scenario, read_metadata
 from simgap.scenario.blueprint import blueprint_of
@@ -94,7 +94,7 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
     return result
 
 
-def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = OpenScenarioVersion.V1_0,
+def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = DEFAULT_VERSION,
                scenario_xml: str | Path | None = None, name: str | None = None) -> Export:
     """A run directory as ``NAME.xodr`` and ``NAME.xosc`` in ``out`` (NAME: the scenario and the
     world that ran it). ``scenario_xml``: the scenario file whose sidecar holds the road's
