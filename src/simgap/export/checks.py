@@ -26,6 +26,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from scenariogeneration import xosc
 from shapely.geometry import LineString
 
+from simgap.export.lanelet_fit import extended
 from simgap.export.opendrive import RoadNetwork
 from simgap.export.opendrive_sampling import RoadSamples
 from simgap.trajectory import Trajectory
@@ -107,17 +108,18 @@ def trajectory_error(path: str | Path, expected: dict[str, Trajectory]) -> float
 
 
 def lane_centre_deviation(samples: list[RoadSamples], network: RoadNetwork,
-                          lanelets: LaneletNetwork) -> dict[int, float]:
-    """Per road of a written OpenDRIVE file (``samples``: its roads read back): the largest
-    distance [m] of a lane centre from the centre line of the lanelets that lane stands for."""
+                          lanelets: LaneletNetwork) -> dict[int, np.ndarray]:
+    """Per road of a written OpenDRIVE file (``samples``: its roads read back): the distance [m]
+    of each lane centre sample from the centre line of the lanelets that lane stands for (continued
+    straight past its ends: a lane ends square to its road, a lanelet may end askew, and the
+    distance is measured across the lane, not along it)."""
     by_road = {r.road: r for r in samples}
-    worst: dict[int, float] = {}
+    out: dict[int, list[np.ndarray]] = defaultdict(list)
     for lane in network.lanes:
         road = by_road[lane.road]
-        centre = np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets])
-        d = float(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])).max())
-        worst[lane.road] = max(worst.get(lane.road, 0.0), d)
-    return worst
+        centre = extended(np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets]), 5.0)
+        out[lane.road].append(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])))
+    return {road: np.concatenate(d) for road, d in out.items()}
 
 
 @dataclass(frozen=True)

@@ -190,7 +190,7 @@ def _offsets(points: np.ndarray, normals: np.ndarray, polyline: np.ndarray, reac
     return np.interp(np.arange(len(t)), known, t[known])
 
 
-def _extended(polyline: np.ndarray, by: float) -> np.ndarray:
+def extended(polyline: np.ndarray, by: float) -> np.ndarray:
     """The polyline continued straight by ``by`` metres at both ends: lanes end square to the
     reference line, lanelets may end askew, and a border is compared across, not along."""
     head, tail = polyline[0] - polyline[1], polyline[-1] - polyline[-2]
@@ -294,7 +294,7 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     width = max(float(np.max(np.linalg.norm(piece.bounds[0] - piece.bounds[-1][[0, -1]][:, None], axis=2))),
                 1.0) if len(piece.bounds) > 1 else 1.0
     reach = 2.0 * width + 5.0
-    bounds = [_extended(np.asarray(b, float), reach) for b in piece.bounds]
+    bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
     t0 = 0.5 * (piece.start.t[piece.start_borders[0]] + piece.start.t[piece.start_borders[-1]])
     t1 = 0.5 * (piece.end.t[piece.end_borders[0]] + piece.end.t[piece.end_borders[-1]])
     across = []
@@ -310,7 +310,8 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     deviation = _distance(pts + border[:, None] * normals, bounds[0])
     for k, w in enumerate(widths, start=1):
         width = value(w, s)
-        deviation = max(deviation, _distance(pts + (border - 0.5 * width)[:, None] * normals, piece.centres[k - 1]))
+        deviation = max(deviation, _distance(pts + (border - 0.5 * width)[:, None] * normals,
+                                             extended(np.asarray(piece.centres[k - 1], float), reach)))
         border = border - width
         deviation = max(deviation, _distance(pts + border[:, None] * normals, bounds[k]))
     return RoadFit(pieces, offset, widths, deviation)

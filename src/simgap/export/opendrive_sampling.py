@@ -68,6 +68,15 @@ def _pose(geometry: ET.Element, ds: float) -> tuple[float, float, float]:
     return c.X(ds), c.Y(ds), c.Theta(ds)
 
 
+def reference_ends(path: str | Path) -> dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """Each road's reference line at its start and its end: (x, y, heading)."""
+    out = {}
+    for road in ET.parse(path).getroot().iter("road"):
+        geometries = list(road.find("planView").iter("geometry"))
+        out[int(road.get("id"))] = (_pose(geometries[0], 0.0), _pose(geometries[-1], float(geometries[-1].get("length"))))
+    return out
+
+
 def sample_roads(path: str | Path, step: float = 0.1) -> list[RoadSamples]:
     """Every road of the OpenDRIVE file at ``path``, sampled every ``step`` metres (and at its end)."""
     root = ET.parse(path).getroot()

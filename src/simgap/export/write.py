@@ -42,6 +42,7 @@ class Export:
     method: Method
     lane_deviation_m: dict[int, float]            # per road: lane centres (file, every 0.1 m) to lanelet centres
     fit_deviation_m: dict[int, float] = field(default_factory=dict)   # fitted: per road, from the lanelet bounds
+    lane_deviation_p99_m: float = 0.0             # the 99th percentile over every lane centre sample
     links: checks.LinksKept | None = None         # the lanelets' relations and those the file keeps
     trajectory_error_m: float | None = None       # largest parsed-back vertex error
     entities: int = 0
@@ -87,7 +88,9 @@ def _check_road(roads: RoadNetwork, path: Path, samples: list[RoadSamples], netw
     if errors:
         raise checks.CheckFailed(f"{path.name} does not validate against {result.schemas[path.name]}: {errors[0]}")
     result.links = checks.links_kept(path, roads, network)
-    result.lane_deviation_m = checks.lane_centre_deviation(samples, roads, network)
+    deviations = checks.lane_centre_deviation(samples, roads, network)
+    result.lane_deviation_m = {road: float(d.max()) for road, d in deviations.items()}
+    result.lane_deviation_p99_m = float(np.percentile(np.concatenate(list(deviations.values())), 99))
     for road, deviation in result.lane_deviation_m.items():
         bound = EXACT_TOLERANCE_M if roads.method is Method.EXACT else roads.fit_deviation_m[road] + FITTED_TOLERANCE_M
         if deviation > bound:
