@@ -122,9 +122,12 @@ def _show(console: Console, exports) -> None:
         for path in e.files:
             line = f"  {path}  valid against {e.schemas[path.name]}"
             if path.suffix == ".xodr":
-                line += f"; lane centres within {e.largest_deviation_m:.4f} m of the lanelets' centres"
-                if e.fit_deviation_m:
-                    line += f"; fit within {max(e.fit_deviation_m.values()):.3f} m of the lanelet bounds"
+                line += (f"; lane centres within {e.largest_deviation_m:.4f} m of the lanelets' centres (99 % within "
+                         f"{e.lane_deviation_p99_m:.4f} m)")
+                if e.links is not None:
+                    line += (f"; {e.links.successors_kept} of {e.links.successors} successor and "
+                             f"{e.links.neighbours_kept} of {e.links.neighbours} neighbour relations kept, "
+                             f"{e.links.junctions} junction{'s' if e.links.junctions != 1 else ''}")
             elif e.trajectory_error_m is not None:
                 line += f"; every trajectory vertex parses back within {e.trajectory_error_m:.1e} m"
             console.print(line, soft_wrap=True)

@@ -26,7 +26,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from scenariogeneration import xosc
 from shapely.geometry import LineString
 
-from simgap.export.lanelet_fit import extended
+from simgap.export.lanelet_fit import CENTRE_REACH_M, extended
 from simgap.export.opendrive import RoadNetwork
 from simgap.export.opendrive_sampling import RoadSamples
 from simgap.trajectory import Trajectory
@@ -117,7 +117,8 @@ def lane_centre_deviation(samples: list[RoadSamples], network: RoadNetwork,
     out: dict[int, list[np.ndarray]] = defaultdict(list)
     for lane in network.lanes:
         road = by_road[lane.road]
-        centre = extended(np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets]), 5.0)
+        centre = extended(np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets]),
+                          CENTRE_REACH_M)
         out[lane.road].append(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])))
     return {road: np.concatenate(d) for road, d in out.items()}
 

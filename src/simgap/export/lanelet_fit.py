@@ -33,6 +33,8 @@ FIT_TOLERANCE_M = 0.1       # the reference line's largest distance from the roa
                             # offset carries the rest; a smooth line keeps the lanes' normals apart)
 RECORD_TOLERANCE_M = 0.005  # a lane offset or width record's largest distance from the measured one
 SAMPLE_M = 0.1              # spacing of the samples across the road
+CENTRE_REACH_M = 5.0        # a lanelet's centre line continued this far past its ends when a lane centre is
+                            # compared with it (across the lane, not along it)
 _JOINT_CLEARANCE_M = 0.5    # middle-line vertices this close to a joint's line are left to the joint
 _VERTEX_SPACING_M = 0.5     # middle-line vertices closer than this to the last one kept are left out
 _STRAIGHT = 1e-9            # curvature [1/m] below which a piece is a line, rate below which an arc
@@ -311,7 +313,7 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     for k, w in enumerate(widths, start=1):
         width = value(w, s)
         deviation = max(deviation, _distance(pts + (border - 0.5 * width)[:, None] * normals,
-                                             extended(np.asarray(piece.centres[k - 1], float), reach)))
+                                             extended(np.asarray(piece.centres[k - 1], float), CENTRE_REACH_M)))
         border = border - width
         deviation = max(deviation, _distance(pts + border[:, None] * normals, bounds[k]))
     return RoadFit(pieces, offset, widths, deviation)

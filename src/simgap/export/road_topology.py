@@ -349,11 +349,13 @@ def topology(network: LaneletNetwork) -> Topology:
                                 joints[(g, "start")], joints[(g, "end")], borders, borders,
                                 (cut_at.get(g, 0.0), length)))
     for junction, a, b in junction_relations:
-        lanelet = by_id[b]
+        lanelet, cut = by_id[b], joints[(group_of[b], "start")]
+        # the cut on the lanelet's own middle line (the group's may run elsewhere)
+        middle = LineString(middle_line(lanelet.left_vertices, lanelet.right_vertices))
+        at_cut = shapely.Point(0.5 * (cut.point((b, "left")) + cut.point((b, "right"))))
         piece = RoadPiece((b,), (lanelet.left_vertices, lanelet.right_vertices), (lanelet.center_vertices,),
-                          joints[(group_of[a], "end")],
-                          joints[(group_of[b], "start")], ((a, "left"), (a, "right")), ((b, "left"), (b, "right")),
-                          (0.0, cut_at[group_of[b]]), junction)
+                          joints[(group_of[a], "end")], cut, ((a, "left"), (a, "right")), ((b, "left"), (b, "right")),
+                          (0.0, middle.project(at_cut)), junction)
         connections.append(Connection(junction, a, b, piece))
     neighbours = [(l, r) for lanelets in groups for l, r in zip(lanelets, lanelets[1:])]
     return Topology(groups, pieces, links, connections, junction_ends,
