@@ -29,7 +29,7 @@ from simgap.scenario.blueprint import blueprint_of
 from simgap.sim.settings import DRY_ROAD_FRICTION
 
 EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
-FITTED_TOLERANCE_M = 0.01        # a fitted road's lane centres, read back, beyond the fit's own deviation
+FITTED_TOLERANCE_M = 0.05        # a fitted road's lane centres, read back, beyond the fit's own deviation (sampled elsewhere)
 TRAJECTORY_TOLERANCE_M = 0.01    # a trajectory vertex, parsed back
 
 
