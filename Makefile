@@ -6,7 +6,9 @@ STAMP  := $(VENV)/.installed
 
 MAPS   := $(VENV)/share/simgap/real-maps/.installed
 
-.PHONY: demo test install browser planner-toolchain lock clean
+QC     := .venv-qc/.installed
+
+.PHONY: demo test install qc browser planner-toolchain lock clean
 
 $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
@@ -23,6 +25,15 @@ $(MAPS): $(STAMP)
 	  || echo "make: the real maps could not be installed; their tests and benchmark will skip"
 
 install: $(STAMP) $(MAPS)
+
+# ASAM's Quality Checker (OpenDRIVE and OpenSCENARIO bundles) for the export's tests and bench/export.py,
+# in a virtual environment of its own: its pins (numpy 1.26, lxml 5, xmlschema 3) conflict with simgap's.
+# Without it those tests skip with the reason.
+$(QC): requirements-qc.lock
+	$(PYTHON) -m venv .venv-qc && .venv-qc/bin/pip install --quiet -r requirements-qc.lock && touch $(QC) \
+	  || echo "make: ASAM's Quality Checker could not be installed into .venv-qc; its tests will skip"
+
+qc: $(QC)
 
 demo: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/simgap demo --out simgap-demo
@@ -42,7 +53,7 @@ planner-toolchain:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
 # on every core (2 on CI), a test file per worker so that module fixtures are built once
-test: $(STAMP) $(MAPS) browser planner-toolchain
+test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:
@@ -50,4 +61,4 @@ lock:
 	  && /tmp/simgap-lock/bin/pip freeze --exclude-editable > requirements.lock
 
 clean:
-	rm -rf $(VENV)
+	rm -rf $(VENV) .venv-qc

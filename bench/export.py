@@ -1,30 +1,88 @@
-"""Time per export and the deviations of the written roads: a curve and a T-junction (runs in the
-ideal world, exported as OpenSCENARIO + OpenDRIVE, exact geometry) and the installed real maps
-(their road networks exported as OpenDRIVE, fitted lanelet by lanelet).
+"""What `simgap export` writes, measured: the generated roads (curve, S-curve, T-junction,
+intersection: OpenDRIVE exactly as built, and a run on each as OpenSCENARIO 1.2) and every
+installed real map (OpenDRIVE fitted to the lanelets).
 
-For every export: the files, the time (the first export of a process also loads the XSD schemas:
-shown apart), the largest distance of a lane centre, read back from the file every metre, from
-its lanelets' centre, and for fitted maps the fit's deviation from the lanelet bounds per road
-(largest, 95th percentile and median over the map's roads).
+Per map: ASAM's Quality Checker (every checker of the OpenDRIVE bundle; errors and warnings, and
+the checkers that did not run), the lane centres' distance from the lanelets' centre lines read
+back from the file every 0.1 m (largest and 99th percentile), the lanelets' successor and neighbour
+relations against those the file keeps (counted from the file), the junctions written, and the
+time of the export (the first export of a process also loads the XSD schemas: shown apart). A
+lanelet whose bounds cross or double back (a turn over 90 degrees between two segments) has no
+faithful lane: the number of such lanelets is given per map. Results: bench/results/export.json.
 
-    .venv/bin/python bench/export.py                  # curve, T-junction, every real map
+    .venv/bin/python bench/export.py                  # generated roads and every real map
     .venv/bin/python bench/export.py --maps 5         # ... the first 5 maps
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import tempfile
 import time
+import warnings
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+from commonroad.scenario.lanelet import Lanelet
+from shapely.geometry import LineString
 
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.export import checks
-from simgap.export.write import export_road, export_run
+from simgap.export import checks, quality_checker
+from simgap.export.write import Export, export_road, export_run
 from simgap.scenario import build_scenario, write_scenario
-from simgap.scenario.real_maps import map_files, maps_dir
+from simgap.scenario.real_maps import load_map, map_files, maps_dir
+
+RESULTS = Path(__file__).parent / "results" / "export.json"
+GENERATED = (("curve", {"radius": 10, "angle": 90, "transition": 5}), ("s-curve", {}), ("t-junction", {"agents": 3}),
+             ("intersection", {"agents": 2}))
+
+
+def malformed(lanelet: Lanelet) -> bool:
+    """Bounds that cross each other or themselves, or double back."""
+    left, right = LineString(lanelet.left_vertices), LineString(lanelet.right_vertices)
+    if left.intersects(right) or not left.is_simple or not right.is_simple:
+        return True
+    for bound in (lanelet.left_vertices, lanelet.right_vertices):
+        d = np.diff(bound, axis=0)
+        d = d[np.linalg.norm(d, axis=1) > 1e-6]
+        heading = np.arctan2(d[:, 1], d[:, 0])
+        if len(heading) > 1 and np.max(np.abs(np.angle(np.exp(1j * np.diff(heading))))) > math.pi / 2:
+            return True
+    return False
+
+
+def qc(path: Path) -> dict:
+    try:
+        report = quality_checker.check(path)
+    except quality_checker.QualityCheckerMissing as missing:
+        return {"missing": str(missing)}
+    return {"errors": report.errors, "warnings": report.warnings, "rules": report.rules,
+            "checkers": len(report.checkers),
+            "not_run": {c.checker: c.summary.split(". ")[0] for c in report.skipped}}
+
+
+def row(name: str, export: Export, road_qc: dict, malformed_lanelets: int | None = None, **extra) -> dict:
+    links = export.links
+    return {"map": name, "method": export.method.value, "roads": len(export.lane_deviation_m),
+            "seconds": round(export.seconds, 2), "deviation_max_m": round(export.largest_deviation_m, 4),
+            "deviation_p99_m": round(export.lane_deviation_p99_m, 4), "links": asdict(links),
+            "qc": road_qc, "malformed_lanelets": malformed_lanelets, "notes": export.notes, **extra}
+
+
+def show(r: dict) -> None:
+    q, links = r["qc"], r["links"]
+    verdict = q.get("missing") and "QC not installed" or \
+        f"QC {q['errors']:>3} errors {q['warnings']:>3} warnings" + (f" ({len(q['not_run'])} not run)" if q["not_run"] else "")
+    print(f"{r['map']:<30} {r['roads']:>4} {verdict:<36} {r['deviation_max_m']:>7.3f} {r['deviation_p99_m']:>7.3f} "
+          f"{links['successors_kept']:>4}/{links['successors']:<4} {links['neighbours_kept']:>4}/{links['neighbours']:<4} "
+          f"{links['junctions']:>3} {'' if r['malformed_lanelets'] is None else r['malformed_lanelets']:>4} "
+          f"{r['seconds']:>6.2f}" + (f"  xosc: QC {r['xosc_qc']['errors']} errors {r['xosc_qc']['warnings']} warnings, "
+                                    f"{len(r['xosc_qc']['not_run'])} not run" if "errors" in r.get("xosc_qc", {}) else ""))
+    for rule, n in q.get("rules", {}).items():
+        print(f"    {n} x {rule}")
 
 
 def main() -> None:
@@ -35,40 +93,45 @@ def main() -> None:
     for name in checks.SCHEMA_FILES.values():
         checks.schema(name)
     print(f"loading the {len(checks.SCHEMA_FILES)} XSD schemas: {time.perf_counter() - t0:.2f} s (once per process)\n")
+    print(f"{'map':<30} {'roads':>4} {'ASAM QC (OpenDRIVE bundle)':<36} {'dev max':>7} {'p99':>7} "
+          f"{'successors':>9} {'neighbours':>9} {'jct':>3} {'bad':>4} {'time s':>6}")
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        print("runs (ideal world) as OpenSCENARIO 1.0 + OpenDRIVE 1.7")
-        print(f"{'scenario':<34} {'roads':>5} {'entities':>8} {'lane centres max [m]':>21} "
-              f"{'trajectory max [m]':>19} {'export [s]':>10}")
-        for logical, params in (("curve", {"radius": 10, "angle": 90, "transition": 5}),
-                                ("t-junction", {"agents": 3})):
+        for logical, params in GENERATED:
             xml = write_scenario(build_scenario(logical, params), tmp / "scenarios", preview=False)
             run_dir = tmp / "runs" / xml.stem
             execute(RunRequest(scenario=xml), run_dir)
-            e = export_run(run_dir, tmp / "out")
-            per_road = ", ".join(f"{r}: {d:.4f}" for r, d in sorted(e.lane_deviation_m.items()))
-            print(f"{xml.stem:<34} {len(e.lane_deviation_m):>5} {e.entities:>8} {e.largest_deviation_m:>21.4f} "
-                  f"{e.trajectory_error_m:>19.1e} {e.seconds:>10.2f}")
-            print(f"    files: {', '.join(p.name for p in e.files)} ({sum(p.stat().st_size for p in e.files) / 1e3:.0f} kB)"
-                  f"; per road: {per_road}")
+            export = export_run(run_dir, tmp / "out")
+            xodr, xosc = export.files
+            rows.append(row(logical, export, qc(xodr), xosc_qc=qc(xosc)))
+            show(rows[-1])
         maps = map_files()[: args.maps] if args.maps else map_files()
         if not maps:
             print(f"\nno real maps in {maps_dir()}")
-            return
-        print(f"\nreal maps as OpenDRIVE 1.7, fitted (a road per lanelet); deviations per road [m]")
-        print(f"{'map':<34} {'roads':>5} {'fit max':>8} {'fit p95':>8} {'median':>8} {'file max':>8} "
-              f"{'kB':>6} {'export [s]':>10}")
-        worst, times = [], []
         for path in maps:
-            e = export_road(path, tmp / "maps")
-            fit = np.array(list(e.fit_deviation_m.values()))
-            worst.append(fit.max())
-            times.append(e.seconds)
-            print(f"{path.stem:<34} {len(fit):>5} {fit.max():>8.3f} {np.percentile(fit, 95):>8.3f} "
-                  f"{np.median(fit):>8.3f} {e.largest_deviation_m:>8.3f} {e.files[0].stat().st_size / 1e3:>6.0f} "
-                  f"{e.seconds:>10.2f}")
-        print(f"\n{len(maps)} maps: largest fit deviation median {np.median(worst):.3f} m, max {max(worst):.3f} m; "
-              f"export time median {np.median(times):.2f} s, max {max(times):.2f} s")
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                bad = sum(malformed(l) for l in load_map(path).lanelet_network.lanelets)
+                export = export_road(path, tmp / "maps")
+            rows.append(row(path.stem, export, qc(export.files[0]), bad))
+            show(rows[-1])
+    real = [r for r in rows if r["method"] == "fitted"]
+    if real:
+        clean = [r for r in real if r["malformed_lanelets"] == 0]
+        print(f"\n{len(real)} real maps: QC errors {sum(r['qc'].get('errors', 0) for r in real)}, warnings "
+              f"{sum(r['qc'].get('warnings', 0) for r in real)}; successors kept "
+              f"{sum(r['links']['successors_kept'] for r in real)}/{sum(r['links']['successors'] for r in real)}, "
+              f"neighbours {sum(r['links']['neighbours_kept'] for r in real)}/"
+              f"{sum(r['links']['neighbours'] for r in real)}; deviation max median "
+              f"{np.median([r['deviation_max_m'] for r in real]):.3f} m, p99 median "
+              f"{np.median([r['deviation_p99_m'] for r in real]):.3f} m; on the {len(clean)} maps without malformed "
+              f"lanelets the largest deviation is {max((r['deviation_max_m'] for r in clean), default=0):.3f} m; "
+              f"export time median {np.median([r['seconds'] for r in real]):.2f} s, "
+              f"max {max(r['seconds'] for r in real):.2f} s")
+    RESULTS.parent.mkdir(exist_ok=True)
+    RESULTS.write_text(json.dumps(rows, indent=1) + "\n")
+    print(f"\nresults: {RESULTS}")
 
 
 if __name__ == "__main__":

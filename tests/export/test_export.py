@@ -29,7 +29,7 @@ from simgap.export import checks
 from simgap.export.opendrive import Method, Surface, road_network
 from simgap.export.opendrive_sampling import sample_roads
 from simgap.export.openscenario import OpenScenarioVersion
-from simgap.export.write import export_road, export_run
+from simgap.export.write import FITTED_TOLERANCE_M, export_road, export_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import map_files, maps_dir, scenario_on_map
@@ -71,7 +71,7 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
     xodr, xosc = export.files
     assert (xodr.name, xosc.name) == (f"{concrete.name}_dynamic.xodr", f"{concrete.name}_dynamic.xosc")
     assert checks.declared_version(xodr) == ("OpenDRIVE", 1, 7) and checks.schema_errors(xodr)[1] == []
-    assert checks.declared_version(xosc) == ("OpenSCENARIO", 1, 0) and checks.schema_errors(xosc)[1] == []
+    assert checks.declared_version(xosc) == ("OpenSCENARIO", 1, 2) and checks.schema_errors(xosc)[1] == []
     road = ET.parse(xodr).getroot().find("road")
     kinds = [g[0].tag for g in road.find("planView")]
     assert kinds == ["line", "spiral", "arc", "spiral", "line"]          # the segments, not a fit
@@ -86,8 +86,8 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
     assert export.trajectory_error_m < 0.01
     assert ET.parse(xosc).getroot().find(".//RoadCondition").get("frictionScaleFactor") == "0.6"
     assert_replays(xosc, Run.load(run_dir))
-    # later OpenSCENARIO versions on request, each valid against its own schema
-    for version in (OpenScenarioVersion.V1_1, OpenScenarioVersion.V1_2, OpenScenarioVersion.V1_3):
+    # other OpenSCENARIO versions on request, each valid against its own schema
+    for version in (OpenScenarioVersion.V1_0, OpenScenarioVersion.V1_1, OpenScenarioVersion.V1_3):
         later = export_run(run_dir, tmp_path / version.value, version).files[1]
         assert checks.declared_version(later) == ("OpenSCENARIO", 1, version.minor)
         assert checks.schema_errors(later)[1] == []
@@ -145,11 +145,16 @@ def test_a_recorded_scenario_with_traffic_is_fitted_and_replays(tmp_path):
     run_dir = run_of(xml, tmp_path / "run")
     export = export_run(run_dir, tmp_path / "out")
     xodr, xosc = export.files
-    assert export.method is Method.FITTED and len(export.fit_deviation_m) == 6     # a road per lanelet
+    assert export.method is Method.FITTED and len(export.fit_deviation_m) == 2     # a three-lane road per segment
     assert max(export.fit_deviation_m.values()) < 0.01                              # straight lanes fit exactly
-    assert all(export.lane_deviation_m[r] <= export.fit_deviation_m[r] + 1e-3 for r in export.lane_deviation_m)
-    links = ET.parse(xodr).getroot().findall(".//road/link/successor")
-    assert len(links) == 3                                                          # each lane's two lanelets joined
+    assert all(export.lane_deviation_m[r] <= export.fit_deviation_m[r] + FITTED_TOLERANCE_M for r in export.lane_deviation_m)
+    first, second = ET.parse(xodr).getroot().iter("road")
+    assert [int(l.get("id")) for l in first.iter("lane")] == [0, -1, -2, -3]
+    assert first.find("link/successor").get("elementId") == second.get("id")         # joined road to road
+    assert len(first.findall(".//lane/link/successor")) == 3                        # and lane by lane
+    links = export.links
+    assert (links.successors_kept, links.neighbours_kept, links.junctions) == (3, 8, 0)
+    assert (links.successors, links.neighbours) == (3, 8)
     root = ET.parse(xosc).getroot()
     kinds = {o.get("name"): o[0] for o in root.iter("ScenarioObject")}
     assert kinds["obstacle_202"].get("vehicleCategory") == "truck"
@@ -173,7 +178,7 @@ def test_a_scenario_on_a_real_map_is_fitted_within_its_reported_deviation(tmp_pa
     write_xml(*built, xml)
     export = export_run(run_of(xml, tmp_path / "run"), tmp_path / "out")
     assert export.method is Method.FITTED and export.entities == 1 + len(built[0].dynamic_obstacles)
-    assert all(export.lane_deviation_m[r] <= export.fit_deviation_m[r] + 1e-3 for r in export.lane_deviation_m)
+    assert all(export.lane_deviation_m[r] <= export.fit_deviation_m[r] + FITTED_TOLERANCE_M for r in export.lane_deviation_m)
     assert np.median(list(export.fit_deviation_m.values())) < 0.1
     assert export.trajectory_error_m < 0.01
 

@@ -31,8 +31,9 @@ def export_cmd(
                                          help="openscenario (a run: .xosc + .xodr) or opendrive (a scenario's "
                                               "road: .xodr); default: by SOURCE"),
     violations: bool = typer.Option(False, "--violations", help="SOURCE is a search: a folder per distinct violation"),
-    version: str = typer.Option("1.0", "--version", help="OpenSCENARIO version: 1.0 (CARLA's ScenarioRunner), "
-                                                         "1.1, 1.2 or 1.3"),
+    version: Optional[str] = typer.Option(None, "--version", help="OpenSCENARIO version: 1.2 (default: every rule of ASAM's "
+                                                         "Quality Checker applies), 1.0 (CARLA's ScenarioRunner), "
+                                                         "1.1 or 1.3"),
 ) -> None:
     """Write a run, a scenario's road or a search's findings in the formats other simulators read.
 
@@ -43,9 +44,9 @@ def export_cmd(
     simgap export scenarios/curve_radius-10_angle-90.xml --format opendrive --out exported;
     simgap export studies/gaps --violations --out findings
     """
-    from simgap.export.openscenario import OpenScenarioVersion
+    from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion
 
-    osc_version = OpenScenarioVersion.parse(version)
+    osc_version = OpenScenarioVersion.parse(version) if version is not None else DEFAULT_VERSION
     chosen = None
     if format is not None:
         try:
@@ -121,9 +122,12 @@ def _show(console: Console, exports) -> None:
         for path in e.files:
             line = f"  {path}  valid against {e.schemas[path.name]}"
             if path.suffix == ".xodr":
-                line += f"; lane centres within {e.largest_deviation_m:.4f} m of the lanelets' centres"
-                if e.fit_deviation_m:
-                    line += f"; fit within {max(e.fit_deviation_m.values()):.3f} m of the lanelet bounds"
+                line += (f"; lane centres within {e.largest_deviation_m:.4f} m of the lanelets' centres (99 % within "
+                         f"{e.lane_deviation_p99_m:.4f} m)")
+                if e.links is not None:
+                    line += (f"; {e.links.successors_kept} of {e.links.successors} successor and "
+                             f"{e.links.neighbours_kept} of {e.links.neighbours} neighbour relations kept, "
+                             f"{e.links.junctions} junction{'s' if e.links.junctions != 1 else ''}")
             elif e.trajectory_error_m is not None:
                 line += f"; every trajectory vertex parses back within {e.trajectory_error_m:.1e} m"
             console.print(line, soft_wrap=True)

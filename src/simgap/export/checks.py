@@ -1,13 +1,17 @@
 """Checks of written files, not hopes: each validates against the ASAM schema of the version it
 declares (the XSDs scenariogeneration ships, through xmlschema); an OpenSCENARIO file parses back
 with scenariogeneration's reader with every trajectory vertex where the run had it; an OpenDRIVE
-file, read back and sampled every metre, puts each lane's centre where its lanelets' centre is.
+file, read back and sampled every 0.1 m, puts each lane's centre where its lanelets' centre is,
+and keeps the lanelets' successor and neighbour relations as links, junction connections and
+lanes side by side (counted from the file).
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+from collections import defaultdict
+from dataclasses import dataclass
 import importlib.metadata
 import io
 import math
@@ -22,8 +26,9 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from scenariogeneration import xosc
 from shapely.geometry import LineString
 
+from simgap.export.lanelet_fit import CENTRE_REACH_M, extended
 from simgap.export.opendrive import RoadNetwork
-from simgap.export.opendrive_sampling import sample_roads
+from simgap.export.opendrive_sampling import RoadSamples
 from simgap.trajectory import Trajectory
 
 SCHEMA_FILES = {("OpenSCENARIO", 1, 0): "OpenSCENARIO_1_0.xsd", ("OpenSCENARIO", 1, 1): "OpenSCENARIO_1_1.xsd",
@@ -102,15 +107,98 @@ def trajectory_error(path: str | Path, expected: dict[str, Trajectory]) -> float
     return worst
 
 
-def lane_centre_deviation(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork,
-                          step: float = 1.0) -> dict[int, float]:
-    """Per road of the written OpenDRIVE file: the largest distance [m] of a lane centre, sampled
-    every ``step`` metres, from the centre line of the lanelets that lane stands for."""
-    samples = {r.road: r for r in sample_roads(path, step)}
-    worst: dict[int, float] = {}
+def lane_centre_deviation(samples: list[RoadSamples], network: RoadNetwork,
+                          lanelets: LaneletNetwork) -> dict[int, np.ndarray]:
+    """Per road of a written OpenDRIVE file (``samples``: its roads read back): the distance [m]
+    of each lane centre sample from the centre line of the lanelets that lane stands for (continued
+    straight past its ends: a lane ends square to its road, a lanelet may end askew, and the
+    distance is measured across the lane, not along it)."""
+    by_road = {r.road: r for r in samples}
+    out: dict[int, list[np.ndarray]] = defaultdict(list)
     for lane in network.lanes:
-        road = samples[lane.road]
-        centre = np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets])
-        d = float(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])).max())
-        worst[lane.road] = max(worst.get(lane.road, 0.0), d)
-    return worst
+        road = by_road[lane.road]
+        centre = extended(np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets]),
+                          CENTRE_REACH_M)
+        out[lane.road].append(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])))
+    return {road: np.concatenate(d) for road, d in out.items()}
+
+
+@dataclass(frozen=True)
+class LinksKept:
+    """The lanelets' relations and how many of them the written file keeps."""
+
+    successors: int
+    successors_kept: int
+    neighbours: int                     # each lanelet's left and right neighbour, counted from both sides
+    neighbours_kept: int
+    junctions: int                      # <junction> elements written
+    junction_connections: int           # successor relations kept through a junction
+
+
+def _lanes_of(network: RoadNetwork) -> dict[int, list[tuple[int, int, int]]]:
+    """lanelet -> its lanes (road, lane, position in the lane's lanelets)."""
+    out: dict[int, list[tuple[int, int, int]]] = defaultdict(list)
+    for lane in network.lanes:
+        for k, i in enumerate(lane.lanelets):
+            out[i].append((lane.road, lane.lane, k))
+    return out
+
+
+def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork) -> LinksKept:
+    """Counts, from the written file, which successor and neighbour relations of ``lanelets`` it
+    keeps: a successor as the next lanelet of the same lane, a lane link between linked roads, or a
+    junction connection whose connecting lane stands for the successor; a neighbour as the next
+    lane of the same road (across the centre lane for opposite directions)."""
+    root = ET.parse(path).getroot()
+    road_links, lane_links, connecting_lanes = {}, set(), {}
+    for road in root.iter("road"):
+        rid = int(road.get("id"))
+        for way in ("predecessor", "successor"):
+            el = road.find(f"link/{way}")
+            if el is not None:
+                road_links[(rid, way)] = (el.get("elementType"), int(el.get("elementId")))
+        for lane in road.iter("lane"):
+            for way in ("predecessor", "successor"):
+                for el in lane.findall(f"link/{way}"):
+                    lane_links.add((rid, int(lane.get("id")), way, int(el.get("id"))))
+    junctions = root.findall("junction")
+    through = set()
+    for junction in junctions:
+        for connection in junction.iter("connection"):
+            incoming, connecting = int(connection.get("incomingRoad")), int(connection.get("connectingRoad"))
+            for link in connection.iter("laneLink"):
+                through.add((incoming, int(link.get("from")), connecting, int(link.get("to"))))
+    lanes = _lanes_of(network)
+    successors = kept = via_junction = 0
+    for lanelet in lanelets.lanelets:
+        for b in lanelet.successor or []:
+            if lanelets.find_lanelet_by_id(b) is None:
+                continue
+            successors += 1
+            how = _successor_kept(lanes[lanelet.lanelet_id], lanes[b], road_links, lane_links, through)
+            kept += how is not None
+            via_junction += how == "junction"
+    neighbours = neighbours_kept = 0
+    for lanelet in lanelets.lanelets:
+        for other, same in ((lanelet.adj_left, lanelet.adj_left_same_direction),
+                            (lanelet.adj_right, lanelet.adj_right_same_direction)):
+            if other is None or lanelets.find_lanelet_by_id(other) is None:
+                continue
+            neighbours += 1
+            neighbours_kept += any(r == q and (abs(l - m) == 1 or {l, m} == {-1, 1})
+                                   for r, l, _ in lanes[lanelet.lanelet_id] for q, m, _ in lanes[other])
+    return LinksKept(successors, kept, neighbours, neighbours_kept, len(junctions), via_junction)
+
+
+def _successor_kept(ahead: list[tuple[int, int, int]], behind: list[tuple[int, int, int]], road_links: dict,
+                    lane_links: set, through: set) -> str | None:
+    for road, lane, k in ahead:
+        for other, other_lane, m in behind:
+            if road == other and lane == other_lane and m == k + 1:
+                return "lane"
+            forward = "successor" if lane < 0 else "predecessor"
+            if road_links.get((road, forward)) == ("road", other) and (road, lane, forward, other_lane) in lane_links:
+                return "road link"
+            if (road, lane, other, other_lane) in through:
+                return "junction"
+    return None

@@ -1,13 +1,20 @@
-"""A lanelet as an OpenDRIVE lane: its centre line fitted with OpenDRIVE geometry, its extent
-across the centre line with cubic polynomials, and how far the fitted lane lies from the lanelet.
+"""A road of lanelets between two joints as OpenDRIVE geometry: its reference line fitted with
+clothoids, and the lane offset and lane widths as few cubic polynomials as fit.
 
-The centre line becomes a G1 clothoid spline (pyclothoids' Hermite clothoids; each piece is an
-OpenDRIVE spiral, an arc or a line) through a subset of the centre vertices, chosen greedily so
-that every piece stays within `FIT_TOLERANCE_M` of the centre polyline. Across it, the distances to
-the left and the right bound at every centre vertex become the lane offset (to the left bound) and
-the lane width (left to right bound) as C1 cubic Hermite polynomials between the vertices. The
-deviation is the largest distance, in either direction, between the fitted lane's centre, left and
-right border and the lanelet's centre, left and right bound.
+The reference line follows the road's middle (midway between its outermost bounds) from the start
+joint to the end joint. It starts
+and ends on the joints' lines with the joints' headings (so that roads meeting at a joint continue
+one another in heading), and passes through a subset of the bound's vertices between them: a G1
+clothoid spline (pyclothoids' Hermite clothoids; each piece an OpenDRIVE spiral, arc or line),
+chosen greedily so that every piece stays within `FIT_TOLERANCE_M` of the middle line.
+
+Across it, each bound's offset is read along the reference line's normals every `SAMPLE_M` (where
+the normal crosses the bound), and pinned at both ends to the joints' offsets. The lane offset
+(reference line to the left bound) and each lane's width (its left to its right bound) become
+piecewise cubic polynomials: C1 Hermite cubics between knots chosen greedily, a new record only
+where the previous one leaves the samples by more than `RECORD_TOLERANCE_M`. Widths stay at least
+`MIN_WIDTH_M`. The deviation is the largest distance of a fitted border from its bound or of a
+fitted lane centre from its lanelet's centre line.
 """
 
 from __future__ import annotations
@@ -18,11 +25,18 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from pyclothoids import Clothoid
-from shapely.geometry import LineString, Point
+from shapely.geometry import LineString
 
-FIT_TOLERANCE_M = 0.02      # the fitted centre line's largest distance from the centre polyline
-_KNOT_M = 2.0               # the widest spacing of the width and offset polynomials' pieces
-_SAMPLE_M = 0.1             # spacing of the samples that measure deviations
+from simgap.export.road_topology import MIN_WIDTH_M, Border, Joint, RoadPiece, middle_line
+
+FIT_TOLERANCE_M = 0.1       # the reference line's largest distance from the road's middle line (the lane
+                            # offset carries the rest; a smooth line keeps the lanes' normals apart)
+RECORD_TOLERANCE_M = 0.005  # a lane offset or width record's largest distance from the measured one
+SAMPLE_M = 0.1              # spacing of the samples across the road
+CENTRE_REACH_M = 5.0        # a lanelet's centre line continued this far past its ends when a lane centre is
+                            # compared with it (across the lane, not along it)
+_JOINT_CLEARANCE_M = 0.5    # middle-line vertices this close to a joint's line are left to the joint
+_VERTEX_SPACING_M = 0.5     # middle-line vertices closer than this to the last one kept are left out
 _STRAIGHT = 1e-9            # curvature [1/m] below which a piece is a line, rate below which an arc
 
 
@@ -43,10 +57,6 @@ class Piece:
             return "spiral"
         return "arc" if abs(self.k_start) > _STRAIGHT else "line"
 
-    def clothoid(self) -> Clothoid:
-        return Clothoid.StandardParams(self.x, self.y, self.hdg, self.k_start,
-                                       (self.k_end - self.k_start) / self.length, self.length)
-
 
 @dataclass(frozen=True)
 class Cubic:
@@ -58,57 +68,38 @@ class Cubic:
     c: float
     d: float
 
-    def at(self, s: float) -> float:
+    def at(self, s: np.ndarray | float) -> np.ndarray | float:
         u = s - self.s
         return self.a + u * (self.b + u * (self.c + u * self.d))
 
 
 @dataclass(frozen=True)
-class LaneletFit:
+class RoadFit:
     pieces: tuple[Piece, ...]
-    offset: tuple[Cubic, ...]     # reference line to the left bound [m]
-    width: tuple[Cubic, ...]      # left bound to right bound [m]
-    deviation_m: float            # largest distance of the fitted lane from the lanelet
+    offset: tuple[Cubic, ...]                   # reference line to the left bound [m]
+    widths: tuple[tuple[Cubic, ...], ...]       # per lane, left to right [m]
+    deviation_m: float                          # largest distance of a fitted border from its bound, or of
+                                                # a fitted lane centre from its lanelet's centre line
 
     @property
     def length(self) -> float:
         return sum(p.length for p in self.pieces)
 
 
-def _clean(xy: np.ndarray) -> np.ndarray:
-    keep = np.concatenate([[True], np.linalg.norm(np.diff(xy, axis=0), axis=1) > 1e-6])
-    return xy[keep]
+# ------------------------------------------------------------------------------ reference line
+def _headings(xy: np.ndarray, span: float = 1.5) -> np.ndarray:
+    """The polyline's direction at each vertex: the chord from ``span`` metres before it to
+    ``span`` metres after it (along the polyline)."""
+    d = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+    at = lambda v: np.column_stack([np.interp(v, d, xy[:, 0]), np.interp(v, d, xy[:, 1])])  # noqa: E731
+    chord = at(np.minimum(d + span, d[-1])) - at(np.maximum(d - span, 0.0))
+    return np.arctan2(chord[:, 1], chord[:, 0])
 
 
-def _headings(xy: np.ndarray) -> np.ndarray:
-    d = np.gradient(xy, axis=0) if len(xy) > 2 else np.repeat(np.diff(xy, axis=0), 2, axis=0)
-    return np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
-
-
-def _samples(clothoid: Clothoid, step: float = _SAMPLE_M) -> np.ndarray:
+def _samples(clothoid: Clothoid, step: float = SAMPLE_M) -> np.ndarray:
     n = max(2, math.ceil(clothoid.length / step) + 1)
     s = np.linspace(0.0, clothoid.length, n)
     return np.column_stack([[clothoid.X(v) for v in s], [clothoid.Y(v) for v in s]])
-
-
-def _gap(a: np.ndarray, b: np.ndarray) -> float:
-    """The largest distance of a vertex of either polyline from the other polyline (``a`` is
-    densely sampled, so this bounds the distance of every point of ``a`` from ``b`` too)."""
-    return float(shapely.hausdorff_distance(LineString(a), LineString(b)))
-
-
-def _distance(points: np.ndarray, polyline: np.ndarray) -> float:
-    """The largest distance of ``points`` from ``polyline``."""
-    return float(shapely.distance(LineString(polyline), shapely.points(points)).max())
-
-
-def _extended(polyline: np.ndarray, by: float) -> np.ndarray:
-    """The polyline continued straight by ``by`` metres at both ends: OpenDRIVE lanes end square
-    to the reference line, lanelets may end askew, and a border is compared across, not along."""
-    head = polyline[0] - polyline[1]
-    tail = polyline[-1] - polyline[-2]
-    return np.vstack([polyline[0] + by * head / max(np.linalg.norm(head), 1e-12), polyline,
-                      polyline[-1] + by * tail / max(np.linalg.norm(tail), 1e-12)])
 
 
 def _hermite(xy: np.ndarray, heading: np.ndarray, i: int, j: int) -> Clothoid | None:
@@ -120,24 +111,31 @@ def _fits(xy: np.ndarray, heading: np.ndarray, i: int, j: int) -> Clothoid | Non
     c = _hermite(xy, heading, i, j)
     if c is None or c.length > 1.5 * float(np.sum(np.linalg.norm(np.diff(xy[i:j + 1], axis=0), axis=1))) + 1e-6:
         return None
-    return c if _gap(_samples(c), xy[i:j + 1]) <= FIT_TOLERANCE_M else None
+    gap = shapely.hausdorff_distance(LineString(_samples(c)), LineString(xy[i:j + 1]))
+    return c if gap <= FIT_TOLERANCE_M else None
 
 
-def _line(xy: np.ndarray, i: int) -> Clothoid:
-    """The straight from vertex i to i + 1 (where the polyline has a kink no clothoid follows)."""
+def _step(xy: np.ndarray, heading: np.ndarray, i: int) -> Clothoid:
+    """The piece from vertex i to i + 1 where no piece within the tolerance reaches further: the
+    circular arc tangent to the heading at i (G1 kept; the heading at i + 1 becomes the arc's, so
+    that no clothoid loops between close vertices with discordant headings)."""
     d = xy[i + 1] - xy[i]
-    return Clothoid.StandardParams(xy[i, 0], xy[i, 1], math.atan2(d[1], d[0]), 0.0, 0.0, float(np.hypot(*d)))
+    chord, length = math.atan2(d[1], d[0]), float(np.hypot(*d))
+    turn = math.remainder(chord - heading[i], 2 * math.pi)
+    if abs(turn) >= math.pi / 2 - 1e-6:             # the polyline doubles back: no arc, a straight
+        return Clothoid.StandardParams(xy[i, 0], xy[i, 1], chord, 0.0, 0.0, length)
+    if i + 1 < len(xy) - 1:                         # the last vertex keeps its heading: the joint's
+        heading[i + 1] = heading[i] + 2 * turn
+    c = _hermite(xy, heading, i, i + 1)
+    return c if c is not None else Clothoid.StandardParams(xy[i, 0], xy[i, 1], chord, 0.0, 0.0, length)
 
 
-def fit_centre(xy: np.ndarray) -> list[Clothoid]:
-    """Pieces through vertices of ``xy`` (first and last included), each within the tolerance of
-    the polyline between its ends: from each start, the longest Hermite clothoid that fits, or
-    the straight to the next vertex where none does (a kink of the polyline)."""
-    xy = _clean(np.asarray(xy, dtype=float))
-    heading = _headings(xy)
+def fit_reference(xy: np.ndarray, heading: np.ndarray) -> list[Clothoid]:
+    """Clothoids through vertices of ``xy`` (first and last included) with the given headings at
+    them: from each vertex, the longest Hermite clothoid within the tolerance of the polyline."""
     out, i, n = [], 0, len(xy)
     while i < n - 1:
-        lo, hi, best = i + 1, n - 1, (i + 1, _line(xy, i))
+        lo, hi, best = i + 2, n - 1, None
         while lo <= hi:                            # the farthest end that still fits
             mid = (lo + hi) // 2
             c = _fits(xy, heading, i, mid)
@@ -145,66 +143,182 @@ def fit_centre(xy: np.ndarray) -> list[Clothoid]:
                 best, lo = (mid, c), mid + 1
             else:
                 hi = mid - 1
+        best = best or (i + 1, _step(xy, heading, i))
         out.append(best[1])
         i = best[0]
     return out
 
 
-def _cubic_hermite(s: np.ndarray, v: np.ndarray) -> list[Cubic]:
-    """C1 cubic pieces through (s, v), slopes by finite differences."""
-    h = np.diff(s)
-    slope = np.diff(v) / h
-    m = np.empty_like(v)
-    m[0], m[-1] = slope[0], slope[-1]
-    m[1:-1] = 0.5 * (slope[:-1] + slope[1:])
-    out = []
-    for k in range(len(h)):
-        c = (3 * slope[k] - 2 * m[k] - m[k + 1]) / h[k]
-        d = (m[k] + m[k + 1] - 2 * slope[k]) / h[k] ** 2
-        out.append(Cubic(float(s[k]), float(v[k]), float(m[k]), float(c), float(d)))
+def reference_point(joint: Joint, borders: tuple[Border, ...]) -> np.ndarray:
+    """Where a road's reference line crosses a joint: midway between its outermost borders."""
+    return joint.origin + 0.5 * (joint.t[borders[0]] + joint.t[borders[-1]]) * joint.normal
+
+
+def _reference_polyline(piece: RoadPiece) -> tuple[np.ndarray, np.ndarray]:
+    """The road's middle line between the two joints: its vertices within the road's span and
+    clear of both joints, with the joints' points and headings at the ends."""
+    start, end = piece.start, piece.end
+    p0, p1 = reference_point(start, piece.start_borders), reference_point(end, piece.end_borders)
+    middle = middle_line(np.asarray(piece.bounds[0], float), np.asarray(piece.bounds[-1], float))
+    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(middle, axis=0), axis=1))])
+    inside = (along > piece.span[0] + _JOINT_CLEARANCE_M) & (along < piece.span[1] - _JOINT_CLEARANCE_M)
+    kept = [p0]
+    for v in middle[inside]:
+        if np.linalg.norm(v - kept[-1]) >= _VERTEX_SPACING_M and np.linalg.norm(v - p1) >= _VERTEX_SPACING_M:
+            kept.append(v)
+    xy = np.vstack(kept + [p1])
+    heading = np.unwrap(_headings(xy))
+    heading[0], heading[-1] = start.heading, end.heading
+    return xy, heading
+
+
+# ------------------------------------------------------------------------------ across the road
+def _offsets(points: np.ndarray, normals: np.ndarray, polyline: np.ndarray, reach: float) -> np.ndarray:
+    """Signed offset along each normal from each point to where it crosses ``polyline`` (the
+    crossing nearest the point; where none is within ``reach``, the nearest sample's)."""
+    lines = shapely.linestrings(np.stack([points - reach * normals, points + reach * normals], axis=1))
+    coords, index = shapely.get_coordinates(shapely.intersection(lines, LineString(polyline)), return_index=True)
+    t = np.full(len(points), np.nan)
+    if len(coords):
+        along = np.einsum("ij,ij->i", coords - points[index], normals[index])
+        order = np.lexsort((np.abs(along), index))
+        first = np.unique(index[order], return_index=True)[1]
+        t[index[order][first]] = along[order][first]
+    known = np.flatnonzero(~np.isnan(t))
+    if not len(known):
+        nearest = shapely.shortest_line(shapely.points(points), LineString(polyline))
+        q = shapely.get_coordinates(nearest).reshape(-1, 2, 2)[:, 1]
+        return np.einsum("ij,ij->i", q - points, normals)
+    return np.interp(np.arange(len(t)), known, t[known])
+
+
+def extended(polyline: np.ndarray, by: float) -> np.ndarray:
+    """The polyline continued straight by ``by`` metres at both ends: lanes end square to the
+    reference line, lanelets may end askew, and a border is compared across, not along."""
+    head, tail = polyline[0] - polyline[1], polyline[-1] - polyline[-2]
+    return np.vstack([polyline[0] + by * head / max(np.linalg.norm(head), 1e-12), polyline,
+                      polyline[-1] + by * tail / max(np.linalg.norm(tail), 1e-12)])
+
+
+def _slopes(s: np.ndarray, v: np.ndarray, window: float = 0.5) -> np.ndarray:
+    """dv/ds at every sample, by the secant over ``window`` metres around it."""
+    lo = np.searchsorted(s, s - window)
+    hi = np.minimum(np.searchsorted(s, s + window, side="right") - 1, len(s) - 1)
+    return (v[hi] - v[lo]) / np.maximum(s[hi] - s[lo], 1e-12)
+
+
+def _hermite_cubic(s0: float, v0: float, m0: float, s1: float, v1: float, m1: float) -> Cubic:
+    h = s1 - s0
+    slope = (v1 - v0) / h
+    return Cubic(s0, v0, m0, (3 * slope - 2 * m0 - m1) / h, (m0 + m1 - 2 * slope) / h ** 2)
+
+
+def _least(cubic: Cubic, s1: float) -> float:
+    """The cubic's least value on [cubic.s, s1]."""
+    h = s1 - cubic.s
+    candidates = [0.0, h] + [float(r.real) for r in np.roots([3 * cubic.d, 2 * cubic.c, cubic.b])
+                             if abs(r.imag) < 1e-12 and 0.0 < r.real < h] if (cubic.c or cubic.d) else [0.0, h]
+    return min(float(cubic.at(cubic.s + u)) for u in candidates)
+
+
+def records(s: np.ndarray, v: np.ndarray, floor: float | None = None) -> tuple[Cubic, ...]:
+    """Cubic records through the samples (s, v), ends exact: from each knot, the farthest knot whose
+    Hermite cubic stays within `RECORD_TOLERANCE_M` of every sample between (and, with ``floor``,
+    not below it)."""
+    m = _slopes(s, v)
+    out, i, n = [], 0, len(s)
+
+    def piece(i: int, j: int) -> Cubic | None:
+        c = _hermite_cubic(s[i], v[i], m[i], s[j], v[j], m[j])
+        if np.max(np.abs(c.at(s[i:j + 1]) - v[i:j + 1])) > RECORD_TOLERANCE_M:
+            return None
+        return c if floor is None or _least(c, s[j]) >= floor - 1e-9 else None
+
+    while i < n - 1:
+        lo, hi, best = i + 2, n - 1, None
+        while lo <= hi:
+            mid = (lo + hi) // 2
+            c = piece(i, mid)
+            if c is not None:
+                best, lo = (mid, c), mid + 1
+            else:
+                hi = mid - 1
+        if best is None:       # the next sample only: the cubic, or the straight between them
+            c = piece(i, i + 1)
+            slope = (v[i + 1] - v[i]) / (s[i + 1] - s[i])
+            best = (i + 1, c or Cubic(float(s[i]), float(v[i]), float(slope), 0.0, 0.0))
+        out.append(best[1])
+        i = best[0]
+    return tuple(Cubic(float(c.s), float(c.a), float(c.b), float(c.c), float(c.d)) for c in _merged(out, s, v))
+
+
+def _merged(cubics: list[Cubic], s: np.ndarray, v: np.ndarray) -> list[Cubic]:
+    """A record that only continues the one before it (the same polynomial) is left out."""
+    out = [cubics[0]]
+    for c in cubics[1:]:
+        prev = out[-1]
+        u = c.s - prev.s
+        same = (abs(prev.at(c.s) - c.a) < 1e-9 and abs(prev.b + u * (2 * prev.c + 3 * u * prev.d) - c.b) < 1e-9
+                and abs(prev.c + 3 * u * prev.d - c.c) < 1e-9 and abs(prev.d - c.d) < 1e-9)
+        if not same:
+            out.append(c)
     return out
 
 
-def _value(cubics: tuple[Cubic, ...] | list[Cubic], s: float) -> float:
-    k = max(0, int(np.searchsorted([c.s for c in cubics], s, side="right")) - 1)
-    return cubics[k].at(s)
+def value(cubics: tuple[Cubic, ...], s: np.ndarray) -> np.ndarray:
+    """Piecewise records evaluated at ``s`` (each record from its s on)."""
+    starts = np.array([c.s for c in cubics])
+    k = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(cubics) - 1)
+    out = np.empty(len(s))
+    for j, c in enumerate(cubics):
+        sel = k == j
+        out[sel] = c.at(s[sel])
+    return out
 
 
-def fit_lanelet(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> LaneletFit:
-    """The fit of one lanelet (its centre, left and right vertices)."""
-    clothoids = fit_centre(centre)
+def fit_road(piece: RoadPiece) -> RoadFit:
+    """The geometry of one road between its joints (see the module's description)."""
+    xy, heading = _reference_polyline(piece)
+    clothoids = fit_reference(xy, heading)
     pieces = tuple(Piece(c.XStart, c.YStart, c.ThetaStart, c.length, c.KappaStart, c.KappaEnd) for c in clothoids)
-    # the reference line, sampled, with arc length, heading and the left normal: every _SAMPLE_M,
-    # every whole metre of the road (where a reader samples it) and both sides of each joint
-    s0, pts, hdg, ss = 0.0, [], [], []
+    s, pts, hdg, s0 = [], [], [], 0.0
     for c in clothoids:
-        n = max(2, math.ceil(c.length / _SAMPLE_M) + 1)
-        metres = np.arange(math.ceil(s0), s0 + c.length, 1.0) - s0
-        for v in np.unique(np.concatenate([np.linspace(0.0, c.length, n), metres])):
-            pts.append((c.X(v), c.Y(v)))
-            hdg.append(c.Theta(v))
-            ss.append(s0 + v)
+        n = max(2, math.ceil(c.length / SAMPLE_M) + 1)
+        for u in np.linspace(0.0, c.length, n)[(1 if s else 0):]:
+            s.append(s0 + u)
+            pts.append((c.X(u), c.Y(u)))
+            hdg.append(c.Theta(u))
         s0 += c.length
-    pts, hdg, ss = np.asarray(pts), np.asarray(hdg), np.asarray(ss)
-    normal = np.column_stack([-np.sin(hdg), np.cos(hdg)])
-    reach = 2.0 * float(np.max(np.linalg.norm(left - right, axis=1)))
-    left, right = _extended(np.asarray(left, float), reach), _extended(np.asarray(right, float), reach)
-    ref, left_line, right_line = LineString(pts), LineString(left), LineString(right)
-    # knots: every _KNOT_M and the vertices of the centre and both bounds projected onto the reference line
-    knots = np.array(sorted({0.0, float(ref.length)} | set(np.arange(0.0, ref.length, _KNOT_M).tolist())
-                            | {float(ref.project(Point(p))) for p in np.vstack([centre, left, right])}))
-    knots = knots[np.concatenate([[True], np.diff(knots) > 0.05])]
-    knots[-1] = ss[-1]
-    scale = ss[-1] / ref.length
-    at = [ref.interpolate(k / scale) for k in knots]
-    to_left = np.array([p.distance(left_line) for p in at])
-    to_right = np.array([p.distance(right_line) for p in at])
-    offset = _cubic_hermite(knots, to_left) if len(knots) > 1 else [Cubic(0, to_left[0], 0, 0, 0)]
-    width = _cubic_hermite(knots, to_left + to_right) if len(knots) > 1 else [Cubic(0, to_left[0] + to_right[0], 0, 0, 0)]
-    off = np.array([_value(offset, v) for v in ss])
-    wid = np.array([_value(width, v) for v in ss])
-    fitted_left = pts + off[:, None] * normal
-    fitted_right = pts + (off - wid)[:, None] * normal
-    fitted_centre = pts + (off - 0.5 * wid)[:, None] * normal
-    deviation = max(_distance(fitted_left, left), _distance(fitted_right, right), _gap(fitted_centre, centre))
-    return LaneletFit(pieces, tuple(offset), tuple(width), float(deviation))
+    s, pts, hdg = np.asarray(s), np.asarray(pts), np.asarray(hdg)
+    keep = np.concatenate([s[:-1] < s[-1] - 1e-6, [True]]) & np.concatenate([[True], np.diff(s) > 1e-6])
+    s, pts, hdg = s[keep], pts[keep], hdg[keep]
+    normals = np.column_stack([-np.sin(hdg), np.cos(hdg)])
+    width = max(float(np.max(np.linalg.norm(piece.bounds[0] - piece.bounds[-1][[0, -1]][:, None], axis=2))),
+                1.0) if len(piece.bounds) > 1 else 1.0
+    reach = 2.0 * width + 5.0
+    bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
+    t0 = 0.5 * (piece.start.t[piece.start_borders[0]] + piece.start.t[piece.start_borders[-1]])
+    t1 = 0.5 * (piece.end.t[piece.end_borders[0]] + piece.end.t[piece.end_borders[-1]])
+    across = []
+    for k, bound in enumerate(bounds):
+        t = _offsets(pts, normals, bound, reach)
+        t[0] = piece.start.t[piece.start_borders[k]] - t0
+        t[-1] = piece.end.t[piece.end_borders[k]] - t1
+        across.append(t)
+    offset = records(s, across[0])
+    widths = tuple(records(s, np.maximum(across[k - 1] - across[k], MIN_WIDTH_M), floor=MIN_WIDTH_M)
+                   for k in range(1, len(across)))
+    border = value(offset, s)
+    deviation = _distance(pts + border[:, None] * normals, bounds[0])
+    for k, w in enumerate(widths, start=1):
+        width = value(w, s)
+        deviation = max(deviation, _distance(pts + (border - 0.5 * width)[:, None] * normals,
+                                             extended(np.asarray(piece.centres[k - 1], float), CENTRE_REACH_M)))
+        border = border - width
+        deviation = max(deviation, _distance(pts + border[:, None] * normals, bounds[k]))
+    return RoadFit(pieces, offset, widths, deviation)
+
+
+def _distance(points: np.ndarray, polyline: np.ndarray) -> float:
+    """The largest distance of ``points`` from ``polyline``."""
+    return float(shapely.distance(LineString(polyline), shapely.points(points)).max())

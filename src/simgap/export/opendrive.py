@@ -10,10 +10,12 @@ Two ways, chosen per scenario:
   junction is a road per arm (lane -1 leaving the junction, lane +1 arriving), a connecting road
   per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
   and the junction that joins them.
-* **fitted** — any other lanelet network (recorded maps): a road per lanelet, fitted by
-  `simgap.export.lanelet_fit` (reference line on the lanelet's centre, lane offset and width to
-  its bounds); roads are linked where a lanelet has one successor whose one predecessor it is.
-  Each road's largest deviation from its lanelet is reported.
+* **fitted** — any other lanelet network (recorded maps): same-direction neighbours that share
+  their bound become one road of several lanes, roads meet at shared cross-sections (G1: the
+  reference lines continue in heading), continue road to road where the lanelets continue one to
+  one, and through a junction with a connecting road per successor relation elsewhere
+  (`simgap.export.road_topology`); each road's reference line, lane offset and widths are fitted
+  to its lanelets (`simgap.export.lanelet_fit`) and its largest deviation from them is reported.
 
 Every driving lane carries the road friction as its material friction; a bank is every road's
 superelevation (positive: the road falls to the right of its reference line); a grade is the
@@ -31,7 +33,8 @@ import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking
 from scenariogeneration import xodr
 
-from simgap.export.lanelet_fit import Cubic, LaneletFit, Piece, fit_lanelet
+from simgap.export.lanelet_fit import Cubic, Piece, RoadFit, fit_road
+from simgap.export.road_topology import topology
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import curvature_pieces
 from simgap.scenario.markings import MARKING_STYLE
@@ -46,6 +49,9 @@ _MARK_TYPE = {
     LineMarking.CURB: xodr.RoadMarkType.curb, LineMarking.LOWERED_CURB: xodr.RoadMarkType.curb,
 }
 
+
+_NO_CROSSING = {LineMarking.SOLID, LineMarking.BROAD_SOLID, LineMarking.SOLID_SOLID, LineMarking.CURB,
+                LineMarking.LOWERED_CURB}
 
 Geometry = xodr.Line | xodr.Arc | xodr.Spiral | xodr.ParamPoly3
 
@@ -280,42 +286,80 @@ def _geometry(piece: Piece) -> Geometry:
     return xodr.Line(piece.length)
 
 
+def _lane_change(marking: LineMarking) -> xodr.LaneChange:
+    """Whether the mark between two lanes of a road lets cars change lanes across it."""
+    return xodr.LaneChange.none if marking in _NO_CROSSING else xodr.LaneChange.both
+
+
+def _fitted_road(road_id: int, fit: RoadFit, lanelets: list[Lanelet], surface: Surface, junction: int = -1,
+                 grade: bool = False) -> xodr.Road:
+    """A road of ``lanelets`` (left to right, all along the reference line) as ``fit`` places them."""
+    section = xodr.LaneSection(0, _centre_lane(lanelets[0].line_marking_left_vertices))
+    for k, (lanelet, width) in enumerate(zip(lanelets, fit.widths)):
+        lane = _lane(width, lanelet.line_marking_right_vertices, surface)
+        if k < len(lanelets) - 1:
+            lane.roadmark[0].laneChange = _lane_change(lanelet.line_marking_right_vertices)
+        section.add_right_lane(lane)
+    lanes = xodr.Lanes()
+    if any(abs(c.a) > 0 or c.b or c.c or c.d for c in fit.offset):
+        for c in fit.offset:
+            lanes.add_laneoffset(xodr.LaneOffset(c.s, c.a, c.b, c.c, c.d))
+    lanes.add_lanesection(section)
+    return _road(road_id, [(_geometry(p), p.x, p.y, p.hdg) for p in fit.pieces], lanes, surface, junction, grade)
+
+
 def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork:
+    """Roads of laterally adjacent lanelets between shared cross-sections, direct links and
+    junctions (`simgap.export.road_topology`), each road's geometry fitted (`lanelet_fit`)."""
     odr = _opendrive(name)
     result = RoadNetwork(odr, Method.FITTED, [])
-    fits: dict[int, LaneletFit] = {}
-    lanelets = sorted(network.lanelets, key=lambda l: l.lanelet_id)
-    road_of = {l.lanelet_id: k + 1 for k, l in enumerate(lanelets)}
-    for lanelet in lanelets:
-        fit = fit_lanelet(lanelet.center_vertices, lanelet.left_vertices, lanelet.right_vertices)
-        fits[lanelet.lanelet_id] = fit
-        road_id = road_of[lanelet.lanelet_id]
-        section = xodr.LaneSection(0, _centre_lane(lanelet.line_marking_left_vertices))
-        section.add_right_lane(_lane(fit.width, lanelet.line_marking_right_vertices, surface))
-        odr_lanes = xodr.Lanes()
-        for offset in fit.offset:
-            odr_lanes.add_laneoffset(xodr.LaneOffset(offset.s, offset.a, offset.b, offset.c, offset.d))
-        odr_lanes.add_lanesection(section)
-        road = _road(road_id, [(_geometry(p), p.x, p.y, p.hdg) for p in fit.pieces], odr_lanes, surface,
-                     grade=len(lanelets) == 1)
+    top = topology(network)
+    by_id = {l.lanelet_id: l for l in network.lanelets}
+    group_of = {i: g for g, group in enumerate(top.groups) for i in group}
+    lane_of = {i: -(k + 1) for group in top.groups for k, i in enumerate(group)}
+    roads: list[xodr.Road] = []
+    for g, piece in enumerate(top.pieces):
+        fit = fit_road(piece)
+        road = _fitted_road(g + 1, fit, [by_id[i] for i in piece.lanelets], surface, grade=len(top.pieces) == 1)
         odr.add_road(road)
-        result.lanes.append(LaneOfLanelets(road_id, -1, (lanelet.lanelet_id,)))
-        result.fit_deviation_m[road_id] = fit.deviation_m
-    for lanelet in lanelets:
-        _link(odr, network, lanelet, road_of)
+        roads.append(road)
+        result.lanes += [LaneOfLanelets(road.id, lane_of[i], (i,)) for i in piece.lanelets]
+        result.fit_deviation_m[road.id] = fit.deviation_m
+    for link in top.links:
+        ahead, behind = roads[link.predecessor], roads[link.successor]
+        ahead.add_successor(xodr.ElementType.road, behind.id, xodr.ContactPoint.start)
+        behind.add_predecessor(xodr.ElementType.road, ahead.id, xodr.ContactPoint.end)
+        for a, b in link.relations:
+            _lane_of(ahead, lane_of[a]).add_link("successor", lane_of[b])
+            _lane_of(behind, lane_of[b]).add_link("predecessor", lane_of[a])
+    junction_ids = {j: len(roads) + len(top.connections) + j for j in sorted(set(top.junction_ends.values()))}
+    junctions = {j: xodr.Junction(f"junction {j}", junction_ids[j]) for j in junction_ids}
+    for (g, end), j in sorted(top.junction_ends.items()):
+        add = roads[g].add_successor if end == "end" else roads[g].add_predecessor
+        add(xodr.ElementType.junction, junction_ids[j])
+    for n, c in enumerate(top.connections):
+        incoming, outgoing = roads[group_of[c.predecessor]], roads[group_of[c.successor]]
+        fit = fit_road(c.piece)
+        road = _fitted_road(len(roads) + n + 1, fit, [by_id[c.successor]], surface, junction=junction_ids[c.junction])
+        road.add_predecessor(xodr.ElementType.road, incoming.id, xodr.ContactPoint.end)
+        road.add_successor(xodr.ElementType.road, outgoing.id, xodr.ContactPoint.start)
+        _lane_of(road, -1).add_link("predecessor", lane_of[c.predecessor])
+        _lane_of(road, -1).add_link("successor", lane_of[c.successor])
+        odr.add_road(road)
+        connection = xodr.Connection(incoming.id, road.id, xodr.ContactPoint.start)
+        connection.add_lanelink(lane_of[c.predecessor], -1)
+        junctions[c.junction].add_connection(connection)
+        result.lanes.append(LaneOfLanelets(road.id, -1, (c.successor,)))
+        result.fit_deviation_m[road.id] = fit.deviation_m
+    for j in sorted(junctions):
+        odr.add_junction(junctions[j])
+    if top.unjoined:
+        result.notes.append(f"{len(top.unjoined)} successor relation(s) not joined: the successor begins "
+                            f"{min(g for _, _, g in top.unjoined):.1f}-{max(g for _, _, g in top.unjoined):.1f} m "
+                            f"from its predecessor's end ({', '.join(f'{a}->{b}' for a, b, _ in top.unjoined[:4])}"
+                            f"{', ...' if len(top.unjoined) > 4 else ''})")
     return result
 
 
-def _link(odr: xodr.OpenDrive, network: LaneletNetwork, lanelet: Lanelet, road_of: dict[int, int]) -> None:
-    """Road links where the lanelets continue one another without a choice (a fork or a merge
-    would need a junction, which recorded maps do not mark)."""
-    road = odr.roads[str(road_of[lanelet.lanelet_id])]
-    for way, back, contact, add in (("successor", "predecessor", xodr.ContactPoint.start, road.add_successor),
-                                    ("predecessor", "successor", xodr.ContactPoint.end, road.add_predecessor)):
-        ids = getattr(lanelet, way) or []
-        if len(ids) != 1 or ids[0] not in road_of:
-            continue
-        other = network.find_lanelet_by_id(ids[0])
-        if len(getattr(other, back) or []) == 1:
-            add(xodr.ElementType.road, road_of[other.lanelet_id], contact)
-            road.lanes.lanesections[0].rightlanes[0].add_link(way, -1)
+def _lane_of(road: xodr.Road, lane_id: int) -> xodr.Lane:
+    return road.lanes.lanesections[0].rightlanes[-lane_id - 1]

@@ -20,12 +20,13 @@ from pyclothoids import Clothoid
 @dataclass(frozen=True)
 class RoadSamples:
     """One road sampled every ``step`` metres: arc length, reference points, and the centre
-    points of each lane (by lane id)."""
+    points and outer border points of each lane (by lane id)."""
 
     road: int
     s: np.ndarray
     reference: np.ndarray
     lane_centres: dict[int, np.ndarray]
+    lane_borders: dict[int, np.ndarray]
 
 
 def _poly(records: list[dict[str, float]], s: float, key: str = "s") -> float:
@@ -67,7 +68,16 @@ def _pose(geometry: ET.Element, ds: float) -> tuple[float, float, float]:
     return c.X(ds), c.Y(ds), c.Theta(ds)
 
 
-def sample_roads(path: str | Path, step: float = 1.0) -> list[RoadSamples]:
+def reference_ends(path: str | Path) -> dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """Each road's reference line at its start and its end: (x, y, heading)."""
+    out = {}
+    for road in ET.parse(path).getroot().iter("road"):
+        geometries = list(road.find("planView").iter("geometry"))
+        out[int(road.get("id"))] = (_pose(geometries[0], 0.0), _pose(geometries[-1], float(geometries[-1].get("length"))))
+    return out
+
+
+def sample_roads(path: str | Path, step: float = 0.1) -> list[RoadSamples]:
     """Every road of the OpenDRIVE file at ``path``, sampled every ``step`` metres (and at its end)."""
     root = ET.parse(path).getroot()
     out = []
@@ -78,7 +88,7 @@ def sample_roads(path: str | Path, step: float = 1.0) -> list[RoadSamples]:
         offsets = [_floats(o, "s", "a", "b", "c", "d") for o in lanes_el.iter("laneOffset")]
         sections = [(float(sec.get("s")), sec) for sec in lanes_el.iter("laneSection")]
         s_values = np.unique(np.concatenate([np.arange(0.0, length, step), [length]]))
-        ref, centres = [], {}
+        ref, centres, borders = [], {}, {}
         for s in s_values:
             g_s, g = [item for item in geometries if item[0] <= s + 1e-9][-1]
             x, y, hdg = _pose(g, min(s - g_s, float(g.get("length"))))
@@ -97,6 +107,8 @@ def sample_roads(path: str | Path, step: float = 1.0) -> list[RoadSamples]:
                     centre = edge + sign * 0.5 * width
                     edge += sign * width
                     centres.setdefault(int(lane.get("id")), []).append(np.array([x, y]) + centre * normal)
+                    borders.setdefault(int(lane.get("id")), []).append(np.array([x, y]) + edge * normal)
         out.append(RoadSamples(int(road.get("id")), s_values, np.asarray(ref),
-                               {k: np.asarray(v) for k, v in centres.items()}))
+                               {k: np.asarray(v) for k, v in centres.items()},
+                               {k: np.asarray(v) for k, v in borders.items()}))
     return out

@@ -10,22 +10,26 @@ from __future__ import annotations
 
 import re
 import time
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.cosim.record import Run
 from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
-from simgap.export.openscenario import OpenScenarioVersion, description, openscenario, road_users
+from simgap.export.opendrive_sampling import RoadSamples, sample_roads
+from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, description, openscenario, road_users
 from simgap.files import publish, staged_directory
 from simgap.scenario import load_scenario, read_metadata
 from simgap.scenario.blueprint import blueprint_of
 from simgap.sim.settings import DRY_ROAD_FRICTION
 
 EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
+FITTED_TOLERANCE_M = 0.05        # a fitted road's lane centres, read back, beyond the fit's own deviation (sampled elsewhere)
 TRAJECTORY_TOLERANCE_M = 0.01    # a trajectory vertex, parsed back
 
 
@@ -36,8 +40,10 @@ class Export:
     name: str
     files: list[Path]
     method: Method
-    lane_deviation_m: dict[int, float]            # per road: lane centres (file, every metre) to lanelet centres
+    lane_deviation_m: dict[int, float]            # per road: lane centres (file, every 0.1 m) to lanelet centres
     fit_deviation_m: dict[int, float] = field(default_factory=dict)   # fitted: per road, from the lanelet bounds
+    lane_deviation_p99_m: float = 0.0             # the 99th percentile over every lane centre sample
+    links: checks.LinksKept | None = None         # the lanelets' relations and those the file keeps
     trajectory_error_m: float | None = None       # largest parsed-back vertex error
     entities: int = 0
     schemas: dict[str, str] = field(default_factory=dict)             # file name -> schema it validates against
@@ -60,20 +66,33 @@ def _blueprint(scenario_xml: Path | None):
 
 
 def _write_road(network: LaneletNetwork, name: str, blueprint, surface: Surface, staged: Path
-                ) -> tuple[RoadNetwork, Path]:
+                ) -> tuple[RoadNetwork, Path, list[RoadSamples]]:
+    """The road network written to ``staged``, its header's bounds those of its lanes as read back."""
     roads = road_network(network, name, blueprint, surface)
     path = staged / f"{name}.xodr"
     roads.opendrive.write_xml(str(path))
-    return roads, path
+    samples = sample_roads(path)
+    points = np.vstack([r.reference for r in samples] + [b for r in samples for b in r.lane_borders.values()])
+    tree = ET.parse(path)
+    header = tree.getroot().find("header")
+    for key, value in (("west", points[:, 0].min()), ("south", points[:, 1].min()), ("east", points[:, 0].max()),
+                       ("north", points[:, 1].max())):
+        header.set(key, repr(float(value)))
+    tree.write(path, encoding="utf-8", xml_declaration=True)
+    return roads, path, samples
 
 
-def _check_road(roads: RoadNetwork, path: Path, network: LaneletNetwork, result: Export) -> None:
+def _check_road(roads: RoadNetwork, path: Path, samples: list[RoadSamples], network: LaneletNetwork,
+                result: Export) -> None:
     result.schemas[path.name], errors = checks.schema_errors(path)
     if errors:
         raise checks.CheckFailed(f"{path.name} does not validate against {result.schemas[path.name]}: {errors[0]}")
-    result.lane_deviation_m = checks.lane_centre_deviation(path, roads, network)
+    result.links = checks.links_kept(path, roads, network)
+    deviations = checks.lane_centre_deviation(samples, roads, network)
+    result.lane_deviation_m = {road: float(d.max()) for road, d in deviations.items()}
+    result.lane_deviation_p99_m = float(np.percentile(np.concatenate(list(deviations.values())), 99))
     for road, deviation in result.lane_deviation_m.items():
-        bound = EXACT_TOLERANCE_M if roads.method is Method.EXACT else roads.fit_deviation_m[road] + 1e-3
+        bound = EXACT_TOLERANCE_M if roads.method is Method.EXACT else roads.fit_deviation_m[road] + FITTED_TOLERANCE_M
         if deviation > bound:
             raise checks.CheckFailed(f"{path.name}: road {road}'s lane centres lie {deviation:.3f} m from their "
                                      f"lanelets (at most {bound:.3f} m allowed)")
@@ -86,15 +105,15 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
     scenario, _ = load_scenario(scenario_xml, needs_problems=False)
     name = _safe(name or scenario_xml.stem)
     with staged_directory(out, name) as staged:
-        roads, path = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
+        roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
-        _check_road(roads, path, scenario.lanelet_network, result)
+        _check_road(roads, path, samples, scenario.lanelet_network, result)
         result.files = publish(staged, out, [path.name])
     result.seconds = time.perf_counter() - started
     return result
 
 
-def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = OpenScenarioVersion.V1_0,
+def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = DEFAULT_VERSION,
                scenario_xml: str | Path | None = None, name: str | None = None) -> Export:
     """A run directory as ``NAME.xodr`` and ``NAME.xosc`` in ``out`` (NAME: the scenario and the
     world that ran it). ``scenario_xml``: the scenario file whose sidecar holds the road's
@@ -116,11 +135,11 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
                            (Path(run.scenario_path) if run.scenario_path else None))
     with staged_directory(out, name) as staged:
-        roads, road_path = _write_road(scenario.lanelet_network, name, blueprint, surface, staged)
+        roads, road_path, samples = _write_road(scenario.lanelet_network, name, blueprint, surface, staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
         if blueprint is None:
             result.notes.append("no blueprint beside the scenario: the road network is fitted")
-        _check_road(roads, road_path, scenario.lanelet_network, result)
+        _check_road(roads, road_path, samples, scenario.lanelet_network, result)
         users = road_users(run, scenario)
         osc = openscenario(run, users, problems, road_path.name, version, description(run, users, result.notes),
                            surface.friction)

@@ -1,0 +1,163 @@
+"""A recorded lanelet network as OpenDRIVE roads, links and junctions: neighbours become one road,
+roads meet with one heading (G1) and without gaps between linked lanes, and every successor
+relation where lanelets fork is a junction connection with its lane link."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
+from commonroad.scenario.scenario import Scenario
+
+from simgap.export.opendrive import Method
+from simgap.export.opendrive_sampling import reference_ends, sample_roads
+from simgap.export.write import export_road
+from simgap.scenario.files import write_xml
+from simgap.scenario.real_maps import map_files, maps_dir
+
+W = 3.5
+HEADING_TOLERANCE_DEG = 0.5
+GAP_TOLERANCE_M = 0.01
+
+
+def lanelet(lid: int, left: np.ndarray, right: np.ndarray, **relations) -> Lanelet:
+    return Lanelet(left, 0.5 * (left + right), right, lid, **relations)
+
+
+def polyline(start: np.ndarray, heading_deg: float, length: float, n: int = 12) -> np.ndarray:
+    d = np.array([math.cos(math.radians(heading_deg)), math.sin(math.radians(heading_deg))])
+    return start + np.linspace(0.0, length, n)[:, None] * d
+
+
+def right_turn(start: np.ndarray, heading_deg: float, radius: float, n: int = 20) -> np.ndarray:
+    h = math.radians(heading_deg)
+    centre = start + radius * np.array([math.sin(h), -math.cos(h)])
+    angles = h + math.pi / 2 - np.linspace(0.0, math.pi / 2, n)
+    return centre + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+
+
+def forked_road() -> LaneletNetwork:
+    """Two lanes (1 left, 2 right) along +x, then two lanes that go on 10 degrees to the left from a
+    kink the lanelets share (3, 4), then a fork: both lanes go on (5, 6) and the right lane also
+    turns right (7)."""
+    y = (W, 0.0, -W)                                    # the bounds, left to right
+    a = [polyline(np.array([0.0, v]), 0.0, 30.0) for v in y]
+    b = [polyline(p[-1], 10.0, 30.0) for p in a]
+    c = [polyline(p[-1], 10.0, 25.0) for p in b]
+    turn_left = right_turn(b[1][-1], 10.0, 15.0 + W)
+    turn_right = right_turn(b[2][-1], 10.0, 15.0)
+    same = dict(adjacent_left_same_direction=True, adjacent_right_same_direction=True)
+    return LaneletNetwork.create_from_lanelet_list([
+        lanelet(1, a[0], a[1], successor=[3], adjacent_right=2, **same),
+        lanelet(2, a[1], a[2], successor=[4], adjacent_left=1, **same),
+        lanelet(3, b[0], b[1], predecessor=[1], successor=[5], adjacent_right=4, **same),
+        lanelet(4, b[1], b[2], predecessor=[2], successor=[6, 7], adjacent_left=3, **same),
+        lanelet(5, c[0], c[1], predecessor=[3], adjacent_right=6, **same),
+        lanelet(6, c[1], c[2], predecessor=[4], adjacent_left=5, **same),
+        lanelet(7, turn_left, turn_right, predecessor=[4]),
+    ])
+
+
+@pytest.fixture(scope="module")
+def forked(tmp_path_factory) -> tuple[Path, object]:
+    scenario = Scenario(0.1)
+    scenario.add_objects(forked_road())
+    xml = tmp_path_factory.mktemp("forked") / "forked.xml"
+    write_xml(scenario, PlanningProblemSet(), xml)
+    export = export_road(xml, xml.parent / "out")
+    return export.files[0], export
+
+
+def contacts(xodr: Path) -> list[tuple[int, str, int, str]]:
+    """Every place where two roads meet: (road, its end, other road, its end), from road links and
+    from junction connections (incoming road to connecting road, connecting road to the next)."""
+    root = ET.parse(xodr).getroot()
+    out = []
+    for road in root.iter("road"):
+        for way, end in (("successor", "end"), ("predecessor", "start")):
+            link = road.find(f"link/{way}")
+            if link is not None and link.get("elementType") == "road":
+                out.append((int(road.get("id")), end, int(link.get("elementId")), link.get("contactPoint")))
+    return out
+
+
+def test_neighbours_are_one_road_and_a_fork_is_a_junction_with_a_connection_per_successor(forked):
+    xodr, export = forked
+    assert export.method is Method.FITTED
+    root = ET.parse(xodr).getroot()
+    roads = {int(r.get("id")): r for r in root.iter("road")}
+    ordinary = [r for r in roads.values() if r.get("junction") == "-1"]
+    assert sorted(len(r.findall(".//right/lane")) for r in ordinary) == [1, 2, 2, 2]   # 1+2, 3+4, 5+6 and 7's rest
+    (junction,) = root.findall("junction")
+    connections = junction.findall("connection")
+    assert len(connections) == 3                                    # 3->5, 4->6, 4->7
+    incoming = {int(c.get("incomingRoad")) for c in connections}
+    assert len(incoming) == 1                                       # the road of 3 and 4
+    for c in connections:
+        (link,) = c.findall("laneLink")
+        connecting = roads[int(c.get("connectingRoad"))]
+        assert connecting.get("junction") == junction.get("id") and link.get("to") == "-1"
+        assert connecting.find("link/predecessor").get("elementId") == c.get("incomingRoad")
+    assert {l.get("from") for c in connections for l in c.iter("laneLink")} == {"-1", "-2"}
+    links = export.links
+    assert (links.successors_kept, links.successors) == (5, 5) and links.junction_connections == 3
+    assert (links.neighbours_kept, links.neighbours) == (6, 6) and links.junctions == 1
+
+
+def test_roads_meet_with_one_heading_and_no_gap_between_linked_lanes(forked):
+    xodr, export = forked
+    ends = reference_ends(xodr)
+    samples = {r.road: r for r in sample_roads(xodr)}
+    met = contacts(xodr)
+    assert len(met) >= 2 * 3 + 2                                   # the direct link both ways, each connecting road
+    for road, end, other, other_end in met:
+        heading = ends[road][end == "end"][2]
+        other_heading = ends[other][other_end == "end"][2]
+        if end == other_end:                                        # roads meeting head to head
+            other_heading += math.pi
+        assert abs(math.degrees(math.remainder(heading - other_heading, 2 * math.pi))) < HEADING_TOLERANCE_DEG
+    for road, end, other, other_end in met:                        # lane borders where the lanes are linked
+        lanes = ET.parse(xodr).getroot().find(f".//road[@id='{road}']")
+        for lane in lanes.iter("lane"):
+            way = "successor" if end == "end" else "predecessor"
+            for link in lane.findall(f"link/{way}"):
+                here = samples[road].lane_borders[int(lane.get("id"))][-1 if end == "end" else 0]
+                there = samples[other].lane_borders[int(link.get("id"))][-1 if other_end == "end" else 0]
+                assert np.linalg.norm(here - there) < GAP_TOLERANCE_M
+
+
+def test_a_kinked_joint_is_smoothed_on_both_sides(forked):
+    """Lanelets 1 and 3 meet with a 10 degree kink; their roads meet at 5 degrees and stay within
+    5 cm of the lanelets (across the lanes)."""
+    xodr, export = forked
+    ends = reference_ends(xodr)
+    kink = [(r, o) for r, e, o, oe in contacts(xodr) if e == "end" and oe == "start" and
+            ET.parse(xodr).getroot().find(f".//road[@id='{r}']").get("junction") == "-1" and
+            ET.parse(xodr).getroot().find(f".//road[@id='{o}']").get("junction") == "-1"]
+    (first, second), = kink
+    assert math.degrees(ends[first][1][2]) == pytest.approx(5.0, abs=0.5)
+    assert max(export.lane_deviation_m.values()) < 0.05
+
+
+def test_the_fork_passes_asam_qc(forked, asam_qc):
+    xodr, _ = forked
+    report = asam_qc(xodr)
+    assert (report.errors, report.warnings) == (0, 0), report.rules
+
+
+def test_a_real_intersection_passes_asam_qc_and_keeps_every_successor(tmp_path, asam_qc):
+    maps = {p.stem: p for p in map_files()}
+    if "BGR_Intersection-1" not in maps:
+        pytest.skip(f"no real maps in {maps_dir()}")
+    export = export_road(maps["BGR_Intersection-1"], tmp_path)
+    report = asam_qc(export.files[0])
+    assert report.errors == 0, report.rules
+    header = ET.parse(export.files[0]).getroot().find("header")
+    assert float(header.get("east")) > float(header.get("west")) and float(header.get("north")) > float(header.get("south"))
+    links = export.links
+    assert links.successors_kept == links.successors == 35 and links.junctions >= 1
