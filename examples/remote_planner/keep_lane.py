@@ -1,6 +1,6 @@
 """A planner in a process of its own: keep the lane at a constant speed, served with simgap_planner.
 
-It needs only the client library (numpy, protobuf, pyzmq; any Python >= 3.8), not simgap:
+It needs only the client library (numpy, protobuf, pyzmq; any Python >= 3.9), not simgap:
 
     pip install -e planner-protocol/python          # into the planner's own environment
     simgap run SCENARIO.xml --out runs/x --planner 'exec:python examples/remote_planner/keep_lane.py'

@@ -65,10 +65,10 @@ def test_a_plain_physical_run_drives_the_real_car_and_says_so(sharp_curve):
 def test_measured_latency_delays_a_slow_planners_plan(sharp_curve):
     exact = {"sensing": {"profile": "perfect"}, "max_time_s": 4.0}
     prompt, _ = drive(sharp_curve, "dynamic", cosim=exact)
-    slow, _ = drive(sharp_curve, "dynamic", cosim=exact, slow=0.15)
+    slow, _ = drive(sharp_curve, "dynamic", cosim=exact, slow=0.12)     # 0.12 s: within 0.2 s on a loaded machine too
     # a plan made within its 0.1 s cycle drives from the next; one that overran it, a cycle later
     assert prompt.agents[0].plan_latency_mean_s == pytest.approx(0.1)
-    assert slow.agents[0].planning_mean_s > 0.15 and slow.agents[0].plan_latency_mean_s == pytest.approx(0.2)
+    assert slow.agents[0].planning_mean_s > 0.12 and slow.agents[0].plan_latency_mean_s == pytest.approx(0.2)
     assert slow.fingerprint != prompt.fingerprint
     # a planner that keeps its cycle repeats bit for bit
     again, _ = drive(sharp_curve, "dynamic", cosim=exact)
