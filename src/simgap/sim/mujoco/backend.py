@@ -63,7 +63,7 @@ class MujocoPhysics:
     def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
-        self.world = build_world(scenario, agents, self.settings)
+        self.world = build_world(scenario, agents, self.settings, looks=False)
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [self.world.cars[a.id] for a in agents]

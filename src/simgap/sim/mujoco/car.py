@@ -159,8 +159,10 @@ def static_tyre_loads(vehicle: Vehicle, physics: VehiclePhysics) -> list[float]:
 
 
 def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
-            rgba: tuple[float, float, float, float]) -> CarIndex:
-    """Add a car named ``prefix`` to ``spec`` at the origin (`place` puts it elsewhere)."""
+            rgba: tuple[float, float, float, float], looks: bool = True) -> CarIndex:
+    """Add a car named ``prefix`` to ``spec`` at the origin (`place` puts it elsewhere); with
+    ``looks``, the geoms that are drawn only (`car_body`): a world that only simulates leaves them
+    out, they would cost its physics step their kinematics and change nothing else."""
     ph = requires_physics(vehicle)
     h, r = ph.cg_height, ph.wheel_radius
     corners = _corner_geometry(vehicle, ph)
@@ -184,7 +186,8 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
                      size=[vehicle.length / 2, vehicle.width / 2, (waist - bottom) / 2],
                      pos=[0, 0, (waist + bottom) / 2], rgba=list(rgba), contype=1, conaffinity=1,
                      mass=0, group=COLLISION_GROUP)
-    add_body_look(spec, chassis, prefix, vehicle, ph, rgba)
+    if looks:
+        add_body_look(spec, chassis, prefix, vehicle, ph, rgba)
 
     for corner, (x, y) in corners.items():
         front = corner.startswith("front")
@@ -211,7 +214,8 @@ def add_car(spec: mujoco.MjSpec, prefix: str, vehicle: Vehicle,
         wheel.mass = ph.wheel_mass - UPRIGHT_MASS
         wheel.inertia = [ph.wheel_inertia * 0.55, ph.wheel_inertia, ph.wheel_inertia * 0.55]
         wheel.add_joint(name=f"{prefix}spin_{corner}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
-        add_wheel_look(wheel, prefix, corner, ph)
+        if looks:
+            add_wheel_look(wheel, prefix, corner, ph)
 
         if front:
             act = spec.add_actuator(name=f"{prefix}steer_{corner}", target=f"{prefix}steer_{corner}",

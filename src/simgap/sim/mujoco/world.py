@@ -111,7 +111,10 @@ def _add_scenery(spec: mujoco.MjSpec, extent: float) -> None:
     spec.visual.headlight.diffuse = [0.35, 0.35, 0.35]
 
 
-def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSettings | None = None) -> World:
+def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSettings | None = None,
+                looks: bool = True) -> World:
+    """The MuJoCo world of ``scenario`` with a car per agent; ``looks`` adds what is drawn only
+    (the cars' bodies and wheels as pictures show them), which a world that only simulates leaves out."""
     settings = settings or WorldSettings()
     spec = mujoco.MjSpec()
     spec.modelname = str(scenario.scenario_id)
@@ -139,7 +142,7 @@ def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSett
 
     cars = {}
     for i, agent in enumerate(agents):
-        cars[agent.id] = add_car(spec, f"agent{agent.id}_", agent.vehicle, CAR_COLOURS[i % len(CAR_COLOURS)])
+        cars[agent.id] = add_car(spec, f"agent{agent.id}_", agent.vehicle, CAR_COLOURS[i % len(CAR_COLOURS)], looks)
 
     traffic_specs = []
     for obstacle in recorded_obstacles(scenario):
