@@ -282,15 +282,10 @@ class _Connection:
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     self.process.wait(0.5)
             if self.process.poll() is None:
-                os.killpg(self.process.pid, signal.SIGKILL) if _own_group(self.process) else self.process.kill()
+                with contextlib.suppress(ProcessLookupError):     # started in a session of its own: its group
+                    os.killpg(self.process.pid, signal.SIGKILL)
                 self.process.wait()
             shutil.rmtree(self.folder, ignore_errors=True)
-
-
-def _own_group(process: subprocess.Popen) -> bool:
-    with contextlib.suppress(OSError):
-        return os.getpgid(process.pid) == process.pid
-    return False
 
 
 class RemotePlanner:
