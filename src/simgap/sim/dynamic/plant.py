@@ -103,6 +103,7 @@ def single_track_parameters(vehicle, params_id: int = 2) -> VehicleParameters:
 # 2000 rad/s), so at walking pace the sub-step shrinks below integration_step
 STABLE_STEP_PER_SPEED = 0.008
 KINEMATIC_BELOW_M_S = 0.1
+STANDSTILL_M_S = 1e-3           # the pedal map's standstill: below it brakes hold rather than decelerate
 
 
 class SingleTrackPlant:
@@ -182,7 +183,6 @@ class SingleTrackPlant:
         demanded = self.pedal_map.acceleration(command.throttle, command.brake, v)
         a = demanded + (self._accel - demanded) * mean_weight
         self._accel = demanded + (self._accel - demanded) * decay
-        held = max(-a, 0.0)             # what the brakes hold at a standstill
         pull = 0.0 if self.slope is None else self.slope.along
         if v <= 0.0 and a < 0.0:
             a = 0.0                      # brakes hold, they do not reverse
@@ -193,13 +193,24 @@ class SingleTrackPlant:
         cap = math.sqrt(max(self.grip * self.grip - lateral * lateral, 0.0))
         a = min(max(a, -cap), cap)
         slope = self.slope
-        if slope is not None and v <= 0.0:      # at a standstill: the brakes hold the slope's pull up to their own
-            slope = Slope(slope.along - held, slope.across) if slope.along > held else None
+        if slope is not None and v < STANDSTILL_M_S:
+            slope, a = self._standing(slope, command, a, v, h)
         x = self._rk4(x, target, a, h, slope)
         if x[3] < 0.0:
             x[3] = 0.0
         self._applied = a if slope is None else a + slope.along
         return x
+
+    def _standing(self, slope: Slope, command: Command, a: float, v: float, h: float) -> tuple[Slope | None, float]:
+        """The slope's pull and the acceleration of a car at a standstill: the brakes (their
+        deceleration in motion) hold a pull forward up to their own, a pull back holds the car
+        unless the drive beats it (it cannot roll back); a car held stays where it is."""
+        held = max(-self.pedal_map.acceleration(command.throttle, command.brake, 1.0), 0.0)
+        if slope.along > 0.0:
+            slope = Slope(slope.along - held, slope.across)
+        if a + slope.along <= 0.0:
+            return None, -v / h
+        return slope, a
 
     # ------------------------------------------------------------------------------------
     def _rhs(self, x: list[float], target: float, a: float, slope: Slope | None) -> list[float]:
