@@ -15,6 +15,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 STATE_FIELDS = ("t", "x", "y", "yaw", "v", "a", "yaw_rate", "steer")
+ATTITUDE_FIELDS = ("z", "pitch", "roll")
 
 
 def wrap_angle(angle):
@@ -49,6 +50,17 @@ class State:
 
     def as_tuple(self) -> tuple[float, ...]:
         return tuple(getattr(self, f) for f in STATE_FIELDS)
+
+
+@dataclass(frozen=True)
+class Attitude:
+    """What a world with a third dimension adds to a vehicle's `State` (the planner's world is a
+    plane): the height of its centre of gravity [m], its pitch [rad, positive nose up] and roll
+    [rad, positive right side down] — a road's grade and superelevation have the same signs."""
+
+    z: float
+    pitch: float
+    roll: float
 
 
 class Trajectory:

@@ -6,6 +6,7 @@ import math
 import time
 
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 from commonroad.common.util import Interval
 from commonroad.geometry.shape import Rectangle
@@ -17,8 +18,11 @@ from commonroad.scenario.state import CustomState, InitialState
 
 from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
+from simgap.scenario.geometry import Straight, centre_line
+from simgap.scenario.relief import ElevationProfile, ReliefProfile, RoadRelief
 from simgap.scenario.road_frame import footprint
 from simgap.sim.ideal import IdealBackend
+from simgap.sim.registry import make_backend
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles import load_vehicle
 
@@ -123,6 +127,25 @@ def test_run_record_reloads_equal(tmp_path):
     assert len(again.plans[1]) == len(result.plans[1])
     assert all(a == b for a, b in zip(sorted(again.plans[1], key=lambda p: p.t[0]), result.plans[1]))
     assert again.agents == result.agents
+
+
+def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal_world_none(tmp_path):
+    relief = RoadRelief(ReliefProfile(elevation=ElevationProfile(grade=5.0)),
+                        centre_line([Straight(length=200.0)], start=(0.0, 1.75), max_step=0.2))
+    problems = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150)])
+    agents = agents_from_problems(problems, DT, load_vehicle("sedan"))
+    ideal = simulate(straight_road(), problems, IdealBackend(), agents, {1: StraightLine(10.0)}, relief=relief)
+    assert ideal.attitudes == {}
+    ideal.save(tmp_path / "ideal")
+    assert "z" not in pq.read_table(tmp_path / "ideal" / "trajectories.parquet").column_names
+    physical = simulate(straight_road(), problems, make_backend("dynamic"), agents, {1: StraightLine(10.0)}, relief=relief)
+    attitudes, driven = physical.attitudes[1], physical.driven[1]
+    assert len(attitudes) == len(driven)
+    assert np.array([a.pitch for a in attitudes]) == pytest.approx(math.atan(0.05), abs=1e-4)   # (its heading wavers)
+    assert np.array([a.z for a in attitudes]) == pytest.approx(0.05 * driven.x + 0.61373 / math.cos(math.atan(0.05)),
+                                                                abs=1e-3)
+    physical.save(tmp_path / "dynamic")
+    assert Run.load(tmp_path / "dynamic").attitudes == physical.attitudes
 
 
 def test_replan_every_n_plans_less_often():

@@ -104,6 +104,40 @@ def test_bank_and_grade_become_superelevation_and_elevation(tmp_path):
     assert float(road.find("elevationProfile/elevation").get("b")) == pytest.approx(math.tan(math.radians(3.0)))
 
 
+def _profile(road: ET.Element, path: str, stations: np.ndarray) -> np.ndarray:
+    """The cubic records at ``path`` of an OpenDRIVE road, evaluated at ``stations``."""
+    records = sorted((float(r.get("s")), *(float(r.get(k)) for k in "abcd")) for r in road.findall(path))
+    starts = np.array([r[0] for r in records])
+    k = np.clip(np.searchsorted(starts, stations, side="right") - 1, 0, len(records) - 1)
+    s0, a, b, c, d = np.array(records)[k].T
+    u = stations - s0
+    return a + b * u + c * u ** 2 + d * u ** 3
+
+
+def test_a_roads_relief_becomes_its_elevation_and_superelevation_profiles(tmp_path):
+    concrete = build_scenario("s-curve", {"radius": 40, "angle": 60, "grade": 6, "grade_change": -12,
+                                          "vertical_radius": 300, "bank": 5})
+    xml = write_scenario(concrete, tmp_path / "scenarios", preview=False)
+    export = export_road(xml, tmp_path / "out")              # checked: schema, lane centres
+    (xodr,) = export.files
+    assert export.method is Method.EXACT and checks.schema_errors(xodr)[1] == []
+    road = ET.parse(xodr).getroot().find("road")
+    relief = concrete.blueprint.relief
+    s = np.linspace(0.0, float(road.get("length")), 2001)
+    assert len(road.findall("elevationProfile/elevation")) == 3      # a grade, the crest, the grade after it
+    assert np.abs(_profile(road, "elevationProfile/elevation", s) - relief.height(s)[0]).max() < 1e-9
+    assert np.abs(_profile(road, "lateralProfile/superelevation", s) - relief.bank(s)[0]).max() < 1e-9
+    # the knobs' bank and grade add to the relief
+    tilted = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, Surface(1.0, 2.0, 1.0))
+    tilted.opendrive.write_xml(str(tmp_path / "tilted.xodr"))
+    assert checks.schema_errors(tmp_path / "tilted.xodr")[1] == []
+    road = ET.parse(tmp_path / "tilted.xodr").getroot().find("road")
+    assert _profile(road, "elevationProfile/elevation", s) == pytest.approx(
+        relief.height(s)[0] + math.tan(math.radians(1.0)) * s, abs=1e-9)
+    assert _profile(road, "lateralProfile/superelevation", s) == pytest.approx(
+        relief.bank(s)[0] + math.radians(2.0), abs=1e-9)
+
+
 def test_a_t_junction_with_three_agents_replays_on_its_connecting_roads(tmp_path):
     xml = write_scenario(build_scenario("t-junction", {"agents": 3}), tmp_path / "scenarios", preview=False)
     run_dir = run_of(xml, tmp_path / "run")

@@ -22,6 +22,10 @@ overran. A planner that keeps its cycle runs bit for bit the same; one that over
 calls makes the run depend on the machine's speed there (a fixed latency never does). Until a
 plan arrives the car follows the plan it had.
 The ideal world takes neither: it is the planner's assumption.
+
+On a road with a relief (its ``relief``, handed to the backend) the planners still plan and
+observe in the plane; the record keeps, beside each driven state, the car's height, pitch and roll
+where the backend has them (`Backend.attitudes`).
 """
 
 from __future__ import annotations
@@ -45,9 +49,10 @@ from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
 from simgap.scenario.goal import Goal
+from simgap.scenario.relief import RoadRelief
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged, PlanHandover, PlanInForce, Realism
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import Attitude, State, Trajectory
 
 
 MEASURED = "measured"
@@ -111,6 +116,7 @@ class _AgentProgress:
     deadline: float
     localisation: Localisation                  # what its planner sees of its car
     driven: list[State] = field(default_factory=list)
+    attitudes: list[Attitude] = field(default_factory=list)    # beside `driven`, where the backend has them
     plans: list[Trajectory] = field(default_factory=list)
     plan: Trajectory | None = None              # the newest plan (what the other agents see)
     in_force: Trajectory | None = None          # the plan the car follows
@@ -186,20 +192,23 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     seed: int = 0,
     wall_time_limit_s: float | None = None,
+    relief: RoadRelief | None = None,
 ) -> Run:
-    """Run the co-simulation of ``agents`` (one per planning problem) in ``backend``; ``seed``
-    seeds the localisations' errors. A run still going after ``wall_time_limit_s`` (even in a
-    planning call that does not return) is stopped and recorded as failed."""
+    """Run the co-simulation of ``agents`` (one per planning problem) in ``backend`` on the road's
+    ``relief`` (None: flat); ``seed`` seeds the localisations' errors. A run still going after
+    ``wall_time_limit_s`` (even in a planning call that does not return) is stopped and recorded as
+    failed."""
     return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed,
-                         wall_time_limit_s).run(progress)
+                         wall_time_limit_s, relief).run(progress)
 
 
 class _CoSimulation:
     """One run of the loop: the agents' progress, the traffic, the events and the timings."""
 
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
-                 planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None):
-        self.scenario, self.backend, self.settings = scenario, backend, settings
+                 planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None,
+                 relief: RoadRelief | None):
+        self.scenario, self.backend, self.settings, self.relief = scenario, backend, settings, relief
         self.realism = backend.realism
         self.wall_time_limit_s = wall_time_limit_s
         self.planning_agent: int | None = None      # whose planner is running
@@ -222,15 +231,14 @@ class _CoSimulation:
 
     def run(self, progress: Callable[[float], None] | None) -> Run:
         wall_start = time.perf_counter()
-        self.backend.load(self._scenario_for_backend(), self.agents)
+        self.backend.load(self._scenario_for_backend(), self.agents, self.relief)
         failure = None
         limit = self.wall_time_limit_s
         step = 0
         try:
             with interruptions(limit):
                 states = self.backend.reset()
-                for aid, st in states.items():
-                    self.progress_of[aid].driven.append(st)
+                self._drove(states)
                 while any(p.active for p in self.progress_of.values()):
                     if limit is not None and time.perf_counter() - wall_start > limit:
                         raise WallClockExceeded(limit)
@@ -283,12 +291,19 @@ class _CoSimulation:
         self.timings["execution"] += time.perf_counter() - clock
         clock = time.perf_counter()
         self.traffic.advance(t, self.dt, snapshot)
-        for aid, st in states.items():
-            if self.progress_of[aid].active:      # a finished agent's record ends where it finished
-                self.progress_of[aid].driven.append(st)
+        self._drove({aid: st for aid, st in states.items() if self.progress_of[aid].active})
         self._monitor(states, t + self.dt)
         self.timings["monitoring"] += time.perf_counter() - clock
         return states
+
+    def _drove(self, states: Mapping[int, State]) -> None:
+        """Record the agents' ``states`` (a finished agent's record ends where it finished) and
+        their attitudes."""
+        attitudes = self.backend.attitudes()
+        for aid, st in states.items():
+            self.progress_of[aid].driven.append(st)
+            if aid in attitudes:
+                self.progress_of[aid].attitudes.append(attitudes[aid])
 
     def _plan(self, p: _AgentProgress, state: State, t: float, snapshot: Mapping[int, TrafficParticipant]) -> None:
         """Let ``p``'s planner plan when it is due; a failure brakes the agent in its lane."""
@@ -476,6 +491,8 @@ class _CoSimulation:
             driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
                     for aid, p in self.progress_of.items()},
             plans={aid: p.plans for aid, p in self.progress_of.items()},
+            attitudes={aid: tuple(p.attitudes) for aid, p in self.progress_of.items()
+                       if p.attitudes and len(p.attitudes) == len(p.driven)},
             events=self.events, timings=self.timings, wall_time_s=wall_time,
             settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
             failure=failure, planner_errors=self.planner_errors,

@@ -3,9 +3,13 @@
 On disk a run is a directory:
 
 - ``run.json``            metadata, per-agent outcomes, events, timings, fingerprint
-- ``trajectories.parquet`` every agent's driven states and every plan it made (columnar)
+- ``trajectories.parquet`` every agent's driven states and every plan it made (columnar); from a world
+                          with a third dimension also each driven state's height, pitch and roll
+                          (columns ``z``, ``pitch``, ``roll``: absent from a run without them)
 - ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
                           offset by `AGENT_ID_OFFSET`)
+- ``driven.json``         the scenario's sidecar (`simgap.scenario.read_metadata` reads it beside
+                          ``driven.xml``): what CommonRoad XML cannot hold, such as the road's relief
 - ``solution.xml``        every agent's driven trajectory as a CommonRoad solution (`simgap.evaluate.solution`)
 
 The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
@@ -16,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import traceback
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
@@ -31,7 +36,7 @@ from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.cosim.fidelity import Fidelity
 from simgap.sim.protocol import Realism
-from simgap.trajectory import STATE_FIELDS, Trajectory
+from simgap.trajectory import ATTITUDE_FIELDS, STATE_FIELDS, Attitude, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
 AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
@@ -154,6 +159,7 @@ class Run:
     vehicles: dict[int, Vehicle] = field(default_factory=dict)    # the model each agent drove
     metrics: dict[str, float] = field(default_factory=dict)       # simgap.evaluate.run_metrics, worst over agents
     planner_errors: list[PlannerError] = field(default_factory=list)   # the first few, with tracebacks
+    attitudes: dict[int, tuple[Attitude, ...]] = field(default_factory=dict)   # beside each driven state (3D worlds)
 
     # ------------------------------------------------------------------ derived
     def vehicle_of(self, agent_id: int) -> Vehicle:
@@ -226,13 +232,15 @@ class Run:
         return atomic_write_text(Path(run_dir) / "run.json", self._record_json())
 
     def save(self, run_dir: str | Path, driven_scenario_xml: str | None = None,
-             solution_xml: str | None = None) -> Path:
+             solution_xml: str | None = None, scenario_metadata: dict[str, Any] | None = None) -> Path:
         """Write the run directory atomically (built aside, then swapped into place)."""
         def write(tmp: Path) -> None:
             (tmp / "run.json").write_text(self._record_json())
             pq.write_table(self._trajectory_table(), tmp / "trajectories.parquet")
             if driven_scenario_xml is not None:
                 (tmp / "driven.xml").write_text(driven_scenario_xml)
+                if scenario_metadata:
+                    (tmp / "driven.json").write_text(json.dumps(scenario_metadata, indent=2))
             if solution_xml is not None:
                 (tmp / "solution.xml").write_text(solution_xml)
 
@@ -240,7 +248,8 @@ class Run:
 
     def _trajectory_table(self) -> pa.Table:
         cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}
-        cols.update({f: [] for f in STATE_FIELDS})
+        third = ATTITUDE_FIELDS if self.attitudes else ()
+        cols.update({f: [] for f in STATE_FIELDS + third})
 
         def add(kind: str, aid: int, plan_t: float, traj: Trajectory) -> None:
             n = len(traj)
@@ -250,6 +259,9 @@ class Run:
             cols["k"].extend(range(n))
             for f in STATE_FIELDS:
                 cols[f].extend(getattr(traj, f).tolist())
+            attitudes = self.attitudes.get(aid, ()) if kind == "driven" else ()
+            for f in third:
+                cols[f].extend([getattr(a, f) for a in attitudes] if attitudes else [math.nan] * n)
 
         for aid, traj in sorted(self.driven.items()):
             add("driven", aid, float("nan"), traj)
@@ -257,7 +269,7 @@ class Run:
             for plan in plans:
                 add("planned", aid, float(plan.t[0]), plan)
         schema = pa.schema([("kind", pa.string()), ("agent_id", pa.int64()), ("plan_t", pa.float64()),
-                            ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS])
+                            ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS + third])
         return pa.table(cols, schema=schema)
 
     # ------------------------------------------------------------------ reading
@@ -284,10 +296,13 @@ class Run:
         groups: dict[tuple[str, int, float], list[int]] = {}
         for i, (kind, aid, pt) in enumerate(zip(table["kind"], table["agent_id"], table["plan_t"])):
             groups.setdefault((kind, aid, -1.0 if kind == "driven" else pt), []).append(i)
+        attitudes: dict[int, tuple[Attitude, ...]] = {}
         for (kind, aid, _), rows in groups.items():
             traj = Trajectory(dt, **{f: [table[f][i] for i in rows] for f in STATE_FIELDS})
             if kind == "driven":
                 driven[aid] = traj
+                if "z" in table and not math.isnan(table["z"][rows[0]]):
+                    attitudes[aid] = tuple(Attitude(*(table[f][i] for f in ATTITUDE_FIELDS)) for i in rows)
             else:
                 plans.setdefault(aid, []).append(traj)
         return cls(
@@ -302,6 +317,7 @@ class Run:
             vehicles={int(aid): Vehicle.model_validate(v) for aid, v in (meta.get("vehicles") or {}).items()},
             metrics=meta.get("metrics") or {},
             planner_errors=[PlannerError(**e) for e in meta.get("planner_errors") or []],
+            attitudes=attitudes,
         )
 
 

@@ -29,6 +29,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.blueprint import relief_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
@@ -155,6 +156,7 @@ def execute(request: RunRequest, out: Path | None = None,
         vehicles = {pid: load_vehicle(name) for pid, name in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
+    meta = read_metadata(request.scenario)
     planners, errors, planner_records = {}, [], {}
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
         for a in agents:
@@ -180,14 +182,13 @@ def execute(request: RunRequest, out: Path | None = None,
         else:
             backend = make_backend(request.backend, request.backend_settings)
             run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
-                           wall_time_limit_s=request.run_timeout_s)
+                           wall_time_limit_s=request.run_timeout_s, relief=relief_of(meta))
         for aid, planner in planners.items():
             if callable(getattr(planner, "record", None)):
                 planner_records[aid]["process"] = planner.record()
     for outcome in run.agents:
         outcome.planner = planner_records[outcome.id]["name"]
         outcome.recorded_as = recorded_egos.get(outcome.id)
-    meta = read_metadata(request.scenario)
     run.scenario_id = meta.get("name", Path(request.scenario).stem)
     run.scenario_path = str(request.scenario)
     run.parameters = meta.get("parameters", {})
@@ -207,7 +208,7 @@ def execute(request: RunRequest, out: Path | None = None,
         t0 = time.perf_counter()
         xml = scenario_xml(driven_scenario(scenario, agents, run), problems)
         run.timings["io"] = time.perf_counter() - t0
-        run.save(out, xml, solution_xml(solution))
+        run.save(out, xml, solution_xml(solution), meta)
     if request.validate:           # the slow check, once the run is safe on disk
         clock = time.perf_counter()
         cached = check_run_solution(run, solution, scenario, problems, request.scenario,

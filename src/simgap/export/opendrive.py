@@ -17,10 +17,13 @@ Two ways, chosen per scenario:
   (`simgap.export.road_topology`); each road's reference line, lane offset and widths are fitted
   to its lanelets (`simgap.export.lanelet_fit`) and its largest deviation from them is reported.
 
-Every driving lane carries the road friction as its material friction; a bank is every road's
-superelevation (positive: the road falls to the right of its reference line); a grade is the
-elevation of a network of one road (on a network whose roads meet, a grade along each vehicle's
-way of travel has no single elevation profile: the caller notes it instead).
+Every driving lane carries the road friction as its material friction. A generated road's relief
+(`simgap.scenario.relief`) is its ``elevationProfile`` (a record per grade and per vertical curve:
+lines and parabolas) and its ``lateralProfile/superelevation`` (a record per stretch between two
+bank knots: linear), exact. The reality knobs add to it: a bank is every road's superelevation
+(positive: the road falls to the right of its reference line); a grade is the elevation of a
+network of one road (on a network whose roads meet, a grade along each vehicle's way of travel has
+no single elevation profile: the caller notes it instead).
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from simgap.export.road_topology import topology
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import curvature_pieces
 from simgap.scenario.markings import MARKING_STYLE
+from simgap.scenario.relief import ReliefProfile
 
 OPENDRIVE_VERSION = (1, 7)          # the version written (its schema ships with scenariogeneration)
 
@@ -158,8 +162,8 @@ def _centre_lane(marking: LineMarking) -> xodr.Lane:
 
 
 def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lanes: xodr.Lanes,
-          surface: Surface, junction: int = -1, grade: bool = False) -> xodr.Road:
-    """A road from geometries placed at (x, y, heading), laid end to end."""
+          surface: Surface, junction: int = -1, grade: bool = False, relief: ReliefProfile | None = None) -> xodr.Road:
+    """A road from geometries placed at (x, y, heading), laid end to end, on its ``relief`` (None: flat)."""
     planview = xodr.PlanView()
     s = 0.0
     for geometry, x, y, hdg in pieces:
@@ -167,11 +171,27 @@ def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lane
         s += geometry.length
     planview.adjust_geometries()
     road = xodr.Road(road_id, planview, lanes, road_type=junction)
+    if relief is not None:
+        _add_relief(road, relief, surface)
+        return road
     if surface.bank_deg:
         road.add_superelevation(0.0, math.radians(surface.bank_deg), 0.0, 0.0, 0.0)
     if grade and surface.grade_deg:
         road.add_elevation(0.0, 0.0, math.tan(math.radians(surface.grade_deg)), 0.0, 0.0)
     return road
+
+
+def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: Surface) -> None:
+    """The relief's records (the knobs' bank and grade added to every one)."""
+    grade = math.tan(math.radians(surface.grade_deg))
+    pieces = relief.elevation.pieces()
+    for piece, after in zip(pieces, pieces[1:] + (None,)):
+        if after is None or after.s_start > piece.s_start:      # a piece of no length (a curve from s = 0) is left out
+            road.add_elevation(piece.s_start, piece.a + grade * piece.s_start, piece.b + grade, piece.c, 0.0)
+    stations = np.array([0.0] + [k.s for k in relief.superelevation if k.s > 0.0])
+    banks = relief.bank(stations)[0] + math.radians(surface.bank_deg)
+    for s, bank, rate in zip(stations, banks, np.append(np.diff(banks) / np.diff(stations), 0.0)):
+        road.add_superelevation(float(s), float(bank), float(rate), 0.0, 0.0)
 
 
 def _opendrive(name: str) -> xodr.OpenDrive:
@@ -201,7 +221,7 @@ def _exact_road(blueprint: RoadBlueprint, name: str, surface: Surface) -> RoadNe
     odr_lanes = xodr.Lanes()
     odr_lanes.add_lanesection(section)
     odr = _opendrive(name)
-    odr.add_road(_road(1, pieces, odr_lanes, surface, grade=True))
+    odr.add_road(_road(1, pieces, odr_lanes, surface, grade=True, relief=blueprint.relief))
     return RoadNetwork(odr, Method.EXACT, lanes)
 
 

@@ -1,8 +1,10 @@
 """What a generated road network was built from, kept beside the scenario so that other formats
 (OpenDRIVE) can write the exact geometry instead of fitting the sampled lanelets.
 
-A template records its blueprint in the scenario's sidecar (``blueprint``): a road is its segments
-and lane layout, a junction its arms, approach length, lane width and centre marking. Lanelet ids
+A template records its blueprint in the scenario's sidecar (``blueprint``): a road is its segments,
+lane layout and, when it is not flat, its relief (`simgap.scenario.relief`: elevation and
+superelevation along its centre line); a junction its arms, approach length, lane width and centre
+marking (junctions are flat). Lanelet ids
 are allocated from ``first_id`` exactly as the template did, so rebuilding a blueprint gives the
 same lanelets (`rebuild`).
 """
@@ -15,7 +17,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from simgap.scenario.geometry import Arc, CentreLine, Straight, centre_line
 from simgap.scenario.junction import Junction, build_junction
+from simgap.scenario.relief import ReliefProfile, RoadRelief
 from simgap.scenario.road import LaneLayout, Road, build_road
+
+RELIEF_SAMPLE_M = 0.2      # sampling of the centre line a relief is laid on [m]
 
 
 class RoadBlueprint(BaseModel):
@@ -29,6 +34,7 @@ class RoadBlueprint(BaseModel):
     two_way: bool = True
     centre_marking: str = "solid"      # as `LaneLayout` and `build_junction` take it
     first_id: int
+    relief: ReliefProfile | None = None     # None: flat
 
     @property
     def layout(self) -> LaneLayout:
@@ -39,6 +45,12 @@ class RoadBlueprint(BaseModel):
 
     def rebuild(self) -> Road:
         return build_road(self.centre(), self.layout, self.first_id)
+
+    def road_relief(self) -> RoadRelief | None:
+        """The road's surface in the world (None: flat)."""
+        if self.relief is None:
+            return None
+        return RoadRelief(self.relief, centre_line(self.segments, max_step=RELIEF_SAMPLE_M))
 
 
 class JunctionBlueprint(BaseModel):
@@ -74,3 +86,9 @@ def blueprint_of(metadata: Mapping[str, Any]) -> RoadBlueprint | JunctionBluepri
         return _Holder.model_validate({"blueprint": raw}).blueprint
     except ValidationError:
         return None
+
+
+def relief_of(metadata: Mapping[str, Any]) -> RoadRelief | None:
+    """The surface of the road in a scenario's sidecar (None: flat, or not a generated road)."""
+    blueprint = blueprint_of(metadata)
+    return blueprint.road_relief() if isinstance(blueprint, RoadBlueprint) else None

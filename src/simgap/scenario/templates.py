@@ -4,6 +4,14 @@ A logical scenario (see `logical`) names one of these templates and spans a spac
 parameters. Templates validate what only they can judge (a radius too small for the road, a
 road that crosses itself, a road or junction approach longer than `MAX_ROAD_LENGTH_M`, 20 km) and
 raise `InputError` naming the parameter.
+
+A road (``curve``, ``s-curve``, ``road``) may have a relief (`simgap.scenario.relief`), from these
+parameters: ``grade`` [%] from its start; ``grade_change`` [%] at one vertical curve of
+``vertical_radius`` [m] (a crest where the grade falls, a sag where it rises) whose vertex lies
+``vertical_curve_shift`` [m] after the road's middle; ``bank`` [deg] on every curve, positive into
+the turn (its outside raised), negative against it (an adverse camber), built up over the curve's
+clothoids or, without, over ``bank_transition`` [m] of the road before and after it. All zero: a
+flat road, with no relief at all.
 """
 
 from __future__ import annotations
@@ -26,9 +34,14 @@ from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight,
 from simgap.scenario.opendrive.origin import OpenDriveOrigin
 from simgap.scenario.physical_bounds import MIN_LANE_WIDTH
 from simgap.scenario.problem import planning_problem
+from simgap.scenario.relief import (MAX_BANK_DEG, MAX_GRADE_PERCENT, BankKnot, ElevationProfile, ReliefProfile,
+                                    VerticalCurve)
 from simgap.scenario.road import LaneLayout, build_road
 
 LANELET_ID_START = 100  # planning problems (agents) take ids 1, 2, 3, ...
+VERTICAL_RADIUS_M = 500.0       # a vertical curve's radius unless told
+BANK_TRANSITION_M = 20.0        # length of a bank's run-in and run-out on the straights unless told
+VERTICAL_CURVE_FIELDS = "grade, grade_change, vertical_radius, vertical_curve_shift"
 
 
 @dataclass
@@ -48,7 +61,7 @@ class ConcreteScenario:
     def metadata(self) -> dict[str, Any]:
         meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
                 "sections": {str(k): v for k, v in sorted(self.sections.items())},
-                "blueprint": self.blueprint.model_dump(mode="json") if self.blueprint else None}
+                "blueprint": self.blueprint.model_dump(mode="json", exclude_none=True) if self.blueprint else None}
         if self.opendrive is not None:
             meta["opendrive"] = self.opendrive.model_dump(mode="json", exclude_none=True)
         return meta
@@ -90,6 +103,53 @@ def _check_radii(segments: list[Segment], layout: LaneLayout) -> None:
                     allowed=f"> {inner + 1.0:g} m (inner half-width + 1 m)")
 
 
+def _road_relief(p: dict[str, Any], segments: list[Segment]) -> ReliefProfile | None:
+    """The relief the road parameters ask for (see the module doc); None when they leave it flat."""
+    pieces = curvature_pieces(segments)
+    grade, change = float(p.get("grade", 0.0)), float(p.get("grade_change", 0.0))
+    bank, transition = float(p.get("bank", 0.0)), float(p.get("bank_transition", BANK_TRANSITION_M))
+    if abs(bank) > MAX_BANK_DEG:
+        raise InputError(f"bank {bank:g} deg", field="bank", allowed=f"within ±{MAX_BANK_DEG:g} deg")
+    if bank and not transition > 0.0:
+        raise InputError(f"bank transition {transition:g} m", field="bank_transition", allowed="> 0 m")
+    vertex = sum(length for _, length, _, _ in pieces) / 2 + float(p.get("vertical_curve_shift", 0.0))
+    try:
+        changes = (VerticalCurve(s=vertex, grade=grade + change,
+                                 radius=float(p.get("vertical_radius", VERTICAL_RADIUS_M))),) if change else ()
+        profile = ReliefProfile(elevation=ElevationProfile(grade=grade, changes=changes),
+                                superelevation=_banked_curves(pieces, bank, transition) if bank else ())
+    except ValidationError as err:
+        raise InputError(err.errors()[0]["msg"].removeprefix("Value error, "), field=VERTICAL_CURVE_FIELDS,
+                         allowed=f"grades within ±{MAX_GRADE_PERCENT:g} %, a positive radius, and a vertical curve "
+                                 "(vertical_radius x |grade_change| long) that begins on the road") from None
+    return None if profile.flat else profile
+
+
+def _banked_curves(pieces: list[tuple[str, float, float, float]], bank: float, transition: float) -> tuple[BankKnot, ...]:
+    """Superelevation knots: ``bank`` on every arc, falling towards its inside (OpenDRIVE's sign: a
+    left turn's road falls to the left, negative), none on the straights, linear in between — over
+    the clothoids, or over ``transition`` of the straight next to an arc (less on a straight shorter
+    than that), or, between two arcs that touch, over ``transition`` centred on the joint."""
+    kinds = [kind for kind, _, _, _ in pieces]
+    knots: list[BankKnot] = []
+    s = 0.0
+    for i, (kind, length, k0, _) in enumerate(pieces):
+        start, end = s, s + length
+        s = end
+        if kind == "clothoid":
+            continue
+        before = i > 0 and kinds[i - 1] == "curve"
+        after = i + 1 < len(kinds) and kinds[i + 1] == "curve"
+        share = 0.5 if kind == "curve" else 1.0      # an arc gives half a transition to a touching arc
+        value = -math.copysign(bank, k0) if kind == "curve" else 0.0
+        start += share * transition if before else 0.0
+        end -= share * transition if after else 0.0
+        for at in (start, end):
+            if end >= start and (not knots or at > knots[-1].s):
+                knots.append(BankKnot(s=at, bank=value))
+    return tuple(knots)
+
+
 def road_scenario(name: str, logical: str, params: dict[str, Any], segments: list[Segment],
                   length_fields: str = "segments") -> ConcreteScenario:
     """A single road from ``segments``; one agent from 10 m in to 10 m before the end. A road longer
@@ -121,7 +181,8 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
         time_limit_s=float(params.get("time_limit", 60.0)))
     blueprint = RoadBlueprint(segments=list(segments), lanes_per_direction=layout.lanes_per_direction,
                               lane_width=layout.lane_width, two_way=layout.two_way,
-                              centre_marking=layout.centre_marking, first_id=LANELET_ID_START)
+                              centre_marking=layout.centre_marking, first_id=LANELET_ID_START,
+                              relief=_road_relief(params, segments))
     return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
                             dict(road.section_by_id), blueprint=blueprint)
 

@@ -1,7 +1,8 @@
 """The ideal 2D backend: every plan is executed exactly, as in CommonRoad.
 
 After each step a vehicle stands on its plan at t + dt (perfect control, exact state
-knowledge, no dynamics). It is the low-fidelity end of the fidelity ladder.
+knowledge, no dynamics) on a plane, whatever the road's relief. It is the low-fidelity end of the
+fidelity ladder.
 """
 
 from __future__ import annotations
@@ -10,8 +11,9 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
-from simgap.trajectory import State
+from simgap.trajectory import Attitude, State
 
 
 class IdealBackend:
@@ -27,7 +29,7 @@ class IdealBackend:
         self.timings: dict[str, float] = {}
         self.notes: list[str] = []
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
 
@@ -49,6 +51,9 @@ class IdealBackend:
             if a.id not in self._states and enters_at(a, t_next, self._dt):
                 self._states[a.id] = a.initial_state.replace(t=t_next)
         return dict(self._states)
+
+    def attitudes(self) -> dict[int, Attitude]:
+        return {}
 
     def events(self) -> list[BackendEvent]:
         return []

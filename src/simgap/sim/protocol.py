@@ -8,7 +8,8 @@ from typing import Mapping, Protocol, Sequence, Union
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.trajectory import State, Trajectory
+from simgap.scenario.relief import RoadRelief
+from simgap.trajectory import Attitude, State, Trajectory
 from simgap.vehicles import Vehicle
 
 REFERENCE = "ideal"     # the ideal backend's name: the world of the planner's assumptions, which every other is compared with
@@ -78,7 +79,8 @@ class Backend(Protocol):
     """A world that advances exactly one scenario dt per `step`.
 
     ``load`` is given the scenario (lanelets, non-agent obstacles), the agents and the
-    vehicle each agent drives. The run's clock starts at 0 (the scenario's first time step).
+    vehicle each agent drives, and the road's relief (None: a flat road; the ideal world is flat
+    whatever the road: the planner's assumption). The run's clock starts at 0 (the scenario's first time step).
     ``reset`` puts every agent whose initial state is at 0 there and returns the observed
     states. ``step`` executes the plans (each starting at the current time) for one dt and
     returns each present agent's observed state afterwards. An agent whose initial state lies
@@ -89,7 +91,9 @@ class Backend(Protocol):
     The loop reads ``timings`` (wall seconds spent per phase inside the backend, e.g. control
     and physics; added to the run's timings) and ``notes`` (what the backend did that the run
     record should say, e.g. how it approximated a moving start) once the run ends. A plan that
-    reaches a car during the step (a `PlanHandover`) is followed from its time on.
+    reaches a car during the step (a `PlanHandover`) is followed from its time on. ``attitudes``
+    gives the third dimension of the states the last `reset` or `step` returned, for the agents
+    whose world has one.
     """
 
     name: str
@@ -97,11 +101,15 @@ class Backend(Protocol):
     notes: list[str]
     realism: Realism            # the ideal world's is IDEAL: the loop then adds no sensing error and no latency
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None: ...
 
     def reset(self) -> dict[int, State]: ...
 
     def step(self, plans: Mapping[int, PlanInForce]) -> dict[int, State]: ...
+
+    def attitudes(self) -> dict[int, Attitude]:
+        """Height, pitch and roll of the agents of the last states (none from a plane)."""
+        ...
 
     def events(self) -> list[BackendEvent]:
         """Events observed during the last step (may be empty)."""

@@ -32,8 +32,9 @@ from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.sim.rates import is_multiple, nearest_multiple
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.settings import TrackingSettings
-from simgap.trajectory import State
+from simgap.trajectory import Attitude, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
 
 class Physics(Protocol):
@@ -43,7 +44,7 @@ class Physics(Protocol):
     timings: dict[str, float]       # seconds per phase it spent (``physics``, ...)
     notes: list[str]                # what it did that the run record should say
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None: ...
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None: ...
 
     def reset(self, t0: float) -> None:
         """Put every agent that is present at ``t0`` at its initial state and keep the others out of
@@ -59,6 +60,10 @@ class Physics(Protocol):
         ...
 
     def measure(self, agent_id: int, t: float) -> State: ...
+
+    def attitude(self, agent_id: int) -> Attitude | None:
+        """The car's height, pitch and roll now (None: this world has no third dimension for it)."""
+        ...
 
     def actuate(self, agent_id: int, command: Command, period: float) -> None:
         """Hold ``command`` on the car's actuators for the next ``period`` seconds."""
@@ -98,12 +103,12 @@ class TrackedBackend:
     def control_period(self) -> float:
         return 1.0 / self.tracking.controller_hz
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
         self._dt = float(scenario.dt)
         self.tracking = self.fit_rates(self._configured, self._dt)
         self._ticks = int(round(self._dt * self.tracking.controller_hz))
         self._agents = list(agents)
-        self.physics.load(scenario, agents)
+        self.physics.load(scenario, agents, relief)
         self._actuators = {a.id: self.tracking.actuators(a.vehicle) for a in agents}
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
         for a in agents:
@@ -191,6 +196,9 @@ class TrackedBackend:
                 self.physics.enter(a.id, t)
                 self._present.append(a)
                 self._start(a.id, self.physics.measure(a.id, t))
+
+    def attitudes(self) -> dict[int, Attitude]:
+        return {a.id: attitude for a in self._present if (attitude := self.physics.attitude(a.id)) is not None}
 
     def events(self) -> list[BackendEvent]:
         return self.physics.events()

@@ -10,6 +10,7 @@ from simgap.control import Command
 from simgap.control.longitudinal import LongitudinalMap
 from simgap.errors import InputError
 from simgap.sim.dynamic import SingleTrackPlant, single_track_parameters
+from simgap.sim.dynamic.plant import Slope
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle
 
@@ -110,3 +111,38 @@ def test_walking_pace_stays_stable_with_a_coarse_sub_step(sedan, integration_ste
     states = _hold(plant, Command(steer=0.05, throttle=0.0, brake=0.0), 0.1, dt=0.1)
     kinematic = speed * math.tan(0.05) / (plant.p.a + plant.p.b)     # the yaw rate it can reach at most
     assert abs(states[-1].yaw_rate) <= kinematic + 1e-3
+
+
+def _stop(plant, state: State, dt: float = 0.01) -> float:
+    """Distance to standstill on full brakes from ``state``."""
+    plant.reset(state)
+    x0 = state.x
+    while plant.state.v > 1e-6:
+        plant.step(Command(0.0, 0.0, 1.0), dt)
+    return plant.state.x - x0
+
+
+@pytest.mark.parametrize("grade", [10.0, -10.0])
+def test_a_slope_pulls_the_car_along_it(sedan, grade):
+    pull = -9.81 * math.sin(math.atan(grade / 100.0))
+    start = State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=20.0)
+    flat = _stop(SingleTrackPlant(sedan, accel_time_constant=0.0), start)
+    plant = SingleTrackPlant(sedan, accel_time_constant=0.0)
+    plant.slope = Slope(along=pull, across=0.0)
+    braking = 20.0 ** 2 / (2.0 * flat)                     # the flat road's deceleration
+    assert _stop(plant, start) == pytest.approx(20.0 ** 2 / (2.0 * (braking - pull)), rel=0.01)
+
+
+def test_brakes_hold_a_car_on_a_slope_and_a_side_pull_turns_its_course(sedan):
+    plant = SingleTrackPlant(sedan)
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=0.0))
+    plant.slope = Slope(along=9.81 * math.sin(math.atan(0.2)), across=0.0)       # 20 % downhill ahead
+    assert _hold(plant, Command(0.0, 0.0, 1.0), 3.0)[-1].x == 0.0
+    rolling = _hold(plant, Command(0.0, 0.0, 0.0), 1.0)[-1]
+    assert rolling.v == pytest.approx(1.9, abs=0.1)      # brakes off: it rolls away at g sin(theta)
+    drift = {}
+    for across in (1.0, -1.0):                           # a bank falling to the left, to the right
+        plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=15.0))
+        plant.slope = Slope(along=0.0, across=across)
+        drift[across] = _hold(plant, Command(0.0, 0.0, 0.0), 2.0)[-1].y
+    assert drift[1.0] > 0.05 and drift[-1.0] == pytest.approx(-drift[1.0])    # the tyres' slip holds most of it

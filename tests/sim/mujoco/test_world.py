@@ -1,6 +1,9 @@
-"""The MuJoCo world built from a scenario: road surface, markings, surface map, static ride height."""
+"""The MuJoCo world built from a scenario: road surface, markings, surface map, static ride height, and on a
+road with a relief its terrain."""
 
 from __future__ import annotations
+
+import math
 
 import mujoco
 import numpy as np
@@ -11,6 +14,10 @@ from shapely.ops import unary_union
 
 from simgap.scenario import build_scenario
 from simgap.scenario.markings import MARKING_STYLE, marking_lines
+from simgap.scenario.relief import tilt_of
+from simgap.sim.mujoco.backend import MujocoPhysics
+from simgap.sim.mujoco.road import DRAPE_M, ROAD_Z
+from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.mujoco.world import build_world
 from simgap.sim.protocol import Agent
 from simgap.trajectory import State
@@ -28,6 +35,19 @@ def _mesh_top_faces(world, name: str) -> list[np.ndarray]:
     world_vert = vert @ data.geom_xmat[geom.id].reshape(3, 3).T + data.geom_xpos[geom.id]
     top = world_vert[:, 2].max()
     return [world_vert[f] for f in face if np.allclose(world_vert[f][:, 2], top, atol=1e-6)]
+
+
+def _upward_vertices(world, name: str) -> np.ndarray:
+    """The vertices of a drawn mesh's faces that look up, in world coordinates."""
+    model, data = world.model, world.data
+    mujoco.mj_forward(model, data)
+    mesh, geom = model.mesh(name), model.geom(name)
+    vert = model.mesh_vert[mesh.vertadr[0]:mesh.vertadr[0] + mesh.vertnum[0]]
+    face = model.mesh_face[mesh.faceadr[0]:mesh.faceadr[0] + mesh.facenum[0]]
+    corners = (vert @ data.geom_xmat[geom.id].reshape(3, 3).T + data.geom_xpos[geom.id])[face]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    up = normal[:, 2] > 0.9 * np.linalg.norm(normal, axis=1)
+    return corners[up].reshape(-1, 3)
 
 
 @pytest.mark.parametrize("logical, parameters", [("curve", {"radius": 10, "angle": 90}),
@@ -86,3 +106,42 @@ def test_each_vehicle_stands_still_at_its_static_ride_height(name):
         assert abs(q[adr]) < 0.005                       # springs at their static deflection
     assert np.abs(v[car.qvel:car.qvel + 6]).max() < 1e-3
     assert q[car.qpos] == pytest.approx(10.0, abs=5e-3) and q[car.qpos + 1] == pytest.approx(-1.5, abs=5e-3)
+
+
+def test_on_a_relief_the_road_is_drawn_on_the_terrain_and_the_plane_sinks_below_it():
+    concrete = build_scenario("curve", {"radius": 30, "angle": 90, "grade": 6, "grade_change": -12, "bank": 6})
+    relief = concrete.blueprint.road_relief()
+    world = build_world(concrete.scenario, [], relief=relief)
+    vertices = _upward_vertices(world, "road_surface")
+    below = relief.surface(vertices[:, 0], vertices[:, 1]).z
+    assert np.abs(vertices[:, 2] - below - DRAPE_M - ROAD_Z).max() < 0.01      # lifted onto the surface
+    assert np.ptp(vertices[:, 2]) > 5.0
+    ground = world.model.geom("ground")
+    assert ground.contype[0] == 0 and ground.conaffinity[0] == 0       # the plane only draws the land beyond
+    assert world.model.geom_pos[ground.id][2] < world.terrain.lowest
+    assert world.model.geom("terrain").type[0] == mujoco.mjtGeom.mjGEOM_HFIELD
+
+
+def test_a_car_placed_on_a_banked_grade_stands_on_it_and_holds_on_its_brakes():
+    concrete = build_scenario("curve", {"radius": 50, "angle": 90, "grade": 8, "bank": 8})
+    relief = concrete.blueprint.road_relief()
+    at = State(0.0, 130.0, 6.0, 0.6, 0.0)                      # in the banked curve, facing uphill
+    world = build_world(concrete.scenario, [Agent(1, load_vehicle("sedan"), at)], relief=relief)
+    world.place(1, at)
+    car = world.cars[1]
+    mujoco.mj_forward(world.model, world.data)
+    for i in range(4):
+        world.model.dof_frictionloss[car.spin_dofs[i]] = 2000.0
+    world.step(1500)                                             # 3 s
+    q = world.data.qpos[car.qpos:car.qpos + 7]
+    surface = relief.surface(q[0], q[1])
+    pitch, roll = tilt_of(surface.normal, at.yaw)
+    assert pitch > math.radians(3.0) and roll < -math.radians(6.0)      # uphill; the curve's left side lower
+    chassis = MujocoPhysics(WorldSettings())
+    chassis.world = world
+    attitude = chassis.attitude(1)
+    assert attitude.pitch == pytest.approx(pitch, abs=math.radians(0.5))
+    assert roll - math.radians(2.0) < attitude.roll < roll     # the body leans a little further downhill on its springs
+    assert attitude.z - surface.z == pytest.approx(0.575 / surface.normal[2], abs=0.01)
+    assert np.hypot(q[0] - at.x, q[1] - at.y) < 0.03       # settled on its springs, where it was put
+    assert world.tyres.load.sum() == pytest.approx(1093.3 * 9.81 * surface.normal[2], rel=0.01)

@@ -35,6 +35,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.scenario.obstacles import recorded_obstacles
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.beamng.catalogue import model_for
 from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_yaw, reference_offset,
                                        reference_position, steering_input, to_state)
@@ -44,7 +45,7 @@ from simgap.sim.beamng.settings import BeamngSettings, load_settings
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, PlanInForce, enters_at
 from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import Attitude, State, Trajectory
 
 MOVING_START = 0.1          # m/s: slower initial speeds are standstill starts
 
@@ -61,10 +62,12 @@ class BeamngWorld:
         self.session: Session | None = None
 
     # --- Physics protocol -----------------------------------------------------------------------
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
         cfg = self.settings
         self._dt = float(scenario.dt)
         self._agents = list(agents)
+        if relief is not None:
+            self.notes.append("the road's relief is not built in BeamNG: its roads lie on flat terrain")
         steps = cfg.physics_hz * self._dt
         if abs(steps - round(steps)) > 1e-6:
             raise InputError(f"the scenario's dt {self._dt:g} s is not a whole number of physics steps at "
@@ -150,6 +153,9 @@ class BeamngWorld:
     def follow(self, agent_id: int, plan: Trajectory, now: float) -> None:
         """Hand ``plan`` from ``now`` on to BeamNG's script AI of the agent's car."""
         self.session.set_script(_vid(agent_id), self._script(agent_id, plan, now))
+
+    def attitude(self, agent_id: int) -> Attitude | None:
+        return None
 
     def events(self) -> list[BackendEvent]:
         return list(self._events)

@@ -16,6 +16,13 @@ CommonRoad parameter set (2 = BMW 320i). In front of it sit two actuators:
 Integration: classical Runge-Kutta (RK4) with the inputs held over each sub-step of at most
 ``integration_step`` seconds (1 ms by default).
 
+On a road with a relief the world hands the plant the slope under the car (`Slope`: gravity's
+components along the road's tangent plane, along the car's heading and to its left), held over a
+controller period: a body force, added to the model's longitudinal acceleration and, above walking
+pace, turning its course (the side slip's rate). A braked car at a standstill holds while its
+brakes hold more than the slope pulls; one that stands uphill cannot roll back (the plant's speed
+is never negative). The load the slope takes off the tyres (``cos`` of its angle) is left out.
+
 Road friction (a reality knob, 1.0 = the parameter set's dry road) scales the tyres' friction
 coefficient. The single-track model's tyres are linear, so on their own they never run out of
 grip; the plant therefore also caps the longitudinal acceleration by the friction circle,
@@ -32,6 +39,7 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 
 from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
@@ -49,6 +57,14 @@ from simgap.trajectory import State, wrap_angle
 from simgap.vehicles.constants import GRAVITY
 
 PARAMETER_SETS = (1, 2, 3)
+
+
+@dataclass(frozen=True)
+class Slope:
+    """Gravity's pull along a road's tangent plane at a car [m/s^2]: along its heading and to its left."""
+
+    along: float
+    across: float
 
 
 @lru_cache(maxsize=None)
@@ -87,6 +103,7 @@ def single_track_parameters(vehicle, params_id: int = 2) -> VehicleParameters:
 # 2000 rad/s), so at walking pace the sub-step shrinks below integration_step
 STABLE_STEP_PER_SPEED = 0.008
 KINEMATIC_BELOW_M_S = 0.1
+STANDSTILL_M_S = 1e-3           # the pedal map's standstill: below it brakes hold rather than decelerate
 
 
 class SingleTrackPlant:
@@ -106,6 +123,7 @@ class SingleTrackPlant:
         self.integration_step = float(integration_step)
         self.steer_time_constant = float(steer_time_constant)
         self.accel_time_constant = float(accel_time_constant)
+        self.slope: Slope | None = None     # the road's slope under the car (None: flat)
         self._x: list[float] = [0.0] * 7
         self._t = 0.0
         self._accel = 0.0        # acceleration delivered by the powertrain/brake lag
@@ -165,37 +183,57 @@ class SingleTrackPlant:
         demanded = self.pedal_map.acceleration(command.throttle, command.brake, v)
         a = demanded + (self._accel - demanded) * mean_weight
         self._accel = demanded + (self._accel - demanded) * decay
+        pull = 0.0 if self.slope is None else self.slope.along
         if v <= 0.0 and a < 0.0:
             a = 0.0                      # brakes hold, they do not reverse
-        elif v > 0.0 and v + a * h < 0.0:
-            a = -v / h                   # come to rest exactly at the end of the sub-step
+        elif v > 0.0 and v + (a + pull) * h < 0.0:
+            a = -v / h - pull            # come to rest exactly at the end of the sub-step
         a = acceleration_constraints(v, a, self.p.longitudinal)
         lateral = v * x[5]
         cap = math.sqrt(max(self.grip * self.grip - lateral * lateral, 0.0))
         a = min(max(a, -cap), cap)
-        x = self._rk4(x, target, a, h)
+        slope = self.slope
+        if slope is not None and v < STANDSTILL_M_S:
+            slope, a = self._standing(slope, command, a, v, h)
+        x = self._rk4(x, target, a, h, slope)
         if x[3] < 0.0:
             x[3] = 0.0
-        self._applied = a
+        self._applied = a if slope is None else a + slope.along
         return x
 
+    def _standing(self, slope: Slope, command: Command, a: float, v: float, h: float) -> tuple[Slope | None, float]:
+        """The slope's pull and the acceleration of a car at a standstill: the brakes (their
+        deceleration in motion) hold a pull forward up to their own, a pull back holds the car
+        unless the drive beats it (it cannot roll back); a car held stays where it is."""
+        held = max(-self.pedal_map.acceleration(command.throttle, command.brake, 1.0), 0.0)
+        if slope.along > 0.0:
+            slope = Slope(slope.along - held, slope.across)
+        if a + slope.along <= 0.0:
+            return None, -v / h
+        return slope, a
+
     # ------------------------------------------------------------------------------------
-    def _rhs(self, x: list[float], target: float, a: float) -> list[float]:
+    def _rhs(self, x: list[float], target: float, a: float, slope: Slope | None) -> list[float]:
         steer_rate = ((target - x[2]) / self.steer_time_constant
                       if self.steer_time_constant > 0 else 0.0)
-        return vehicle_dynamics_st(x, [steer_rate, a], self.p)
+        rates = vehicle_dynamics_st(x, [steer_rate, a], self.p)
+        if slope is not None:
+            rates[3] += slope.along
+            if x[3] >= KINEMATIC_BELOW_M_S:
+                rates[6] += slope.across / x[3]         # a pull to the left turns the course left
+        return rates
 
-    def _rk4(self, x: list[float], target: float, a: float, h: float) -> list[float]:
+    def _rk4(self, x: list[float], target: float, a: float, h: float, slope: Slope | None) -> list[float]:
         if self.steer_time_constant <= 0:
             x = list(x)
             x[2] = target
-        k1 = self._rhs(x, target, a)
+        k1 = self._rhs(x, target, a, slope)
         x2 = [xi + 0.5 * h * ki for xi, ki in zip(x, k1)]
-        k2 = self._rhs(x2, target, a)
+        k2 = self._rhs(x2, target, a, slope)
         x3 = [xi + 0.5 * h * ki for xi, ki in zip(x, k2)]
-        k3 = self._rhs(x3, target, a)
+        k3 = self._rhs(x3, target, a, slope)
         x4 = [xi + h * ki for xi, ki in zip(x, k3)]
-        k4 = self._rhs(x4, target, a)
+        k4 = self._rhs(x4, target, a, slope)
         return [xi + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
                 for xi, a1, a2, a3, a4 in zip(x, k1, k2, k3, k4)]
 
@@ -224,10 +262,14 @@ class MultiBodyPlant(SingleTrackPlant):
         self.state = self._observe()
         return self.state
 
-    def _rhs(self, x: list[float], target: float, a: float) -> list[float]:
+    def _rhs(self, x: list[float], target: float, a: float, slope: Slope | None) -> list[float]:
         steer_rate = ((target - x[2]) / self.steer_time_constant
                       if self.steer_time_constant > 0 else 0.0)
-        return vehicle_dynamics_mb(x, [steer_rate, a], self.p)
+        rates = vehicle_dynamics_mb(x, [steer_rate, a], self.p)
+        if slope is not None:            # body-frame velocities: longitudinal x[3], lateral x[10]
+            rates[3] += slope.along
+            rates[10] += slope.across
+        return rates
 
     def _observe(self) -> State:
         x = self._x

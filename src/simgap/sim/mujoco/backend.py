@@ -15,10 +15,16 @@ is a ``diverged`` event of that car, which is then taken out of the world (the o
 state that is no longer finite or a solver warning is `PhysicsDiverged` (the whole run).
 
 The car's actuators (dead times and lags, the vehicle's or the knobs') act between its controller
-and this world (`simgap.sim.tracked`). Reality knobs of the world: its friction; ``road_bank`` and ``road_grade`` [deg] tilt the
-road under each car. The ground stays a plane: the slope acts as the component of gravity along
-it, ``m g sin(angle)``, applied to the car across (bank) or along (grade) the nearest lane centre
-line; the small loss of normal load (``cos(angle)``, under 1 % at 8 deg) is neglected.
+and this world (`simgap.sim.tracked`). A road with a relief (the scenario's, `simgap.scenario.relief`)
+is built as a terrain that the cars drive on (`simgap.sim.mujoco.world`, `terrain`; the tyres'
+load, slip and forces in its tangent plane, gravity vertical); `attitude` is each car's height,
+pitch and roll. Reality knobs of the world: its friction; ``road_bank`` and ``road_grade`` [deg]
+are not a relief but a tilt every car feels under it relative to its own way of travel, on any
+road (a recorded map's, or on top of a relief): the ground stays where it is and the slope acts as
+the component of gravity along it, ``m g sin(angle)``, applied to the car across (bank) or along
+(grade) the nearest lane centre line; the small loss of normal load (``cos(angle)``, under 1 % at
+8 deg) is neglected. That is the gravity-only model of a slope, the one the ``dynamic`` world
+takes for a relief.
 """
 
 from __future__ import annotations
@@ -34,13 +40,14 @@ from commonroad.scenario.scenario import Scenario
 from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, enters_at
 from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple
 from simgap.sim.tracked import TrackedBackend
-from simgap.trajectory import State
+from simgap.trajectory import Attitude, State
 
 PARKED = Command(steer=0.0, throttle=0.0, brake=1.0)     # what a car taken out of the world is given
 PARKING_M = 100.0           # a car that has not entered the world yet waits this far beyond the road [m]
@@ -60,10 +67,10 @@ class MujocoPhysics:
         self._seen: set[tuple[int, int | None]] = set()
 
     # --- Physics protocol ------------------------------------------------------------------------
-    def load(self, scenario: Scenario, agents: Sequence[Agent]) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
-        self.world = build_world(scenario, agents, self.settings, looks=False)
+        self.world = build_world(scenario, agents, self.settings, relief, looks=False)
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [self.world.cars[a.id] for a in agents]
@@ -177,6 +184,13 @@ class MujocoPhysics:
         steer = single_track_angle(float(q[car.steer_qpos[0]]), float(q[car.steer_qpos[1]]))
         accel = self._accel[agent_id].update(t, speed)
         return State(t=t, x=x, y=y, yaw=yaw, v=speed, a=accel, yaw_rate=yaw_rate, steer=steer)
+
+    def attitude(self, agent_id: int) -> Attitude:
+        """The chassis' height (of the centre of gravity), pitch and roll."""
+        q = self.world.data.qpos[self.world.cars[agent_id].qpos:]
+        w, x, y, z = q[3:7]
+        return Attitude(z=float(q[2]), pitch=math.asin(min(max(2.0 * (x * z - w * y), -1.0), 1.0)),
+                        roll=math.atan2(2.0 * (y * z + w * x), up_z(q[3:7])))
 
     def actuate(self, agent_id: int, command: Command, period: float) -> None:
         if agent_id in self._retired:

@@ -10,6 +10,7 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
 from simgap.errors import validated_settings
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Agent, PhysicsDiverged
@@ -28,10 +29,11 @@ class MujocoPlant:
     """``reset(state)`` places the car; ``step(command, period)`` holds ``command`` for ``period``
     seconds of physics and returns the measured state. ``world`` takes the world settings
     (``road_friction``, ``road_grade``, ...); on the proving ground a slope runs along the car's
-    heading."""
+    heading. With a ``relief`` the proving ground has that shape (asphalt everywhere)."""
 
-    def __init__(self, vehicle: Vehicle, **world: Any):
+    def __init__(self, vehicle: Vehicle, relief: RoadRelief | None = None, **world: Any):
         self.vehicle = vehicle
+        self.relief = relief
         self.physics = MujocoPhysics(validated_settings(WorldSettings, world))
         self._scenario = proving_ground()
         self._t = 0.0
@@ -41,7 +43,7 @@ class MujocoPlant:
         return self.physics.world
 
     def reset(self, initial: State) -> State:
-        self.physics.load(self._scenario, [Agent(AGENT, self.vehicle, initial)])
+        self.physics.load(self._scenario, [Agent(AGENT, self.vehicle, initial)], self.relief)
         self._t = initial.t
         self.physics.reset(initial.t)
         return self.physics.measure(AGENT, initial.t)

@@ -21,6 +21,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 from scipy.ndimage import gaussian_filter1d
 
+from simgap.scenario.relief import RoadRelief
 from simgap.sim.mujoco.car import COLLISION_GROUP
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent
@@ -39,13 +40,15 @@ STILL_MULTISAMPLES, VIDEO_MULTISAMPLES = 4, 0
 
 
 class MujocoReplay:
-    """The MuJoCo world of ``scenario`` with each agent's car (``vehicles``) on its ``driven``
-    trajectory (time step ``dt``). Times are seconds from the run's first state."""
+    """The MuJoCo world of ``scenario`` on the road's ``relief`` (None: flat) with each agent's car
+    (``vehicles``) on its ``driven`` trajectory (time step ``dt``). Times are seconds from the run's
+    first state."""
 
     def __init__(self, scenario: Scenario, vehicles: Mapping[int, Vehicle], driven: Mapping[int, Trajectory],
-                 dt: float):
+                 dt: float, relief: RoadRelief | None = None):
         self.driven, self.dt = driven, dt
-        self.world: World = build_world(scenario, [Agent(aid, vehicles[aid], driven[aid][0]) for aid in driven])
+        self.world: World = build_world(scenario, [Agent(aid, vehicles[aid], driven[aid][0]) for aid in driven],
+                                        relief=relief)
         self._rolled = {aid: self._roll_angles(aid) for aid in driven}
         self._options = mujoco.MjvOption()
         self._options.geomgroup[COLLISION_GROUP] = 0          # the cars' collision boxes

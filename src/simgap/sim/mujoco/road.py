@@ -1,15 +1,18 @@
 """The road in MuJoCo: a drawn surface for every lanelet, the line markings CommonRoad states, and
 the surface under each tyre (road or off-road) for the tyre-road friction.
 
-The world is flat (by default), so every tyre rolls on one ground plane. What the tyre stands
-on — a lanelet or the verge — decides the friction of its contact, looked up in the union of
-the lanelet polygons (`SurfaceMap`). The drawn road is a mesh on top of the plane and never
-collides: MuJoCo collides meshes as their convex hulls, which a curved road is not.
+A flat world's tyres roll on one ground plane; on a road with a relief they roll on its terrain
+(`simgap.sim.mujoco.terrain`), and the road is drawn lifted onto it (each vertex at the terrain's
+height, `DRAPE_M` above it). What the tyre stands on — a lanelet or the verge — decides the
+friction of its contact, looked up in the union of the lanelet polygons (`SurfaceMap`). The drawn
+road is a mesh on top of the ground and never collides: MuJoCo collides meshes as their convex
+hulls, which a curved road is not.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -22,6 +25,8 @@ from simgap.scenario.markings import MarkingLine, arc_length, marking_lines, off
 ROAD_Z = 0.004          # drawn road above the ground plane [m]
 MARKING_Z = 0.008       # drawn markings above the ground plane [m]
 SLAB = 0.02             # thickness of the drawn slabs [m] (closed meshes have a volume)
+DRAPE_M = 0.02          # on a terrain, the drawn road lies this much higher still: over its coarser height field
+Ground = Callable[[np.ndarray], np.ndarray]     # height of the ground at each point of (n, 2)
 
 
 def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
@@ -40,9 +45,11 @@ def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
 
 
 class MeshBuilder:
-    """Collects thin closed slabs (strips between two polylines) into one mesh."""
+    """Collects thin closed slabs (strips between two polylines) into one mesh, ``z`` above the
+    plane z = 0 or above the ``ground``."""
 
-    def __init__(self) -> None:
+    def __init__(self, ground: Ground | None = None) -> None:
+        self.ground = ground
         self.vertices: list[np.ndarray] = []
         self.faces: list[np.ndarray] = []
         self._n = 0
@@ -53,7 +60,8 @@ class MeshBuilder:
         n = len(left)
         if n < 2 or len(right) != n:
             return
-        top = np.column_stack([np.vstack([left, right]), np.full(2 * n, z)])
+        edges = np.vstack([left, right])
+        top = np.column_stack([edges, np.full(2 * n, z) if self.ground is None else self.ground(edges) + DRAPE_M + z])
         bottom = top.copy()
         bottom[:, 2] = z - SLAB
         self.vertices += [top, bottom]
@@ -82,9 +90,9 @@ class MeshBuilder:
         return True
 
 
-def add_road(spec: mujoco.MjSpec, network: LaneletNetwork) -> None:
-    """Draw every lanelet and every marking (visual only; tyres roll on the ground plane)."""
-    road = MeshBuilder()
+def add_road(spec: mujoco.MjSpec, network: LaneletNetwork, ground: Ground | None = None) -> None:
+    """Draw every lanelet and every marking on the plane z = 0 or on the ``ground`` (visual only)."""
+    road = MeshBuilder(ground)
     for lanelet in network.lanelets:
         left = np.asarray(lanelet.left_vertices, dtype=float)
         right = np.asarray(lanelet.right_vertices, dtype=float)
@@ -92,7 +100,7 @@ def add_road(spec: mujoco.MjSpec, network: LaneletNetwork) -> None:
     if road.add_to(spec, "road_surface"):
         spec.worldbody.add_geom(name="road_surface", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="road_surface",
                                 material="asphalt", contype=0, conaffinity=0, group=1, mass=0)
-    paint = MeshBuilder()
+    paint = MeshBuilder(ground)
     for line in marking_lines(network):
         for piece in _strip_pieces(line):
             paint.add_ribbon(piece, line.width, MARKING_Z)

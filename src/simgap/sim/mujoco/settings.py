@@ -20,8 +20,11 @@ class WorldSettings(RoadSurface):
     physics_hz: float = Field(PHYSICS_HZ, ge=200.0, le=5000.0, description="physics rate [Hz]")
     offroad_friction: RoadFriction = Field(0.6, description="off-road (verge) friction, scales each tyre's [-]")
     road_bank: float = Field(0.0, ge=-15.0, le=15.0,
-                             description="cross slope [deg]; positive: the road falls to the right of the way of travel")
-    road_grade: float = Field(0.0, ge=-15.0, le=15.0, description="grade [deg]; positive: uphill in the way of travel")
+                             description="cross slope every car feels, through gravity, on top of the road's relief [deg]; "
+                                         "positive: the road falls to the right of the way of travel")
+    road_grade: float = Field(0.0, ge=-15.0, le=15.0,
+                              description="grade every car feels, through gravity, on top of the road's relief [deg]; "
+                                          "positive: uphill in the way of travel")
 
 
 class MujocoSettings(TrackingSettings, WorldSettings):

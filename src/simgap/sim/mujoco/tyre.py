@@ -5,11 +5,14 @@ corners on the kinematic steering angle and breaks away all at once). Here MuJoC
 rigid bodies, suspension, steering, drive and brakes; the tyre-road forces come from this module,
 every physics step, for all wheels of all cars at once:
 
-1. **Vertical load** from a radial spring-damper between the wheel centre and the ground plane
+1. **Vertical load** from a radial spring-damper between the wheel centre and the ground
    (``vertical_stiffness``, ``vertical_damping``): the suspension's motion, and so load transfer in
-   braking and cornering, changes each tyre's load.
+   braking and cornering, changes each tyre's load. The ground is a plane at z = 0, or, on a road
+   with a relief, the plane tangent to the terrain under the wheel (`ground_at`: height and slope
+   on a grid, interpolated bilinearly); the load acts along its normal, the deflection is the
+   wheel centre's distance from it.
 2. **Slip** from the contact-patch velocity in the wheel frame (the upright's heading, projected
-   onto the ground) and the wheel's spin, through first-order *transient slip* (Pacejka, *Tire and
+   onto the ground's tangent plane; the lateral axis in that plane) and the wheel's spin, through first-order *transient slip* (Pacejka, *Tire and
    Vehicle Dynamics*, ch. 7): the tyre deflections u, v obey
    ``du/dt = -|V_x| u / sigma_kappa - V_sx`` and ``dv/dt = -|V_x| v / sigma_alpha + V_sy``, with
    ``kappa = u / sigma_kappa`` and ``tan(alpha) = v / sigma_alpha``. At speed they lag the
@@ -26,9 +29,12 @@ every physics step, for all wheels of all cars at once:
    damping of the tyre spring). The total force never exceeds the tyre's peak friction times its
    load.
 
-The force and its moment are applied to the wheel body (``xfrc_applied``) at a point one rolling
-radius below the wheel centre, so the longitudinal force brakes or drives the wheel's spin and the
-lateral force rolls the body, as at a real contact patch. Forces enter between ``mj_step1`` (which
+The force (longitudinal and lateral in the ground's tangent plane, the load along its normal;
+gravity stays vertical, MuJoCo's) and its moment are applied to the wheel body (``xfrc_applied``)
+at a point one rolling radius below the wheel centre along the ground's normal, so the
+longitudinal force brakes or drives the wheel's spin and the lateral force rolls the body, as at a
+real contact patch. On the flat plane every product with the normal's zero components adds an
+exact zero: a flat world's tyres compute bit for bit what they did before the ground could tilt. Forces enter between ``mj_step1`` (which
 computes positions and velocities) and ``mj_step2`` (which integrates), so they belong to the
 state they are integrated from. The kernel is compiled by numba (cached on disk): one call for
 every wheel of the world costs a few microseconds.
@@ -74,34 +80,68 @@ def _weight(b: float, c: float, e: float, x: float) -> float:
     return math.cos(c * math.atan(bx - e * (bx - math.atan(bx))))
 
 
+FLAT_GROUND = np.zeros((3, 0, 0))      # no terrain grid: the plane z = 0
+FLAT_FRAME = np.zeros(3)
+
+
+@njit(cache=True)
+def ground_at(grid, frame, x, y):     # pragma: no cover - compiled
+    """Height and unit normal (z, nx, ny, nz) of the ground at (x, y): the plane z = 0 when ``grid``
+    is empty, else the terrain's ``grid`` (3, rows, columns: height, dz/dx, dz/dy at nodes
+    ``frame[0] + column / frame[2]``, ``frame[1] + row / frame[2]``) interpolated bilinearly;
+    beyond its edge the edge's height continues level."""
+    rows, cols = grid.shape[1], grid.shape[2]
+    if rows == 0:
+        return 0.0, 0.0, 0.0, 1.0
+    fx = (x - frame[0]) * frame[2]
+    fy = (y - frame[1]) * frame[2]
+    inside = 0.0 <= fx <= cols - 1 and 0.0 <= fy <= rows - 1
+    fx = min(max(fx, 0.0), cols - 1.000001)
+    fy = min(max(fy, 0.0), rows - 1.000001)
+    j, i = int(fx), int(fy)
+    u, w = fx - j, fy - i
+    w00, w01, w10, w11 = (1.0 - u) * (1.0 - w), u * (1.0 - w), (1.0 - u) * w, u * w
+    z = w00 * grid[0, i, j] + w01 * grid[0, i, j + 1] + w10 * grid[0, i + 1, j] + w11 * grid[0, i + 1, j + 1]
+    if not inside:
+        return z, 0.0, 0.0, 1.0
+    gx = w00 * grid[1, i, j] + w01 * grid[1, i, j + 1] + w10 * grid[1, i + 1, j] + w11 * grid[1, i + 1, j + 1]
+    gy = w00 * grid[2, i, j] + w01 * grid[2, i, j + 1] + w10 * grid[2, i + 1, j] + w11 * grid[2, i + 1, j + 1]
+    norm = math.sqrt(1.0 + gx * gx + gy * gy)
+    return z, -gx / norm, -gy / norm, 1.0 / norm
+
+
 @njit(cache=True)
 def tyre_forces(xipos, xmat, cvel, subtree_com, qpos, qvel, xfrc, wheel, upright, root, spin, travel,
-                par, mu, u, v, dt, settle, out):     # pragma: no cover - compiled
+                par, mu, u, v, dt, settle, out, grid, frame):     # pragma: no cover - compiled
     for i in range(wheel.shape[0]):
         wb, ub, rb = wheel[i], upright[i], root[i]
         p = par[i]
         re = p[R_ROLL]
         cz = xipos[wb, 2]
-        deflection = p[R_FREE] - cz
+        zg, nx, ny, nz = ground_at(grid, frame, xipos[wb, 0], xipos[wb, 1])
+        deflection = p[R_FREE] - (cz - zg) * nz
         m = xmat[ub]
-        hx, hy = m[0], m[3]                      # upright x axis (wheel heading) on the ground
-        norm = math.sqrt(hx * hx + hy * hy) + EPS
-        ex_x, ex_y = hx / norm, hy / norm
-        ey_x, ey_y = -ex_y, ex_x
-        # the wheel leans with the body, less what its linkage turns it in its travel
-        camber = math.asin(min(max(m[7], -1.0), 1.0)) + p[CAMBER_GAIN] * qpos[travel[i]]
+        hx, hy, hz = m[0], m[3], m[6]            # upright x axis (wheel heading), onto the ground's plane
+        hn = hx * nx + hy * ny + hz * nz
+        hx, hy, hz = hx - hn * nx, hy - hn * ny, hz - hn * nz
+        norm = math.sqrt(hx * hx + hy * hy + hz * hz) + EPS
+        ex_x, ex_y, ex_z = hx / norm, hy / norm, hz / norm
+        ey_x, ey_y, ey_z = ny * ex_z - nz * ex_y, nz * ex_x - nx * ex_z, nx * ex_y - ny * ex_x    # n x e_x
+        # the wheel leans from the ground's normal with the body, less what its linkage turns it in its travel
+        lean = m[1] * nx + m[4] * ny + m[7] * nz
+        camber = math.asin(min(max(lean, -1.0), 1.0)) + p[CAMBER_GAIN] * qpos[travel[i]]
         # velocity of the upright at the contact point (world frame)
-        rx = xipos[wb, 0] - subtree_com[rb, 0]
-        ry = xipos[wb, 1] - subtree_com[rb, 1]
-        rz = cz - re - subtree_com[rb, 2]
+        rx = xipos[wb, 0] - re * nx - subtree_com[rb, 0]
+        ry = xipos[wb, 1] - re * ny - subtree_com[rb, 1]
+        rz = cz - re * nz - subtree_com[rb, 2]
         w0, w1, w2 = cvel[ub, 0], cvel[ub, 1], cvel[ub, 2]
         vpx = cvel[ub, 3] + w1 * rz - w2 * ry
         vpy = cvel[ub, 4] + w2 * rx - w0 * rz
         vpz = cvel[ub, 5] + w0 * ry - w1 * rx
-        vx = vpx * ex_x + vpy * ex_y
-        vy = vpx * ey_x + vpy * ey_y
+        vx = vpx * ex_x + vpy * ex_y + vpz * ex_z
+        vy = vpx * ey_x + vpy * ey_y + vpz * ey_z
         ax = abs(vx)
-        fz = p[K_Z] * deflection - p[C_Z] * vpz
+        fz = p[K_Z] * deflection - p[C_Z] * (vpx * nx + vpy * ny + vpz * nz)
         if deflection <= 0.0 or fz <= 0.0:       # wheel in the air: the deflections relax
             u[i] /= 1.0 + dt * max(ax, 1.0) / p[SIGMA_X]
             v[i] /= 1.0 + dt * max(ax, 1.0) / p[SIGMA_Y]
@@ -155,14 +195,15 @@ def tyre_forces(xipos, xmat, cvel, subtree_com, qpos, qvel, xfrc, wheel, upright
         if mag > limit:
             fx *= limit / mag
             fy *= limit / mag
-        fwx = fx * ex_x + fy * ey_x
-        fwy = fx * ex_y + fy * ey_y
+        fwx = fx * ex_x + fy * ey_x + fz * nx
+        fwy = fx * ex_y + fy * ey_y + fz * ny
+        fwz = fx * ex_z + fy * ey_z + fz * nz
         xfrc[wb, 0] = fwx
         xfrc[wb, 1] = fwy
-        xfrc[wb, 2] = fz
-        xfrc[wb, 3] = re * fwy                  # (0, 0, -re) x F: the force acts at the patch
-        xfrc[wb, 4] = -re * fwx
-        xfrc[wb, 5] = 0.0
+        xfrc[wb, 2] = fwz
+        xfrc[wb, 3] = re * (nz * fwy - ny * fwz)      # (-re n) x F: the force acts at the patch
+        xfrc[wb, 4] = re * (nx * fwz - nz * fwx)
+        xfrc[wb, 5] = re * (ny * fwx - nx * fwy)
         out[i, OUT_FZ] = fz
         out[i, OUT_KAPPA] = kappa
         out[i, OUT_ALPHA] = alpha
@@ -218,12 +259,13 @@ def wheel_parameters(physics: VehiclePhysics, corner_loads: Sequence[float], tim
 class SlipTyres:
     """The tyres of every car in one compiled world: parameters, transient state, forces.
 
-    ``wheels`` in the order the backend's per-wheel arrays use. ``mu`` scales each tyre's peak friction (the
+    ``wheels`` in the order the backend's per-wheel arrays use; ``ground`` the terrain's grid and
+    frame (`ground_at`; the default: the plane z = 0). ``mu`` scales each tyre's peak friction (the
     surface under it); `apply` computes and applies the forces for the current positions and
     velocities (call it between ``mj_step1`` and ``mj_step2``)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
-                 wheels: Sequence[Wheel]):
+                 wheels: Sequence[Wheel], ground: tuple[np.ndarray, np.ndarray] = (FLAT_GROUND, FLAT_FRAME)):
         self.model, self.data = model, data
         self.wheel = np.array([w.body for w in wheels], dtype=np.int64)
         self.upright = np.array([w.upright for w in wheels], dtype=np.int64)
@@ -237,6 +279,7 @@ class SlipTyres:
         self.v = np.zeros(len(wheels))
         self.out = np.zeros((len(wheels), 6))
         self._dt = float(model.opt.timestep)
+        self._grid, self._frame = ground
         self.seconds = 0.0              # wall time spent in `apply`
         # views into MjData: its buffers never move, so they can be held
         self._views = (data.xipos, data.xmat, data.cvel, data.subtree_com, data.qpos, data.qvel, data.xfrc_applied)
@@ -252,7 +295,8 @@ class SlipTyres:
         start = time.perf_counter()
         xipos, xmat, cvel, com, qpos, qvel, xfrc = self._views
         tyre_forces(xipos, xmat, cvel, com, qpos, qvel, xfrc, self.wheel, self.upright, self.root, self.spin,
-                    self.travel, self.params, self.mu, self.u, self.v, self._dt, settle, self.out)
+                    self.travel, self.params, self.mu, self.u, self.v, self._dt, settle, self.out, self._grid,
+                    self._frame)
         self.seconds += time.perf_counter() - start
 
     def settle(self, wheels: slice) -> None:
@@ -261,7 +305,7 @@ class SlipTyres:
         xipos, xmat, cvel, com, qpos, qvel, xfrc = self._views
         tyre_forces(xipos, xmat, cvel, com, qpos, qvel, xfrc, self.wheel[wheels], self.upright[wheels],
                     self.root[wheels], self.spin[wheels], self.travel[wheels], self.params[wheels], self.mu[wheels],
-                    self.u[wheels], self.v[wheels], self._dt, True, self.out[wheels])
+                    self.u[wheels], self.v[wheels], self._dt, True, self.out[wheels], self._grid, self._frame)
 
     # --- what the tyres do now, per wheel (for monitors, tests and benchmarks) -----------------
     @property

@@ -1,0 +1,222 @@
+"""A road's relief: its 3D shape along its reference line, which CommonRoad's 2D lanelets leave out.
+
+* **Elevation** (`ElevationProfile`): the grade from the road's start [%; positive: uphill along
+  the reference line], changed at stations by **vertical curves** (`VerticalCurve`): parabolas of a
+  given radius at their vertex, the road designer's vertical curve — a crest where the grade falls,
+  a sag where it rises — of length ``radius * |change of grade|``, centred on the station where the
+  two grades meet. Heights are relative to the road's start (z = 0 at s = 0).
+* **Superelevation** (`BankKnot`): the roll of the cross section about the reference line [deg;
+  positive: the road falls to the right of its reference line, OpenDRIVE's sign], linear between
+  knots (the transitions, run-in and run-out), held before the first knot and after the last.
+
+The cross section is straight: at lateral offset d (positive to the left) the surface lies
+``d * tan(bank)`` above the reference line, and **the verge continues the road's cross slope** —
+no kink at the road's edge, so a car that leaves the road meets the ground it would meet on a
+road built wider. Both profiles are piecewise polynomials in s (`ElevationPiece`, the knots),
+exactly what OpenDRIVE's ``elevation`` and ``superelevation`` records hold.
+
+`RoadRelief` lays a profile on its reference line (a `CentreLine`: a generated road's centre line)
+and gives the surface at any (x, y) — height and unit normal — through the line's Frenet frame:
+each point takes the station of its nearest point on the line (found in a k-d tree of the finely
+sampled line, then projected on that sample's tangent). Where two stretches of one road come close
+(the legs of a hairpin on a grade) the ground between them therefore steps halfway between them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from scipy.spatial import cKDTree
+
+from simgap.scenario.geometry import CentreLine
+
+MAX_GRADE_PERCENT = 40.0        # steeper than any public road (the steepest streets reach ~35 %)
+MAX_BANK_DEG = 30.0
+MIN_TANGENT_SCALE = 0.1         # 1 - curvature * d, bounded away from 0 near a curve's centre
+
+
+class VerticalCurve(BaseModel):
+    """A change of grade at station ``s`` (where the two grades meet) to ``grade``, rounded by a
+    parabola of ``radius`` at its vertex, ``radius * |change|`` long and centred on ``s``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    s: float = Field(description="station where the grades meet [m]")
+    grade: float = Field(ge=-MAX_GRADE_PERCENT, le=MAX_GRADE_PERCENT, description="grade after it [%]")
+    radius: float = Field(gt=0.0, description="radius of the vertical curve at its vertex [m]")
+
+
+@dataclass(frozen=True)
+class ElevationPiece:
+    """Height ``a + b u + c u^2`` at ``u = s - s_start`` from ``s_start`` to the next piece [m]."""
+
+    s_start: float
+    a: float
+    b: float
+    c: float
+
+
+class ElevationProfile(BaseModel):
+    """The grade from the road's start and its changes (see the module doc)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    grade: float = Field(0.0, ge=-MAX_GRADE_PERCENT, le=MAX_GRADE_PERCENT, description="grade at the start [%]")
+    changes: tuple[VerticalCurve, ...] = ()
+
+    @model_validator(mode="after")
+    def _curves_in_order(self) -> "ElevationProfile":
+        end, previous = 0.0, self.grade
+        for k, curve in enumerate(self.changes):
+            half = 0.5 * curve.radius * abs(curve.grade - previous) / 100.0
+            if curve.s - half < end - 1e-9:
+                raise ValueError(f"the vertical curve at s = {curve.s:g} m begins at {curve.s - half:g} m, before "
+                                 f"{'the road starts' if k == 0 else 'the one before it ends'} ({end:g} m)")
+            end, previous = curve.s + half, curve.grade
+        return self
+
+    @property
+    def flat(self) -> bool:
+        return self.grade == 0.0 and all(c.grade == 0.0 for c in self.changes)
+
+    def pieces(self) -> tuple[ElevationPiece, ...]:
+        """The profile as pieces from s = 0 on: a line per grade, a parabola per vertical curve
+        (before s = 0 the first line continues, after the last piece the last)."""
+        g = self.grade / 100.0
+        pieces = [ElevationPiece(0.0, 0.0, g, 0.0)]
+        for curve in self.changes:
+            g1 = curve.grade / 100.0
+            length = curve.radius * abs(g1 - g)
+            if length == 0.0:
+                continue
+            start = curve.s - 0.5 * length
+            z = _piece_height(pieces[-1], start)
+            pieces.append(ElevationPiece(start, z, g, (g1 - g) / (2.0 * length)))
+            pieces.append(ElevationPiece(start + length, z + 0.5 * (g + g1) * length, g1, 0.0))
+            g = g1
+        return tuple(pieces)
+
+
+def _piece_height(piece: ElevationPiece, s: float) -> float:
+    u = s - piece.s_start
+    return piece.a + piece.b * u + piece.c * u * u
+
+
+class BankKnot(BaseModel):
+    """The superelevation at station ``s`` (linear between knots)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    s: float = Field(description="station [m]")
+    bank: float = Field(ge=-MAX_BANK_DEG, le=MAX_BANK_DEG,
+                        description="roll of the cross section [deg]; positive: falls to the right of the reference line")
+
+
+class ReliefProfile(BaseModel):
+    """A road's relief along its reference line: elevation and superelevation (see the module doc)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    elevation: ElevationProfile = ElevationProfile()
+    superelevation: tuple[BankKnot, ...] = ()
+
+    @model_validator(mode="after")
+    def _knots_in_order(self) -> "ReliefProfile":
+        s = [k.s for k in self.superelevation]
+        if any(b <= a for a, b in zip(s, s[1:])):
+            raise ValueError("superelevation knots must follow each other along the road (s increasing)")
+        return self
+
+    @property
+    def flat(self) -> bool:
+        """No grade and no bank anywhere: the plane the 2D world assumes."""
+        return self.elevation.flat and all(k.bank == 0.0 for k in self.superelevation)
+
+    def height(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Height of the reference line [m] and its slope dz/ds at stations ``s``."""
+        pieces = self.elevation.pieces()
+        starts = np.array([p.s_start for p in pieces])
+        coeff = np.array([(p.a, p.b, p.c) for p in pieces])
+        s = np.asarray(s, dtype=float)
+        k = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(pieces) - 1)
+        u = s - starts[k]
+        a, b, c = coeff[k].T
+        return a + (b + c * u) * u, b + 2.0 * c * u
+
+    def bank(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Superelevation [rad] and its rate d(bank)/ds [rad/m] at stations ``s``."""
+        s = np.asarray(s, dtype=float)
+        if not self.superelevation:
+            return np.zeros_like(s), np.zeros_like(s)
+        ks = np.array([k.s for k in self.superelevation])
+        kb = np.radians([k.bank for k in self.superelevation])
+        rate = np.zeros_like(s)
+        if len(ks) > 1:
+            j = np.clip(np.searchsorted(ks, s, side="right") - 1, 0, len(ks) - 2)
+            inside = (s >= ks[0]) & (s < ks[-1])
+            rate = np.where(inside, (kb[j + 1] - kb[j]) / (ks[j + 1] - ks[j]), 0.0)
+        return np.interp(s, ks, kb), rate
+
+
+@dataclass(frozen=True)
+class SurfacePoints:
+    """The road's surface at points: height [m] and unit normal (n, 3) pointing up."""
+
+    z: np.ndarray
+    normal: np.ndarray
+
+
+class RoadRelief:
+    """A `ReliefProfile` laid on its reference line: the road's surface in the world (see the
+    module doc). ``centre`` is sampled finely (a generated road's centre line with ``max_step``
+    well under a metre): a point's station comes from its nearest sample."""
+
+    def __init__(self, profile: ReliefProfile, centre: CentreLine):
+        self.profile = profile
+        self.centre = centre
+        self._tree = cKDTree(centre.xy)
+        self._tangent = np.column_stack([np.cos(centre.heading), np.sin(centre.heading)])
+
+    def frenet(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Station s, lateral offset d (positive left) and the index of the nearest sample of each
+        point: projected onto the circle that osculates the line at that sample."""
+        points = np.column_stack([np.ravel(x), np.ravel(y)]).astype(float)
+        _, j = self._tree.query(points)
+        rel = points - self.centre.xy[j]
+        t = self._tangent[j]
+        u = np.einsum("ij,ij->i", rel, t)                      # along the sample's tangent
+        w = t[:, 0] * rel[:, 1] - t[:, 1] * rel[:, 0]          # to its left
+        k = self.centre.curvature[j]
+        turn = np.arctan2(k * u, 1.0 - k * w)                   # angle about the centre of curvature
+        along = np.divide(turn, k, out=u.copy(), where=k != 0.0)
+        d = (2.0 * w - k * (u * u + w * w)) / (1.0 + np.hypot(k * u, 1.0 - k * w))
+        return self.centre.s[j] + along, d, j
+
+    def surface(self, x: np.ndarray, y: np.ndarray) -> SurfacePoints:
+        """Height and unit normal of the surface at the points (x, y) (arrays of one shape, or floats)."""
+        shape = np.shape(x)
+        s, d, j = self.frenet(x, y)
+        height, slope = self.profile.height(s)
+        bank, bank_rate = self.profile.bank(s)
+        tan_bank = np.tan(bank)
+        # z = height(s) + d tan(bank(s)); a unit step along the line at offset d covers 1 / (1 - kappa d) of s
+        scale = np.maximum(1.0 - self.centre.curvature[j] * d, MIN_TANGENT_SCALE)
+        along = (slope + d * bank_rate / np.cos(bank) ** 2) / scale
+        t = self._tangent[j]
+        gx = along * t[:, 0] - tan_bank * t[:, 1]
+        gy = along * t[:, 1] + tan_bank * t[:, 0]
+        norm = np.sqrt(1.0 + gx * gx + gy * gy)
+        normal = np.column_stack([-gx / norm, -gy / norm, 1.0 / norm])
+        return SurfacePoints((height + d * tan_bank).reshape(shape), normal.reshape(shape + (3,)))
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """x0, y0, x1, y1 of the reference line."""
+        lo, hi = self.centre.xy.min(axis=0), self.centre.xy.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+
+def tilt_of(normal: np.ndarray, heading: float) -> tuple[float, float]:
+    """Pitch [rad, positive nose up] and roll [rad, positive right side down] of a plane with unit
+    ``normal`` under a vehicle facing ``heading``."""
+    hx, hy = math.cos(heading), math.sin(heading)
+    nx, ny, nz = (float(c) for c in normal)
+    return math.atan2(-(nx * hx + ny * hy), nz), math.atan2(nx * hy - ny * hx, nz)
