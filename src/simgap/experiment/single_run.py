@@ -29,7 +29,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.scenario import load_scenario, read_metadata
-from simgap.scenario.blueprint import relief_of
+from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
@@ -182,7 +182,7 @@ def execute(request: RunRequest, out: Path | None = None,
         else:
             backend = make_backend(request.backend, request.backend_settings)
             run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
-                           wall_time_limit_s=request.run_timeout_s, relief=relief_of(meta))
+                           wall_time_limit_s=request.run_timeout_s, relief=ground_of(meta, scenario.lanelet_network))
         for aid, planner in planners.items():
             if callable(getattr(planner, "record", None)):
                 planner_records[aid]["process"] = planner.record()
