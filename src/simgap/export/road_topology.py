@@ -39,6 +39,8 @@ SEAMLESS_M = 0.1          # lanelets that meet within this are linked directly (
 JOINABLE_M = 1.0          # a successor that begins farther than this from its predecessor's end is not joined
 CONNECTOR_M = 10.0        # the longest connecting road cut from a successor lanelet
 _DIRECTION_M = 2.0        # the stretch of a lanelet's centre that gives its direction at an end
+SKEW_M = 2.0              # opposite groups are one road only where their lanes end within this along it,
+SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way)
 CENTRE_WEIGHT = 10.0      # a lane centre's weight against a border's where borders are placed across a road
 MIN_WIDTH_M = 1e-3        # a lane's least width at a joint (OpenDRIVE readers treat zero-width lanes apart)
 
@@ -260,6 +262,23 @@ def _opposite(a: Lanelet, by_id: dict[int, Lanelet]) -> Lanelet | None:
     return b if _shares_bound(a.left_vertices, b.left_vertices[::-1]) else None
 
 
+def _strip(right: list[Lanelet], left: list[Lanelet]) -> Strip:
+    """A road of ``right`` lanelets (left to right) and ``left`` lanelets (left to right along the
+    road, each against it)."""
+    bounds, names, centres = [], [], []
+    for k, l in enumerate(left):                  # the farthest left lane first, reversed
+        bounds.append(l.right_vertices[::-1])
+        names.append(((l.lanelet_id, "right"),) + (((left[k - 1].lanelet_id, "left"),) if k else ()))
+        centres.append(l.center_vertices[::-1])
+    bounds.append(right[0].left_vertices)
+    names.append(((right[0].lanelet_id, "left"),) + (((left[-1].lanelet_id, "left"),) if left else ()))
+    for k, l in enumerate(right):
+        bounds.append(l.right_vertices)
+        names.append(((l.lanelet_id, "right"),) + (((right[k + 1].lanelet_id, "left"),) if k + 1 < len(right) else ()))
+        centres.append(l.center_vertices)
+    return Strip(tuple(l.lanelet_id for l in left + right), len(left), tuple(bounds), tuple(names), tuple(centres))
+
+
 def strips(network: LaneletNetwork) -> list[Strip]:
     """The roads' lanelets: lateral groups, two of them one road where they are opposite neighbours."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
@@ -276,20 +295,26 @@ def strips(network: LaneletNetwork) -> list[Strip]:
             other = ()
         paired.update({group, other})
         right, left = [by_id[i] for i in group], [by_id[i] for i in reversed(other)]
-        bounds, names, centres = [], [], []
-        for k, l in enumerate(left):                  # the farthest left lane first, reversed
-            bounds.append(l.right_vertices[::-1])
-            names.append(((l.lanelet_id, "right"),) + (((left[k - 1].lanelet_id, "left"),) if k else ()))
-            centres.append(l.center_vertices[::-1])
-        bounds.append(right[0].left_vertices)
-        names.append(((right[0].lanelet_id, "left"),) + (((left[-1].lanelet_id, "left"),) if left else ()))
-        for k, l in enumerate(right):
-            bounds.append(l.right_vertices)
-            names.append(((l.lanelet_id, "right"),) + (((right[k + 1].lanelet_id, "left"),) if k + 1 < len(right) else ()))
-            centres.append(l.center_vertices)
-        out.append(Strip(tuple(l.lanelet_id for l in left + right), len(left), tuple(bounds), tuple(names),
-                         tuple(centres)))
+        strip = _strip(right, left)
+        if left and not _square(strip):          # two roads (one each way) rather than one askew
+            paired.discard(other)
+            out.append(_strip(right, []))
+            continue
+        out.append(strip)
     return out
+
+
+def _square(strip: Strip) -> bool:
+    """Whether the road's lanes end on lines nearly square to it: its bounds' ends lie within
+    `SKEW_SHARE` of its length (and `SKEW_M`) of one another along its direction at each end."""
+    length = LineString(strip.middle).length
+    for end in ("start", "end"):
+        heading = _heading_at(strip, end)
+        d = np.array([math.cos(heading), math.sin(heading)])
+        along = [float((b[-1] if end == "end" else b[0]) @ d) for b in strip.bounds]
+        if max(along) - min(along) > min(SKEW_M, SKEW_SHARE * length):
+            return False
+    return True
 
 
 def _road_end_slots(slots: _Slots, strip: Strip, end: str) -> None:
