@@ -325,7 +325,10 @@ def fit_road(piece: RoadPiece) -> RoadFit:
         border.append(border[-1] - value(widths[k], s))
     for k in range(piece.left - 1, -1, -1):
         border.insert(0, border[0] + value(widths[k], s))
-    at = lambda t: pts + t[:, None] * normals          # noqa: E731
+
+    def at(t: np.ndarray) -> np.ndarray:
+        return pts + t[:, None] * normals
+
     centre_deviation = max(_distance(at(0.5 * (border[k] + border[k + 1])), centres[k]) for k in range(len(centres)))
     border_deviation = max(_distance(at(t), b) for t, b in zip(border, bounds))
     return RoadFit(pieces, offset, widths, centre_deviation, border_deviation, piece.left)

@@ -11,11 +11,13 @@ Two ways, chosen per scenario:
   per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
   and the junction that joins them.
 * **fitted** — any other lanelet network (recorded maps): same-direction neighbours that share
-  their bound become one road of several lanes, roads meet at shared cross-sections (G1: the
+  their bound become one road of several lanes, opposite-direction neighbours its left lanes (where
+  their lanes end square to it), lane changes allowed across a mark that is not solid, roads meet at shared cross-sections (G1: the
   reference lines continue in heading), continue road to road where the lanelets continue one to
   one, and through a junction with a connecting road per successor relation elsewhere
   (`simgap.export.road_topology`); each road's reference line, lane offset and widths are fitted
-  to its lanelets (`simgap.export.lanelet_fit`) and its largest deviation from them is reported.
+  to its lanelets (`simgap.export.lanelet_fit`: each lane's centre on its lanelet's centre line)
+  and its largest deviation from them is reported.
 
 Every driving lane carries the road friction as its material friction. A generated road's relief
 (`simgap.scenario.relief`) is its ``elevationProfile`` (a record per grade and per vertical curve:
