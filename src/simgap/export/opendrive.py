@@ -192,8 +192,13 @@ def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: Surface) -> Non
             road.add_elevation(piece.s_start, piece.a + grade * piece.s_start, piece.b + grade, piece.c, 0.0)
     stations = np.array([0.0] + [k.s for k in relief.superelevation if k.s > 0.0])
     banks = relief.bank(stations)[0] + math.radians(surface.bank_deg)
+    previous = None
     for s, bank, rate in zip(stations, banks, np.append(np.diff(banks) / np.diff(stations), 0.0)):
+        if previous is not None and abs(previous[1] + previous[2] * (s - previous[0]) - bank) < 1e-12 \
+                and abs(previous[2] - rate) < 1e-12:
+            continue                     # the record before goes on as this one would (a redundant record)
         road.add_superelevation(float(s), float(bank), float(rate), 0.0, 0.0)
+        previous = (s, bank, rate)
 
 
 def _opendrive(name: str) -> xodr.OpenDrive:
