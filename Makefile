@@ -57,7 +57,7 @@ test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:
-	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng]' \
+	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng,docs]' \
 	  && /tmp/simgap-lock/bin/pip freeze --exclude-editable > requirements.lock
 
 clean:

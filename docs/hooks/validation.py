@@ -1,0 +1,2 @@
+def render_results(arg):
+    return "TODO"
