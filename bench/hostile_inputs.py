@@ -1,4 +1,4 @@
-"""Hostile-input sweep (issue 38): what a careless or hostile user gives simgap, and what simgap does.
+"""Hostile-input sweep: what a careless or hostile user gives simgap, and what simgap does.
 
 Every case builds what it needs in a folder of its own (scenario, spec, vehicle and planner files,
 mutated as the case says), runs the real `simgap` command as a subprocess with a wall-time limit,

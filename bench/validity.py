@@ -90,7 +90,7 @@ def main() -> int:
             "library_s": {"median": float(np.median(library_s)), "mean": float(library_s.mean()),
                           "max": float(library_s.max())},
             "fast_s": {"median": float(np.median(fast_s)), "mean": float(fast_s.mean()), "max": float(fast_s.max())},
-            "rows": rows}, indent=1))
+            "infeasible": infeasible}, indent=1))
     return 1 if differ else 0
 
 
