@@ -61,8 +61,11 @@ planner-toolchain:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
-# on every core (2 on CI), a test file per worker so that module fixtures are built once
+# the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
+# then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
 test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
+	$(BIN)/ruff check .
+	PYTHONPATH=src $(BIN)/lint-imports
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:

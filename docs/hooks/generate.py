@@ -18,7 +18,6 @@ import importlib
 import importlib.util
 import re
 import types
-import sys
 import warnings
 import typing
 from pathlib import Path

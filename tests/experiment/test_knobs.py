@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from cosim.concrete_runs import drive as drive_concrete
-from simgap.experiment.knobs import KNOBS, apply_knobs, knob_table
+from simgap.experiment.knobs import KNOBS, apply_knobs
 from simgap.scenario import build_scenario
 from simgap.vehicles import load_vehicle
 
