@@ -12,6 +12,8 @@ faithful lane: the number of such lanelets is given per map. Results: bench/resu
 
     .venv/bin/python bench/export.py                  # generated roads and every real map
     .venv/bin/python bench/export.py --maps 5         # ... the first 5 maps
+    .venv/bin/python bench/export.py --only DEU_AachenAseag-1 --only USA_Roundabout-1 --no-generated
+                                                      # ... these maps only (results not saved)
 """
 
 from __future__ import annotations
@@ -88,6 +90,9 @@ def show(r: dict) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--maps", type=int, default=None, help="export only the first N real maps")
+    parser.add_argument("--only", action="append", default=[], metavar="NAME",
+                        help="export only the real map NAME (repeatable); the results file is left as it is")
+    parser.add_argument("--no-generated", action="store_true", help="leave out the generated roads")
     args = parser.parse_args()
     t0 = time.perf_counter()
     for name in checks.SCHEMA_FILES.values():
@@ -98,7 +103,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for logical, params in GENERATED:
+        for logical, params in ([] if args.no_generated else GENERATED):
             xml = write_scenario(build_scenario(logical, params), tmp / "scenarios", preview=False)
             run_dir = tmp / "runs" / xml.stem
             execute(RunRequest(scenario=xml), run_dir)
@@ -107,6 +112,11 @@ def main() -> None:
             rows.append(row(logical, export, qc(xodr), xosc_qc=qc(xosc)))
             show(rows[-1])
         maps = map_files()[: args.maps] if args.maps else map_files()
+        if args.only:
+            maps = [m for m in map_files() if m.stem in args.only]
+            missing = set(args.only) - {m.stem for m in maps}
+            if missing:
+                parser.error(f"no such real map: {', '.join(sorted(missing))}")
         if not maps:
             print(f"\nno real maps in {maps_dir()}")
         for path in maps:
@@ -129,6 +139,9 @@ def main() -> None:
               f"lanelets the largest deviation is {max((r['deviation_max_m'] for r in clean), default=0):.3f} m; "
               f"export time median {np.median([r['seconds'] for r in real]):.2f} s, "
               f"max {max(r['seconds'] for r in real):.2f} s")
+    if args.only or args.no_generated or args.maps:
+        print("\nresults not saved (a subset of the maps)")
+        return
     RESULTS.parent.mkdir(exist_ok=True)
     RESULTS.write_text(json.dumps(rows, indent=1) + "\n")
     print(f"\nresults: {RESULTS}")

@@ -90,9 +90,29 @@ class Strip:
 
     @property
     def middle(self) -> np.ndarray:
-        """The line the road's reference line follows: its centre lane's where it has left lanes,
-        else midway between its outermost bounds."""
+        """The line the road's reference line follows (`reference_bounds`): its centre lane's border
+        where it has left lanes, else its middle lane's centre line (an odd number of lanes) or the
+        bound between its two middle lanes (an even number)."""
+        i, j = reference_bounds(len(self.centres), self.left)
+        return self.bounds[i] if i == j else self.centres[i]
+
+    @property
+    def axis(self) -> np.ndarray:
+        """The line along which the road is measured and cut: its centre lane's border where it has
+        left lanes, else midway between its outermost bounds."""
         return self.bounds[self.left] if self.left else middle_line(self.bounds[0], self.bounds[-1])
+
+
+def reference_bounds(lanes: int, left: int) -> tuple[int, int]:
+    """The two bounds (indices, left to right) midway between which a road's reference line runs:
+    the centre lane's (twice) where it has left lanes, else the middle lane's bounds or, for an even
+    number of lanes, the bound between the middle two. Not the outermost bounds: their vertices are
+    not paired (they belong to different lanelets), and where one of them flares out the line midway
+    at equal fractions of their lengths runs askew and jogs (DEU_AachenUniTemplergraben-1: 0.6 m);
+    a lanelet's own centre line pairs its bounds' vertices as the source does."""
+    if left:
+        return left, left
+    return (lanes // 2, lanes // 2) if lanes % 2 == 0 else (lanes // 2, lanes // 2 + 1)
 
 
 @dataclass(frozen=True)
@@ -166,6 +186,13 @@ def _direction(xy: np.ndarray, at_end: bool) -> float:
     if not at_end:
         d = -d
     return math.atan2(d[1], d[0])
+
+
+def _direction_along(line: LineString, at: float) -> float:
+    """The direction of ``line`` at ``at`` metres along it (the chord over `_DIRECTION_M` around it)."""
+    a = np.array(line.interpolate(max(0.0, at - 0.5 * _DIRECTION_M)).coords[0])
+    b = np.array(line.interpolate(min(line.length, at + 0.5 * _DIRECTION_M)).coords[0])
+    return math.atan2(*(b - a)[::-1])
 
 
 def _mean_heading(headings: list[float]) -> float:
@@ -307,7 +334,7 @@ def strips(network: LaneletNetwork) -> list[Strip]:
 def _square(strip: Strip) -> bool:
     """Whether the road's lanes end on lines nearly square to it: its bounds' ends lie within
     `SKEW_SHARE` of its length (and `SKEW_M`) of one another along its direction at each end."""
-    length = LineString(strip.middle).length
+    length = LineString(strip.axis).length
     for end in ("start", "end"):
         heading = _heading_at(strip, end)
         d = np.array([math.cos(heading), math.sin(heading)])
@@ -345,8 +372,8 @@ def _place_joint(ends: list[tuple[Strip, str]], pairs: list[tuple[int, int]] = (
 
 
 def _cut(strip: Strip, end: str, length: float) -> Joint:
-    """A joint across a road ``length`` metres along its middle line from its start or end."""
-    middle = LineString(strip.middle)
+    """A joint across a road ``length`` metres along its axis from its start or end."""
+    middle = LineString(strip.axis)
     at = length if end == "start" else middle.length - length
     p = np.array(middle.interpolate(at).coords[0])
     a = np.array(middle.interpolate(max(0.0, at - 1.0)).coords[0])
@@ -468,7 +495,7 @@ def topology(network: LaneletNetwork) -> Topology:
             junction_ends[(r, e)] = junction
         junction_relations += [(junction, a, b) for a, b in rels]
     for r, e in sorted(cut_at):                # cut at most half a road, a third where both ends are cut
-        length = LineString(roads[r].middle).length
+        length = LineString(roads[r].axis).length
         share = 1 / 3 if (r, "start") in cut_at and (r, "end") in cut_at else 0.5
         cut_at[(r, e)] = min(CONNECTOR_M, share * length)
         joints[(r, e)] = _cut(roads[r], e, cut_at[(r, e)])
@@ -478,16 +505,20 @@ def topology(network: LaneletNetwork) -> Topology:
             if (r, e) not in joints:
                 joints[(r, e)] = _place_joint([(strip, e)])
         borders = tuple(names[0] for names in strip.names)
-        length = LineString(strip.middle).length
+        middle = LineString(strip.middle)
+        span = [0.0, middle.length]          # the stretch of the middle line between the joints
+        for k, e in enumerate(("start", "end")):
+            if (r, e) in cut_at:
+                i, j = reference_bounds(len(strip.centres), strip.left)
+                joint = joints[(r, e)]
+                span[k] = middle.project(shapely.Point(joint.origin + 0.5 * (joint.t[borders[i]] + joint.t[borders[j]])
+                                                       * joint.normal))
         pieces.append(RoadPiece(strip.lanelets, strip.bounds, strip.centres, joints[(r, "start")],
-                                joints[(r, "end")], borders, borders,
-                                (cut_at.get((r, "start"), 0.0), length - cut_at.get((r, "end"), 0.0)),
+                                joints[(r, "end")], borders, borders, (span[0], span[1]),
                                 left=strip.left, middle=strip.middle))
     for junction, a, b in junction_relations:
         pa, pb = by_id[a], by_id[b]
         start, end = joints[leaves(a)], joints[enters(b)]
-        start = _towards(start, _direction(pa.center_vertices, True))
-        end = _towards(end, _direction(pb.center_vertices, False))
         middle_a = middle_line(pa.left_vertices, pa.right_vertices)
         middle_b = middle_line(pb.left_vertices, pb.right_vertices)
         line_a, line_b = LineString(middle_a), LineString(middle_b)
@@ -496,6 +527,12 @@ def topology(network: LaneletNetwork) -> Topology:
         if not tail:
             from_a = line_a.length
         to_b = line_b.project(shapely.Point(0.5 * (end.point((b, "left")) + end.point((b, "right")))))
+        # each joint faces the way of travel where the connecting road meets it: at a cut that is the
+        # lanelet's direction there, not at its end (a lanelet that turns before the cut: a joint
+        # turned the wrong way put the lane's left border on its right)
+        start = _towards(start, _direction_along(line_a, from_a) if tail else _direction(pa.center_vertices, True))
+        end = _towards(end, _direction_along(line_b, to_b) if to_b > _DIRECTION_M else
+                       _direction(pb.center_vertices, False))
         piece = RoadPiece((b,), (np.vstack([pa.left_vertices, pb.left_vertices]),
                                  np.vstack([pa.right_vertices, pb.right_vertices])),
                           (np.vstack([pa.center_vertices, pb.center_vertices]) if tail else pb.center_vertices,),
