@@ -156,20 +156,24 @@ def fit_reference(xy: np.ndarray, heading: np.ndarray) -> list[Clothoid]:
     return out
 
 
-def reference_offset(joint: Joint, borders: tuple[Border, ...], left: int = 0) -> float:
+def reference_offset(joint: Joint, borders: tuple[Border, ...], reference: tuple[int, int]) -> float:
     """Where a road's reference line crosses a joint (its offset along it): midway between the
-    borders of `reference_bounds`."""
-    i, j = reference_bounds(len(borders) - 1, left)
+    borders ``reference`` (indices)."""
+    i, j = reference
     return 0.5 * (joint.t[borders[i]] + joint.t[borders[j]])
+
+
+def _reference(piece: RoadPiece) -> tuple[int, int]:
+    return piece.reference or reference_bounds(len(piece.bounds) - 1, piece.left)
 
 
 def _reference_polyline(piece: RoadPiece) -> tuple[np.ndarray, np.ndarray]:
     """The road's middle line between the two joints: its vertices within the road's span and
     clear of both joints, with the joints' points and headings at the ends."""
     start, end = piece.start, piece.end
-    p0 = start.origin + reference_offset(start, piece.start_borders, piece.left) * start.normal
-    p1 = end.origin + reference_offset(end, piece.end_borders, piece.left) * end.normal
-    i, j = reference_bounds(len(piece.bounds) - 1, piece.left)
+    p0 = start.origin + reference_offset(start, piece.start_borders, _reference(piece)) * start.normal
+    p1 = end.origin + reference_offset(end, piece.end_borders, _reference(piece)) * end.normal
+    i, j = _reference(piece)
     middle = piece.middle if piece.middle is not None else \
         middle_line(np.asarray(piece.bounds[i], float), np.asarray(piece.bounds[j], float))
     along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(middle, axis=0), axis=1))])
@@ -310,8 +314,8 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     reach = 2.0 * width + 5.0
     bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
     centres = [extended(np.asarray(c, float), CENTRE_REACH_M) for c in piece.centres]
-    t0 = reference_offset(piece.start, piece.start_borders, piece.left)
-    t1 = reference_offset(piece.end, piece.end_borders, piece.left)
+    t0 = reference_offset(piece.start, piece.start_borders, _reference(piece))
+    t1 = reference_offset(piece.end, piece.end_borders, _reference(piece))
     across = centred(np.array([_offsets(pts, normals, b, reach) for b in bounds]),
                      np.array([_offsets(pts, normals, extended(np.asarray(c, float), reach), reach)
                                for c in piece.centres]))
