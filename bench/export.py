@@ -32,6 +32,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
+import shapely
 from commonroad.scenario.lanelet import Lanelet
 from shapely.geometry import LineString
 
@@ -78,6 +79,14 @@ def malformed(lanelet: Lanelet) -> bool:
     return malformed_reason(lanelet) is not None
 
 
+def common_m(a: Lanelet, b: Lanelet) -> float:
+    """How long a stretch of ``a``'s bound towards its neighbour ``b`` lies within 0.1 m of a bound of ``b``."""
+    ours = LineString(a.left_vertices if a.adj_left == b.lanelet_id else a.right_vertices)
+    theirs = shapely.MultiLineString([b.left_vertices, b.right_vertices])
+    s = np.arange(0.0, ours.length, 0.1)
+    return float(np.sum(shapely.distance(theirs, shapely.line_interpolate_point(ours, s)) <= 0.1) * 0.1)
+
+
 def lost_relations(network, links) -> dict:
     """Why each relation the file does not keep is lost, counted by reason."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
@@ -93,6 +102,8 @@ def lost_relations(network, links) -> dict:
         same = la.adj_left_same_direction if la.adj_left == b else la.adj_right_same_direction
         if a not in (lb.adj_left, lb.adj_right):
             reason = "one-sided in the source (the neighbour does not name the lanelet back)"
+        elif common_m(la, lb) < 1.0:
+            reason = "their bounds meet at one point only (V-shaped merge or split): no common border"
         elif same and not road_topology._shares_bound(
                 la.left_vertices if la.adj_left == b else la.right_vertices,
                 lb.right_vertices if la.adj_left == b else lb.left_vertices):
