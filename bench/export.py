@@ -92,9 +92,12 @@ def lost_relations(network, links) -> dict:
     by_id = {l.lanelet_id: l for l in network.lanelets}
     successors: dict[str, int] = {}
     for a, b in links.lost_successors:
-        gap = road_topology._gap(by_id[a], by_id[b])
-        reason = (f"not representable: the source's lanelets do not touch ({a}->{b}: gap {gap:.1f} m)"
-                  if gap > road_topology.JOINABLE_M else "other")
+        la, lb = by_id[a], by_id[b]
+        gap = road_topology._gap(la, lb)
+        left = float(np.linalg.norm(la.left_vertices[-1] - lb.left_vertices[0]))
+        right = float(np.linalg.norm(la.right_vertices[-1] - lb.right_vertices[0]))
+        reason = (f"not representable: the source's lanelets do not touch ({a}->{b}: left bounds {left:.1f} m, "
+                  f"right bounds {right:.1f} m apart)" if gap > road_topology.JOINABLE_M else "other")
         successors[reason] = successors.get(reason, 0) + 1
     neighbours: dict[str, int] = {}
     for a, b in links.lost_neighbours:
