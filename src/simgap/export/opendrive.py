@@ -10,7 +10,9 @@ Two ways, chosen per scenario:
   junction is a road per arm (lane -1 leaving the junction, lane +1 arriving), a connecting road
   per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
   and the junction that joins them.
-* **fitted** — any other lanelet network (recorded maps): same-direction neighbours that share
+* **fitted** — any other lanelet network (recorded maps): lanelets cut where a neighbour begins,
+  ends, joins or leaves their bound (`simgap.export.lanelet_split`; the lanes still stand for the
+  source's lanelets), then same-direction neighbours that share
   their bound become one road of several lanes, opposite-direction neighbours its left lanes (where
   their lanes end square to it), lane changes allowed across a mark that is not solid, roads meet at shared cross-sections (G1: the
   reference lines continue in heading), continue road to road where the lanelets continue one to

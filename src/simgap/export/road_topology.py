@@ -17,9 +17,12 @@ where they meet, and junctions where the lanelets fork or merge.
   the lanelets meet within `SEAMLESS_M`). Any other place where lanelets join is a junction: every
   successor relation there becomes a connecting road from the predecessor's road to a cut across
   the successor's road (up to `CONNECTOR_M` into it, at most half of it), whose rest is the road.
-  A road end where some lanelet enters the road is cut there; a lanelet that leaves a cut road end
-  continues on each of its connecting roads from the cut (they stand for its last part and the
-  successor's first part). A connecting road belongs to one junction and joins two ordinary roads,
+  A road end where some lanelet enters the road is cut there, and so is one where the lanelets
+  end askew (their bounds more than `ASKEW_M` apart along the road; a road of at least
+  `ASKEW_ROAD_M` without a bound that doubles back), by that skew and `ASKEW_MARGIN_M`; a lanelet
+  that leaves a cut road end continues on each of its connecting roads from the cut (they stand
+  for its last part and the successor's first part). Cuts are placed along the road's axis
+  (`Strip.axis`); its reference line follows `Strip.middle` (`reference_bounds`). A connecting road belongs to one junction and joins two ordinary roads,
   as OpenDRIVE requires.
 """
 
