@@ -80,9 +80,12 @@ def malformed(lanelet: Lanelet) -> bool:
 
 
 def common_m(a: Lanelet, b: Lanelet) -> float:
-    """How long a stretch of ``a``'s bound towards its neighbour ``b`` lies within 0.1 m of a bound of ``b``."""
-    ours = LineString(a.left_vertices if a.adj_left == b.lanelet_id else a.right_vertices)
-    theirs = shapely.MultiLineString([b.left_vertices, b.right_vertices])
+    """How long a stretch of ``a``'s bound towards its neighbour ``b`` lies within 0.1 m of ``b``'s bound facing it."""
+    left = a.adj_left == b.lanelet_id
+    same = a.adj_left_same_direction if left else a.adj_right_same_direction
+    ours = LineString(a.left_vertices if left else a.right_vertices)
+    theirs = LineString((b.right_vertices if left else b.left_vertices) if same else
+                        (b.left_vertices if left else b.right_vertices))     # the bound facing ours
     s = np.arange(0.0, ours.length, 0.1)
     return float(np.sum(shapely.distance(theirs, shapely.line_interpolate_point(ours, s)) <= 0.1) * 0.1)
 
@@ -105,8 +108,10 @@ def lost_relations(network, links) -> dict:
         same = la.adj_left_same_direction if la.adj_left == b else la.adj_right_same_direction
         if a not in (lb.adj_left, lb.adj_right):
             reason = "one-sided in the source (the neighbour does not name the lanelet back)"
-        elif common_m(la, lb) < 1.0:
-            reason = "their bounds meet at one point only (V-shaped merge or split): no common border"
+        elif common_m(la, lb) < max(1.0, 0.1 * min(LineString(la.center_vertices).length,
+                                                 LineString(lb.center_vertices).length)):
+            reason = ("their bounds meet at one end only and part (V-shaped merge or split, or a gap opening "
+                      "between them): no common border")
         elif same and not road_topology._shares_bound(
                 la.left_vertices if la.adj_left == b else la.right_vertices,
                 lb.right_vertices if la.adj_left == b else lb.left_vertices):
@@ -151,6 +156,7 @@ def row(name: str, export: Export, road_qc: dict, bad: dict[int, str] | None = N
             default=0.0), 4)
         out["lost"] = lost_relations(network, export.links)
         out["lost"]["successor_relations"] = [list(r) for r in lost_successors]
+        out["lost"]["neighbour_relations"] = [list(r) for r in lost_neighbours]
     return out
 
 
