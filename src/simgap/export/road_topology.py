@@ -47,7 +47,8 @@ SKEW_SHARE = 0.25         # ... and within this share of its length (else two ro
 PAIRED_REFERENCE_M = 4.0  # a road without left lanes shorter than this has its reference midway between its outermost bounds
 ASKEW_M = 0.5             # a junction road end whose bounds end farther apart than this along it is cut back
 ASKEW_MARGIN_M = 2.0      # ... by that much and this (the connecting roads take the lanelets' last parts),
-ASKEW_ROAD_M = 4.0        # ... where the road is this long (shorter ones: wedges and stubs, left whole)
+ASKEW_ROAD_M = 2.5        # ... where the road is this long (shorter: wedges and stubs, left whole: a 1.6 m
+                          # wedge in DEU_Thiergarten-1 and a 1.8 m stub in USA_Intersection-1 got worse cut)
 CENTRE_WEIGHT = 10.0      # a lane centre's weight against a border's where borders are placed across a road
 MIN_WIDTH_M = 1e-3        # a lane's least width at a joint (OpenDRIVE readers treat zero-width lanes apart)
 
