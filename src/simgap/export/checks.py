@@ -133,6 +133,8 @@ class LinksKept:
     neighbours_kept: int
     junctions: int                      # <junction> elements written
     junction_connections: int           # successor relations kept through a junction
+    lost_successors: tuple[tuple[int, int], ...] = ()   # (lanelet, successor) the file does not keep
+    lost_neighbours: tuple[tuple[int, int], ...] = ()   # (lanelet, its neighbour) the file does not keep
 
 
 def _lanes_of(network: RoadNetwork) -> dict[int, list[tuple[int, int, int]]]:
@@ -170,6 +172,7 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
                 through.add((incoming, int(link.get("from")), connecting, int(link.get("to"))))
     lanes = _lanes_of(network)
     successors = kept = via_junction = 0
+    lost_successors, lost_neighbours = [], []
     for lanelet in lanelets.lanelets:
         for b in lanelet.successor or []:
             if lanelets.find_lanelet_by_id(b) is None:
@@ -178,6 +181,8 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
             how = _successor_kept(lanes[lanelet.lanelet_id], lanes[b], road_links, lane_links, through)
             kept += how is not None
             via_junction += how == "junction"
+            if how is None:
+                lost_successors.append((lanelet.lanelet_id, b))
     neighbours = neighbours_kept = 0
     for lanelet in lanelets.lanelets:
         for other, same in ((lanelet.adj_left, lanelet.adj_left_same_direction),
@@ -185,9 +190,13 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
             if other is None or lanelets.find_lanelet_by_id(other) is None:
                 continue
             neighbours += 1
-            neighbours_kept += any(r == q and (abs(l - m) == 1 or {l, m} == {-1, 1})
-                                   for r, l, _ in lanes[lanelet.lanelet_id] for q, m, _ in lanes[other])
-    return LinksKept(successors, kept, neighbours, neighbours_kept, len(junctions), via_junction)
+            side_by_side = any(r == q and (abs(l - m) == 1 or {l, m} == {-1, 1})
+                               for r, l, _ in lanes[lanelet.lanelet_id] for q, m, _ in lanes[other])
+            neighbours_kept += side_by_side
+            if not side_by_side:
+                lost_neighbours.append((lanelet.lanelet_id, other))
+    return LinksKept(successors, kept, neighbours, neighbours_kept, len(junctions), via_junction,
+                     tuple(lost_successors), tuple(lost_neighbours))
 
 
 def _successor_kept(ahead: list[tuple[int, int, int]], behind: list[tuple[int, int, int]], road_links: dict,

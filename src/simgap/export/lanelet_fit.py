@@ -1,7 +1,8 @@
 """A road of lanelets between two joints as OpenDRIVE geometry: its reference line fitted with
 clothoids, and the lane offset and lane widths as few cubic polynomials as fit.
 
-The reference line follows the road's middle (midway between its outermost bounds) from the start
+The reference line follows the road's middle (`road_topology.reference_bounds`: its centre lane's
+border, or its middle lane's centre line, or the bound between its two middle lanes) from the start
 joint to the end joint. It starts
 and ends on the joints' lines with the joints' headings (so that roads meeting at a joint continue
 one another in heading), and passes through a subset of the bound's vertices between them: a G1
@@ -27,7 +28,7 @@ import shapely
 from pyclothoids import Clothoid
 from shapely.geometry import LineString
 
-from simgap.export.road_topology import MIN_WIDTH_M, Border, Joint, RoadPiece, centred, middle_line
+from simgap.export.road_topology import MIN_WIDTH_M, Border, Joint, RoadPiece, centred, middle_line, reference_bounds
 
 FIT_TOLERANCE_M = 0.1       # the reference line's largest distance from the road's middle line (the lane
                             # offset carries the rest; a smooth line keeps the lanes' normals apart)
@@ -128,6 +129,9 @@ def _step(xy: np.ndarray, heading: np.ndarray, i: int) -> Clothoid:
     if abs(turn) >= math.pi / 2 - 1e-6:             # the polyline doubles back: no arc, a straight
         return Clothoid.StandardParams(xy[i, 0], xy[i, 1], chord, 0.0, 0.0, length)
     if i + 1 < len(xy) - 1:                         # the last vertex keeps its heading: the joint's
+        c = _hermite(xy, heading, i, i + 1)         # the polyline's own heading there, where a clothoid
+        if c is not None and c.length <= 1.2 * length:   # reaches it without a loop (else each arc
+            return c                                # mirrors the last turn and the line zigzags on)
         heading[i + 1] = heading[i] + 2 * turn
     c = _hermite(xy, heading, i, i + 1)
     return c if c is not None else Clothoid.StandardParams(xy[i, 0], xy[i, 1], chord, 0.0, 0.0, length)
@@ -152,22 +156,26 @@ def fit_reference(xy: np.ndarray, heading: np.ndarray) -> list[Clothoid]:
     return out
 
 
-def reference_offset(joint: Joint, borders: tuple[Border, ...], left: int = 0) -> float:
-    """Where a road's reference line crosses a joint (its offset along it): on the centre lane where
-    the road has left lanes, else midway between its outermost borders."""
-    if left:
-        return joint.t[borders[left]]
-    return 0.5 * (joint.t[borders[0]] + joint.t[borders[-1]])
+def reference_offset(joint: Joint, borders: tuple[Border, ...], reference: tuple[int, int]) -> float:
+    """Where a road's reference line crosses a joint (its offset along it): midway between the
+    borders ``reference`` (indices)."""
+    i, j = reference
+    return 0.5 * (joint.t[borders[i]] + joint.t[borders[j]])
+
+
+def _reference(piece: RoadPiece) -> tuple[int, int]:
+    return piece.reference or reference_bounds(len(piece.bounds) - 1, piece.left)
 
 
 def _reference_polyline(piece: RoadPiece) -> tuple[np.ndarray, np.ndarray]:
     """The road's middle line between the two joints: its vertices within the road's span and
     clear of both joints, with the joints' points and headings at the ends."""
     start, end = piece.start, piece.end
-    p0 = start.origin + reference_offset(start, piece.start_borders, piece.left) * start.normal
-    p1 = end.origin + reference_offset(end, piece.end_borders, piece.left) * end.normal
+    p0 = start.origin + reference_offset(start, piece.start_borders, _reference(piece)) * start.normal
+    p1 = end.origin + reference_offset(end, piece.end_borders, _reference(piece)) * end.normal
+    i, j = _reference(piece)
     middle = piece.middle if piece.middle is not None else \
-        middle_line(np.asarray(piece.bounds[0], float), np.asarray(piece.bounds[-1], float))
+        middle_line(np.asarray(piece.bounds[i], float), np.asarray(piece.bounds[j], float))
     along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(middle, axis=0), axis=1))])
     inside = (along > piece.span[0] + _JOINT_CLEARANCE_M) & (along < piece.span[1] - _JOINT_CLEARANCE_M)
     kept = [p0]
@@ -306,8 +314,8 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     reach = 2.0 * width + 5.0
     bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
     centres = [extended(np.asarray(c, float), CENTRE_REACH_M) for c in piece.centres]
-    t0 = reference_offset(piece.start, piece.start_borders, piece.left)
-    t1 = reference_offset(piece.end, piece.end_borders, piece.left)
+    t0 = reference_offset(piece.start, piece.start_borders, _reference(piece))
+    t1 = reference_offset(piece.end, piece.end_borders, _reference(piece))
     across = centred(np.array([_offsets(pts, normals, b, reach) for b in bounds]),
                      np.array([_offsets(pts, normals, extended(np.asarray(c, float), reach), reach)
                                for c in piece.centres]))

@@ -10,7 +10,9 @@ Two ways, chosen per scenario:
   junction is a road per arm (lane -1 leaving the junction, lane +1 arriving), a connecting road
   per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
   and the junction that joins them.
-* **fitted** — any other lanelet network (recorded maps): same-direction neighbours that share
+* **fitted** — any other lanelet network (recorded maps): lanelets cut where a neighbour begins,
+  ends, joins or leaves their bound (`simgap.export.lanelet_split`; the lanes still stand for the
+  source's lanelets), then same-direction neighbours that share
   their bound become one road of several lanes, opposite-direction neighbours its left lanes (where
   their lanes end square to it), lane changes allowed across a mark that is not solid, roads meet at shared cross-sections (G1: the
   reference lines continue in heading), continue road to road where the lanelets continue one to
@@ -39,6 +41,7 @@ from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking
 from scenariogeneration import xodr
 
 from simgap.export.lanelet_fit import Cubic, Piece, RoadFit, fit_road
+from simgap.export.lanelet_split import split
 from simgap.export.road_topology import topology
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import curvature_pieces
@@ -356,8 +359,10 @@ def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork
     junctions (`simgap.export.road_topology`), each road's geometry fitted (`lanelet_fit`)."""
     odr = _opendrive(name)
     result = RoadNetwork(odr, Method.FITTED, [])
-    top = topology(network)
-    by_id = {l.lanelet_id: l for l in network.lanelets}
+    parts = split(network.lanelets)          # lanelets cut where their neighbours begin and end
+    top = topology(parts)
+    by_id = {l.lanelet_id: l for l in parts.lanelets}
+    source = parts.origin                    # a piece -> the source's lanelet its lane stands for
     lane_of = {i: lane for i, (_, lane) in top.lane_of.items()}
     road_of = {i: r for i, (r, _) in top.lane_of.items()}
     roads: list[xodr.Road] = []
@@ -366,7 +371,7 @@ def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork
         road = _fitted_road(r + 1, fit, [by_id[i] for i in piece.lanelets], surface, grade=len(top.pieces) == 1)
         odr.add_road(road)
         roads.append(road)
-        result.lanes += [LaneOfLanelets(road.id, lane_of[i], (i,)) for i in piece.lanelets]
+        result.lanes += [LaneOfLanelets(road.id, lane_of[i], (source[i],)) for i in piece.lanelets]
         result.fit_deviation_m[road.id] = fit.deviation_m
     for link in top.links:
         (r1, e1), (r2, e2) = link.ends
@@ -394,14 +399,14 @@ def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork
         connection = xodr.Connection(incoming.id, road.id, xodr.ContactPoint.start)
         connection.add_lanelink(lane_of[c.predecessor], -1)
         junctions[c.junction].add_connection(connection)
-        result.lanes.append(LaneOfLanelets(road.id, -1, c.lanelets))
+        result.lanes.append(LaneOfLanelets(road.id, -1, tuple(source[i] for i in c.lanelets)))
         result.fit_deviation_m[road.id] = fit.deviation_m
     for j in sorted(junctions):
         odr.add_junction(junctions[j])
     if top.unjoined:
         result.notes.append(f"{len(top.unjoined)} successor relation(s) not joined: the successor begins "
                             f"{min(g for _, _, g in top.unjoined):.1f}-{max(g for _, _, g in top.unjoined):.1f} m "
-                            f"from its predecessor's end ({', '.join(f'{a}->{b}' for a, b, _ in top.unjoined[:4])}"
+                            f"from its predecessor's end ({', '.join(f'{source[a]}->{source[b]}' for a, b, _ in top.unjoined[:4])}"
                             f"{', ...' if len(top.unjoined) > 4 else ''})")
     return result
 

@@ -17,9 +17,12 @@ where they meet, and junctions where the lanelets fork or merge.
   the lanelets meet within `SEAMLESS_M`). Any other place where lanelets join is a junction: every
   successor relation there becomes a connecting road from the predecessor's road to a cut across
   the successor's road (up to `CONNECTOR_M` into it, at most half of it), whose rest is the road.
-  A road end where some lanelet enters the road is cut there; a lanelet that leaves a cut road end
-  continues on each of its connecting roads from the cut (they stand for its last part and the
-  successor's first part). A connecting road belongs to one junction and joins two ordinary roads,
+  A road end where some lanelet enters the road is cut there, and so is one where the lanelets
+  end askew (their bounds more than `ASKEW_M` apart along the road; a road of at least
+  `ASKEW_ROAD_M` without a bound that doubles back), by that skew and `ASKEW_MARGIN_M`; a lanelet
+  that leaves a cut road end continues on each of its connecting roads from the cut (they stand
+  for its last part and the successor's first part). Cuts are placed along the road's axis
+  (`Strip.axis`); its reference line follows `Strip.middle` (`reference_bounds`). A connecting road belongs to one junction and joins two ordinary roads,
   as OpenDRIVE requires.
 """
 
@@ -41,6 +44,11 @@ CONNECTOR_M = 10.0        # the longest connecting road cut from a successor lan
 _DIRECTION_M = 2.0        # the stretch of a lanelet's centre that gives its direction at an end
 SKEW_M = 2.0              # opposite groups are one road only where their lanes end within this along it,
 SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way)
+PAIRED_REFERENCE_M = 4.0  # a road without left lanes shorter than this has its reference midway between its outermost bounds
+ASKEW_M = 0.5             # a junction road end whose bounds end farther apart than this along it is cut back
+ASKEW_MARGIN_M = 2.0      # ... by that much and this (the connecting roads take the lanelets' last parts),
+ASKEW_ROAD_M = 2.5        # ... where the road is this long (shorter: wedges and stubs, left whole: a 1.6 m
+                          # wedge in DEU_Thiergarten-1 and a 1.8 m stub in USA_Intersection-1 got worse cut)
 CENTRE_WEIGHT = 10.0      # a lane centre's weight against a border's where borders are placed across a road
 MIN_WIDTH_M = 1e-3        # a lane's least width at a joint (OpenDRIVE readers treat zero-width lanes apart)
 
@@ -90,9 +98,41 @@ class Strip:
 
     @property
     def middle(self) -> np.ndarray:
-        """The line the road's reference line follows: its centre lane's where it has left lanes,
-        else midway between its outermost bounds."""
+        """The line the road's reference line follows (`reference_bounds`): its centre lane's border
+        where it has left lanes, else its middle lane's centre line (an odd number of lanes) or the
+        bound between its two middle lanes (an even number)."""
+        i, j = self.reference
+        if i == j:
+            return self.bounds[i]
+        return self.centres[i] if j == i + 1 else middle_line(self.bounds[i], self.bounds[j])
+
+    @property
+    def reference(self) -> tuple[int, int]:
+        """The bounds midway between which the reference line runs: `reference_bounds`, on a road
+        shorter than `PAIRED_REFERENCE_M` without left lanes its outermost bounds (the axis: a stub's
+        inner bounds may not span it, where its lanelets end askew)."""
+        n = len(self.centres)
+        if not self.left and LineString(self.axis).length < PAIRED_REFERENCE_M:
+            return 0, n
+        return reference_bounds(n, self.left)
+
+    @property
+    def axis(self) -> np.ndarray:
+        """The line along which the road is measured and cut: its centre lane's border where it has
+        left lanes, else midway between its outermost bounds."""
         return self.bounds[self.left] if self.left else middle_line(self.bounds[0], self.bounds[-1])
+
+
+def reference_bounds(lanes: int, left: int) -> tuple[int, int]:
+    """The two bounds (indices, left to right) midway between which a road's reference line runs:
+    the centre lane's (twice) where it has left lanes, else the middle lane's bounds or, for an even
+    number of lanes, the bound between the middle two. Not the outermost bounds: their vertices are
+    not paired (they belong to different lanelets), and where one of them flares out the line midway
+    at equal fractions of their lengths runs askew and jogs (DEU_AachenUniTemplergraben-1: 0.6 m);
+    a lanelet's own centre line pairs its bounds' vertices as the source does."""
+    if left:
+        return left, left
+    return (lanes // 2, lanes // 2) if lanes % 2 == 0 else (lanes // 2, lanes // 2 + 1)
 
 
 @dataclass(frozen=True)
@@ -117,6 +157,8 @@ class RoadPiece:
     junction: int | None = None           # the junction a connecting road belongs to
     left: int = 0
     middle: np.ndarray | None = None
+    reference: tuple[int, int] | None = None     # the bounds the reference line runs midway between
+                                                 # (default: `reference_bounds`)
 
 
 @dataclass(frozen=True)
@@ -166,6 +208,13 @@ def _direction(xy: np.ndarray, at_end: bool) -> float:
     if not at_end:
         d = -d
     return math.atan2(d[1], d[0])
+
+
+def _direction_along(line: LineString, at: float) -> float:
+    """The direction of ``line`` at ``at`` metres along it (the chord over `_DIRECTION_M` around it)."""
+    a = np.array(line.interpolate(max(0.0, at - 0.5 * _DIRECTION_M)).coords[0])
+    b = np.array(line.interpolate(min(line.length, at + 0.5 * _DIRECTION_M)).coords[0])
+    return math.atan2(*(b - a)[::-1])
 
 
 def _mean_heading(headings: list[float]) -> float:
@@ -307,14 +356,28 @@ def strips(network: LaneletNetwork) -> list[Strip]:
 def _square(strip: Strip) -> bool:
     """Whether the road's lanes end on lines nearly square to it: its bounds' ends lie within
     `SKEW_SHARE` of its length (and `SKEW_M`) of one another along its direction at each end."""
-    length = LineString(strip.middle).length
-    for end in ("start", "end"):
-        heading = _heading_at(strip, end)
-        d = np.array([math.cos(heading), math.sin(heading)])
-        along = [float((b[-1] if end == "end" else b[0]) @ d) for b in strip.bounds]
-        if max(along) - min(along) > min(SKEW_M, SKEW_SHARE * length):
-            return False
-    return True
+    length = LineString(strip.axis).length
+    return all(_skew(strip, end) <= min(SKEW_M, SKEW_SHARE * length) for end in ("start", "end"))
+
+
+def _doubles_back(lanelet: Lanelet) -> bool:
+    """Whether a bound of the lanelet turns by more than 90 degrees between two segments (it has no
+    direction to cut it along)."""
+    for bound in (lanelet.left_vertices, lanelet.right_vertices):
+        d = np.diff(bound, axis=0)
+        d = d[np.linalg.norm(d, axis=1) > 1e-6]
+        h = np.arctan2(d[:, 1], d[:, 0])
+        if len(h) > 1 and np.max(np.abs(np.angle(np.exp(1j * np.diff(h))))) > math.pi / 2:
+            return True
+    return False
+
+
+def _skew(strip: Strip, end: str) -> float:
+    """How far apart the road's bounds end along its direction there [m] (0: square)."""
+    heading = _heading_at(strip, end)
+    d = np.array([math.cos(heading), math.sin(heading)])
+    along = [float((b[-1] if end == "end" else b[0]) @ d) for b in strip.bounds]
+    return max(along) - min(along)
 
 
 def _road_end_slots(slots: _Slots, strip: Strip, end: str) -> None:
@@ -345,8 +408,8 @@ def _place_joint(ends: list[tuple[Strip, str]], pairs: list[tuple[int, int]] = (
 
 
 def _cut(strip: Strip, end: str, length: float) -> Joint:
-    """A joint across a road ``length`` metres along its middle line from its start or end."""
-    middle = LineString(strip.middle)
+    """A joint across a road ``length`` metres along its axis from its start or end."""
+    middle = LineString(strip.axis)
     at = length if end == "start" else middle.length - length
     p = np.array(middle.interpolate(at).coords[0])
     a = np.array(middle.interpolate(max(0.0, at - 1.0)).coords[0])
@@ -463,14 +526,19 @@ def topology(network: LaneletNetwork) -> Topology:
         for r, e in ends:
             if (r, e) in entering:
                 cut_at[(r, e)] = CONNECTOR_M
+            elif _skew(roads[r], e) > ASKEW_M and LineString(roads[r].axis).length >= ASKEW_ROAD_M and \
+                    not any(_doubles_back(by_id[i]) for i in roads[r].lanelets):
+                # its lanelets end askew: the connecting roads take their last part (a square joint
+                # there would cut some short and run others on, off their successors' centre lines)
+                cut_at[(r, e)] = _skew(roads[r], e) + ASKEW_MARGIN_M
             else:
                 joints[(r, e)] = _place_joint([(roads[r], e)])
             junction_ends[(r, e)] = junction
         junction_relations += [(junction, a, b) for a, b in rels]
     for r, e in sorted(cut_at):                # cut at most half a road, a third where both ends are cut
-        length = LineString(roads[r].middle).length
+        length = LineString(roads[r].axis).length
         share = 1 / 3 if (r, "start") in cut_at and (r, "end") in cut_at else 0.5
-        cut_at[(r, e)] = min(CONNECTOR_M, share * length)
+        cut_at[(r, e)] = min(cut_at[(r, e)], share * length)
         joints[(r, e)] = _cut(roads[r], e, cut_at[(r, e)])
     pieces = []
     for r, strip in enumerate(roads):
@@ -478,16 +546,20 @@ def topology(network: LaneletNetwork) -> Topology:
             if (r, e) not in joints:
                 joints[(r, e)] = _place_joint([(strip, e)])
         borders = tuple(names[0] for names in strip.names)
-        length = LineString(strip.middle).length
+        middle = LineString(strip.middle)
+        span = [0.0, middle.length]          # the stretch of the middle line between the joints
+        for k, e in enumerate(("start", "end")):
+            if (r, e) in cut_at:
+                i, j = strip.reference
+                joint = joints[(r, e)]
+                span[k] = middle.project(shapely.Point(joint.origin + 0.5 * (joint.t[borders[i]] + joint.t[borders[j]])
+                                                       * joint.normal))
         pieces.append(RoadPiece(strip.lanelets, strip.bounds, strip.centres, joints[(r, "start")],
-                                joints[(r, "end")], borders, borders,
-                                (cut_at.get((r, "start"), 0.0), length - cut_at.get((r, "end"), 0.0)),
-                                left=strip.left, middle=strip.middle))
+                                joints[(r, "end")], borders, borders, (span[0], span[1]),
+                                left=strip.left, middle=strip.middle, reference=strip.reference))
     for junction, a, b in junction_relations:
         pa, pb = by_id[a], by_id[b]
         start, end = joints[leaves(a)], joints[enters(b)]
-        start = _towards(start, _direction(pa.center_vertices, True))
-        end = _towards(end, _direction(pb.center_vertices, False))
         middle_a = middle_line(pa.left_vertices, pa.right_vertices)
         middle_b = middle_line(pb.left_vertices, pb.right_vertices)
         line_a, line_b = LineString(middle_a), LineString(middle_b)
@@ -496,11 +568,20 @@ def topology(network: LaneletNetwork) -> Topology:
         if not tail:
             from_a = line_a.length
         to_b = line_b.project(shapely.Point(0.5 * (end.point((b, "left")) + end.point((b, "right")))))
+        # each joint faces the way of travel where the connecting road meets it: at a cut that is the
+        # lanelet's direction there, not at its end (a lanelet that turns before the cut: a joint
+        # turned the wrong way put the lane's left border on its right)
+        start = _towards(start, _direction_along(line_a, from_a) if tail else _direction(pa.center_vertices, True))
+        end = _towards(end, _direction_along(line_b, to_b) if to_b > _DIRECTION_M else
+                       _direction(pb.center_vertices, False))
         piece = RoadPiece((b,), (np.vstack([pa.left_vertices, pb.left_vertices]),
                                  np.vstack([pa.right_vertices, pb.right_vertices])),
-                          (np.vstack([pa.center_vertices, pb.center_vertices]) if tail else pb.center_vertices,),
+                          (np.vstack([pa.center_vertices, pb.center_vertices]),),
                           start, end, ((a, "left"), (a, "right")), ((b, "left"), (b, "right")),
                           (from_a, line_a.length + to_b), junction, middle=np.vstack([middle_a, middle_b]))
-        connections.append(Connection(junction, a, b, piece, (a, b) if tail else (b,), leaves(a), enters(b)))
+        # the connecting lane stands for the predecessor's end too where its road end is not cut: a road
+        # ends on a joint square to it, and where its lanelets end askew, a lanelet's last part lies past
+        # the joint (DEU_AachenAseag-1: 0.8 m of lanelet 216, whose successor 245 turns 29 degrees)
+        connections.append(Connection(junction, a, b, piece, (a, b), leaves(a), enters(b)))
     return Topology(roads, pieces, links, connections, junction_ends,
                     [(a, b, gaps[(a, b)]) for a, b in unjoined], lane_of)

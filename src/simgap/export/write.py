@@ -49,6 +49,7 @@ class Export:
     schemas: dict[str, str] = field(default_factory=dict)             # file name -> schema it validates against
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    road_lanelets: dict[int, tuple[int, ...]] = field(default_factory=dict)  # per road: the lanelets its lanes stand for
 
     @property
     def largest_deviation_m(self) -> float:
@@ -88,6 +89,8 @@ def _check_road(roads: RoadNetwork, path: Path, samples: list[RoadSamples], netw
     if errors:
         raise checks.CheckFailed(f"{path.name} does not validate against {result.schemas[path.name]}: {errors[0]}")
     result.links = checks.links_kept(path, roads, network)
+    for lane in roads.lanes:
+        result.road_lanelets[lane.road] = result.road_lanelets.get(lane.road, ()) + tuple(lane.lanelets)
     deviations = checks.lane_centre_deviation(samples, roads, network)
     result.lane_deviation_m = {road: float(d.max()) for road, d in deviations.items()}
     result.lane_deviation_p99_m = float(np.percentile(np.concatenate(list(deviations.values())), 99))
