@@ -207,6 +207,19 @@ def s_curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
     return road_scenario(name, logical, p, segments, CURVE_LENGTH_FIELDS)
 
 
+def hairpins(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    """A mountain road: ``hairpins`` turns of 180 degrees and ``hairpin_radius``, alternately left
+    and right, joined by straight legs of ``leg_length`` (and such a leg before the first and after
+    the last), so the road zig-zags up a slope."""
+    count = int(p.get("hairpins", 2))
+    leg = Straight(length=p.get("leg_length", 60.0))
+    segments: list[Segment] = [leg]
+    for k in range(count):
+        segments += [Arc(radius=p["hairpin_radius"], angle=180.0 if k % 2 == 0 else -180.0,
+                         transition=p.get("transition", 0.0)), leg]
+    return road_scenario(name, logical, p, segments, "leg_length, hairpins, hairpin_radius, transition")
+
+
 _SEGMENTS = TypeAdapter(list[Straight | Arc])
 
 
@@ -250,7 +263,7 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
         if to_junction > approach:
             raise InputError(f"agent {k + 1} would start {to_junction:g} m before the junction, "
                              f"beyond the {approach:g} m approach", field="start_distance",
-                             allowed=f"start_distance + (agents - 1) * stagger <= approach_length")
+                             allowed="start_distance + (agents - 1) * stagger <= approach_length")
         problems.append(planning_problem(
             k + 1, (start, approach - to_junction),
             (goal, float(goal.distance[-1]) - 10.0),
@@ -269,5 +282,6 @@ def intersection(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario
 
 
 TEMPLATES: dict[str, Callable[[str, str, dict[str, Any]], ConcreteScenario]] = {
-    "curve": curve, "s-curve": s_curve, "road": road, "t-junction": t_junction, "intersection": intersection,
+    "curve": curve, "s-curve": s_curve, "road": road, "hairpins": hairpins, "t-junction": t_junction,
+    "intersection": intersection,
 }
