@@ -8,7 +8,7 @@ MAPS   := $(VENV)/share/simgap/real-maps/.installed
 
 QC     := .venv-qc/.installed
 
-.PHONY: demo test install qc browser planner-toolchain lock clean
+.PHONY: demo docs docs-output test install qc browser planner-toolchain lock clean
 
 $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
@@ -38,6 +38,15 @@ qc: $(QC)
 demo: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/simgap demo --out simgap-demo
 
+# the documentation site, built offline into site/ (reference tables generated from the code at build
+# time); tests/docs builds it strictly, runs the tutorials' blocks and opens it in chromium
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 PYTHONPATH=src $(BIN)/python -m mkdocs build --strict --site-dir site
+
+# rerun the tutorials' commands and write their printed output into the pages
+docs-output: $(STAMP)
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python docs/tutorial_blocks.py --write
+
 # the report's test opens it in a real headless browser: Debian's chromium, installed when missing
 browser:
 	@command -v chromium >/dev/null 2>&1 || { \
@@ -52,12 +61,15 @@ planner-toolchain:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
-# on every core (2 on CI), a test file per worker so that module fixtures are built once
+# the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
+# then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
 test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
+	$(BIN)/ruff check .
+	PYTHONPATH=src $(BIN)/lint-imports
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
 
 lock:
-	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng]' \
+	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng,docs]' \
 	  && /tmp/simgap-lock/bin/pip freeze --exclude-editable > requirements.lock
 
 clean:

@@ -1,4 +1,4 @@
-"""Hostile-input sweep (issue 38): what a careless or hostile user gives simgap, and what simgap does.
+"""Hostile-input sweep: what a careless or hostile user gives simgap, and what simgap does.
 
 Every case builds what it needs in a folder of its own (scenario, spec, vehicle and planner files,
 mutated as the case says), runs the real `simgap` command as a subprocess with a wall-time limit,
@@ -48,7 +48,7 @@ import threading
 import time
 import xml.etree.ElementTree as ET
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -935,7 +935,7 @@ def tmpfs(path: Path, options: str) -> Iterator[bool]:
 def _disk_case(options: str, command: Callable[[Path, Stock, Path], list], fragment: str):
     def run(folder: Path, stock: Stock) -> Outcome:
         disk = folder / "disk"
-        scenario, base = stock.scenario, stock.run                      # built before the mount
+        stock.scenario, stock.run                                       # built before the mount
         with tmpfs(disk, options) as mounted:
             if not mounted:
                 return Outcome(SKIPPED, "cannot mount a tmpfs here")

@@ -130,7 +130,10 @@ def main() -> None:
           f"{'ideal':>12} {'mujoco':>12} {'export [s]':>10} {'read back [m]':>13}")
     for r in rows:
         def world(b):
-            return f"{r[b]['outcome'][:4]} {r[b]['time_to_goal_s'] or 0:4.1f} s" if b in r else "—"
+            if b not in r:
+                return "—"
+            reached = r[b]["time_to_goal_s"]
+            return f"goal {reached:4.1f} s" if reached is not None else r[b]["outcome"]
         print(f"{r['file']:<52} {r['import_s']:>10.3f} {r['lanelets']:>8} "
               f"{r['successors']:>6} ({r['successors_across_roads']:>3}) {r['neighbour_pairs']:>6} "
               f"{r['lane_links_kept']:>4}/{r['lane_links_in_file']:<5} {world('ideal'):>12} {world('mujoco'):>12} "

@@ -14,9 +14,7 @@ traffic and limit checks in cost order), conversion (to a centre-convention Traj
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from commonroad.scenario.state import CustomState
@@ -25,25 +23,16 @@ from simgap.planning.frenet import PHASES, FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.protocol import World
 from simgap.planning.settings import FrenetSettings
+from simgap.scenario import build_scenario
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle
 
 
 def curve_scenario(radius: float, angle: float):
     """(lanelet network, planning problem, dt) of the paper's curve road."""
-    try:
-        from simgap.scenario import build_scenario
-    except ImportError:
-        build_scenario = None
-    if build_scenario is not None:
-        built = build_scenario("curve", {"radius": radius, "angle": angle})
-        problem = next(iter(built.problems.planning_problem_dict.values()))
-        return built.scenario.lanelet_network, problem, float(built.scenario.dt)
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "planning"))
-    from planner_roads import DT, two_lane_road
-
-    road = two_lane_road(radius, angle)
-    return road.lanelet_network, road.problem, DT
+    built = build_scenario("curve", {"radius": radius, "angle": angle})
+    problem = next(iter(built.problems.planning_problem_dict.values()))
+    return built.scenario.lanelet_network, problem, float(built.scenario.dt)
 
 
 def closed_loop(radius: float, angle: float, settings: FrenetSettings, max_steps: int = 600) -> dict:

@@ -31,6 +31,7 @@ import datetime
 import json
 import math
 import os
+import platform
 import subprocess
 import time
 from pathlib import Path
@@ -156,7 +157,8 @@ def main(argv: list[str] | None = None) -> None:
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent).stdout.strip()
     results = {"commit": commit, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-               "load_average_before": load_before, "load_average_after": os.getloadavg(),
+               "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, shared",
+               "load": {"before": load_before, "after": os.getloadavg()},
                "workers": args.workers, "wall_time_s": time.perf_counter() - start,
                "planner": "frenet (defaults), replan every step", "vehicle": "sedan", "controller": "pure_pursuit",
                "families": families}

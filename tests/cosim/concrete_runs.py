@@ -11,13 +11,15 @@ from simgap.evaluate.run_metrics import run_metrics
 from simgap.experiment.knobs import knob_value
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
+from simgap.scenario.ground import ground_of
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
 
 
 def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0,
           planner_of: Callable = lambda planner: planner):
-    """``concrete`` in ``backend`` with the sedan; ``planner_of`` may wrap each agent's planner."""
+    """``concrete`` in ``backend`` with the sedan, on its ground (a relief or an imported network's
+    heights, as `simgap run` builds it); ``planner_of`` may wrap each agent's planner."""
     scenario, problems = concrete.scenario, concrete.problems
     settings = settings or {}
     sedan = load_vehicle("sedan")
@@ -26,5 +28,6 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
                                                                         scenario.lanelet_network)))
                 for a in agents}
     run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
-                   CosimSettings(**(cosim or {})), seed=seed)
+                   CosimSettings(**(cosim or {})), seed=seed,
+                   relief=ground_of(concrete.metadata(), scenario.lanelet_network))
     return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings))

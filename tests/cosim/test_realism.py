@@ -111,9 +111,8 @@ def test_impossible_sensing_and_latency_are_refused():
             CosimSettings(**bad)
 
 
-def test_the_readme_table_of_sensing_profiles_is_the_profile_table():
+def test_the_docs_table_of_sensing_profiles_is_generated_from_the_profile_table():
     from pathlib import Path
 
-    from simgap.cosim.sensing import profile_table
-
-    assert profile_table() in (Path(__file__).parents[2] / "README.md").read_text()
+    page = (Path(__file__).parents[2] / "docs" / "concepts" / "real-car.md").read_text()
+    assert "<!-- gen:sensing -->" in page and "| profile |" not in page

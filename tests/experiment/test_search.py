@@ -6,7 +6,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-import yaml
 
 from simgap.errors import InputError
 from simgap.cosim import Outcome

@@ -49,3 +49,19 @@ def test_the_checker_finds_a_gap_of_two_centimetres(tmp_path, intersection_run, 
     xodr = export_run(intersection_run, tmp_path / "out").files[0]
     report = asam_qc(moved_connecting_road(xodr, tmp_path / "moved.xodr", 0.02))
     assert report.rules.get("asam.net:xodr:1.7.0:lane_smoothness.contact_point_no_horizontal_gaps", 0) >= 1
+
+
+@pytest.mark.parametrize("logical, params", [("crest-curve", {"radius": 30, "vertical_radius": 100}),
+                                             ("banked-curve", {"bank": -10}),
+                                             ("mountain-road", {"grade": 8})])
+def test_a_3d_road_exports_its_relief_and_every_checker_passes(tmp_path, asam_qc, logical, params):
+    """A road's elevation and superelevation as OpenDRIVE writes them pass ASAM's checker."""
+    from simgap.export.write import export_road
+
+    xml = write_scenario(build_scenario(logical, params), tmp_path / "scenario", preview=False)
+    (xodr,) = export_road(xml, tmp_path / "out").files
+    road = ET.parse(xodr).getroot().find("road")
+    profile = road.findall("elevationProfile/elevation") + road.findall("lateralProfile/superelevation")
+    assert any(float(r.get("b")) or float(r.get("a")) or float(r.get("c")) for r in profile)   # it has a relief
+    report = asam_qc(xodr)
+    assert (report.errors, report.warnings) == (0, 0), report.rules

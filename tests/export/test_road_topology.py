@@ -161,3 +161,80 @@ def test_a_real_intersection_passes_asam_qc_and_keeps_every_successor(tmp_path, 
     assert float(header.get("east")) > float(header.get("west")) and float(header.get("north")) > float(header.get("south"))
     links = export.links
     assert links.successors_kept == links.successors == 35 and links.junctions >= 1
+
+
+def two_way_road() -> LaneletNetwork:
+    """A two-way road along +x that turns 10 degrees to the left after 30 m: lanes 1 -> 3 go along
+    it (right of the centre line), lanes 4 -> 2 come back (left of it); 1|2 and 3|4 are each other's
+    opposite-direction left neighbours."""
+    centre = polyline(np.array([0.0, 0.0]), 0.0, 30.0)
+    centre = np.vstack([centre, polyline(centre[-1], 10.0, 30.0)[1:]])
+    d = np.gradient(centre, axis=0)
+    normal = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+    right, left = centre - W * normal, centre + W * normal
+    a, b = slice(0, 12), slice(11, None)
+    opp = {"adjacent_left_same_direction": False}
+    return LaneletNetwork.create_from_lanelet_list([
+        lanelet(1, centre[a], right[a], successor=[3], adjacent_left=2, **opp),
+        lanelet(3, centre[b], right[b], predecessor=[1], adjacent_left=4, **opp),
+        lanelet(2, centre[a][::-1], left[a][::-1], predecessor=[4], adjacent_left=1, **opp),
+        lanelet(4, centre[b][::-1], left[b][::-1], successor=[2], adjacent_left=3, **opp),
+    ])
+
+
+@pytest.fixture(scope="module")
+def two_way(tmp_path_factory) -> tuple[Path, object]:
+    scenario = Scenario(0.1)
+    scenario.add_objects(two_way_road())
+    xml = tmp_path_factory.mktemp("two_way") / "two_way.xml"
+    write_xml(scenario, PlanningProblemSet(), xml)
+    export = export_road(xml, xml.parent / "out")
+    return export.files[0], export
+
+
+def test_opposite_neighbours_are_one_road_with_left_and_right_lanes(two_way, asam_qc):
+    """Opposite-direction neighbours become the left and right lanes of one road (a neighbour
+    relation kept across the centre lane), linked road to road lane by lane for both directions,
+    G1 and without gaps where they meet; ASAM QC finds nothing."""
+    xodr, export = two_way
+    root = ET.parse(xodr).getroot()
+    roads = root.findall("road")
+    assert len(roads) == 2 and not root.findall("junction")
+    for road in roads:
+        assert len(road.findall(".//left/lane")) == 1 and len(road.findall(".//right/lane")) == 1
+    links = export.links
+    assert (links.neighbours_kept, links.neighbours) == (4, 4)
+    assert (links.successors_kept, links.successors) == (2, 2)
+    assert max(export.lane_deviation_m.values()) < 0.05
+    ends = reference_ends(xodr)
+    samples = {r.road: r for r in sample_roads(xodr)}
+    met = contacts(xodr)
+    assert len(met) == 2
+    for road, end, other, other_end in met:
+        heading = ends[road][end == "end"][2]
+        other_heading = ends[other][other_end == "end"][2] + (math.pi if end == other_end else 0.0)
+        assert abs(math.degrees(math.remainder(heading - other_heading, 2 * math.pi))) < HEADING_TOLERANCE_DEG
+        for lane in root.find(f".//road[@id='{road}']").iter("lane"):
+            for link in lane.findall(f"link/{'successor' if end == 'end' else 'predecessor'}"):
+                here = samples[road].lane_borders[int(lane.get("id"))][-1 if end == "end" else 0]
+                there = samples[other].lane_borders[int(link.get("id"))][-1 if other_end == "end" else 0]
+                assert np.linalg.norm(here - there) < GAP_TOLERANCE_M
+    report = asam_qc(xodr)
+    assert (report.errors, report.warnings) == (0, 0), report.rules
+
+
+def test_a_real_two_way_network_keeps_its_opposite_neighbours_and_lane_centres(tmp_path, asam_qc):
+    """DEU_AachenFrankenburg-1's 48 neighbour relations are all between opposite directions (kept: 0
+    before left lanes were written); all but one askew pair (lanelets 133|137, 1.9 m long, ends 0.75 m
+    apart along the road: two roads) are kept, and the lane centres lie within 0.1 m of the
+    lanelets' centre lines (read back every 0.1 m)."""
+    maps = {p.stem: p for p in map_files()}
+    if "DEU_AachenFrankenburg-1" not in maps:
+        pytest.skip(f"no real maps in {maps_dir()}")
+    export = export_road(maps["DEU_AachenFrankenburg-1"], tmp_path)
+    links = export.links
+    assert links.successors_kept == links.successors == 52
+    assert (links.neighbours_kept, links.neighbours) == (46, 48)
+    assert export.largest_deviation_m <= 0.1
+    report = asam_qc(export.files[0])
+    assert report.errors == 0, report.rules

@@ -20,6 +20,8 @@ from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 
+from simgap.trajectory import State
+
 DT = 0.1
 EGO_LANE_IDS = (1, 2, 3)
 
@@ -121,9 +123,7 @@ def two_lane_road(radius: float = 10.0, angle_deg: float = 90.0, straight: float
     return road
 
 
-def start_state(road: TestRoad) -> "State":
-    from simgap.trajectory import State
-
+def start_state(road: TestRoad) -> State:
     ini = road.problem.initial_state
     return State(0.0, float(ini.position[0]), float(ini.position[1]), float(ini.orientation),
                  float(ini.velocity))

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-import shapely
 from commonroad.common.util import AngleInterval, Interval
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion

@@ -48,3 +48,23 @@ def test_a_run_renders_in_3d_chase_birdseye_video_and_side_by_side(tmp_path):
         rows, cols = np.nonzero(car)
         assert abs(cols.mean() / width - 0.5) < 0.15 and abs(rows.mean() / height - 0.5) < 0.2   # ... near its centre
     assert np.abs(frames[-1].astype(int) - frames[0]).mean() > 5      # while the world moves past
+
+
+def test_a_run_on_a_crest_is_replayed_on_its_relief(tmp_path):
+    """The run directory keeps the scenario's sidecar (driven.json), so the replay builds the
+    road's relief even where the scenario file has gone."""
+    xml = write_scenario(build_scenario("crest-curve", {"radius": 30, "vertical_radius": 100}), tmp_path, preview=False)
+    execute(RunRequest(scenario=xml, backend="ideal", cosim=CosimSettings(replan_every=5, max_time_s=1.0)),
+            tmp_path / "run")
+    xml.unlink()
+    xml.with_suffix(".json").unlink()
+    built = []
+
+    def world(scenario, vehicles, driven, dt, relief):
+        built.append(relief)
+        return MujocoReplay(scenario, vehicles, driven, dt, relief)
+
+    render_run_3d(tmp_path / "run", tmp_path / "pictures", world=world, fps=2)
+    (relief,) = built
+    assert relief is not None and relief.profile.elevation.grade == 8.0
+    assert relief.surface(np.array([60.0]), np.array([-1.5])).z[0] > 4.0      # 60 m up the 8 % grade

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 from simgap.errors import InputError
@@ -120,3 +124,59 @@ def test_a_lane_too_narrow_for_a_vehicle_is_refused(width):
     with pytest.raises(InputError) as err:
         build_scenario("curve", {"radius": 50, "angle": 90, "lane_width": width})
     assert err.value.field == "lane_width" and ">= 2" in err.value.allowed
+
+
+def test_the_3d_logical_scenarios_build_their_relief():
+    """Every built-in road with a third dimension carries the relief its description promises."""
+    crest = build_scenario("crest-curve").blueprint.road_relief()
+    sag = build_scenario("sag-curve").blueprint.road_relief()
+    s = np.linspace(0.0, 300.0, 601)
+    crest_z, sag_z = crest.profile.height(s)[0], sag.profile.height(s)[0]
+    assert 0.0 < s[np.argmax(crest_z)] and crest_z.max() > crest_z[-1] + 3.0     # up, over the top, down
+    assert sag_z.min() < sag_z[0] - 3.0 and sag_z.min() < sag_z[-1]            # down into it, up again
+    banked = build_scenario("banked-curve", {"bank": 10}).blueprint.road_relief()
+    assert np.degrees(banked.profile.bank(np.array([115.0]))[0][0]) == pytest.approx(-10.0)  # in the left turn: falls left
+    downhill = build_scenario("downhill-curve").blueprint.road_relief()
+    assert downhill.profile.height(np.array([100.0]))[0][0] == pytest.approx(-10.0)
+    assert build_scenario("curve-3d").blueprint.relief is None                 # its defaults are the flat curve
+    assert len(list(load_logical("curve-3d").grid())) == 4 * 3 * 3
+
+
+def test_a_mountain_road_zig_zags_up_its_grade():
+    concrete = build_scenario("mountain-road", {"hairpins": 3, "hairpin_radius": 12, "grade": 8})
+    arcs = [seg for seg in concrete.blueprint.segments if seg.kind == "arc"]
+    assert [a.angle for a in arcs] == [180.0, -180.0, 180.0] and all(a.radius == 12 for a in arcs)
+    relief = concrete.blueprint.road_relief()
+    end = relief.centre.s[-1]
+    assert relief.profile.height(np.array([end]))[0][0] == pytest.approx(0.08 * end)
+    assert concrete.problems.planning_problem_dict[1].goal is not None
+
+
+def test_an_opendrive_road_as_a_logical_scenario(tmp_path):
+    """The opendrive template: a real road's file beside the YAML, a route on it, the problem's
+    settings as parameters; a missing file or route is refused naming the field."""
+    roads = Path(__file__).parent / "opendrive_roads"
+    spec = tmp_path / "exit.yaml"
+    spec.write_text(f"""
+name: exit
+template: opendrive
+fixed: {{file: {os.path.relpath(roads / 'Ex_Entry_Exit.xodr', tmp_path)}, start: "300:-3:370", goal: "308:-1:105"}}
+parameters:
+  initial_speed: {{unit: m/s, min: 0, max: 30, default: 0, values: [0, 15]}}
+""")
+    logical = load_logical(spec)
+    built = [logical.build(p) for p in logical.grid()]
+    assert [c.name for c in built] == ["exit_initialspeed-0", "exit_initialspeed-15"]
+    assert [c.problems.planning_problem_dict[1].initial_state.velocity for c in built] == [0.0, 15.0]
+    assert built[0].opendrive is not None and built[0].metadata()["opendrive"]["profiles"]   # its relief kept
+    assert str(built[0].scenario.scenario_id).startswith("ZAM_ExitInitialspeed0")
+
+    text = spec.read_text()
+    spec.write_text(text.replace('goal: "308:-1:105"', 'goal: ""'))
+    with pytest.raises(InputError) as err:
+        load_logical(spec).build({})
+    assert err.value.field == "fixed.goal"
+    spec.write_text(text.replace("Ex_Entry_Exit.xodr", "nowhere.xodr"))
+    with pytest.raises(InputError) as err:
+        load_logical(spec).build({})
+    assert err.value.field == "fixed.file"

@@ -49,7 +49,7 @@ from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
 from simgap.scenario.goal import Goal
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged, PlanHandover, PlanInForce, Realism
 from simgap.trajectory import Attitude, State, Trajectory
@@ -192,7 +192,7 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     seed: int = 0,
     wall_time_limit_s: float | None = None,
-    relief: RoadRelief | None = None,
+    relief: Surface | None = None,
 ) -> Run:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend`` on the road's
     ``relief`` (None: flat); ``seed`` seeds the localisations' errors. A run still going after
@@ -207,7 +207,7 @@ class _CoSimulation:
 
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
                  planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None,
-                 relief: RoadRelief | None):
+                 relief: Surface | None):
         self.scenario, self.backend, self.settings, self.relief = scenario, backend, settings, relief
         self.realism = backend.realism
         self.wall_time_limit_s = wall_time_limit_s

@@ -151,7 +151,7 @@ def _state_ago(history: Sequence[State], age: float) -> State:
 
 
 def profile_table() -> str:
-    """The sensing profiles as the README's Markdown table."""
+    """The sensing profiles as a Markdown table (the docs' page on the real car)."""
     rows = ["| profile | position drift [m] | heading drift [deg] | speed drift [m/s] | correlation [s] | "
             "estimate latency [s] | source |", "|---|---|---|---|---|---|---|"]
     rows += [f"| `{name.value}` | {a.position_drift_m:g} | {a.heading_drift_deg:g} | {a.speed_drift_mps:g} | "

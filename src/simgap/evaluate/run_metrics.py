@@ -45,7 +45,7 @@ def lane_excursion(driven, vehicle: Vehicle, scenario: Scenario, problem) -> flo
 def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float,
                 relief=None) -> dict[str, float]:
     """`RUN_METRICS` of ``run`` on a road of friction ``road_friction`` and surface ``relief`` (the
-    scenario's `RoadRelief`; None: flat) (NaN where an agent has no route to its goal)."""
+    scenario's surface, `simgap.scenario.ground.ground_of`; None: flat) (NaN where an agent has no route to its goal)."""
     worst = {name: -math.inf for name in RUN_METRICS}
     grip = road_friction * GRAVITY
     for outcome in run.agents:

@@ -9,19 +9,24 @@ inputs reconstructed state by state). The first that fails is the reason; the ch
 not run. Where the library only says *that* something failed, the time (and the obstacle) is
 located with its own collision objects.
 
-The feasibility check is slow (milliseconds per state, most of a run's evaluation); runs are
-checked after they are saved, in a process of their own, with their verdicts cached
-(`simgap.evaluate.validity`).
+The library's feasibility check is slow (milliseconds per state); a KS trajectory takes
+`simgap.evaluate.feasibility`'s fast path, with the library's verdicts, and the library checks
+only the transitions near a limit. Runs are checked after they are saved, in a process of their
+own, with their verdicts cached (`simgap.evaluate.validity`).
 """
 
 from __future__ import annotations
 
+import atexit
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
 
 from commonroad.common.solution import PlanningProblemSolution, Solution
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
+
+from simgap.evaluate.feasibility import ks_feasibility
 
 
 @dataclass(frozen=True)
@@ -76,9 +81,8 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
     except checker.CollisionException:
         return SolutionCheck(False, _obstacle_collision(pps, scenario))
     on_stage("road boundary")
-    try:
-        checker.boundary_collision(scenario, problem_set, alone)
-    except checker.CollisionException:
+    ego = checker._create_pp_solution_collision_object(problem_set, pps, scenario.dt)
+    if _road_boundary(scenario).collide(ego):           # the library's boundary_collision, its boundary kept
         return SolutionCheck(False, _boundary_collision(pps, scenario))
     on_stage("collision between agents")
     others = [o for o in solution.planning_problem_solutions if o.planning_problem_id != pid]
@@ -92,14 +96,59 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
             return SolutionCheck(False, _agent_collision(pps, other, scenario.dt))
     on_stage("feasibility")
     try:
-        feasible, inputs, _ = checker.solution_feasible(alone, scenario.dt, problem_set)[pid]
+        feasible, k = _feasible(pps, alone, scenario.dt, problem_set)
     except checker.SolutionCheckerException as exc:
         return SolutionCheck(False, f"infeasible for {_model(pps)}: " + _first_line(exc.__cause__ or exc))
     if not feasible:
-        k = inputs.state_list[-1].time_step
         return SolutionCheck(False, f"infeasible for {_model(pps)} at t = {(k + 1) * scenario.dt:.1f} s (no input "
                                     f"reaches that state from the one at t = {k * scenario.dt:.1f} s)")
     return SolutionCheck(True)
+
+
+_BOUNDARIES: OrderedDict[int, tuple[Scenario, object]] = OrderedDict()
+BOUNDARIES_KEPT = 8
+atexit.register(_BOUNDARIES.clear)      # freed before the interpreter tears the bindings down
+
+
+def _road_boundary(scenario: Scenario):
+    """The library's road-boundary collision checker of ``scenario`` (its triangulation, a third
+    of a second to build), kept for the last `BOUNDARIES_KEPT` scenario objects checked: the
+    checker process reads a scenario file once for all the runs on it (`simgap.evaluate.validity`)."""
+    from commonroad_dc.feasibility import solution_checker as checker
+
+    key = id(scenario)
+    if key in _BOUNDARIES and _BOUNDARIES[key][0] is scenario:
+        _BOUNDARIES.move_to_end(key)
+        return _BOUNDARIES[key][1]
+    boundary = checker._construct_boundary_checker(scenario)
+    _BOUNDARIES[key] = (scenario, boundary)
+    while len(_BOUNDARIES) > BOUNDARIES_KEPT:
+        _BOUNDARIES.popitem(last=False)
+    return boundary
+
+
+def _feasible(pps: PlanningProblemSolution, alone: Solution, dt: float,
+              problem_set: PlanningProblemSet) -> tuple[bool, int | None]:
+    """The library's feasibility verdict on one agent's trajectory, and the time step whose
+    transition is not feasible: a KS trajectory through `simgap.evaluate.feasibility`'s fast path
+    (the same verdicts), any other by the library's `solution_feasible`."""
+    from commonroad.common.solution import TrajectoryType, VehicleModel
+    from commonroad_dc.feasibility import solution_checker as checker
+    from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
+
+    from commonroad_dc.feasibility.feasibility_checker import StateTransitionException
+
+    if pps.vehicle_model == VehicleModel.KS and pps.trajectory_type not in (TrajectoryType.Input,
+                                                                            TrajectoryType.PMInput):
+        try:
+            verdict = ks_feasibility(pps.trajectory, VehicleDynamics.from_model(pps.vehicle_model, pps.vehicle_type),
+                                     dt)
+        except StateTransitionException as exc:     # as the library's solution_feasible words it
+            raise checker.SolutionCheckerException(f"Solution is not feasible on planning problem solution "
+                                                   f"{pps.planning_problem_id}.") from exc
+        return verdict.feasible, verdict.infeasible_from
+    feasible, inputs, _ = checker.solution_feasible(alone, dt, problem_set)[pps.planning_problem_id]
+    return feasible, None if feasible else inputs.state_list[-1].time_step
 
 
 def _model(pps: PlanningProblemSolution) -> str:

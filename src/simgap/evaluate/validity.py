@@ -175,15 +175,27 @@ def checked_solution(solution: Solution, scenario: Scenario, problems: PlanningP
     return checks, False
 
 
+SCENARIOS_KEPT = 8     # scenario files the checker process keeps parsed (a study runs each several times)
+
+
 def serve(receive: Connection, send: Connection) -> None:
-    """The process's loop: check what arrives until the parent closes the pipe."""
+    """The process's loop: check what arrives until the parent closes the pipe. The last
+    `SCENARIOS_KEPT` scenario files read stay parsed (by path, size and modification time), so
+    that the runs on one scenario share it and its road boundary (`solution_check`)."""
+    parsed: dict[tuple[str, int, int], tuple] = {}
     while True:
         try:
             scenario_file, solution_xml = receive.recv()
         except EOFError:
             return
         try:
-            scenario, problems = load_scenario(scenario_file)
+            stat = Path(scenario_file).stat()
+            key = (str(scenario_file), stat.st_size, stat.st_mtime_ns)
+            if key not in parsed:
+                parsed[key] = load_scenario(scenario_file)
+                while len(parsed) > SCENARIOS_KEPT:
+                    parsed.pop(next(iter(parsed)))
+            scenario, problems = parsed[key]
             solution = CommonRoadSolutionReader.fromstring(solution_xml)
         except Exception as exc:      # a file it cannot read: no verdict, with the reason
             send.send(("error", f"the drivability checker could not read the run: {exc}"))

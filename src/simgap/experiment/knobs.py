@@ -131,7 +131,7 @@ def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float | None
 
 
 def knob_table() -> str:
-    """The knobs as the README's Markdown table."""
+    """The knobs as a Markdown table (the docs' reference page)."""
     rows = ["| knob | unit | default | ideal | range | fidelities | meaning |", "|---|---|---|---|---|---|---|"]
     rows += [f"| `{k.name}` | {k.unit} | {k.default_text} | {k.nominal:g} | {k.low:g}–{k.high:g} | "
              f"{', '.join(k.backends)} | {k.meaning} |" for k in KNOBS.values()]

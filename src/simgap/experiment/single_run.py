@@ -29,7 +29,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.scenario import load_scenario, read_metadata
-from simgap.scenario.blueprint import relief_of
+from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
@@ -157,7 +157,7 @@ def execute(request: RunRequest, out: Path | None = None,
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     meta = read_metadata(request.scenario)
-    relief = relief_of(meta)
+    relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
     planners, errors, planner_records = {}, [], {}
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
         for a in agents:

@@ -150,7 +150,7 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
     junction connection whose connecting lane stands for the successor; a neighbour as the next
     lane of the same road (across the centre lane for opposite directions)."""
     root = ET.parse(path).getroot()
-    road_links, lane_links, connecting_lanes = {}, set(), {}
+    road_links, lane_links = {}, set()
     for road in root.iter("road"):
         rid = int(road.get("id"))
         for way in ("predecessor", "successor"):

@@ -27,7 +27,7 @@ import shapely
 from pyclothoids import Clothoid
 from shapely.geometry import LineString
 
-from simgap.export.road_topology import MIN_WIDTH_M, Border, Joint, RoadPiece, middle_line
+from simgap.export.road_topology import MIN_WIDTH_M, Border, Joint, RoadPiece, centred, middle_line
 
 FIT_TOLERANCE_M = 0.1       # the reference line's largest distance from the road's middle line (the lane
                             # offset carries the rest; a smooth line keeps the lanes' normals apart)
@@ -76,10 +76,13 @@ class Cubic:
 @dataclass(frozen=True)
 class RoadFit:
     pieces: tuple[Piece, ...]
-    offset: tuple[Cubic, ...]                   # reference line to the left bound [m]
+    offset: tuple[Cubic, ...]                   # reference line to the centre lane [m]
     widths: tuple[tuple[Cubic, ...], ...]       # per lane, left to right [m]
-    deviation_m: float                          # largest distance of a fitted border from its bound, or of
-                                                # a fitted lane centre from its lanelet's centre line
+    deviation_m: float                          # largest distance of a fitted lane centre from its lanelet's
+                                                # centre line
+    border_deviation_m: float = 0.0             # largest distance of a fitted border from its bound
+    left: int = 0                               # the first ``left`` lanes are left lanes (offset: their
+                                                # right border, the centre lane)
 
     @property
     def length(self) -> float:
@@ -149,17 +152,22 @@ def fit_reference(xy: np.ndarray, heading: np.ndarray) -> list[Clothoid]:
     return out
 
 
-def reference_point(joint: Joint, borders: tuple[Border, ...]) -> np.ndarray:
-    """Where a road's reference line crosses a joint: midway between its outermost borders."""
-    return joint.origin + 0.5 * (joint.t[borders[0]] + joint.t[borders[-1]]) * joint.normal
+def reference_offset(joint: Joint, borders: tuple[Border, ...], left: int = 0) -> float:
+    """Where a road's reference line crosses a joint (its offset along it): on the centre lane where
+    the road has left lanes, else midway between its outermost borders."""
+    if left:
+        return joint.t[borders[left]]
+    return 0.5 * (joint.t[borders[0]] + joint.t[borders[-1]])
 
 
 def _reference_polyline(piece: RoadPiece) -> tuple[np.ndarray, np.ndarray]:
     """The road's middle line between the two joints: its vertices within the road's span and
     clear of both joints, with the joints' points and headings at the ends."""
     start, end = piece.start, piece.end
-    p0, p1 = reference_point(start, piece.start_borders), reference_point(end, piece.end_borders)
-    middle = middle_line(np.asarray(piece.bounds[0], float), np.asarray(piece.bounds[-1], float))
+    p0 = start.origin + reference_offset(start, piece.start_borders, piece.left) * start.normal
+    p1 = end.origin + reference_offset(end, piece.end_borders, piece.left) * end.normal
+    middle = piece.middle if piece.middle is not None else \
+        middle_line(np.asarray(piece.bounds[0], float), np.asarray(piece.bounds[-1], float))
     along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(middle, axis=0), axis=1))])
     inside = (along > piece.span[0] + _JOINT_CLEARANCE_M) & (along < piece.span[1] - _JOINT_CLEARANCE_M)
     kept = [p0]
@@ -297,26 +305,42 @@ def fit_road(piece: RoadPiece) -> RoadFit:
                 1.0) if len(piece.bounds) > 1 else 1.0
     reach = 2.0 * width + 5.0
     bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
-    t0 = 0.5 * (piece.start.t[piece.start_borders[0]] + piece.start.t[piece.start_borders[-1]])
-    t1 = 0.5 * (piece.end.t[piece.end_borders[0]] + piece.end.t[piece.end_borders[-1]])
-    across = []
-    for k, bound in enumerate(bounds):
-        t = _offsets(pts, normals, bound, reach)
-        t[0] = piece.start.t[piece.start_borders[k]] - t0
-        t[-1] = piece.end.t[piece.end_borders[k]] - t1
-        across.append(t)
-    offset = records(s, across[0])
+    centres = [extended(np.asarray(c, float), CENTRE_REACH_M) for c in piece.centres]
+    t0 = reference_offset(piece.start, piece.start_borders, piece.left)
+    t1 = reference_offset(piece.end, piece.end_borders, piece.left)
+    across = centred(np.array([_offsets(pts, normals, b, reach) for b in bounds]),
+                     np.array([_offsets(pts, normals, extended(np.asarray(c, float), reach), reach)
+                               for c in piece.centres]))
+    for k in range(len(across)):
+        across[k, 0] = piece.start.t[piece.start_borders[k]] - t0
+        across[k, -1] = piece.end.t[piece.end_borders[k]] - t1
+    offset = records(s, across[piece.left])
     widths = tuple(records(s, np.maximum(across[k - 1] - across[k], MIN_WIDTH_M), floor=MIN_WIDTH_M)
                    for k in range(1, len(across)))
-    border = value(offset, s)
-    deviation = _distance(pts + border[:, None] * normals, bounds[0])
-    for k, w in enumerate(widths, start=1):
-        width = value(w, s)
-        deviation = max(deviation, _distance(pts + (border - 0.5 * width)[:, None] * normals,
-                                             extended(np.asarray(piece.centres[k - 1], float), CENTRE_REACH_M)))
-        border = border - width
-        deviation = max(deviation, _distance(pts + border[:, None] * normals, bounds[k]))
-    return RoadFit(pieces, offset, widths, deviation)
+    # the deviation, on a grid twice as fine as the file is checked on
+    s, pts, hdg = _poses(clothoids, np.unique(np.concatenate([np.arange(0.0, s[-1], 0.5 * SAMPLE_M), [s[-1]]])))
+    normals = np.column_stack([-np.sin(hdg), np.cos(hdg)])
+    border = [value(offset, s)]                                  # the centre lane's border, then outwards
+    for k in range(piece.left, len(widths)):
+        border.append(border[-1] - value(widths[k], s))
+    for k in range(piece.left - 1, -1, -1):
+        border.insert(0, border[0] + value(widths[k], s))
+
+    def at(t: np.ndarray) -> np.ndarray:
+        return pts + t[:, None] * normals
+
+    centre_deviation = max(_distance(at(0.5 * (border[k] + border[k + 1])), centres[k]) for k in range(len(centres)))
+    border_deviation = max(_distance(at(t), b) for t, b in zip(border, bounds))
+    return RoadFit(pieces, offset, widths, centre_deviation, border_deviation, piece.left)
+
+
+def _poses(clothoids: list[Clothoid], s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stations, points and headings of the clothoids laid end to end, at stations ``s``."""
+    starts = np.cumsum([0.0] + [c.length for c in clothoids[:-1]])
+    k = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(clothoids) - 1)
+    u = np.minimum(s - starts[k], [clothoids[j].length for j in k])
+    pts = np.array([(clothoids[j].X(v), clothoids[j].Y(v)) for j, v in zip(k, u)])
+    return s, pts, np.array([clothoids[j].Theta(v) for j, v in zip(k, u)])
 
 
 def _distance(points: np.ndarray, polyline: np.ndarray) -> float:

@@ -11,11 +11,13 @@ Two ways, chosen per scenario:
   per turning lanelet (its cubic Hermite curve as a normalised paramPoly3, a straight as a line)
   and the junction that joins them.
 * **fitted** — any other lanelet network (recorded maps): same-direction neighbours that share
-  their bound become one road of several lanes, roads meet at shared cross-sections (G1: the
+  their bound become one road of several lanes, opposite-direction neighbours its left lanes (where
+  their lanes end square to it), lane changes allowed across a mark that is not solid, roads meet at shared cross-sections (G1: the
   reference lines continue in heading), continue road to road where the lanelets continue one to
   one, and through a junction with a connecting road per successor relation elsewhere
   (`simgap.export.road_topology`); each road's reference line, lane offset and widths are fitted
-  to its lanelets (`simgap.export.lanelet_fit`) and its largest deviation from them is reported.
+  to its lanelets (`simgap.export.lanelet_fit`: each lane's centre on its lanelet's centre line)
+  and its largest deviation from them is reported.
 
 Every driving lane carries the road friction as its material friction. A generated road's relief
 (`simgap.scenario.relief`) is its ``elevationProfile`` (a record per grade and per vertical curve:
@@ -190,8 +192,13 @@ def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: Surface) -> Non
             road.add_elevation(piece.s_start, piece.a + grade * piece.s_start, piece.b + grade, piece.c, 0.0)
     stations = np.array([0.0] + [k.s for k in relief.superelevation if k.s > 0.0])
     banks = relief.bank(stations)[0] + math.radians(surface.bank_deg)
+    previous = None
     for s, bank, rate in zip(stations, banks, np.append(np.diff(banks) / np.diff(stations), 0.0)):
+        if previous is not None and abs(previous[1] + previous[2] * (s - previous[0]) - bank) < 1e-12 \
+                and abs(previous[2] - rate) < 1e-12:
+            continue                     # the record before goes on as this one would (a redundant record)
         road.add_superelevation(float(s), float(bank), float(rate), 0.0, 0.0)
+        previous = (s, bank, rate)
 
 
 def _opendrive(name: str) -> xodr.OpenDrive:
@@ -313,10 +320,22 @@ def _lane_change(marking: LineMarking) -> xodr.LaneChange:
 
 def _fitted_road(road_id: int, fit: RoadFit, lanelets: list[Lanelet], surface: Surface, junction: int = -1,
                  grade: bool = False) -> xodr.Road:
-    """A road of ``lanelets`` (left to right, all along the reference line) as ``fit`` places them."""
-    section = xodr.LaneSection(0, _centre_lane(lanelets[0].line_marking_left_vertices))
-    for k, (lanelet, width) in enumerate(zip(lanelets, fit.widths)):
-        lane = _lane(width, lanelet.line_marking_right_vertices, surface)
+    """A road of ``lanelets`` (left to right; the first ``fit.left`` of them left lanes, against the
+    reference line) as ``fit`` places them."""
+    centre = lanelets[fit.left].line_marking_left_vertices
+    centre_lane = _centre_lane(centre)
+    if fit.left:
+        centre_lane.roadmark[0].laneChange = _lane_change(centre)
+    section = xodr.LaneSection(0, centre_lane)
+    for k in range(fit.left - 1, -1, -1):               # outwards from the centre lane
+        lanelet = lanelets[k]
+        lane = _lane(fit.widths[k], lanelet.line_marking_right_vertices, surface)
+        if k > 0:
+            lane.roadmark[0].laneChange = _lane_change(lanelet.line_marking_right_vertices)
+        section.add_left_lane(lane)
+    for k in range(fit.left, len(lanelets)):
+        lanelet = lanelets[k]
+        lane = _lane(fit.widths[k], lanelet.line_marking_right_vertices, surface)
         if k < len(lanelets) - 1:
             lane.roadmark[0].laneChange = _lane_change(lanelet.line_marking_right_vertices)
         section.add_right_lane(lane)
@@ -328,6 +347,10 @@ def _fitted_road(road_id: int, fit: RoadFit, lanelets: list[Lanelet], surface: S
     return _road(road_id, [(_geometry(p), p.x, p.y, p.hdg) for p in fit.pieces], lanes, surface, junction, grade)
 
 
+def _way(end: str) -> str:
+    return "successor" if end == "end" else "predecessor"
+
+
 def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork:
     """Roads of laterally adjacent lanelets between shared cross-sections, direct links and
     junctions (`simgap.export.road_topology`), each road's geometry fitted (`lanelet_fit`)."""
@@ -335,41 +358,43 @@ def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork
     result = RoadNetwork(odr, Method.FITTED, [])
     top = topology(network)
     by_id = {l.lanelet_id: l for l in network.lanelets}
-    group_of = {i: g for g, group in enumerate(top.groups) for i in group}
-    lane_of = {i: -(k + 1) for group in top.groups for k, i in enumerate(group)}
+    lane_of = {i: lane for i, (_, lane) in top.lane_of.items()}
+    road_of = {i: r for i, (r, _) in top.lane_of.items()}
     roads: list[xodr.Road] = []
-    for g, piece in enumerate(top.pieces):
+    for r, piece in enumerate(top.pieces):
         fit = fit_road(piece)
-        road = _fitted_road(g + 1, fit, [by_id[i] for i in piece.lanelets], surface, grade=len(top.pieces) == 1)
+        road = _fitted_road(r + 1, fit, [by_id[i] for i in piece.lanelets], surface, grade=len(top.pieces) == 1)
         odr.add_road(road)
         roads.append(road)
         result.lanes += [LaneOfLanelets(road.id, lane_of[i], (i,)) for i in piece.lanelets]
         result.fit_deviation_m[road.id] = fit.deviation_m
     for link in top.links:
-        ahead, behind = roads[link.predecessor], roads[link.successor]
-        ahead.add_successor(xodr.ElementType.road, behind.id, xodr.ContactPoint.start)
-        behind.add_predecessor(xodr.ElementType.road, ahead.id, xodr.ContactPoint.end)
+        (r1, e1), (r2, e2) = link.ends
+        getattr(roads[r1], f"add_{_way(e1)}")(xodr.ElementType.road, roads[r2].id, xodr.ContactPoint[e2])
+        getattr(roads[r2], f"add_{_way(e2)}")(xodr.ElementType.road, roads[r1].id, xodr.ContactPoint[e1])
+        ways = {r1: _way(e1), r2: _way(e2)}
         for a, b in link.relations:
-            _lane_of(ahead, lane_of[a]).add_link("successor", lane_of[b])
-            _lane_of(behind, lane_of[b]).add_link("predecessor", lane_of[a])
+            ra, rb = road_of[a], road_of[b]
+            _lane_of(roads[ra], lane_of[a]).add_link(ways[ra], lane_of[b])
+            _lane_of(roads[rb], lane_of[b]).add_link(ways[rb], lane_of[a])
     junction_ids = {j: len(roads) + len(top.connections) + j for j in sorted(set(top.junction_ends.values()))}
     junctions = {j: xodr.Junction(f"junction {j}", junction_ids[j]) for j in junction_ids}
-    for (g, end), j in sorted(top.junction_ends.items()):
-        add = roads[g].add_successor if end == "end" else roads[g].add_predecessor
-        add(xodr.ElementType.junction, junction_ids[j])
+    for (r, end), j in sorted(top.junction_ends.items()):
+        getattr(roads[r], f"add_{_way(end)}")(xodr.ElementType.junction, junction_ids[j])
     for n, c in enumerate(top.connections):
-        incoming, outgoing = roads[group_of[c.predecessor]], roads[group_of[c.successor]]
+        (ri, ei), (ro, eo) = c.incoming, c.outgoing
+        incoming, outgoing = roads[ri], roads[ro]
         fit = fit_road(c.piece)
         road = _fitted_road(len(roads) + n + 1, fit, [by_id[c.successor]], surface, junction=junction_ids[c.junction])
-        road.add_predecessor(xodr.ElementType.road, incoming.id, xodr.ContactPoint.end)
-        road.add_successor(xodr.ElementType.road, outgoing.id, xodr.ContactPoint.start)
+        road.add_predecessor(xodr.ElementType.road, incoming.id, xodr.ContactPoint[ei])
+        road.add_successor(xodr.ElementType.road, outgoing.id, xodr.ContactPoint[eo])
         _lane_of(road, -1).add_link("predecessor", lane_of[c.predecessor])
         _lane_of(road, -1).add_link("successor", lane_of[c.successor])
         odr.add_road(road)
         connection = xodr.Connection(incoming.id, road.id, xodr.ContactPoint.start)
         connection.add_lanelink(lane_of[c.predecessor], -1)
         junctions[c.junction].add_connection(connection)
-        result.lanes.append(LaneOfLanelets(road.id, -1, (c.successor,)))
+        result.lanes.append(LaneOfLanelets(road.id, -1, c.lanelets))
         result.fit_deviation_m[road.id] = fit.deviation_m
     for j in sorted(junctions):
         odr.add_junction(junctions[j])
@@ -382,4 +407,5 @@ def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork
 
 
 def _lane_of(road: xodr.Road, lane_id: int) -> xodr.Lane:
-    return road.lanes.lanesections[0].rightlanes[-lane_id - 1]
+    section = road.lanes.lanesections[0]
+    return section.rightlanes[-lane_id - 1] if lane_id < 0 else section.leftlanes[lane_id - 1]

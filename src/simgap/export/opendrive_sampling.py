@@ -1,26 +1,26 @@
 """An OpenDRIVE file read back on its own terms: each road's reference line and lane centres,
 sampled along the road — to check a written file against the lanelets it stands for, without the
-writer's objects (geometry evaluated with pyclothoids; a paramPoly3 by its polynomials).
-
-Only what simgap writes is read: line, arc, spiral and paramPoly3 geometry, lane offsets, one or
-more lane sections with width polynomials.
+writer's objects. The file is read and its geometry evaluated by simgap's OpenDRIVE reader
+(`simgap.scenario.opendrive`: `read_document`, `reference_poses`, `lane_edges`), the same code
+that imports other tools' roads.
 """
 
 from __future__ import annotations
 
-import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from pyclothoids import Clothoid
+
+from simgap.scenario.opendrive.document import read_document
+from simgap.scenario.opendrive.lanes import lane_edges, section_ends
+from simgap.scenario.opendrive.reference_line import reference_poses
 
 
 @dataclass(frozen=True)
 class RoadSamples:
     """One road sampled every ``step`` metres: arc length, reference points, and the centre
-    points and outer border points of each lane (by lane id)."""
+    points and outer border points of each lane (by lane id, over the lane sections that have it)."""
 
     road: int
     s: np.ndarray
@@ -29,86 +29,40 @@ class RoadSamples:
     lane_borders: dict[int, np.ndarray]
 
 
-def _poly(records: list[dict[str, float]], s: float, key: str = "s") -> float:
-    rec = None
-    for r in records:
-        if r[key] <= s + 1e-9:
-            rec = r
-    if rec is None:
-        return 0.0
-    u = s - rec[key]
-    return rec["a"] + u * (rec["b"] + u * (rec["c"] + u * rec["d"]))
-
-
-def _floats(el: ET.Element, *names: str) -> dict[str, float]:
-    return {n: float(el.get(n, 0.0)) for n in names}
-
-
-def _pose(geometry: ET.Element, ds: float) -> tuple[float, float, float]:
-    g = _floats(geometry, "x", "y", "hdg", "length")
-    shape = geometry[0]
-    if shape.tag == "paramPoly3":
-        c = _floats(shape, "aU", "bU", "cU", "dU", "aV", "bV", "cV", "dV")
-        p = ds / g["length"] if shape.get("pRange", "normalized") == "normalized" else ds
-        u = c["aU"] + p * (c["bU"] + p * (c["cU"] + p * c["dU"]))
-        v = c["aV"] + p * (c["bV"] + p * (c["cV"] + p * c["dV"]))
-        du = c["bU"] + p * (2 * c["cU"] + 3 * p * c["dU"])
-        dv = c["bV"] + p * (2 * c["cV"] + 3 * p * c["dV"])
-        cos, sin = math.cos(g["hdg"]), math.sin(g["hdg"])
-        return g["x"] + cos * u - sin * v, g["y"] + sin * u + cos * v, g["hdg"] + math.atan2(dv, du)
-    if shape.tag == "line":
-        k0 = k1 = 0.0
-    elif shape.tag == "arc":
-        k0 = k1 = float(shape.get("curvature"))
-    elif shape.tag == "spiral":
-        k0, k1 = float(shape.get("curvStart")), float(shape.get("curvEnd"))
-    else:
-        raise ValueError(f"geometry <{shape.tag}> is not read here")
-    c = Clothoid.StandardParams(g["x"], g["y"], g["hdg"], k0, (k1 - k0) / g["length"], g["length"])
-    return c.X(ds), c.Y(ds), c.Theta(ds)
+def _points(x: np.ndarray, y: np.ndarray, hdg: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return np.column_stack([x - t * np.sin(hdg), y + t * np.cos(hdg)])
 
 
 def reference_ends(path: str | Path) -> dict[int, tuple[tuple[float, float, float], tuple[float, float, float]]]:
     """Each road's reference line at its start and its end: (x, y, heading)."""
     out = {}
-    for road in ET.parse(path).getroot().iter("road"):
-        geometries = list(road.find("planView").iter("geometry"))
-        out[int(road.get("id"))] = (_pose(geometries[0], 0.0), _pose(geometries[-1], float(geometries[-1].get("length"))))
+    for road in read_document(path).roads.values():
+        end = road.geometries[-1].s + road.geometries[-1].length
+        p = reference_poses(road.geometries, np.array([0.0, min(road.length, end)]))
+        out[int(road.id)] = ((float(p.x[0]), float(p.y[0]), float(p.hdg[0])),
+                             (float(p.x[1]), float(p.y[1]), float(p.hdg[1])))
     return out
 
 
 def sample_roads(path: str | Path, step: float = 0.1) -> list[RoadSamples]:
     """Every road of the OpenDRIVE file at ``path``, sampled every ``step`` metres (and at its end)."""
-    root = ET.parse(path).getroot()
     out = []
-    for road in root.iter("road"):
-        length = float(road.get("length"))
-        geometries = [(float(g.get("s")), g) for g in road.find("planView").iter("geometry")]
-        lanes_el = road.find("lanes")
-        offsets = [_floats(o, "s", "a", "b", "c", "d") for o in lanes_el.iter("laneOffset")]
-        sections = [(float(sec.get("s")), sec) for sec in lanes_el.iter("laneSection")]
-        s_values = np.unique(np.concatenate([np.arange(0.0, length, step), [length]]))
-        ref, centres, borders = [], {}, {}
-        for s in s_values:
-            g_s, g = [item for item in geometries if item[0] <= s + 1e-9][-1]
-            x, y, hdg = _pose(g, min(s - g_s, float(g.get("length"))))
-            ref.append((x, y))
-            normal = np.array([-math.sin(hdg), math.cos(hdg)])
-            sec_s, sec = [item for item in sections if item[0] <= s + 1e-9][-1]
-            t0 = _poly(offsets, s)
-            for side, sign in (("left", 1.0), ("right", -1.0)):
-                el = sec.find(side)
-                if el is None:
-                    continue
-                edge = t0
-                for lane in sorted(el.iter("lane"), key=lambda e: abs(int(e.get("id")))):
-                    widths = [_floats(w, "sOffset", "a", "b", "c", "d") for w in lane.iter("width")]
-                    width = _poly(widths, s - sec_s, key="sOffset")
-                    centre = edge + sign * 0.5 * width
-                    edge += sign * width
-                    centres.setdefault(int(lane.get("id")), []).append(np.array([x, y]) + centre * normal)
-                    borders.setdefault(int(lane.get("id")), []).append(np.array([x, y]) + edge * normal)
-        out.append(RoadSamples(int(road.get("id")), s_values, np.asarray(ref),
-                               {k: np.asarray(v) for k, v in centres.items()},
-                               {k: np.asarray(v) for k, v in borders.items()}))
+    for road in read_document(path).roads.values():
+        s_all = np.unique(np.concatenate([np.arange(0.0, road.length, step), [road.length]]))
+        poses = reference_poses(road.geometries, s_all)
+        centres: dict[int, list[np.ndarray]] = {}
+        borders: dict[int, list[np.ndarray]] = {}
+        ends = section_ends(road)
+        for k, (section, (s0, s1)) in enumerate(zip(road.sections, ends)):
+            last = k == len(road.sections) - 1
+            mask = (s_all >= s0 - 1e-9) & ((s_all <= s1 + 1e-9) if last else (s_all < s1 - 1e-9))
+            s = s_all[mask]
+            x, y, hdg = poses.x[mask], poses.y[mask], poses.hdg[mask]
+            for lane_id, (low, high) in lane_edges(road, section, s).items():
+                outer = low if lane_id < 0 else high
+                centres.setdefault(lane_id, []).append(_points(x, y, hdg, 0.5 * (low + high)))
+                borders.setdefault(lane_id, []).append(_points(x, y, hdg, outer))
+        out.append(RoadSamples(int(road.id), s_all, np.column_stack([poses.x, poses.y]),
+                               {k: np.vstack(v) for k, v in centres.items()},
+                               {k: np.vstack(v) for k, v in borders.items()}))
     return out

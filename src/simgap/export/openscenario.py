@@ -16,7 +16,6 @@ sensing and latency, the goals' velocity and orientation windows) is said in the
 from __future__ import annotations
 
 import datetime
-import math
 from dataclasses import dataclass
 from enum import StrEnum
 

@@ -2,19 +2,25 @@
 where they meet, and junctions where the lanelets fork or merge.
 
 * **Roads.** Lanelets that are each other's same-direction neighbours and share their common bound
-  end to end (within `SHARED_BOUND_M`) form one road: its lanes, left to right, in one lane section.
+  end to end (within `SHARED_BOUND_M`) form a group, left to right. Two groups whose leftmost
+  lanelets are each other's opposite-direction left neighbours and share that bound end to end are
+  one road: the group along the road's direction its right lanes, the other its left lanes (their
+  lanelets' bounds and centres reversed, so that every road is described left to right along it).
+* **Road ends.** A lanelet leaves its road at the road's end when it is a right lane and at its
+  start when it is a left lane (and enters it at the other end).
 * **Joints.** Where roads meet, one cross-section — a line square to the direction of travel — is
   shared by all of them: each border that ends or begins there is pinned to one offset along it.
   Every road that meets at a joint leaves or enters it with the joint's heading, so linked reference
   lines are continuous in heading (G1) and linked lanes' borders meet without gaps.
-* **Links.** Road A's end and road B's start are linked directly when the lanelets continue one to
-  one (every lanelet of A with a successor has exactly one, in B, whose one predecessor it is, in
-  the same left-to-right order, and the lanelets meet within `SEAMLESS_M`). Any other place where
-  lanelets join is a junction: every successor relation there becomes a connecting road, the first
-  part of the successor lanelet (up to `CONNECTOR_M`, at most half of it), from the end of the
-  predecessor's road to a cut across the successor's road, whose rest is a road of its own. A
-  connecting road belongs to one junction and joins two ordinary roads, as OpenDRIVE requires.
-  A lanelet that begins at such a place without a predecessor loses the part before the cut.
+* **Links.** Two road ends are linked directly when the lanelets continue one to one (every lanelet
+  there with a successor has exactly one, at the other road end, whose one predecessor it is, and
+  the lanelets meet within `SEAMLESS_M`). Any other place where lanelets join is a junction: every
+  successor relation there becomes a connecting road from the predecessor's road to a cut across
+  the successor's road (up to `CONNECTOR_M` into it, at most half of it), whose rest is the road.
+  A road end where some lanelet enters the road is cut there; a lanelet that leaves a cut road end
+  continues on each of its connecting roads from the cut (they stand for its last part and the
+  successor's first part). A connecting road belongs to one junction and joins two ordinary roads,
+  as OpenDRIVE requires.
 """
 
 from __future__ import annotations
@@ -33,9 +39,15 @@ SEAMLESS_M = 0.1          # lanelets that meet within this are linked directly (
 JOINABLE_M = 1.0          # a successor that begins farther than this from its predecessor's end is not joined
 CONNECTOR_M = 10.0        # the longest connecting road cut from a successor lanelet
 _DIRECTION_M = 2.0        # the stretch of a lanelet's centre that gives its direction at an end
+SKEW_M = 2.0              # opposite groups are one road only where their lanes end within this along it,
+SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way)
+CENTRE_WEIGHT = 10.0      # a lane centre's weight against a border's where borders are placed across a road
 MIN_WIDTH_M = 1e-3        # a lane's least width at a joint (OpenDRIVE readers treat zero-width lanes apart)
 
 Border = tuple[int, str]  # (lanelet id, "left" | "right")
+
+
+RoadEnd = tuple[int, str]  # (road index, "start" | "end")
 
 
 @dataclass
@@ -58,15 +70,40 @@ class Joint:
     def point(self, border: Border) -> np.ndarray:
         return self.origin + self.t[border] * self.normal
 
+    def turned(self) -> Joint:
+        """The same cross-section seen from the other way (heading + pi, offsets negated)."""
+        return Joint(self.origin, math.remainder(self.heading + math.pi, 2 * math.pi),
+                     {b: -t for b, t in self.t.items()})
+
+
+@dataclass(frozen=True)
+class Strip:
+    """The lanelets of one road, left to right along it: the first ``left`` run against the road's
+    direction (OpenDRIVE's left lanes). ``bounds`` (one more than lanes) and ``centres`` run along
+    the road; ``names`` are each bound's borders (lanelet, side in the lanelet's own direction)."""
+
+    lanelets: tuple[int, ...]
+    left: int
+    bounds: tuple[np.ndarray, ...]
+    names: tuple[tuple[Border, ...], ...]
+    centres: tuple[np.ndarray, ...]
+
+    @property
+    def middle(self) -> np.ndarray:
+        """The line the road's reference line follows: its centre lane's where it has left lanes,
+        else midway between its outermost bounds."""
+        return self.bounds[self.left] if self.left else middle_line(self.bounds[0], self.bounds[-1])
+
 
 @dataclass(frozen=True)
 class RoadPiece:
-    """One OpenDRIVE road to write: its lanes (lanelet ids, left to right) between two joints.
+    """One OpenDRIVE road to write: its lanes (lanelet ids, left to right; the first ``left`` of
+    them left lanes) between two joints.
 
-    ``bounds`` are the lanelets' bounds, left to right (the left bound of the first lane, then
-    each lane's right bound), ``centres`` their centre lines; ``start_borders`` and ``end_borders``
-    name each bound on the joints; ``span`` is the stretch of the lanelets' middle line (midway
-    between the outermost bounds) that the road covers, from and to [m].
+    ``bounds`` are the lanelets' bounds, left to right along the road, ``centres`` their centre
+    lines; ``start_borders`` and ``end_borders`` name each bound on the joints; ``span`` is the
+    stretch of ``middle`` (default: midway between the outermost bounds) that the road covers,
+    from and to [m].
     """
 
     lanelets: tuple[int, ...]
@@ -78,44 +115,49 @@ class RoadPiece:
     end_borders: tuple[Border, ...]
     span: tuple[float, float]
     junction: int | None = None           # the junction a connecting road belongs to
+    left: int = 0
+    middle: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
 class Link:
-    """The end of one road joined directly to the start of another, lanelet by lanelet."""
+    """Two road ends joined directly, lanelet by lanelet."""
 
-    predecessor: int                              # group
-    successor: int                                # group
+    ends: tuple[RoadEnd, RoadEnd]
     relations: tuple[tuple[int, int], ...]        # (lanelet, its successor)
 
 
 @dataclass(frozen=True)
 class Connection:
-    """A successor relation through a junction: from a lanelet's road to the connecting road cut
-    from its successor, which continues into the successor's road."""
+    """A successor relation through a junction: from a lanelet's road end to the connecting road
+    (the predecessor's last part where its road end is cut, and the successor's first part), which
+    continues into the successor's road."""
 
     junction: int
     predecessor: int          # lanelet id
     successor: int            # lanelet id
     piece: RoadPiece
+    lanelets: tuple[int, ...]  # the lanelets the connecting lane stands for, in driving order
+    incoming: RoadEnd
+    outgoing: RoadEnd
 
 
 @dataclass
 class Topology:
-    """Roads (lateral groups of lanelets, and their rests after a cut), direct links and junctions."""
+    """Roads (strips of lanelets, less their cuts), direct links and junctions."""
 
-    groups: list[tuple[int, ...]]                              # lanelet ids, left to right
-    pieces: list[RoadPiece]                                    # one per group, in the order of groups
+    strips: list[Strip]
+    pieces: list[RoadPiece]                                    # one per strip
     links: list[Link]
     connections: list[Connection]
-    junction_ends: dict[tuple[int, str], int]                  # (group, "start" | "end") -> junction
+    junction_ends: dict[RoadEnd, int]                          # road end -> junction
     unjoined: list[tuple[int, int, float]]                     # successor relations too far apart to join
-    neighbours: list[tuple[int, int]] = field(default_factory=list)    # (lanelet, right neighbour) in one road
+    lane_of: dict[int, tuple[int, int]] = field(default_factory=dict)  # lanelet -> (road index, lane id)
 
 
-def _direction(lanelet: Lanelet, at_end: bool) -> float:
-    """The lanelet's direction of travel at its start or end (over `_DIRECTION_M` of its centre)."""
-    c = lanelet.center_vertices if at_end else lanelet.center_vertices[::-1]
+def _direction(xy: np.ndarray, at_end: bool) -> float:
+    """The direction along the polyline at its end or its start (over `_DIRECTION_M` of it)."""
+    c = xy if at_end else xy[::-1]
     line = LineString(c)
     back = line.interpolate(max(0.0, line.length - _DIRECTION_M)) if line.length > 1e-9 else None
     d = c[-1] - np.array(back.coords[0]) if back is not None else np.zeros(2)
@@ -174,19 +216,6 @@ def middle_line(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     return 0.5 * (at(left, fl) + at(right, fr))
 
 
-def _bounds(lanelets: list[Lanelet]) -> tuple[np.ndarray, ...]:
-    return (lanelets[0].left_vertices,) + tuple(l.right_vertices for l in lanelets)
-
-
-def _borders(group: tuple[int, ...]) -> tuple[Border, ...]:
-    return ((group[0], "left"),) + tuple((i, "right") for i in group)
-
-
-def _vertex(lanelet: Lanelet, side: str, at_end: bool) -> np.ndarray:
-    v = lanelet.left_vertices if side == "left" else lanelet.right_vertices
-    return v[-1] if at_end else v[0]
-
-
 class _Slots:
     """Borders that are one line on a joint (union-find), with the points they are seen at."""
 
@@ -223,46 +252,137 @@ class _Slots:
         return joint
 
 
-def _group_slots(slots: _Slots, lanelets: list[Lanelet], at_end: bool) -> None:
-    for k, lanelet in enumerate(lanelets):
-        for side in ("left", "right"):
-            slots.add((lanelet.lanelet_id, side), _vertex(lanelet, side, at_end))
-        if k:
-            slots.union((lanelets[k - 1].lanelet_id, "right"), (lanelet.lanelet_id, "left"))
+def _opposite(a: Lanelet, by_id: dict[int, Lanelet]) -> Lanelet | None:
+    """The opposite-direction left neighbour of ``a`` that has ``a`` as its own and shares the bound."""
+    if a.adj_left is None or a.adj_left_same_direction is not False or a.adj_left not in by_id:
+        return None
+    b = by_id[a.adj_left]
+    if b.adj_left != a.lanelet_id or b.adj_left_same_direction is not False:
+        return None
+    return b if _shares_bound(a.left_vertices, b.left_vertices[::-1]) else None
 
 
-def _end_joint(ends: list[tuple[list[Lanelet], bool]], pairs: list[tuple[int, int]] = ()) -> Joint:
-    """The joint of groups' ends (lanelets, at_end), with the borders of linked lanelets
-    (predecessor, successor) made one."""
+def _strip(right: list[Lanelet], left: list[Lanelet]) -> Strip:
+    """A road of ``right`` lanelets (left to right) and ``left`` lanelets (left to right along the
+    road, each against it)."""
+    bounds, names, centres = [], [], []
+    for k, l in enumerate(left):                  # the farthest left lane first, reversed
+        bounds.append(l.right_vertices[::-1])
+        names.append(((l.lanelet_id, "right"),) + (((left[k - 1].lanelet_id, "left"),) if k else ()))
+        centres.append(l.center_vertices[::-1])
+    bounds.append(right[0].left_vertices)
+    names.append(((right[0].lanelet_id, "left"),) + (((left[-1].lanelet_id, "left"),) if left else ()))
+    for k, l in enumerate(right):
+        bounds.append(l.right_vertices)
+        names.append(((l.lanelet_id, "right"),) + (((right[k + 1].lanelet_id, "left"),) if k + 1 < len(right) else ()))
+        centres.append(l.center_vertices)
+    return Strip(tuple(l.lanelet_id for l in left + right), len(left), tuple(bounds), tuple(names), tuple(centres))
+
+
+def strips(network: LaneletNetwork) -> list[Strip]:
+    """The roads' lanelets: lateral groups, two of them one road where they are opposite neighbours."""
+    by_id = {l.lanelet_id: l for l in network.lanelets}
+    groups = lateral_groups(network)
+    first = {g[0]: g for g in groups}
+    paired: set[tuple[int, ...]] = set()
+    out = []
+    for group in groups:
+        if group in paired:
+            continue
+        b = _opposite(by_id[group[0]], by_id)
+        other = first.get(b.lanelet_id) if b is not None else None
+        if other is None or other in paired or other == group:
+            other = ()
+        paired.update({group, other})
+        right, left = [by_id[i] for i in group], [by_id[i] for i in reversed(other)]
+        strip = _strip(right, left)
+        if left and not _square(strip):          # two roads (one each way) rather than one askew
+            paired.discard(other)
+            out.append(_strip(right, []))
+            continue
+        out.append(strip)
+    return out
+
+
+def _square(strip: Strip) -> bool:
+    """Whether the road's lanes end on lines nearly square to it: its bounds' ends lie within
+    `SKEW_SHARE` of its length (and `SKEW_M`) of one another along its direction at each end."""
+    length = LineString(strip.middle).length
+    for end in ("start", "end"):
+        heading = _heading_at(strip, end)
+        d = np.array([math.cos(heading), math.sin(heading)])
+        along = [float((b[-1] if end == "end" else b[0]) @ d) for b in strip.bounds]
+        if max(along) - min(along) > min(SKEW_M, SKEW_SHARE * length):
+            return False
+    return True
+
+
+def _road_end_slots(slots: _Slots, strip: Strip, end: str) -> None:
+    for bound, names in zip(strip.bounds, strip.names):
+        for name in names:
+            slots.add(name, bound[-1] if end == "end" else bound[0])
+            slots.union(names[0], name)
+
+
+def _heading_at(strip: Strip, end: str) -> float:
+    """The road's direction at its start or end: the mean of its lanes' centres' directions."""
+    return _mean_heading([_direction(c, end == "end") for c in strip.centres])
+
+
+def _place_joint(ends: list[tuple[Strip, str]], pairs: list[tuple[int, int]] = ()) -> Joint:
+    """The joint of road ends (strip, "start" | "end"), with the borders of linked lanelets
+    (predecessor, successor) made one; its heading that of the first road end's road there."""
     slots = _Slots()
-    for lanelets, at_end in ends:
-        _group_slots(slots, lanelets, at_end)
+    for strip, end in ends:
+        _road_end_slots(slots, strip, end)
     for a, b in pairs:
         slots.union((a, "left"), (b, "left"))
         slots.union((a, "right"), (b, "right"))
-    return slots.joint(_mean_heading([_direction(l, at_end) for lanelets, at_end in ends for l in lanelets]))
+    first = ends[0][1]
+    headings = [_heading_at(strip, end) + (math.pi if k and end == first else 0.0)
+                for k, (strip, end) in enumerate(ends)]
+    return slots.joint(_mean_heading(headings))
 
 
-def _cut(lanelets: list[Lanelet], length: float) -> Joint:
-    """A joint across a group ``length`` metres along its middle line from its start."""
-    middle = LineString(middle_line(lanelets[0].left_vertices, lanelets[-1].right_vertices))
-    p = np.array(middle.interpolate(length).coords[0])
-    a = np.array(middle.interpolate(max(0.0, length - 1.0)).coords[0])
-    b = np.array(middle.interpolate(min(middle.length, length + 1.0)).coords[0])
+def _cut(strip: Strip, end: str, length: float) -> Joint:
+    """A joint across a road ``length`` metres along its middle line from its start or end."""
+    middle = LineString(strip.middle)
+    at = length if end == "start" else middle.length - length
+    p = np.array(middle.interpolate(at).coords[0])
+    a = np.array(middle.interpolate(max(0.0, at - 1.0)).coords[0])
+    b = np.array(middle.interpolate(min(middle.length, at + 1.0)).coords[0])
     joint = Joint(p, math.atan2(*(b - a)[::-1]))
-    reach = 4.0 * sum(float(np.max(np.linalg.norm(l.left_vertices - l.right_vertices, axis=1))) for l in lanelets) + 5
+    reach = 4.0 * float(np.max(np.linalg.norm(strip.bounds[0][[0, -1]] - strip.bounds[-1][[0, -1]], axis=1))) + \
+        4.0 * sum(float(np.max(np.linalg.norm(l - r, axis=1))) if len(l) == len(r) else 0.0
+                  for l, r in zip(strip.bounds, strip.bounds[1:])) + 5
     across = LineString([p + reach * joint.normal, p - reach * joint.normal])
+
+    def offset(vertices: np.ndarray) -> float:
+        line = LineString(vertices)
+        hit = shapely.get_coordinates(across.intersection(line))
+        q = hit[np.argmin(np.linalg.norm(hit - p, axis=1))] if len(hit) else \
+            np.array(line.interpolate(line.project(shapely.Point(p))).coords[0])
+        return float((q - p) @ joint.normal)
+
+    t = centred(np.array([[offset(b)] for b in strip.bounds]), np.array([[offset(c)] for c in strip.centres]))[:, 0]
     slots = _Slots()
-    for lanelet in lanelets:
-        for side in ("left", "right"):
-            bound = LineString(lanelet.left_vertices if side == "left" else lanelet.right_vertices)
-            hit = shapely.get_coordinates(across.intersection(bound))
-            q = hit[np.argmin(np.linalg.norm(hit - p, axis=1))] if len(hit) else \
-                np.array(bound.interpolate(bound.project(shapely.Point(p))).coords[0])
-            slots.add((lanelet.lanelet_id, side), q - ((q - p) @ joint.direction) * joint.direction)
-    for k in range(1, len(lanelets)):
-        slots.union((lanelets[k - 1].lanelet_id, "right"), (lanelets[k].lanelet_id, "left"))
+    for value, names in zip(t, strip.names):
+        for name in names:
+            slots.add(name, p + value * joint.normal)
+            slots.union(names[0], name)
     return slots.joint(joint.heading)          # its origin: the borders' mean, on the same line
+
+
+def centred(bounds: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Border offsets (n + 1, m) that put each lane's centre on its lanelet's centre line: the least
+    squares fit of every lane's middle to its centre (weighted `CENTRE_WEIGHT`) and of every border
+    to its bound. ``bounds`` (n + 1, m) and ``centres`` (n, m): offsets along the same normals."""
+    n = len(centres)
+    rows = np.zeros((2 * n + 1, n + 1))
+    for k in range(n):
+        rows[k, k] = rows[k, k + 1] = 0.5 * CENTRE_WEIGHT
+    rows[n:, :] = np.eye(n + 1)
+    return np.linalg.pinv(rows) @ np.vstack([CENTRE_WEIGHT * centres, bounds])
 
 
 def _gap(a: Lanelet, b: Lanelet) -> float:
@@ -271,27 +391,38 @@ def _gap(a: Lanelet, b: Lanelet) -> float:
                      np.linalg.norm(a.right_vertices[-1] - b.right_vertices[0])))
 
 
-def _is_direct(relations: list[tuple[int, int]], lanes: dict[int, int], gaps: dict[tuple[int, int], float]) -> bool:
-    """Relations between one road's end and another's start that continue lane by lane, in order."""
+def _is_direct(relations: list[tuple[int, int]], gaps: dict[tuple[int, int], float]) -> bool:
+    """Relations between two road ends that continue lane by lane."""
     successors, predecessors = defaultdict(set), defaultdict(set)
     for a, b in relations:
         successors[a].add(b)
         predecessors[b].add(a)
     if any(len(v) > 1 for v in (*successors.values(), *predecessors.values())):
         return False
-    if any(gaps[r] > SEAMLESS_M for r in relations):
-        return False
-    order = sorted(relations, key=lambda r: lanes[r[0]])
-    return all(lanes[p[1]] < lanes[q[1]] for p, q in zip(order, order[1:]))
+    return all(gaps[r] <= SEAMLESS_M for r in relations)
+
+
+def _towards(joint: Joint, heading: float) -> Joint:
+    """``joint`` seen in the direction ``heading`` (turned when it faces the other way)."""
+    return joint if math.cos(joint.heading - heading) >= 0 else joint.turned()
 
 
 def topology(network: LaneletNetwork) -> Topology:
     """The roads, joints, links and junctions of ``network`` (see the module's description)."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
-    groups = lateral_groups(network)
-    group_of = {i: g for g, lanelets in enumerate(groups) for i in lanelets}
-    lane_index = {i: k for lanelets in groups for k, i in enumerate(lanelets)}
-    members = [[by_id[i] for i in lanelets] for lanelets in groups]
+    roads = strips(network)
+    road_of = {i: r for r, strip in enumerate(roads) for i in strip.lanelets}
+    lane_of = {}
+    for r, strip in enumerate(roads):
+        for k, i in enumerate(strip.lanelets):
+            lane_of[i] = (r, strip.left - k if k < strip.left else -(k - strip.left + 1))
+
+    def leaves(i: int) -> RoadEnd:          # where lanelet i leaves its road
+        return road_of[i], "end" if lane_of[i][1] < 0 else "start"
+
+    def enters(i: int) -> RoadEnd:
+        return road_of[i], "start" if lane_of[i][1] < 0 else "end"
+
     relations, unjoined, gaps = [], [], {}
     for a in sorted(by_id):
         for b in by_id[a].successor or []:
@@ -299,10 +430,10 @@ def topology(network: LaneletNetwork) -> Topology:
                 continue
             gaps[(a, b)] = _gap(by_id[a], by_id[b])
             (relations if gaps[(a, b)] <= JOINABLE_M else unjoined).append((a, b))
-    # where roads meet: ends and starts joined by relations, each connected set one place
-    place: dict[tuple[int, str], tuple[int, str]] = {}
+    # where roads meet: road ends joined by relations, each connected set one place
+    place: dict[RoadEnd, RoadEnd] = {}
 
-    def root(n: tuple[int, str]) -> tuple[int, str]:
+    def root(n: RoadEnd) -> RoadEnd:
         place.setdefault(n, n)
         while place[n] != n:
             place[n] = place[place[n]]
@@ -310,53 +441,66 @@ def topology(network: LaneletNetwork) -> Topology:
         return n
 
     for a, b in relations:
-        ra, rb = root((group_of[a], "end")), root((group_of[b], "start"))
+        ra, rb = root(leaves(a)), root(enters(b))
         if ra != rb:
             place[rb] = ra
-    at_place: dict[tuple[int, str], list[tuple[int, int]]] = defaultdict(list)
+    at_place: dict[RoadEnd, list[tuple[int, int]]] = defaultdict(list)
     for a, b in relations:
-        at_place[root((group_of[a], "end"))].append((a, b))
-    joints: dict[tuple[int, str], Joint] = {}
+        at_place[root(leaves(a))].append((a, b))
+    joints: dict[RoadEnd, Joint] = {}
     links, connections, junction_ends, cut_at = [], [], {}, {}
     junction_relations = []
     for key, rels in sorted(at_place.items()):
-        ends = sorted({group_of[a] for a, _ in rels})
-        starts = sorted({group_of[b] for _, b in rels})
-        if len(ends) == 1 and len(starts) == 1 and _is_direct(rels, lane_index, gaps):
-            a, b = ends[0], starts[0]
-            joint = _end_joint([(members[a], True), (members[b], False)], rels)
-            joints[(a, "end")] = joints[(b, "start")] = joint
-            links.append(Link(a, b, tuple(rels)))
+        ends = sorted({leaves(a) for a, _ in rels} | {enters(b) for _, b in rels})
+        if len(ends) == 2 and ends[0][0] != ends[1][0] and _is_direct(rels, gaps):
+            joint = _place_joint([(roads[r], e) for r, e in ends], rels)
+            for r, e in ends:
+                joints[(r, e)] = _towards(joint, _heading_at(roads[r], e))
+            links.append(Link((ends[0], ends[1]), tuple(rels)))
             continue
-        junction = len({j for j in junction_ends.values()}) + 1
-        for g in ends:
-            joints[(g, "end")] = _end_joint([(members[g], True)])
-            junction_ends[(g, "end")] = junction
-        for g in starts:
-            length = LineString(middle_line(members[g][0].left_vertices, members[g][-1].right_vertices)).length
-            cut_at[g] = min(CONNECTOR_M, 0.5 * length)
-            joints[(g, "start")] = _cut(members[g], cut_at[g])
-            junction_ends[(g, "start")] = junction
+        junction = len(set(junction_ends.values())) + 1
+        entering = {enters(b) for _, b in rels}
+        for r, e in ends:
+            if (r, e) in entering:
+                cut_at[(r, e)] = CONNECTOR_M
+            else:
+                joints[(r, e)] = _place_joint([(roads[r], e)])
+            junction_ends[(r, e)] = junction
         junction_relations += [(junction, a, b) for a, b in rels]
+    for r, e in sorted(cut_at):                # cut at most half a road, a third where both ends are cut
+        length = LineString(roads[r].middle).length
+        share = 1 / 3 if (r, "start") in cut_at and (r, "end") in cut_at else 0.5
+        cut_at[(r, e)] = min(CONNECTOR_M, share * length)
+        joints[(r, e)] = _cut(roads[r], e, cut_at[(r, e)])
     pieces = []
-    for g, lanelets in enumerate(members):
-        for end, at_end in (("start", False), ("end", True)):
-            if (g, end) not in joints:
-                joints[(g, end)] = _end_joint([(lanelets, at_end)])
-        borders = _borders(groups[g])
-        length = LineString(middle_line(lanelets[0].left_vertices, lanelets[-1].right_vertices)).length
-        pieces.append(RoadPiece(groups[g], _bounds(lanelets), tuple(l.center_vertices for l in lanelets),
-                                joints[(g, "start")], joints[(g, "end")], borders, borders,
-                                (cut_at.get(g, 0.0), length)))
+    for r, strip in enumerate(roads):
+        for e in ("start", "end"):
+            if (r, e) not in joints:
+                joints[(r, e)] = _place_joint([(strip, e)])
+        borders = tuple(names[0] for names in strip.names)
+        length = LineString(strip.middle).length
+        pieces.append(RoadPiece(strip.lanelets, strip.bounds, strip.centres, joints[(r, "start")],
+                                joints[(r, "end")], borders, borders,
+                                (cut_at.get((r, "start"), 0.0), length - cut_at.get((r, "end"), 0.0)),
+                                left=strip.left, middle=strip.middle))
     for junction, a, b in junction_relations:
-        lanelet, cut = by_id[b], joints[(group_of[b], "start")]
-        # the cut on the lanelet's own middle line (the group's may run elsewhere)
-        middle = LineString(middle_line(lanelet.left_vertices, lanelet.right_vertices))
-        at_cut = shapely.Point(0.5 * (cut.point((b, "left")) + cut.point((b, "right"))))
-        piece = RoadPiece((b,), (lanelet.left_vertices, lanelet.right_vertices), (lanelet.center_vertices,),
-                          joints[(group_of[a], "end")], cut, ((a, "left"), (a, "right")), ((b, "left"), (b, "right")),
-                          (0.0, middle.project(at_cut)), junction)
-        connections.append(Connection(junction, a, b, piece))
-    neighbours = [(l, r) for lanelets in groups for l, r in zip(lanelets, lanelets[1:])]
-    return Topology(groups, pieces, links, connections, junction_ends,
-                    [(a, b, gaps[(a, b)]) for a, b in unjoined], neighbours)
+        pa, pb = by_id[a], by_id[b]
+        start, end = joints[leaves(a)], joints[enters(b)]
+        start = _towards(start, _direction(pa.center_vertices, True))
+        end = _towards(end, _direction(pb.center_vertices, False))
+        middle_a = middle_line(pa.left_vertices, pa.right_vertices)
+        middle_b = middle_line(pb.left_vertices, pb.right_vertices)
+        line_a, line_b = LineString(middle_a), LineString(middle_b)
+        from_a = line_a.project(shapely.Point(0.5 * (start.point((a, "left")) + start.point((a, "right")))))
+        tail = leaves(a) in cut_at
+        if not tail:
+            from_a = line_a.length
+        to_b = line_b.project(shapely.Point(0.5 * (end.point((b, "left")) + end.point((b, "right")))))
+        piece = RoadPiece((b,), (np.vstack([pa.left_vertices, pb.left_vertices]),
+                                 np.vstack([pa.right_vertices, pb.right_vertices])),
+                          (np.vstack([pa.center_vertices, pb.center_vertices]) if tail else pb.center_vertices,),
+                          start, end, ((a, "left"), (a, "right")), ((b, "left"), (b, "right")),
+                          (from_a, line_a.length + to_b), junction, middle=np.vstack([middle_a, middle_b]))
+        connections.append(Connection(junction, a, b, piece, (a, b) if tail else (b,), leaves(a), enters(b)))
+    return Topology(roads, pieces, links, connections, junction_ends,
+                    [(a, b, gaps[(a, b)]) for a, b in unjoined], lane_of)

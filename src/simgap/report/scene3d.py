@@ -29,9 +29,9 @@ from simgap.cosim.record import AGENT_ID_OFFSET, Run  # noqa: E402
 from simgap.files import atomic_write  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
 from simgap.scenario import read_metadata  # noqa: E402
-from simgap.scenario.blueprint import relief_of  # noqa: E402
+from simgap.scenario.ground import ground_of  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
-from simgap.scenario.relief import RoadRelief  # noqa: E402
+from simgap.scenario.relief import Surface  # noqa: E402
 from simgap.trajectory import Trajectory  # noqa: E402
 from simgap.vehicles import Vehicle  # noqa: E402
 
@@ -57,11 +57,11 @@ class Replay3D(Protocol):
 
 #: builds a `Replay3D` from the scenario without the agents, each agent's vehicle and driven
 #: trajectory, the time step and the road's relief (None: flat)
-ReplayWorld = Callable[[Scenario, Mapping[int, Vehicle], Mapping[int, Trajectory], float, RoadRelief | None],
+ReplayWorld = Callable[[Scenario, Mapping[int, Vehicle], Mapping[int, Trajectory], float, Surface | None],
                        Replay3D]
 
 
-def _replay(scenario: Scenario, run: Run, world: ReplayWorld, relief: RoadRelief | None) -> Replay3D:
+def _replay(scenario: Scenario, run: Run, world: ReplayWorld, relief: Surface | None) -> Replay3D:
     scene = copy.deepcopy(scenario)
     for obstacle in list(scene.dynamic_obstacles):
         if obstacle.obstacle_id >= AGENT_ID_OFFSET:
@@ -85,7 +85,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
     out_dir = Path(out_dir or run_dir)
     scenario, problems, run = load_driven(run_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    replay = _replay(scenario, run, world, relief_of(read_metadata(run_dir / "driven.xml")))
+    replay = _replay(scenario, run, world, ground_of(read_metadata(run_dir / "driven.xml"), scenario.lanelet_network))
     first = run.agents[0].id
     step = _instant(run)
     written = []

@@ -5,7 +5,6 @@ solution is invalid)."""
 
 from __future__ import annotations
 
-import html
 import math
 from collections import Counter
 from typing import Sequence

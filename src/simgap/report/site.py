@@ -34,7 +34,7 @@ from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxe
                                    plot_paths_from_above, runtime_table)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
-from simgap.sim.protocol import Realism
+from simgap.cosim.fidelity import Realism
 
 PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.mp4", "run.gif")
 

@@ -87,8 +87,3 @@ def blueprint_of(metadata: Mapping[str, Any]) -> RoadBlueprint | JunctionBluepri
     except ValidationError:
         return None
 
-
-def relief_of(metadata: Mapping[str, Any]) -> RoadRelief | None:
-    """The surface of the road in a scenario's sidecar (None: flat, or not a generated road)."""
-    blueprint = blueprint_of(metadata)
-    return blueprint.road_relief() if isinstance(blueprint, RoadBlueprint) else None

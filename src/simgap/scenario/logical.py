@@ -3,7 +3,7 @@
 ```yaml
 name: curve                      # used in scenario names
 description: The paper's turn.
-template: curve                  # curve | s-curve | road | t-junction | intersection
+template: curve                  # curve | s-curve | road | hairpins | t-junction | intersection | opendrive
 fixed:                           # settings every concrete scenario shares (template-specific)
   straight_length: 100
 parameters:                      # the space; every parameter has a unit, a range and a default
@@ -16,6 +16,12 @@ A parameter with ``values`` or ``grid`` spans those values in the full-grid samp
 without spans only its default. Concrete scenarios are named from the logical name and every
 parameter that spans more than one value or differs from its default, in declaration order:
 ``curve_radius-10_angle-90``.
+
+The ``opendrive`` template puts one agent on a road network read from an OpenDRIVE file:
+``fixed: {file: road.xodr, start: "300:-3:370", goal: "308:-1:105"}`` (the file relative to the
+YAML; places as ``simgap generate road.xodr --start --goal`` takes them), with ``initial_speed``,
+``time_limit`` and ``dt`` as its parameters. An experiment on such a logical scenario runs the real
+road in every fidelity from one command.
 """
 
 from __future__ import annotations
@@ -32,7 +38,11 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
-from simgap.scenario.templates import TEMPLATES, ConcreteScenario
+from simgap.scenario.opendrive.scenario import opendrive_template
+from simgap.scenario.templates import TEMPLATES as ROAD_TEMPLATES
+from simgap.scenario.templates import ConcreteScenario
+
+TEMPLATES = ROAD_TEMPLATES | {"opendrive": opendrive_template}
 
 
 class Grid(BaseModel):
@@ -179,7 +189,11 @@ def load_logical(name_or_path: str | Path) -> LogicalScenario:
             raise InputError(f"no built-in logical scenario '{text}' and no such YAML file",
                              field="LOGICAL", allowed=", ".join(builtin_names()) + ", or a .yaml path")
         path = _builtin_dir() / f"{text}.yaml"
-    return read_model(path, LogicalScenario, "logical scenario", "name, description, template, fixed, parameters")
+    logical = read_model(path, LogicalScenario, "logical scenario", "name, description, template, fixed, parameters")
+    source = logical.fixed.get("file")
+    if logical.template == "opendrive" and isinstance(source, str):      # a road file beside the YAML
+        logical.fixed["file"] = str((path.parent / source).resolve())
+    return logical
 
 
 def build_scenario(logical: str | Path | LogicalScenario, params: dict[str, float] | None = None) -> ConcreteScenario:

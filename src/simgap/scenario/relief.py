@@ -15,21 +15,27 @@ no kink at the road's edge, so a car that leaves the road meets the ground it wo
 road built wider. Both profiles are piecewise polynomials in s (`ElevationPiece`, the knots),
 exactly what OpenDRIVE's ``elevation`` and ``superelevation`` records hold.
 
-`RoadRelief` lays a profile on its reference line (a `CentreLine`: a generated road's centre line)
-and gives the surface at any (x, y) — height and unit normal — through the line's Frenet frame:
+A `Surface` is what the 3D worlds stand on: the height and unit normal at any (x, y), and the
+area it covers. Two kinds exist. `RoadRelief` lays a profile on its reference line (a
+`CentreLine`: a generated road's centre line) and gives the surface through the line's Frenet frame:
 each point takes the station of its nearest point on the line (found in a k-d tree of the finely
 sampled line, then projected on that sample's tangent). Where two stretches of one road come close
 (the legs of a hairpin on a grade) the ground between them therefore steps halfway between them.
+`SampledSurface` passes through given 3D points — an imported road network's lanelet bounds at
+the heights its OpenDRIVE file gives them — as planes over their Delaunay triangles (exact where
+the road's cross section is straight between two bound vertices, as OpenDRIVE's lanes are), and
+continues level at the nearest point's height outside them.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from scipy.spatial import cKDTree
+from scipy.spatial import Delaunay, cKDTree
 
 from simgap.scenario.geometry import CentreLine
 
@@ -165,6 +171,18 @@ class SurfacePoints:
     normal: np.ndarray
 
 
+class Surface(Protocol):
+    """The ground a 3D world builds (see the module doc)."""
+
+    def surface(self, x: np.ndarray, y: np.ndarray) -> SurfacePoints:
+        """Height and unit normal at the points (x, y) (arrays of one shape, or floats)."""
+        ...
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """x0, y0, x1, y1 of what the surface describes (beyond it, it continues as it can)."""
+        ...
+
+
 class RoadRelief:
     """A `ReliefProfile` laid on its reference line: the road's surface in the world (see the
     module doc). ``centre`` is sampled finely (a generated road's centre line with ``max_step``
@@ -211,6 +229,48 @@ class RoadRelief:
     def bounds(self) -> tuple[float, float, float, float]:
         """x0, y0, x1, y1 of the reference line."""
         lo, hi = self.centre.xy.min(axis=0), self.centre.xy.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+
+class SampledSurface:
+    """The surface through the 3D points ``xyz`` (n, 3): planes over their Delaunay triangles in
+    (x, y); level at the nearest point's height outside them. Points with the same (x, y) to a
+    millimetre are one (the first height is kept)."""
+
+    def __init__(self, xyz: np.ndarray):
+        xyz = np.asarray(xyz, dtype=float)
+        _, first = np.unique(np.round(xyz[:, :2], 3), axis=0, return_index=True)
+        self.xyz = xyz[np.sort(first)]
+        self._triangles = Delaunay(self.xyz[:, :2])
+        self._tree = cKDTree(self.xyz[:, :2])
+        # each triangle's plane z = a x + b y + c, solved from its three corners
+        corners = self.xyz[self._triangles.simplices]                   # (m, 3, 3)
+        design = np.concatenate([corners[:, :, :2], np.ones(corners.shape[:2] + (1,))], axis=2)
+        ok = np.abs(np.linalg.det(design)) > 1e-12
+        self._planes = np.zeros((len(corners), 3))
+        self._planes[ok] = np.linalg.solve(design[ok], corners[ok, :, 2, None])[..., 0]
+        self._flat_triangle = ~ok
+
+    def surface(self, x: np.ndarray, y: np.ndarray) -> SurfacePoints:
+        shape = np.shape(x)
+        points = np.column_stack([np.ravel(x), np.ravel(y)]).astype(float)
+        triangle = self._triangles.find_simplex(points)
+        inside = triangle >= 0
+        plane = self._planes[np.where(inside, triangle, 0)]
+        gx = np.where(inside, plane[:, 0], 0.0)
+        gy = np.where(inside, plane[:, 1], 0.0)
+        z = gx * points[:, 0] + gy * points[:, 1] + plane[:, 2]
+        level = ~inside | self._flat_triangle[np.where(inside, triangle, 0)]
+        if level.any():
+            _, nearest = self._tree.query(points[level])
+            z[level] = self.xyz[nearest, 2]
+            gx[level] = gy[level] = 0.0
+        norm = np.sqrt(1.0 + gx * gx + gy * gy)
+        normal = np.column_stack([-gx / norm, -gy / norm, 1.0 / norm])
+        return SurfacePoints(z.reshape(shape), normal.reshape(shape + (3,)))
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        lo, hi = self.xyz[:, :2].min(axis=0), self.xyz[:, :2].max(axis=0)
         return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
 

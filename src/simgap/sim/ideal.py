@@ -11,7 +11,7 @@ from typing import Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.trajectory import Attitude, State
 
@@ -29,7 +29,7 @@ class IdealBackend:
         self.timings: dict[str, float] = {}
         self.notes: list[str] = []
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
 

@@ -8,7 +8,7 @@ from typing import Mapping, Protocol, Sequence, Union
 
 from commonroad.scenario.scenario import Scenario
 
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.trajectory import Attitude, State, Trajectory
 from simgap.vehicles import Vehicle
 
@@ -101,7 +101,7 @@ class Backend(Protocol):
     notes: list[str]
     realism: Realism            # the ideal world's is IDEAL: the loop then adds no sensing error and no latency
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None: ...
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None: ...
 
     def reset(self) -> dict[int, State]: ...
 

@@ -32,7 +32,7 @@ from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.sim.rates import is_multiple, nearest_multiple
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import Attitude, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
@@ -44,7 +44,7 @@ class Physics(Protocol):
     timings: dict[str, float]       # seconds per phase it spent (``physics``, ...)
     notes: list[str]                # what it did that the run record should say
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None: ...
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None: ...
 
     def reset(self, t0: float) -> None:
         """Put every agent that is present at ``t0`` at its initial state and keep the others out of
@@ -103,7 +103,7 @@ class TrackedBackend:
     def control_period(self) -> float:
         return 1.0 / self.tracking.controller_hz
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         self._dt = float(scenario.dt)
         self.tracking = self.fit_rates(self._configured, self._dt)
         self._ticks = int(round(self._dt * self.tracking.controller_hz))

@@ -79,3 +79,24 @@ def test_the_chase_camera_follows_the_body_up_a_grade_not_the_ground_plane():
     rise = [c.lookat[2] - f.lookat[2] for c, f in zip(climbing, flat)]
     assert rise == pytest.approx([lift + CHASE_AHEAD * math.sin(pitch)] * len(times))
     assert flat[0].lookat[2] == pytest.approx(car.physics.cg_height + CHASE_ABOVE)
+
+
+def test_a_replay_on_a_crest_poses_the_car_on_the_road_s_relief():
+    """The replay builds the run's relief: along the crest the car's body climbs and falls with
+    the road (its height above the surface stays) and pitches with the grade."""
+    concrete = build_scenario("crest-curve", {"radius": 30, "vertical_radius": 100})
+    relief = concrete.blueprint.road_relief()
+    straight = [State(k * DT, 20.0 + 1.5 * k, -1.5, 0.0, 15.0) for k in range(41)]   # up the first straight
+    replay = MujocoReplay(concrete.scenario, {1: load_vehicle("sedan")}, {1: Trajectory.from_states(straight, DT)},
+                          DT, relief)
+    car = replay.world.cars[1]
+    heights, pitches = [], []
+    for k in (0, 40):
+        replay.pose(k * DT)
+        body = replay.world.data.xpos[car.chassis_body]
+        ground = relief.surface(np.array([body[0]]), np.array([body[1]]))
+        heights.append(body[2] - ground.z[0])
+        pitches.append(math.asin(replay.world.data.xmat[car.chassis_body].reshape(3, 3)[2, 0]))   # nose up
+    assert heights[0] == pytest.approx(heights[1], abs=0.02)            # on the surface, not the plane
+    assert replay.world.data.xpos[car.chassis_body][2] > 4.0             # 60 m up an 8 % grade: 4.8 m up
+    assert pitches == pytest.approx([math.atan(0.08)] * 2, abs=0.01)

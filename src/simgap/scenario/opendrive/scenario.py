@@ -11,6 +11,7 @@ import re
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import shapely
@@ -162,3 +163,24 @@ def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, 
     parameters = {"source": path.name, "start": start, "goal": goal, **settings.model_dump()}
     return ConcreteScenario(name, "opendrive", parameters, scenario_of(name, settings.dt, roads.lanelets),
                             PlanningProblemSet([problem]), dict(roads.sections), dict(UNITS), opendrive=roads.origin)
+
+
+def opendrive_template(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
+    """The logical scenarios' template ``opendrive``: one agent on the road of ``file`` (a path the
+    logical scenario resolved beside its YAML) from ``start`` to ``goal`` (`PLACE_FORMS`), with the
+    `ProblemSettings` among the parameters; the scenario is named ``name``."""
+    missing = [key for key in ("file", "start", "goal") if not p.get(key)]
+    if missing:
+        raise InputError(f"the opendrive template needs '{missing[0]}'", field=f"fixed.{missing[0]}",
+                         allowed="fixed: {file: ROAD.xodr (beside the YAML), start: PLACE, goal: PLACE}; "
+                                 f"a place is {PLACE_FORMS}")
+    path = Path(p["file"])
+    if not path.is_file():
+        raise InputError(f"no OpenDRIVE file {path}", field="fixed.file", allowed="an .xodr file (a path "
+                                                                                 "relative to the YAML)")
+    pins = {key: str(p[key]) for key in UNITS if key in p}
+    concrete = opendrive_scenario(path, str(p["start"]), str(p["goal"]), pins)
+    concrete.name, concrete.logical = name, logical
+    concrete.scenario = scenario_of(name, concrete.scenario.dt, concrete.scenario.lanelet_network)
+    concrete.parameters = {key: value for key, value in p.items() if key != "file"} | {"source": path.name}
+    return concrete

@@ -35,7 +35,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.scenario.obstacles import recorded_obstacles
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.beamng.catalogue import model_for
 from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_yaw, reference_offset,
                                        reference_position, steering_input, to_state)
@@ -62,7 +62,7 @@ class BeamngWorld:
         self.session: Session | None = None
 
     # --- Physics protocol -----------------------------------------------------------------------
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         cfg = self.settings
         self._dt = float(scenario.dt)
         self._agents = list(agents)

@@ -29,7 +29,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
-from simgap.scenario.relief import RoadRelief, tilt_of
+from simgap.scenario.relief import Surface, tilt_of
 from simgap.sim.dynamic.plant import PLANTS, Slope
 from simgap.sim.dynamic.settings import DynamicSettings
 from simgap.sim.protocol import Agent, BackendEvent, PhysicsDiverged, Realism, enters_at
@@ -57,7 +57,7 @@ class SingleTrackWorld:
         self.notes: list[str] = []
         self._agents: list[Agent] = []
 
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         cfg = self.settings
         self._agents = list(agents)
         self._relief = relief

@@ -40,7 +40,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
@@ -67,7 +67,7 @@ class MujocoPhysics:
         self._seen: set[tuple[int, int | None]] = set()
 
     # --- Physics protocol ------------------------------------------------------------------------
-    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: RoadRelief | None = None) -> None:
+    def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
         self.world = build_world(scenario, agents, self.settings, relief, looks=False)

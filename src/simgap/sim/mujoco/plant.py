@@ -10,7 +10,7 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
 from simgap.errors import validated_settings
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Agent, PhysicsDiverged
@@ -31,7 +31,7 @@ class MujocoPlant:
     (``road_friction``, ``road_grade``, ...); on the proving ground a slope runs along the car's
     heading. With a ``relief`` the proving ground has that shape (asphalt everywhere)."""
 
-    def __init__(self, vehicle: Vehicle, relief: RoadRelief | None = None, **world: Any):
+    def __init__(self, vehicle: Vehicle, relief: Surface | None = None, **world: Any):
         self.vehicle = vehicle
         self.relief = relief
         self.physics = MujocoPhysics(validated_settings(WorldSettings, world))

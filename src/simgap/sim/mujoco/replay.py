@@ -21,7 +21,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 from scipy.ndimage import gaussian_filter1d
 
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.car import COLLISION_GROUP
 from simgap.sim.mujoco.world import World, build_world
 from simgap.sim.protocol import Agent
@@ -45,7 +45,7 @@ class MujocoReplay:
     first state."""
 
     def __init__(self, scenario: Scenario, vehicles: Mapping[int, Vehicle], driven: Mapping[int, Trajectory],
-                 dt: float, relief: RoadRelief | None = None):
+                 dt: float, relief: Surface | None = None):
         self.driven, self.dt = driven, dt
         self.world: World = build_world(scenario, [Agent(aid, vehicles[aid], driven[aid][0]) for aid in driven],
                                         relief=relief)

@@ -1,5 +1,5 @@
-"""The ground of a road with a relief in the MuJoCo world: the road's surface (`RoadRelief`, the
-verges included) sampled on a regular grid over the road and a margin around it — the height and
+"""The ground of a road with a relief in the MuJoCo world: the road's surface (a
+`simgap.scenario.relief.Surface`, the verges included) sampled on a regular grid over the road and a margin around it — the height and
 slope at every node — which the tyres read (`simgap.sim.mujoco.tyre.ground_at`: bilinear, in the
 compiled tyre kernel) and which MuJoCo collides with and draws as a height field of the same nodes
 (every `HFIELD_STRIDE`-th: a coarser mesh to draw, through the very same heights). Beyond the grid
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.tyre import ground_at
 
 CELL_M = 0.5                 # node spacing the tyres see [m]
@@ -35,7 +35,7 @@ class Terrain:
     grid: np.ndarray
 
     @classmethod
-    def of(cls, relief: RoadRelief, bounds: tuple[float, float, float, float]) -> "Terrain":
+    def of(cls, relief: Surface, bounds: tuple[float, float, float, float]) -> "Terrain":
         """The ground of ``relief`` over ``bounds`` (x0, y0, x1, y1: the road) and its margin."""
         rx0, ry0, rx1, ry1 = relief.bounds()
         x0, y0 = min(bounds[0], rx0) - MARGIN_M, min(bounds[1], ry0) - MARGIN_M

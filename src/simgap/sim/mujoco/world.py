@@ -19,7 +19,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
-from simgap.scenario.relief import RoadRelief
+from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
 from simgap.sim.mujoco.road import SurfaceMap, add_road
 from simgap.sim.mujoco.terrain import Terrain
@@ -137,7 +137,7 @@ def _add_scenery(spec: mujoco.MjSpec, extent: float) -> None:
 
 
 def build_world(scenario: Scenario, agents: Sequence[Agent], settings: WorldSettings | None = None,
-                relief: RoadRelief | None = None, looks: bool = True) -> World:
+                relief: Surface | None = None, looks: bool = True) -> World:
     """The MuJoCo world of ``scenario`` with a car per agent, on the road's ``relief`` (None: flat);
     ``looks`` adds what is drawn only (the cars' bodies and wheels as pictures show them), which a
     world that only simulates leaves out."""

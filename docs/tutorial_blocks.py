@@ -1,0 +1,100 @@
+"""Runs the tutorials' blocks and keeps their printed output what the code prints.
+
+In a page, a line ``<!-- run -->`` before a ```` ```console ```` block makes it executable: each line
+starting with ``$ `` is a command, run with bash in a scratch folder of the page (the page's blocks
+run in order, in the same folder), and what follows it is its output. A line ``<!-- file: NAME -->``
+before a code block writes the block to NAME in that folder first (a planner the next command runs).
+
+    python docs/tutorial_blocks.py --write     # run every block, write the output into the pages
+    python docs/tutorial_blocks.py             # run every block, exit 1 where a page differs
+
+Wall times differ from run to run: they are compared as placeholders (see ``VOLATILE``), and a
+table's padding is not compared. Everything else must match.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parent
+ROOT = DOCS.parent
+PAGES = ["getting-started.md", "tutorials/validate-your-planner.md"]
+BLOCK = re.compile(r"^<!-- (run|file: ([\w./-]+)) -->\n```(\w*)\n(.*?)^```$", re.M | re.S)
+VOLATILE = [(re.compile(r"\d+(?:\.\d+)?/\d+(?:\.\d+)?/\d+(?:\.\d+)?"), "T"),        # plan [ms] mean/p95/max
+            (re.compile(r"wall time [^;\n]*"), "wall time T"),
+            (re.compile(r"\bin \d+(?:\.\d+)? s\b"), "in T s")]
+WIDTH = "110"
+
+
+def normalise(text: str) -> str:
+    for pattern, placeholder in VOLATILE:
+        text = pattern.sub(placeholder, text)
+    return re.sub(r"[\s\u2500-\u257f]+", " ", text).strip()
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ, COLUMNS=WIDTH, NO_COLOR="1", TERM="dumb", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src")] + [p for p in [env.get("PYTHONPATH")] if p])
+    return env
+
+
+def run_page(page: Path, scratch: Path) -> tuple[str, list[tuple[str, str]]]:
+    """(the page with every block's output as printed now, [(documented, printed)] of each block)."""
+    text = page.read_text()
+    blocks: list[tuple[str, str]] = []
+
+    def block(m: re.Match) -> str:
+        marker, name, lang, body = m.group(1), m.group(2), m.group(3), m.group(4)
+        if name:
+            (scratch / name).parent.mkdir(parents=True, exist_ok=True)
+            (scratch / name).write_text(body)
+            return m.group(0)
+        commands = [line[2:] for line in body.splitlines() if line.startswith("$ ")]
+        printed = []
+        for command in commands:
+            proc = subprocess.run(["bash", "-c", command], cwd=scratch, env=_env(), capture_output=True, text=True,
+                                  timeout=300)
+            output = (proc.stdout + proc.stderr).rstrip()
+            if proc.returncode != 0:
+                output += f"\n[exit {proc.returncode}]"
+            printed += [f"$ {command}"] + ([output] if output else [])
+        new = "\n".join(printed) + "\n"
+        blocks.append((body, new))
+        return f"<!-- {marker} -->\n```{lang}\n{new}```"
+
+    return BLOCK.sub(block, text), blocks
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--write", action="store_true", help="write the printed output into the pages")
+    parser.add_argument("pages", nargs="*", default=PAGES, help="pages under docs/ (default: all tutorials)")
+    args = parser.parse_args(argv)
+    differ = 0
+    for name in args.pages:
+        page = DOCS / name
+        with tempfile.TemporaryDirectory(prefix="simgap-tutorial-") as scratch:
+            new_text, blocks = run_page(page, Path(scratch))
+        if args.write:
+            page.write_text(new_text)
+            print(f"{name}: {len(blocks)} blocks written")
+            continue
+        for documented, printed in blocks:
+            if normalise(documented) != normalise(printed):
+                differ += 1
+                print(f"{name}: a block's output differs from the page\n--- page:\n{documented}--- printed now:\n{printed}")
+        if any("[exit " in printed for _, printed in blocks):
+            differ += 1
+            print(f"{name}: a command failed")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,159 @@
+"""The documentation site: built strictly (a broken link, a missing page or anchor fails), its
+reference tables say the code's defaults, its tutorials print what the code prints, and its pages
+load in a real headless browser with nothing fetched from the web."""
+
+from __future__ import annotations
+
+import html
+import importlib.util
+import json
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+pytest.importorskip("mkdocs", reason="the docs tools are not installed (make install puts them into .venv)")
+
+
+def _module(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+generate = _module("simgap_docs_generate", ROOT / "docs" / "hooks" / "generate.py")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("site")
+    env = dict(os.environ, NO_MKDOCS_2_WARNING="1",
+               PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    warnings = [line for line in proc.stderr.splitlines() if line.startswith(("WARNING", "ERROR"))]
+    assert proc.returncode == 0 and not warnings, proc.stderr[-4000:]
+    return out
+
+
+def _rows(page: str) -> dict[str, str]:
+    """field name → the text of its default cell, from a generated settings table."""
+    rows = {}
+    for m in re.finditer(r"<tr>\s*<td><code>([^<]+)</code></td>\s*<td>.*?</td>\s*<td>(.*?)</td>", page, re.S):
+        rows.setdefault(html.unescape(m.group(1)), html.unescape(re.sub(r"<[^>]+>", "", m.group(2))).strip())
+    return rows
+
+
+MODELS = {"reference/loop-settings.html": ["simgap.cosim.loop:CosimSettings", "simgap.cosim.score_settings:ScoreSettings"],
+          "reference/planner-settings.html": ["simgap.planning.settings:FrenetSettings"],
+          "reference/vehicles.html": ["simgap.vehicles.catalogue:Vehicle"],
+          "reference/search-specs.html": ["simgap.experiment.search_spec:SearchSpec"]}
+
+
+def test_every_documented_default_is_the_codes(site):
+    for page, models in MODELS.items():
+        rows = _rows((site / page).read_text())
+        for target in models:
+            for name, field in generate.model_fields(generate.resolve(target)):
+                expected = re.sub(r"`", "", generate.default_text(field))
+                assert name in rows, f"{page}: {target} field {name} is not documented"
+                assert rows[name] == expected, f"{page}: {name} documented as {rows[name]!r}, the code's is {expected!r}"
+    backends = (site / "reference/backend-settings.html").read_text()
+    for name, target in generate.BACKEND_MODELS.items():
+        assert f"<code>{name}</code>" in backends
+    from simgap.sim.registry import BACKENDS
+    assert set(BACKENDS) <= set(generate.BACKEND_MODELS)
+
+
+def test_every_command_and_option_is_in_the_cli_reference(site):
+    page = html.unescape((site / "reference/cli.html").read_text())
+    for path, command in generate.cli_commands(generate.cli_app()):
+        assert f"{path}" in page, path
+        for param in command.params:
+            for opt in getattr(param, "opts", []):
+                if opt.startswith("-"):
+                    assert opt in page, f"{path} {opt}"
+
+
+def test_knobs_and_validation_tables_come_from_the_code_and_the_results(site):
+    from simgap.experiment.knobs import KNOBS
+    knobs = (site / "reference/knobs.html").read_text()
+    assert all(f"<code>{name}</code>" in knobs for name in KNOBS)
+    results = (site / "validation/results.html").read_text()
+    for f in (ROOT / "bench" / "results").glob("*.json"):
+        assert f.name in results
+        json.loads(f.read_text())
+
+
+def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
+    table = (ROOT / "bench" / "README.md").read_text()
+    for script in (ROOT / "bench").glob("*.py"):
+        assert f"`bench/{script.name}`" in table, script.name
+        source = script.read_text()
+        assert not re.search(r"^\s*(from|import)\s+tests\b|sys\.path.*tests", source, re.M), script.name
+    for f in (ROOT / "bench" / "results").glob("*.json"):
+        assert f"results/{f.name}" in table, f.name
+
+
+def test_the_tutorials_print_what_the_page_shows():
+    blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
+    assert blocks.main([]) == 0
+
+
+def test_no_page_fetches_anything_from_the_web_and_search_has_every_page(site):
+    pages = sorted(site.rglob("*.html"))
+    assert len(pages) >= 30
+    for page in pages:
+        text = page.read_text()
+        external = re.findall(r'<(?:script|img|link|iframe)[^>]+(?:src|href)="(https?://[^"]+)"', text)
+        assert not [u for u in external if not u.startswith("https://github.com")], f"{page}: {external}"
+        for src in re.findall(r'<img[^>]+src="([^"]+)"', text):
+            assert (page.parent / src.split("#")[0]).resolve().exists(), f"{page}: image {src}"
+    index = json.loads((site / "search" / "search_index.json").read_text())
+    locations = {d["location"].split("#")[0] for d in index["docs"]}
+    assert {"getting-started.html", "reference/cli.html", "validation/results.html"} <= locations
+    assert any("road_friction" in d["text"] for d in index["docs"])
+
+
+@pytest.fixture
+def served(site):
+    """The site over HTTP on this machine (its search loads its index with fetch, which file:// refuses)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind", "127.0.0.1",
+                               "--directory", str(site)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        for _ in range(50):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                time.sleep(0.1)
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
+def test_pages_load_in_chromium_without_console_errors(served, tmp_path):
+    for name in ["index.html", "getting-started.html", "reference/cli.html", "reference/api.html",
+                 "validation/results.html"]:
+        proc = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                               "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                               f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
+                               "--virtual-time-budget=3000", "--dump-dom", f"{served}/{name}"],
+                              capture_output=True, text=True, timeout=120)
+        console = [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
+        assert not console, f"{name}: {console}"
+        assert 'class="md-content"' in proc.stdout and "md-nav" in proc.stdout, f"{name} did not render"
