@@ -67,16 +67,17 @@ def test_the_surface_normal_is_the_gradient_of_its_height_on_a_graded_banked_cur
     assert np.abs(relief.surface(x, y).normal - expected).max() < 1e-8
 
 
-def test_a_bank_into_the_turn_raises_the_outside_of_the_curve():
+@pytest.mark.parametrize("bank", [5, -5])
+def test_a_bank_into_the_turn_raises_the_outside_of_the_curve_and_one_against_it_the_inside(bank):
     for angle in (90, -90):
-        relief = build_scenario("curve", {"radius": 50, "angle": angle, "bank": 5}).blueprint.road_relief()
+        relief = build_scenario("curve", {"radius": 50, "angle": angle, "bank": bank}).blueprint.road_relief()
         s_mid = 100.0 + 50.0 * math.pi / 4                       # the middle of the curve
         i = int(np.argmin(np.abs(relief.centre.s - s_mid)))
         left = relief.centre.offset(3.0)[i]
         right = relief.centre.offset(-3.0)[i]
         outside, inside = (right, left) if angle > 0 else (left, right)
         z = relief.surface(np.array([outside[0], inside[0]]), np.array([outside[1], inside[1]])).z
-        assert z[0] - z[1] == pytest.approx(6.0 * math.tan(math.radians(5.0)), rel=1e-3)
+        assert z[0] - z[1] == pytest.approx(6.0 * math.tan(math.radians(bank)), rel=1e-3)
 
 
 def test_a_flat_road_has_no_relief_and_its_sidecar_is_as_before(tmp_path):

@@ -16,6 +16,7 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
+from simgap.evaluate.surface_grip import grip_use_on_surface
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.vehicles import Vehicle
 from simgap.vehicles.constants import GRAVITY
@@ -26,6 +27,9 @@ RUN_METRICS = {
     "max_lane_excursion_m": ("m", "how far the footprint reached beyond the lanes of its route (0: stayed in)"),
     "max_tracking_lateral_m": ("m", "largest lateral gap between the driven and the promised (planned) position"),
     "peak_grip_use": ("-", "peak of sqrt(a_long^2 + a_lat^2) / (road friction x g): above 1 asks more than the road gives"),
+    "peak_grip_use_3d": ("-", "peak grip use on the road's relief: the friction force the motion needs (gravity's "
+                              "share along the surface included) / (road friction x the normal load on the surface, "
+                              "less on a crest); the flat world's run: what the flat plan asks of the real road"),
 }
 
 
@@ -38,9 +42,10 @@ def lane_excursion(driven, vehicle: Vehicle, scenario: Scenario, problem) -> flo
     return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in driven), default=0.0)
 
 
-def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float) -> dict[str, float]:
-    """`RUN_METRICS` of ``run`` on a road of friction ``road_friction`` (NaN where an agent has
-    no route to its goal)."""
+def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float,
+                relief=None) -> dict[str, float]:
+    """`RUN_METRICS` of ``run`` on a road of friction ``road_friction`` and surface ``relief`` (the
+    scenario's surface, `simgap.scenario.ground.ground_of`; None: flat) (NaN where an agent has no route to its goal)."""
     worst = {name: -math.inf for name in RUN_METRICS}
     grip = road_friction * GRAVITY
     for outcome in run.agents:
@@ -57,6 +62,7 @@ def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_fric
         if len(driven):
             combined = np.hypot(driven.a, driven.v * driven.yaw_rate)
             values["peak_grip_use"] = float(combined.max() / grip)
+            values["peak_grip_use_3d"] = float(grip_use_on_surface(driven, relief, road_friction).max())
         for name, v in values.items():
             if not math.isnan(v):
                 worst[name] = max(worst[name], v)

@@ -157,6 +157,7 @@ def execute(request: RunRequest, out: Path | None = None,
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     meta = read_metadata(request.scenario)
+    relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
     planners, errors, planner_records = {}, [], {}
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
         for a in agents:
@@ -182,7 +183,7 @@ def execute(request: RunRequest, out: Path | None = None,
         else:
             backend = make_backend(request.backend, request.backend_settings)
             run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
-                           wall_time_limit_s=request.run_timeout_s, relief=ground_of(meta, scenario.lanelet_network))
+                           wall_time_limit_s=request.run_timeout_s, relief=relief)
         for aid, planner in planners.items():
             if callable(getattr(planner, "record", None)):
                 planner_records[aid]["process"] = planner.record()
@@ -196,7 +197,7 @@ def execute(request: RunRequest, out: Path | None = None,
     run.versions = software_versions()
     run.seed = request.seed
     run.vehicles = {a.id: a.vehicle for a in agents}
-    run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings))
+    run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings), relief)
     clock = time.perf_counter()
     solution = score_run(run, scenario, problems, request.cosim, planner_vehicle, request.scenario)
     run.timings["scoring"] = time.perf_counter() - clock

@@ -141,7 +141,7 @@ def _banked_curves(pieces: list[tuple[str, float, float, float]], bank: float, t
         before = i > 0 and kinds[i - 1] == "curve"
         after = i + 1 < len(kinds) and kinds[i + 1] == "curve"
         share = 0.5 if kind == "curve" else 1.0      # an arc gives half a transition to a touching arc
-        value = -math.copysign(bank, k0) if kind == "curve" else 0.0
+        value = -bank * math.copysign(1.0, k0) if kind == "curve" else 0.0   # a negative bank: against the turn
         start += share * transition if before else 0.0
         end -= share * transition if after else 0.0
         for at in (start, end):

@@ -1,0 +1,52 @@
+"""Issue 41's study on 3D roads: a crest's MuJoCo run climbs and falls with the road while its
+ideal twin stays flat and plans the same; the peak grip use on the relief is a run metric; the
+built-in search `road-3d-gaps` loads."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simgap.experiment.search_spec import load_search_spec
+from simgap.experiment.single_run import RunRequest, execute
+from simgap.scenario import build_scenario, write_scenario
+from simgap.scenario import read_metadata
+from simgap.scenario.ground import ground_of
+
+
+@pytest.fixture(scope="module")
+def crest(tmp_path_factory):
+    out = tmp_path_factory.mktemp("crest")
+    xml = write_scenario(build_scenario("crest-curve", {"radius": 50, "vertical_radius": 75}), out, preview=False)
+    return xml, execute(RunRequest(scenario=xml, backend="ideal")), execute(RunRequest(scenario=xml, backend="mujoco"))
+
+
+def test_mujoco_drives_over_the_crest_while_the_ideal_world_stays_flat(crest):
+    xml, ideal, mujoco = crest
+    assert ideal.agents[0].outcome == "goal_reached" and mujoco.agents[0].outcome == "goal_reached"
+    assert not ideal.attitudes                               # the planner's flat world has no height
+    z = np.array([a.z for a in mujoco.attitudes[1]])
+    pitch = np.array([a.pitch for a in mujoco.attitudes[1]])
+    top = int(np.argmax(z))
+    assert z[top] - z[0] > 5.0 and z[top] - z[-1] > 5.0     # up 8 %, over the crest, down 8 %
+    assert 0 < top < len(z) - 1
+    # the surface's height under the car where it is, and nose up before the top, nose down after
+    relief = ground_of(read_metadata(xml))
+    driven = mujoco.driven[1]
+    ground = relief.surface(driven.x, driven.y).z
+    assert np.max(np.abs(z - ground)) < 1.0
+    assert np.median(pitch[:top]) > 0.03 and np.median(pitch[top:]) < -0.03
+
+
+def test_the_flat_plan_asks_more_grip_of_the_crest_than_of_a_plane(crest):
+    _, ideal, mujoco = crest
+    assert ideal.metrics["peak_grip_use_3d"] != ideal.metrics["peak_grip_use"]
+    for run in (ideal, mujoco):
+        assert np.isfinite(run.metrics["peak_grip_use_3d"]) and run.metrics["peak_grip_use_3d"] > 0
+
+
+def test_the_road_3d_search_spec_loads():
+    search = load_search_spec("road-3d-gaps")
+    assert search.spec.logical == "curve-3d"
+    assert set(search.spec.parameters) == {"radius", "grade", "bank", "initial_speed"}
+    assert [r.backend for r in search.spec.ladder] == ["ideal", "mujoco"]
