@@ -90,6 +90,21 @@ def common_m(a: Lanelet, b: Lanelet) -> float:
     return float(np.sum(shapely.distance(theirs, shapely.line_interpolate_point(ours, s)) <= 0.1) * 0.1)
 
 
+UNREPRESENTABLE = "not representable:"   # reasons that no OpenDRIVE file could keep start with this
+
+
+def representable(r: dict) -> dict:
+    """Per kind (successors, neighbours): the source's relations less those no file could keep
+    (lanelets that do not touch, V-shaped neighbours, one-sided relations), the file's of them and
+    how many were not representable."""
+    out = {}
+    for kind in ("successors", "neighbours"):
+        unrep = sum(n for why, n in r.get("lost", {}).get(kind, {}).items() if why.startswith(UNREPRESENTABLE))
+        out[kind] = {"source": r["links"][kind], "not_representable": unrep,
+                     "representable": r["links"][kind] - unrep, "kept": r["links"][f"{kind}_kept"]}
+    return out
+
+
 def lost_relations(network, links) -> dict:
     """Why each relation the file does not keep is lost, counted by reason."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
@@ -99,7 +114,7 @@ def lost_relations(network, links) -> dict:
         gap = road_topology._gap(la, lb)
         left = float(np.linalg.norm(la.left_vertices[-1] - lb.left_vertices[0]))
         right = float(np.linalg.norm(la.right_vertices[-1] - lb.right_vertices[0]))
-        reason = (f"not representable: the source's lanelets do not touch ({a}->{b}: left bounds {left:.1f} m, "
+        reason = (f"{UNREPRESENTABLE} the source's lanelets do not touch ({a}->{b}: left bounds {left:.1f} m, "
                   f"right bounds {right:.1f} m apart)" if gap > road_topology.JOINABLE_M else "other")
         successors[reason] = successors.get(reason, 0) + 1
     neighbours: dict[str, int] = {}
@@ -107,10 +122,10 @@ def lost_relations(network, links) -> dict:
         la, lb = by_id[a], by_id[b]
         same = la.adj_left_same_direction if la.adj_left == b else la.adj_right_same_direction
         if a not in (lb.adj_left, lb.adj_right):
-            reason = "one-sided in the source (the neighbour does not name the lanelet back)"
+            reason = f"{UNREPRESENTABLE} one-sided in the source (the neighbour does not name the lanelet back)"
         elif common_m(la, lb) < max(1.0, 0.1 * min(LineString(la.center_vertices).length,
                                                  LineString(lb.center_vertices).length)):
-            reason = ("their bounds meet at one end only and part (V-shaped merge or split, or a gap opening "
+            reason = (f"{UNREPRESENTABLE} their bounds meet at one end only and part (V-shaped merge or split, or a gap opening "
                       "between them): no common border")
         elif same and not road_topology._shares_bound(
                 la.left_vertices if la.adj_left == b else la.right_vertices,
@@ -118,6 +133,9 @@ def lost_relations(network, links) -> dict:
             reason = "same direction, ends differ by more than 0.1 m (needs lanes beginning/ending inside a road)"
         elif not same and road_topology._opposite(la, by_id) is lb:
             reason = "opposite direction, two roads: their lanes end askew (skew guard)"
+        elif not same and la.adj_right == b and lb.adj_right == a:
+            reason = ("opposite direction on both lanelets' right (a left-hand-traffic pair: a road with "
+                      "rule LHT, not written)")
         elif not same:
             reason = "opposite direction, not one road (ends differ or groups not paired)"
         else:
@@ -157,15 +175,21 @@ def row(name: str, export: Export, road_qc: dict, bad: dict[int, str] | None = N
         out["lost"] = lost_relations(network, export.links)
         out["lost"]["successor_relations"] = [list(r) for r in lost_successors]
         out["lost"]["neighbour_relations"] = [list(r) for r in lost_neighbours]
+    out["representable"] = representable(out)
     return out
 
 
 def show(r: dict) -> None:
     q, links = r["qc"], r["links"]
+
+    def kept_of(kind: str) -> str:       # kept of the representable (not representable in brackets)
+        k = r["representable"][kind]
+        return f"{k['kept']:>4}/{k['representable']:<4}" + f"({k['not_representable']})".ljust(6)
     verdict = q.get("missing") and "QC not installed" or \
         f"QC {q['errors']:>3} errors {q['warnings']:>3} warnings" + (f" ({len(q['not_run'])} not run)" if q["not_run"] else "")
     print(f"{r['map']:<30} {r['roads']:>4} {verdict:<36} {r['deviation_max_m']:>7.3f} {r['deviation_p99_m']:>7.3f} "
           f"{links['successors_kept']:>4}/{links['successors']:<4} {links['neighbours_kept']:>4}/{links['neighbours']:<4} "
+          f"{kept_of('successors')} {kept_of('neighbours')} "
           f"{links['junctions']:>3} {'' if r['malformed_lanelets'] is None else r['malformed_lanelets']:>4} "
           f"{r['seconds']:>6.2f}" + (f"  xosc: QC {r['xosc_qc']['errors']} errors {r['xosc_qc']['warnings']} warnings, "
                                     f"{len(r['xosc_qc']['not_run'])} not run" if "errors" in r.get("xosc_qc", {}) else ""))
@@ -194,7 +218,7 @@ def main() -> None:
         checks.schema(name)
     print(f"loading the {len(checks.SCHEMA_FILES)} XSD schemas: {time.perf_counter() - t0:.2f} s (once per process)\n")
     print(f"{'map':<30} {'roads':>4} {'ASAM QC (OpenDRIVE bundle)':<36} {'dev max':>7} {'p99':>7} "
-          f"{'successors':>9} {'neighbours':>9} {'jct':>3} {'bad':>4} {'time s':>6}")
+          f"{'successors':>9} {'neighbours':>9} {'succ/repr (not)':>15} {'nbr/repr (not)':>15} {'jct':>3} {'bad':>4} {'time s':>6}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -229,7 +253,15 @@ def main() -> None:
               f"{sum(r['qc'].get('warnings', 0) for r in real)}; successors kept "
               f"{sum(r['links']['successors_kept'] for r in real)}/{sum(r['links']['successors'] for r in real)}, "
               f"neighbours {sum(r['links']['neighbours_kept'] for r in real)}/"
-              f"{sum(r['links']['neighbours'] for r in real)}; deviation max median "
+              f"{sum(r['links']['neighbours'] for r in real)}; of the representable (less lanelets that do not touch, "
+              f"V-shaped and one-sided neighbours): successors "
+              f"{sum(r['representable']['successors']['kept'] for r in real)}/"
+              f"{sum(r['representable']['successors']['representable'] for r in real)} "
+              f"({sum(r['representable']['successors']['not_representable'] for r in real)} not representable), "
+              f"neighbours {sum(r['representable']['neighbours']['kept'] for r in real)}/"
+              f"{sum(r['representable']['neighbours']['representable'] for r in real)} "
+              f"({sum(r['representable']['neighbours']['not_representable'] for r in real)} not representable); "
+              f"deviation max median "
               f"{np.median([r['deviation_max_m'] for r in real]):.3f} m, p99 median "
               f"{np.median([r['deviation_p99_m'] for r in real]):.3f} m; on the {len(clean)} maps without malformed "
               f"lanelets the largest deviation is {max((r['deviation_max_m'] for r in clean), default=0):.3f} m, on "
