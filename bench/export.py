@@ -95,7 +95,8 @@ UNREPRESENTABLE = "not representable:"   # reasons that no OpenDRIVE file could 
 
 def representable(r: dict) -> dict:
     """Per kind (successors, neighbours): the source's relations less those no file could keep
-    (lanelets that do not touch, V-shaped neighbours, one-sided relations), the file's of them and
+    (lanelets that do not touch, V-shaped neighbours, one-sided relations, overlapping lanelets that
+    run the same way but are called opposite neighbours), the file's of them and
     how many were not representable."""
     out = {}
     for kind in ("successors", "neighbours"):
@@ -103,6 +104,21 @@ def representable(r: dict) -> dict:
         out[kind] = {"source": r["links"][kind], "not_representable": unrep,
                      "representable": r["links"][kind] - unrep, "kept": r["links"][f"{kind}_kept"]}
     return out
+
+
+OVERLAP_SHARE = 0.5      # neighbours whose areas overlap by more than this share of the smaller one are not lanes
+
+
+def overlap_share(a: Lanelet, b: Lanelet) -> float:
+    """How much of the smaller lanelet's area the two lanelets share."""
+    pa, pb = a.polygon.shapely_object, b.polygon.shapely_object
+    return float(pa.intersection(pb).area / max(min(pa.area, pb.area), 1e-9)) if pa.is_valid and pb.is_valid else 0.0
+
+
+def same_way(a: Lanelet, b: Lanelet) -> bool:
+    """Whether the two lanelets run the same way (their chords from start to end within 90 degrees)."""
+    da, db = a.center_vertices[-1] - a.center_vertices[0], b.center_vertices[-1] - b.center_vertices[0]
+    return float(da @ db) > 0.0
 
 
 def lost_relations(network, links) -> dict:
@@ -131,8 +147,13 @@ def lost_relations(network, links) -> dict:
                 la.left_vertices if la.adj_left == b else la.right_vertices,
                 lb.right_vertices if la.adj_left == b else lb.left_vertices):
             reason = "same direction, ends differ by more than 0.1 m (needs lanes beginning/ending inside a road)"
+            if malformed(la) or malformed(lb):
+                reason += "; one of them malformed"
         elif not same and road_topology._opposite(la, by_id) is lb:
             reason = "opposite direction, two roads: their lanes end askew (skew guard)"
+        elif not same and overlap_share(la, lb) > OVERLAP_SHARE and same_way(la, lb):
+            reason = (f"{UNREPRESENTABLE} the lanelets overlap (over {OVERLAP_SHARE:.0%} of the smaller) and run the "
+                      f"same way, though the source calls them opposite neighbours (no two lanes of a file overlap)")
         elif not same and la.adj_right == b and lb.adj_right == a:
             reason = ("opposite direction on both lanelets' right (a left-hand-traffic pair: a road with "
                       "rule LHT, not written)")
@@ -253,8 +274,8 @@ def main() -> None:
               f"{sum(r['qc'].get('warnings', 0) for r in real)}; successors kept "
               f"{sum(r['links']['successors_kept'] for r in real)}/{sum(r['links']['successors'] for r in real)}, "
               f"neighbours {sum(r['links']['neighbours_kept'] for r in real)}/"
-              f"{sum(r['links']['neighbours'] for r in real)}; of the representable (less lanelets that do not touch, "
-              f"V-shaped and one-sided neighbours): successors "
+              f"{sum(r['links']['neighbours'] for r in real)}; of the representable (less lanelets that do not touch, V-shaped, "
+              f"one-sided and overlapping neighbours): successors "
               f"{sum(r['representable']['successors']['kept'] for r in real)}/"
               f"{sum(r['representable']['successors']['representable'] for r in real)} "
               f"({sum(r['representable']['successors']['not_representable'] for r in real)} not representable), "
