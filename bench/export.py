@@ -227,13 +227,56 @@ def show(r: dict) -> None:
             print(f"    {kind} lost: {n} x {reason}")
 
 
+SHORT = (("do not touch", "do not touch"), ("one-sided", "one-sided"), ("V-shaped", "V"), ("overlap", "overlapping"),
+         ("skew guard", "skew"), ("not one road", "opposite, not paired"), ("ends differ", "ends differ"))
+
+
+def table(rows: list[dict]) -> str:
+    """The per-map table of docs/tutorials/export.md (markdown) from the bench's results: relations
+    kept of the source's and of those a file can represent (not representable in brackets: lanelets
+    that do not touch, V-shaped, one-sided or overlapping neighbours), and why the others are lost
+    (not representable ones marked *)."""
+    out = ["| map | roads | ASAM QC errors / warnings | lane centres max / p99 [m] | max on roads without malformed "
+           "lanelets [m] | successors kept | neighbours kept | successors kept of representable (not) | neighbours "
+           "kept of representable (not) | junctions | malformed lanelets | export [s] | relations not kept: why "
+           "(* not representable) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
+    for r in rows:
+        q, links = r["qc"], r["links"]
+        qc_cell = f"{q.get('errors', '?')} / {q.get('warnings', '?')}" + (
+            f" (.xosc {r['xosc_qc']['errors']} / {r['xosc_qc']['warnings']})" if "errors" in r.get("xosc_qc", {}) else "")
+        rep = r.get("representable")
+        kept_of = {k: (f"{rep[k]['kept']}/{rep[k]['representable']} ({rep[k]['not_representable']})" if rep else
+                       f"{links[k + '_kept']}/{links[k]} (0)") for k in ("successors", "neighbours")}
+        why = []
+        for kind in ("successors", "neighbours"):
+            counts: dict[str, int] = {}
+            for reason, n in r.get("lost", {}).get(kind, {}).items():
+                label = next((short for key, short in SHORT if key in reason), "other")
+                label += "*" if reason.startswith(UNREPRESENTABLE) else ""
+                counts[label] = counts.get(label, 0) + n
+            if counts:
+                why.append(f"{kind}: " + ", ".join(f"{n} {label}" for label, n in counts.items()))
+        bad = r.get("malformed")
+        out.append(f"| {r['map']} | {r['roads']} | {qc_cell} | {r['deviation_max_m']:.3f} / {r['deviation_p99_m']:.3f} | "
+                   f"{'' if r['malformed_lanelets'] is None else format(r['deviation_max_without_malformed_m'], '.3f')} | "
+                   f"{links['successors_kept']}/{links['successors']} | {links['neighbours_kept']}/{links['neighbours']} | "
+                   f"{kept_of['successors']} | {kept_of['neighbours']} | {links['junctions']} | "
+                   f"{'' if bad is None else (', '.join(bad) or 0)} | {r['seconds']:.2f} | {'; '.join(why)} |")
+    return "\n".join(out)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--maps", type=int, default=None, help="export only the first N real maps")
     parser.add_argument("--only", action="append", default=[], metavar="NAME",
                         help="export only the real map NAME (repeatable); the results file is left as it is")
     parser.add_argument("--no-generated", action="store_true", help="leave out the generated roads")
+    parser.add_argument("--table", action="store_true",
+                        help="print the per-map table of docs/tutorials/export.md from the saved results and stop")
     args = parser.parse_args()
+    if args.table:
+        print(table(json.loads(RESULTS.read_text())))
+        return
     t0 = time.perf_counter()
     for name in checks.SCHEMA_FILES.values():
         checks.schema(name)
