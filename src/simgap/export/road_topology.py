@@ -5,7 +5,9 @@ where they meet, and junctions where the lanelets fork or merge.
   end to end (within `SHARED_BOUND_M`) form a group, left to right. Two groups whose leftmost
   lanelets are each other's opposite-direction left neighbours and share that bound end to end are
   one road: the group along the road's direction its right lanes, the other its left lanes (their
-  lanelets' bounds and centres reversed, so that every road is described left to right along it).
+  lanelets' bounds and centres reversed, so that every road is described left to right along it),
+  where their lanes end nearly square to it (`SKEW_M`, `SKEW_SHARE`) or the skew is taken
+  (`_skew_taken`: the lanelets continue at that end and point the road's way).
 * **Road ends.** A lanelet leaves its road at the road's end when it is a right lane and at its
   start when it is a left lane (and enters it at the other end).
 * **Joints.** Where roads meet, one cross-section — a line square to the direction of travel — is
