@@ -90,6 +90,37 @@ def common_m(a: Lanelet, b: Lanelet) -> float:
     return float(np.sum(shapely.distance(theirs, shapely.line_interpolate_point(ours, s)) <= 0.1) * 0.1)
 
 
+UNREPRESENTABLE = "not representable:"   # reasons that no OpenDRIVE file could keep start with this
+
+
+def representable(r: dict) -> dict:
+    """Per kind (successors, neighbours): the source's relations less those no file could keep
+    (lanelets that do not touch, V-shaped neighbours, one-sided relations, overlapping lanelets that
+    run the same way but are called opposite neighbours), the file's of them and
+    how many were not representable."""
+    out = {}
+    for kind in ("successors", "neighbours"):
+        unrep = sum(n for why, n in r.get("lost", {}).get(kind, {}).items() if why.startswith(UNREPRESENTABLE))
+        out[kind] = {"source": r["links"][kind], "not_representable": unrep,
+                     "representable": r["links"][kind] - unrep, "kept": r["links"][f"{kind}_kept"]}
+    return out
+
+
+OVERLAP_SHARE = 0.5      # neighbours whose areas overlap by more than this share of the smaller one are not lanes
+
+
+def overlap_share(a: Lanelet, b: Lanelet) -> float:
+    """How much of the smaller lanelet's area the two lanelets share."""
+    pa, pb = a.polygon.shapely_object, b.polygon.shapely_object
+    return float(pa.intersection(pb).area / max(min(pa.area, pb.area), 1e-9)) if pa.is_valid and pb.is_valid else 0.0
+
+
+def same_way(a: Lanelet, b: Lanelet) -> bool:
+    """Whether the two lanelets run the same way (their chords from start to end within 90 degrees)."""
+    da, db = a.center_vertices[-1] - a.center_vertices[0], b.center_vertices[-1] - b.center_vertices[0]
+    return float(da @ db) > 0.0
+
+
 def lost_relations(network, links) -> dict:
     """Why each relation the file does not keep is lost, counted by reason."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
@@ -99,7 +130,7 @@ def lost_relations(network, links) -> dict:
         gap = road_topology._gap(la, lb)
         left = float(np.linalg.norm(la.left_vertices[-1] - lb.left_vertices[0]))
         right = float(np.linalg.norm(la.right_vertices[-1] - lb.right_vertices[0]))
-        reason = (f"not representable: the source's lanelets do not touch ({a}->{b}: left bounds {left:.1f} m, "
+        reason = (f"{UNREPRESENTABLE} the source's lanelets do not touch ({a}->{b}: left bounds {left:.1f} m, "
                   f"right bounds {right:.1f} m apart)" if gap > road_topology.JOINABLE_M else "other")
         successors[reason] = successors.get(reason, 0) + 1
     neighbours: dict[str, int] = {}
@@ -107,17 +138,25 @@ def lost_relations(network, links) -> dict:
         la, lb = by_id[a], by_id[b]
         same = la.adj_left_same_direction if la.adj_left == b else la.adj_right_same_direction
         if a not in (lb.adj_left, lb.adj_right):
-            reason = "one-sided in the source (the neighbour does not name the lanelet back)"
+            reason = f"{UNREPRESENTABLE} one-sided in the source (the neighbour does not name the lanelet back)"
         elif common_m(la, lb) < max(1.0, 0.1 * min(LineString(la.center_vertices).length,
                                                  LineString(lb.center_vertices).length)):
-            reason = ("their bounds meet at one end only and part (V-shaped merge or split, or a gap opening "
+            reason = (f"{UNREPRESENTABLE} their bounds meet at one end only and part (V-shaped merge or split, or a gap opening "
                       "between them): no common border")
         elif same and not road_topology._shares_bound(
                 la.left_vertices if la.adj_left == b else la.right_vertices,
                 lb.right_vertices if la.adj_left == b else lb.left_vertices):
             reason = "same direction, ends differ by more than 0.1 m (needs lanes beginning/ending inside a road)"
+            if malformed(la) or malformed(lb):
+                reason += "; one of them malformed"
         elif not same and road_topology._opposite(la, by_id) is lb:
             reason = "opposite direction, two roads: their lanes end askew (skew guard)"
+        elif not same and overlap_share(la, lb) > OVERLAP_SHARE and same_way(la, lb):
+            reason = (f"{UNREPRESENTABLE} the lanelets overlap (over {OVERLAP_SHARE:.0%} of the smaller) and run the "
+                      f"same way, though the source calls them opposite neighbours (no two lanes of a file overlap)")
+        elif not same and la.adj_right == b and lb.adj_right == a:
+            reason = ("opposite direction on both lanelets' right (a left-hand-traffic pair: a road with "
+                      "rule LHT, not written)")
         elif not same:
             reason = "opposite direction, not one road (ends differ or groups not paired)"
         else:
@@ -157,15 +196,21 @@ def row(name: str, export: Export, road_qc: dict, bad: dict[int, str] | None = N
         out["lost"] = lost_relations(network, export.links)
         out["lost"]["successor_relations"] = [list(r) for r in lost_successors]
         out["lost"]["neighbour_relations"] = [list(r) for r in lost_neighbours]
+    out["representable"] = representable(out)
     return out
 
 
 def show(r: dict) -> None:
     q, links = r["qc"], r["links"]
+
+    def kept_of(kind: str) -> str:       # kept of the representable (not representable in brackets)
+        k = r["representable"][kind]
+        return f"{k['kept']:>4}/{k['representable']:<4}" + f"({k['not_representable']})".ljust(6)
     verdict = q.get("missing") and "QC not installed" or \
         f"QC {q['errors']:>3} errors {q['warnings']:>3} warnings" + (f" ({len(q['not_run'])} not run)" if q["not_run"] else "")
     print(f"{r['map']:<30} {r['roads']:>4} {verdict:<36} {r['deviation_max_m']:>7.3f} {r['deviation_p99_m']:>7.3f} "
           f"{links['successors_kept']:>4}/{links['successors']:<4} {links['neighbours_kept']:>4}/{links['neighbours']:<4} "
+          f"{kept_of('successors')} {kept_of('neighbours')} "
           f"{links['junctions']:>3} {'' if r['malformed_lanelets'] is None else r['malformed_lanelets']:>4} "
           f"{r['seconds']:>6.2f}" + (f"  xosc: QC {r['xosc_qc']['errors']} errors {r['xosc_qc']['warnings']} warnings, "
                                     f"{len(r['xosc_qc']['not_run'])} not run" if "errors" in r.get("xosc_qc", {}) else ""))
@@ -182,19 +227,62 @@ def show(r: dict) -> None:
             print(f"    {kind} lost: {n} x {reason}")
 
 
+SHORT = (("do not touch", "do not touch"), ("one-sided", "one-sided"), ("V-shaped", "V"), ("overlap", "overlapping"),
+         ("skew guard", "skew"), ("not one road", "opposite, not paired"), ("ends differ", "ends differ"))
+
+
+def table(rows: list[dict]) -> str:
+    """The per-map table of docs/tutorials/export.md (markdown) from the bench's results: relations
+    kept of the source's and of those a file can represent (not representable in brackets: lanelets
+    that do not touch, V-shaped, one-sided or overlapping neighbours), and why the others are lost
+    (not representable ones marked *)."""
+    out = ["| map | roads | ASAM QC errors / warnings | lane centres max / p99 [m] | max on roads without malformed "
+           "lanelets [m] | successors kept | neighbours kept | successors kept of representable (not) | neighbours "
+           "kept of representable (not) | junctions | malformed lanelets | export [s] | relations not kept: why "
+           "(* not representable) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
+    for r in rows:
+        q, links = r["qc"], r["links"]
+        qc_cell = f"{q.get('errors', '?')} / {q.get('warnings', '?')}" + (
+            f" (.xosc {r['xosc_qc']['errors']} / {r['xosc_qc']['warnings']})" if "errors" in r.get("xosc_qc", {}) else "")
+        rep = r.get("representable")
+        kept_of = {k: (f"{rep[k]['kept']}/{rep[k]['representable']} ({rep[k]['not_representable']})" if rep else
+                       f"{links[k + '_kept']}/{links[k]} (0)") for k in ("successors", "neighbours")}
+        why = []
+        for kind in ("successors", "neighbours"):
+            counts: dict[str, int] = {}
+            for reason, n in r.get("lost", {}).get(kind, {}).items():
+                label = next((short for key, short in SHORT if key in reason), "other")
+                label += "*" if reason.startswith(UNREPRESENTABLE) else ""
+                counts[label] = counts.get(label, 0) + n
+            if counts:
+                why.append(f"{kind}: " + ", ".join(f"{n} {label}" for label, n in counts.items()))
+        bad = r.get("malformed")
+        out.append(f"| {r['map']} | {r['roads']} | {qc_cell} | {r['deviation_max_m']:.3f} / {r['deviation_p99_m']:.3f} | "
+                   f"{'' if r['malformed_lanelets'] is None else format(r['deviation_max_without_malformed_m'], '.3f')} | "
+                   f"{links['successors_kept']}/{links['successors']} | {links['neighbours_kept']}/{links['neighbours']} | "
+                   f"{kept_of['successors']} | {kept_of['neighbours']} | {links['junctions']} | "
+                   f"{'' if bad is None else (', '.join(bad) or 0)} | {r['seconds']:.2f} | {'; '.join(why)} |")
+    return "\n".join(out)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--maps", type=int, default=None, help="export only the first N real maps")
     parser.add_argument("--only", action="append", default=[], metavar="NAME",
                         help="export only the real map NAME (repeatable); the results file is left as it is")
     parser.add_argument("--no-generated", action="store_true", help="leave out the generated roads")
+    parser.add_argument("--table", action="store_true",
+                        help="print the per-map table of docs/tutorials/export.md from the saved results and stop")
     args = parser.parse_args()
+    if args.table:
+        print(table(json.loads(RESULTS.read_text())))
+        return
     t0 = time.perf_counter()
     for name in checks.SCHEMA_FILES.values():
         checks.schema(name)
     print(f"loading the {len(checks.SCHEMA_FILES)} XSD schemas: {time.perf_counter() - t0:.2f} s (once per process)\n")
     print(f"{'map':<30} {'roads':>4} {'ASAM QC (OpenDRIVE bundle)':<36} {'dev max':>7} {'p99':>7} "
-          f"{'successors':>9} {'neighbours':>9} {'jct':>3} {'bad':>4} {'time s':>6}")
+          f"{'successors':>9} {'neighbours':>9} {'succ/repr (not)':>15} {'nbr/repr (not)':>15} {'jct':>3} {'bad':>4} {'time s':>6}")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -229,7 +317,15 @@ def main() -> None:
               f"{sum(r['qc'].get('warnings', 0) for r in real)}; successors kept "
               f"{sum(r['links']['successors_kept'] for r in real)}/{sum(r['links']['successors'] for r in real)}, "
               f"neighbours {sum(r['links']['neighbours_kept'] for r in real)}/"
-              f"{sum(r['links']['neighbours'] for r in real)}; deviation max median "
+              f"{sum(r['links']['neighbours'] for r in real)}; of the representable (less lanelets that do not touch, V-shaped, "
+              f"one-sided and overlapping neighbours): successors "
+              f"{sum(r['representable']['successors']['kept'] for r in real)}/"
+              f"{sum(r['representable']['successors']['representable'] for r in real)} "
+              f"({sum(r['representable']['successors']['not_representable'] for r in real)} not representable), "
+              f"neighbours {sum(r['representable']['neighbours']['kept'] for r in real)}/"
+              f"{sum(r['representable']['neighbours']['representable'] for r in real)} "
+              f"({sum(r['representable']['neighbours']['not_representable'] for r in real)} not representable); "
+              f"deviation max median "
               f"{np.median([r['deviation_max_m'] for r in real]):.3f} m, p99 median "
               f"{np.median([r['deviation_p99_m'] for r in real]):.3f} m; on the {len(clean)} maps without malformed "
               f"lanelets the largest deviation is {max((r['deviation_max_m'] for r in clean), default=0):.3f} m, on "

@@ -5,7 +5,9 @@ where they meet, and junctions where the lanelets fork or merge.
   end to end (within `SHARED_BOUND_M`) form a group, left to right. Two groups whose leftmost
   lanelets are each other's opposite-direction left neighbours and share that bound end to end are
   one road: the group along the road's direction its right lanes, the other its left lanes (their
-  lanelets' bounds and centres reversed, so that every road is described left to right along it).
+  lanelets' bounds and centres reversed, so that every road is described left to right along it),
+  where their lanes end nearly square to it (`SKEW_M`, `SKEW_SHARE`) or the skew is taken
+  (`_skew_taken`: the lanelets continue at that end and point the road's way).
 * **Road ends.** A lanelet leaves its road at the road's end when it is a right lane and at its
   start when it is a left lane (and enters it at the other end).
 * **Joints.** Where roads meet, one cross-section — a line square to the direction of travel — is
@@ -43,7 +45,9 @@ JOINABLE_M = 1.0          # a successor that begins farther than this from its p
 CONNECTOR_M = 10.0        # the longest connecting road cut from a successor lanelet
 _DIRECTION_M = 2.0        # the stretch of a lanelet's centre that gives its direction at an end
 SKEW_M = 2.0              # opposite groups are one road only where their lanes end within this along it,
-SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way)
+SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way), or where
+                          # every end whose lanes end farther apart joins other roads (`_skew_taken`)
+SPREAD_DEG = 30.0         # ... and its lanes' directions there lie within this of the road's
 PAIRED_REFERENCE_M = 4.0  # a road without left lanes shorter than this has its reference midway between its outermost bounds
 ASKEW_M = 0.5             # a junction road end whose bounds end farther apart than this along it is cut back
 ASKEW_MARGIN_M = 2.0      # ... by that much and this (the connecting roads take the lanelets' last parts),
@@ -345,7 +349,7 @@ def strips(network: LaneletNetwork) -> list[Strip]:
         paired.update({group, other})
         right, left = [by_id[i] for i in group], [by_id[i] for i in reversed(other)]
         strip = _strip(right, left)
-        if left and not _square(strip):          # two roads (one each way) rather than one askew
+        if left and not _square(strip) and not _skew_taken(strip, by_id):          # two roads (one each way) rather than one askew
             paired.discard(other)
             out.append(_strip(right, []))
             continue
@@ -358,6 +362,31 @@ def _square(strip: Strip) -> bool:
     `SKEW_SHARE` of its length (and `SKEW_M`) of one another along its direction at each end."""
     length = LineString(strip.axis).length
     return all(_skew(strip, end) <= min(SKEW_M, SKEW_SHARE * length) for end in ("start", "end"))
+
+
+def _skew_taken(strip: Strip, by_id: dict[int, Lanelet]) -> bool:
+    """Whether a road of opposite groups whose lanes end askew can still be one road: at each end its
+    lanes point the road's way (within `SPREAD_DEG`: a 0.3 m strip of DEU_Thiergarten-1 whose lanes
+    turn 54 degrees has no one cross-section there), and an end where no lanelet continues (no joint
+    with other roads, no junction to cut back into: `topology`) is square within `SKEW_M` or
+    `SKEW_SHARE` of its length, whichever is more (CHN_Roundabout-1: a 16.5 m road whose lanes end 12 m apart). Where lanelets continue, a
+    direct link's joint or a junction's cut back road end (`ASKEW_M`) takes the skew: the 7-lane
+    3.9 m crossing strip in DEU_AachenAseag-1 whose 4.5 m skew gave QC gap errors before junction
+    ends were cut back is QC clean as one road now."""
+    length = LineString(strip.axis).length
+    for end in ("start", "end"):
+        heading = _heading_at(strip, end)
+        if any(abs(math.remainder(_direction(c, end == "end") - heading, 2 * math.pi)) > math.radians(SPREAD_DEG)
+               for c in strip.centres):
+            return False
+        joined = False
+        for k, i in enumerate(strip.lanelets):        # left lanes run against the road
+            l = by_id[i]
+            forward = (k >= strip.left) == (end == "end")
+            joined |= any(j in by_id for j in (l.successor if forward else l.predecessor) or [])
+        if not joined and _skew(strip, end) > max(SKEW_M, SKEW_SHARE * length):
+            return False
+    return True
 
 
 def _doubles_back(lanelet: Lanelet) -> bool:
