@@ -23,7 +23,6 @@ ends differ, a one-sided relation in the source, ...). Results: bench/results/ex
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import tempfile
 import time
@@ -41,6 +40,7 @@ from simgap.export import checks, quality_checker, road_topology
 from simgap.export.write import Export, export_road, export_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.real_maps import load_map, map_files, maps_dir
+from simgap.files import BenchmarkResults
 
 RESULTS = Path(__file__).parent / "results" / "export.json"
 GENERATED = (("curve", {"radius": 10, "angle": 90, "transition": 5}), ("s-curve", {}), ("t-junction", {"agents": 3}),
@@ -189,6 +189,7 @@ def main() -> None:
                         help="export only the real map NAME (repeatable); the results file is left as it is")
     parser.add_argument("--no-generated", action="store_true", help="leave out the generated roads")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     t0 = time.perf_counter()
     for name in checks.SCHEMA_FILES.values():
         checks.schema(name)
@@ -240,8 +241,7 @@ def main() -> None:
     if args.only or args.no_generated or args.maps:
         print("\nresults not saved (a subset of the maps)")
         return
-    RESULTS.parent.mkdir(exist_ok=True)
-    RESULTS.write_text(json.dumps(rows, indent=1) + "\n")
+    results_file.write(RESULTS, rows)
     print(f"\nresults: {RESULTS}")
 
 
