@@ -257,12 +257,14 @@ class BenchmarkResults:
     (the 1-minute load average at the start and at the end, and the CPUs it is shared over),
     ``command`` (how the benchmark was started), ``wall_time_s``, then the figures: a mapping's keys,
     or a list under ``rows``. ``printed`` tees what the benchmark prints, for a script whose tables
-    are only printed: ``write(path, figures, printed=True)`` adds them as ``printed`` lines.
+    are only printed: ``write(path, figures, printed=True)`` adds them as ``printed`` lines (with
+    ``BenchmarkResults(tee=True)``, everything printed until ``write``).
     """
 
     PROVENANCE = ("commit", "date", "machine", "load", "command", "wall_time_s")
 
-    def __init__(self, argv: list[str] | None = None) -> None:
+    def __init__(self, argv: list[str] | None = None, tee: Any = False) -> None:
+        """``tee`` true: keep what is printed from now until ``write`` (as ``printed`` does)."""
         import sys
         import time
         self._start = time.perf_counter()
@@ -270,6 +272,9 @@ class BenchmarkResults:
         self._argv = list(sys.argv if argv is None else argv)
         self._printed: list[str] = []
         self._tee: Any = None
+        if tee:
+            self._tee = self.printed()
+            self._tee.__enter__()
 
     @contextmanager
     def printed(self) -> Iterator[None]:
@@ -321,6 +326,10 @@ class BenchmarkResults:
     def write(self, path: str | Path, figures: Any = None, printed: bool = False) -> Path:
         """Write the results file (atomically; its folder is made) and return its path."""
         import json
+        if self._tee is not None:
+            self._tee.__exit__(None, None, None)
+            self._tee = None
+            printed = True
         data = self.provenance()
         if isinstance(figures, dict):
             data.update({k: v for k, v in figures.items() if k not in self.PROVENANCE})
