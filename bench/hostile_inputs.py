@@ -16,7 +16,7 @@ and sorts the outcome into one verdict:
     other          anything else (see the note)
     skipped        the case could not be set up on this machine (e.g. no tmpfs mounts)
 
-Each case has a short name and the item of issue 38 it belongs to. The sweep prints a table
+Each case has a short name and the number of the kind of hostile input it belongs to (its item). The sweep prints a table
 (case, item, verdict, seconds, note), the counts per verdict, writes them as JSON with --json, and
 exits 0: it is a benchmark, not a test.
 

@@ -1,5 +1,5 @@
 """Where the flat-world plan fails on 3D roads: the Frenet planner (simgap's default, replanning
-every step) on issue 41's logical scenarios, in the ideal world (flat: the planner's assumption),
+every step) on the 3D roads' logical scenarios, in the ideal world (flat: the planner's assumption),
 the dynamic single-track world and MuJoCo (sedan, pure pursuit), each on the 3D road and on its
 flat twin — the same road with its relief removed — so the table separates what the third
 dimension costs from what physics alone costs.
