@@ -22,6 +22,8 @@ import numpy as np
 from simgap.control import controller_names, make_controller, manoeuvres
 from simgap.sim.dynamic import SingleTrackPlant, track_plans
 from simgap.vehicles import load_vehicle
+from pathlib import Path
+from simgap.files import BenchmarkResults
 
 
 def main() -> None:
@@ -36,7 +38,10 @@ def main() -> None:
     parser.add_argument("--vehicle", default="sedan")
     parser.add_argument("--set", action="append", default=[], metavar="GAIN=VALUE",
                         help="override a gain of every controller (dotted for speed.*)")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     overrides: dict = {}
     for item in args.set:
         key, _, value = item.partition("=")
@@ -74,6 +79,8 @@ def main() -> None:
                   f"{np.mean(lat[steady]):>+7.3f} {np.max(np.abs(lat)):>8.3f} "
                   f"{np.max(np.abs(v[steady] - speed)):>8.3f} {wall:>8.2f} "
                   f"{args.duration / wall:>11.1f}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

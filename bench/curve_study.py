@@ -20,6 +20,7 @@ import yaml
 from simgap.experiment.runner import run_experiment
 from simgap.report.collection import collect
 from simgap.report.site import build_report
+from simgap.files import BenchmarkResults
 
 RADII = [10, 20, 30, 50, 75, 100]
 ANGLES = [0, 30, 60, 90, 120, 150, 180]
@@ -40,7 +41,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("curve-study"))
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     start = time.perf_counter()
     total = 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -71,6 +75,8 @@ def main() -> None:
         c = comps[0]
         print(f"{fidelity:<14} {c.lateral_displacement.max:>8.3f} {c.lateral_displacement.rms:>8.3f} "
               f"{c.velocity_error.max:>9.3f} {c.velocity_error.rms:>9.3f} {c.tracking_lateral_b.max:>16.3f}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from simgap.experiment.executors import make_executor
 from simgap.experiment.job import JobContext
 from simgap.experiment.runner import plan
 from simgap.experiment.spec import load_spec
+from simgap.files import BenchmarkResults
 
 
 def measure(executor: str, spec: str, workers: int, address: str | None) -> dict[str, float]:
@@ -61,13 +62,19 @@ def main() -> None:
     parser.add_argument("--spec", default="demo")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--address", default=None)
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     rows = [("local pool", measure("local", args.spec, args.workers, None)),
             (f"ray {args.address or '(local cluster)'}", measure("ray", args.spec, args.workers, args.address))]
     print(f"{'executor':34} {'runs':>4} {'connect':>8} {'wall':>7} {'added, first runs':>18} {'added, median':>14}")
     for name, r in rows:
         print(f"{name:34} {r['runs']:4d} {r['connect_s']:8.2f} {r['wall_s']:7.1f} {r['first_s']:18.2f} "
               f"{r['steady_s']:14.3f}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args),
+                                       "executors": dict(rows)})
 
 
 if __name__ == "__main__":

@@ -41,6 +41,7 @@ from simgap.export import checks, quality_checker, road_topology
 from simgap.export.write import Export, export_road, export_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.real_maps import load_map, map_files, maps_dir
+from simgap.files import BenchmarkResults
 
 RESULTS = Path(__file__).parent / "results" / "export.json"
 GENERATED = (("curve", {"radius": 10, "angle": 90, "transition": 5}), ("s-curve", {}), ("t-junction", {"agents": 3}),
@@ -275,8 +276,10 @@ def main() -> None:
                         help="print the per-map table of docs/tutorials/export.md from the saved results and stop")
     args = parser.parse_args()
     if args.table:
-        print(table(json.loads(RESULTS.read_text())))
+        saved = json.loads(RESULTS.read_text())
+        print(table(saved["rows"] if isinstance(saved, dict) else saved))
         return
+    results_file = BenchmarkResults()
     t0 = time.perf_counter()
     for name in checks.SCHEMA_FILES.values():
         checks.schema(name)
@@ -336,8 +339,7 @@ def main() -> None:
     if args.only or args.no_generated or args.maps:
         print("\nresults not saved (a subset of the maps)")
         return
-    RESULTS.parent.mkdir(exist_ok=True)
-    RESULTS.write_text(json.dumps(rows, indent=1) + "\n")
+    results_file.write(RESULTS, rows)
     print(f"\nresults: {RESULTS}")
 
 

@@ -38,6 +38,7 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from simgap.files import BenchmarkResults
 
 ROOT = Path(__file__).resolve().parents[1]
 GUEST = ROOT / "examples" / "frenetix_motion_planner"
@@ -176,6 +177,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "runs" / "frenetix-guest")
     parser.add_argument("--fresh", action="store_true", help="run again what --out already holds")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     planners = args.planners.split(",")
     radii = [float(x) for x in args.radii.split(",")]
     angles = [float(x) for x in args.angles.split(",")]
@@ -229,7 +231,7 @@ def main() -> None:
         "load_average": os.getloadavg(),
         "guest": [line for line in requirements if line.startswith(("frenetix", "commonroad-io"))],
         "summary": summary, "runs": rows}
-    RESULTS.write_text(json.dumps(results, indent=1))
+    results_file.write(RESULTS, results)
     print(f"written {RESULTS.relative_to(ROOT)}")
 
 

@@ -26,6 +26,7 @@ from simgap.evaluate.compare import compare_runs
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, load_scenario, read_metadata, write_scenario
 from simgap.vehicles import vehicle_names
+from simgap.files import BenchmarkResults
 
 
 def main() -> None:
@@ -35,7 +36,10 @@ def main() -> None:
     parser.add_argument("--controller", default="pure_pursuit")
     parser.add_argument("--replan-every", type=int, default=1)
     parser.add_argument("--repeat", type=int, default=1, help="repeat each pair, report the median")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     cosim = CosimSettings(replan_every=args.replan_every)
     print(f"mujoco {mujoco.__version__}; controller {args.controller}; replanning every "
           f"{args.replan_every} step(s); wall = the loop's time (no file writing)")
@@ -68,6 +72,8 @@ def main() -> None:
                       f"{wh:>10.2f} {wh / wi:>5.2f} {phases:>24} "
                       f"{cmp.lateral_displacement.rms:>6.3f}/{cmp.lateral_displacement.max:<7.3f}"
                       f"{straight.max if straight else float('nan'):>14.3f} {curve.max if curve else float('nan'):>11.3f}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

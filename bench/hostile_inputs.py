@@ -16,7 +16,7 @@ and sorts the outcome into one verdict:
     other          anything else (see the note)
     skipped        the case could not be set up on this machine (e.g. no tmpfs mounts)
 
-Each case has a short name and the item of issue 38 it belongs to. The sweep prints a table
+Each case has a short name and the number of the kind of hostile input it belongs to (its item). The sweep prints a table
 (case, item, verdict, seconds, note), the counts per verdict, writes them as JSON with --json, and
 exits 0: it is a benchmark, not a test.
 
@@ -51,6 +51,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Iterator
+from simgap.files import BenchmarkResults
 
 REPO = Path(__file__).resolve().parents[1]
 SRC = REPO / "src"
@@ -1203,6 +1204,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--keep", type=Path, help="keep every case's folder here")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
     args = parser.parse_args(argv)
+    results_file = BenchmarkResults()
     TIMEOUT_S = args.timeout
     cases = [c for c in CASES if not args.only or any(s in c.name for s in args.only)]
     if args.list:
@@ -1225,8 +1227,8 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(root, ignore_errors=True)
     print_table(results)
     if args.json:
-        args.json.write_text(json.dumps({"cases": results, "counts": {
-            v: sum(r["verdict"] == v for r in results) for v in VERDICTS}}, indent=2))
+        results_file.write(args.json, {"cases": results, "counts": {
+            v: sum(r["verdict"] == v for r in results) for v in VERDICTS}})
     return 0
 
 

@@ -26,6 +26,7 @@ from simgap.cosim import CosimSettings
 from simgap.scenario.road_frame import PathFrame
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import load_scenario
+from simgap.files import BenchmarkResults
 
 
 def generate(logical: str, out: Path, **params) -> list[Path]:
@@ -102,11 +103,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=Path("/tmp/simgap-lowfi"))
     ap.add_argument("--skip-grid", action="store_true")
+    ap.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = ap.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     timed_runs(args.out)
     junctions(args.out)
     if not args.skip_grid:
         grid(args.out)
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

@@ -19,13 +19,18 @@ import time
 
 import numpy as np
 from mb_reference import NAME, MultiBodyPlant, hold_circle
+from pathlib import Path
+from simgap.files import BenchmarkResults
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--radius", type=float, default=50.0)
     parser.add_argument("--speeds", type=float, nargs="+", default=[float(v) for v in np.arange(6.0, 26.0, 2.0)])
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     start = time.perf_counter()
     plant = MultiBodyPlant()
     wheelbase = plant.vehicle.wheelbase
@@ -45,6 +50,9 @@ def main() -> None:
         gradient = np.polyfit([r.lateral_acceleration for r in linear], np.degrees([r.steer for r in linear]), 1)[0]
         print(f"understeer gradient (a_y < 4 m/s^2): {gradient * 9.81:.2f} deg/g")
     print(f"[wall {time.perf_counter() - start:.1f} s]")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args),
+                                       "rows": [vars(r) for r in rows]})
 
 
 if __name__ == "__main__":

@@ -29,6 +29,8 @@ from simgap.sim.mujoco.settings import MujocoSettings
 from simgap.sim.mujoco.plant import MujocoPlant, proving_ground
 from simgap.sim.protocol import Agent, PhysicsDiverged
 from simgap.vehicles import load_vehicle, vehicle_names
+from pathlib import Path
+from simgap.files import BenchmarkResults
 
 RADIUS = 50.0
 
@@ -108,7 +110,10 @@ def main() -> None:
     parser.add_argument("--sections", nargs="+", choices=["tracking", "realtime"], default=["tracking", "realtime"])
     parser.add_argument("--vehicles", nargs="+", default=vehicle_names())
     parser.add_argument("--controllers", nargs="+", default=controller_names())
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     print(f"mujoco {mujoco.__version__}")
     for section in args.sections:
         start = time.perf_counter()
@@ -117,6 +122,8 @@ def main() -> None:
         elif section == "realtime":
             realtime("sedan", args.controllers[0])
         print(f"[{section}: {time.perf_counter() - start:.1f} s wall]")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

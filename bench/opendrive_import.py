@@ -40,6 +40,7 @@ from shapely.geometry import LineString, MultiLineString
 from simgap.export.write import export_road
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
+from simgap.files import BenchmarkResults
 
 ROADS = Path(__file__).resolve().parents[1] / "tests" / "scenario" / "opendrive_roads"
 GENERATED = [("curve", {"radius": 20, "angle": 90}), ("curve", {"radius": 30, "angle": -60, "transition": 10,
@@ -122,6 +123,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     routes = yaml.safe_load((ROADS / "routes.yaml").read_text())
     with tempfile.TemporaryDirectory() as tmp:
         rows = [public_road(name, route, Path(tmp)) for name, route in routes.items()]
@@ -143,7 +145,7 @@ def main() -> None:
         print(f"  {t['scenario']:<48} {t['lanelets']:>3} lanelets, {t['read_back']:>3} read back, "
               f"centre lines within {t['hausdorff_m']:.4f} m")
     if args.json:
-        Path(args.json).write_text(json.dumps({"roads": rows, "round_trip": trips}, indent=1))
+        results_file.write(args.json, {"roads": rows, "round_trip": trips})
 
 
 if __name__ == "__main__":

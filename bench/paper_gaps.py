@@ -16,6 +16,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from simgap.report.collection import collect
+from simgap.files import BenchmarkResults
 
 
 def gaps(study: Path) -> dict[str, dict[tuple[float, float], float]]:
@@ -44,7 +45,10 @@ def print_table(name: str, cells: dict[tuple[float, float], float]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("studies", nargs="+", type=Path)
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     summaries = []
     for study in args.studies:
         print(f"\n# {study}")
@@ -57,6 +61,8 @@ def main() -> None:
         for fidelity in sorted(set(summaries[0]) & set(summaries[1])):
             (m0, x0), (m1, x1) = summaries[0][fidelity], summaries[1][fidelity]
             print(f"{fidelity:<14} median {m0:.3f} -> {m1:.3f} ({m1 / m0:.2f}x), largest {x0:.3f} -> {x1:.3f}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

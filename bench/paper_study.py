@@ -17,6 +17,7 @@ from pathlib import Path
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.store import ResultsStore
 from simgap.report.scores import store_score_rows as score_table
+from simgap.files import BenchmarkResults
 
 # MultiDrive's Table I (seconds per run): low fidelity (CommonRoad + Frenetix) and high
 # fidelity (BeamNG.tech), 78 scenarios each (high fidelity: per vehicle model).
@@ -30,7 +31,10 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--executor", default="local")
     parser.add_argument("--spec", default="paper-curves")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     start = time.perf_counter()
     result = run_experiment(args.spec, args.out, args.workers, args.executor, validate=True)
     wall = time.perf_counter() - start
@@ -62,6 +66,8 @@ def main() -> None:
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"peak resident memory of the largest worker: {usage.ru_maxrss / 1024:.0f} MB; "
           f"of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 def print_scores(store: ResultsStore) -> None:

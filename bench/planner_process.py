@@ -48,6 +48,7 @@ from simgap.scenario.files import write_scenario
 from simgap.sim.registry import make_backend
 from simgap.trajectory import Trajectory
 from simgap.vehicles import load_vehicle
+from simgap.files import BenchmarkResults
 
 REPO = Path(__file__).resolve().parents[1]
 SERVERS = REPO / "tests" / "protocol" / "servers.py"
@@ -170,6 +171,7 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--part", choices=("overhead", "hostile", "all"), default="all")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     result = {}
     with tempfile.TemporaryDirectory() as tmp:
         if args.part in ("overhead", "all"):
@@ -177,8 +179,7 @@ def main() -> None:
         if args.part in ("hostile", "all"):
             result["hostile"] = hostile(Path(tmp))
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2))
+        results_file.write(args.json, result)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from simgap.files import BenchmarkResults
 from simgap.cosim import CosimSettings, Run, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.closed_loop_score import score_drop
@@ -217,8 +218,11 @@ def main() -> None:
     parser.add_argument("--planners", default=",".join(PLANNERS))
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
     parser.add_argument("--replan-every", type=int, default=1, help="replan every N steps (the loop's default: 1)")
-    parser.add_argument("--json", action="store_true", help="print the rows as JSON instead of the table")
+    parser.add_argument("--json", nargs="?", const="-", metavar="FILE",
+                        help="alone: print the rows as JSON instead of the table; with FILE: print the table and write "
+                             "the rows, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     planners, scenarios = args.planners.split(","), args.scenarios.split(",")
     for name, known in ((planners, PLANNERS), (scenarios, SCENARIOS)):
         unknown = sorted(set(name) - set(known))
@@ -226,12 +230,15 @@ def main() -> None:
             parser.error(f"unknown {unknown}; choose from {', '.join(known)}")
     start = time.perf_counter()
     rows = study(scenarios, planners, args.replan_every)
-    if args.json:
+    if args.json == "-":
         print(json.dumps([asdict(r) for r in rows], indent=2))
-    else:
-        print_table(rows)
-        print(f"\n{len(rows) * len(BACKENDS)} runs in {time.perf_counter() - start:.0f} s "
-              f"(replan every {args.replan_every} step(s); sedan; gap = |d_mujoco - d_ideal| by arc length)")
+        return
+    print_table(rows)
+    print(f"\n{len(rows) * len(BACKENDS)} runs in {time.perf_counter() - start:.0f} s "
+          f"(replan every {args.replan_every} step(s); sedan; gap = |d_mujoco - d_ideal| by arc length)")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args), "replan_every": args.replan_every, "vehicle": "sedan",
+                                       "rows": [asdict(r) for r in rows]})
 
 
 if __name__ == "__main__":

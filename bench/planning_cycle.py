@@ -26,6 +26,8 @@ from simgap.planning.settings import FrenetSettings
 from simgap.scenario import build_scenario
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle
+from pathlib import Path
+from simgap.files import BenchmarkResults
 
 
 def curve_scenario(radius: float, angle: float):
@@ -73,7 +75,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--concurrent", action="store_true", help="evaluate samples on all cores (frenetix)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per road (cycle times pooled by median)")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     settings = FrenetSettings(concurrent_evaluation=args.concurrent)
     print(f"Frenet planner, {settings.sampling.samples_per_cycle} samples/cycle (default), "
           f"{'concurrent' if args.concurrent else 'sequential'} evaluation, replanning every step\n")
@@ -86,6 +91,8 @@ def main() -> None:
             print(f"r={radius:>3.0f} g={angle:>3.0f}  {r['cycles']:>7}{r['median']:>8.2f}{r['p95']:>7.2f}"
                   f"{r['max']:>7.2f}  " + "".join(f"{r['phases'][p]:>11.2f}" for p in PHASES)
                   + f"{r['checked']:>9.0f}  {r['outcome']} (planner built in {r['build_s']:.2f} s)")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

@@ -23,7 +23,6 @@ none).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -33,6 +32,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import yaml
+from simgap.files import BenchmarkResults
 
 MANIFEST = Path(__file__).with_name("recorded_corpus.yaml")
 KINDS = ("highway", "urban", "merge", "roundabout", "t_junction", "other")
@@ -172,6 +172,7 @@ def main() -> None:
     parser.add_argument("--manifest", type=Path, default=MANIFEST,
                         help=f"the corpus's manifest, for each file's kind (default {MANIFEST.name})")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     if args.files is None or not Path(args.files).is_dir():
         sys.exit(f"--files: a folder of recorded CommonRoad files is needed (got {args.files}); "
                  f"{args.manifest.name} names each file's source")
@@ -218,7 +219,7 @@ def main() -> None:
         tail = f"   {errors:6d}  {wall:8.1f} s" if world != "human" else "   (the recorded drivers, where a file has them)"
         print(f"{world:8s} " + "".join(f"{c:>16s}" for c in cells) + tail)
     if args.json is not None:
-        args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
+        results_file.write(args.json, [asdict(r) for r in results])
         print(f"\nresults written to {args.json}")
 
 

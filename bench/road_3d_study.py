@@ -1,5 +1,5 @@
 """Where the flat-world plan fails on 3D roads: the Frenet planner (simgap's default, replanning
-every step) on issue 41's logical scenarios, in the ideal world (flat: the planner's assumption),
+every step) on the 3D roads' logical scenarios, in the ideal world (flat: the planner's assumption),
 the dynamic single-track world and MuJoCo (sedan, pure pursuit), each on the 3D road and on its
 flat twin — the same road with its relief removed — so the table separates what the third
 dimension costs from what physics alone costs.
@@ -27,19 +27,15 @@ Re-running resumes the experiments in ``--out``. Prints the tables; no pass/fail
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
 import math
-import os
-import platform
-import subprocess
-import time
 from pathlib import Path
 
 import pyarrow.parquet as pq
 import yaml
 
 from simgap.experiment.runner import run_experiment
+from simgap.files import BenchmarkResults
 
 RESULTS = Path(__file__).parent / "results" / "road_3d_study.json"
 WORLDS = [("ideal", "ideal"), ("dynamic", "dynamic"), ("mujoco", "mujoco")]
@@ -129,8 +125,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--families", nargs="+", choices=list(FAMILIES), default=list(FAMILIES))
     parser.add_argument("--json-out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    start = time.perf_counter()
-    load_before = os.getloadavg()
+    results_file = BenchmarkResults()
     families = {}
     for family in args.families:
         narrowed, flat_logical, flat_parameters = FAMILIES[family]
@@ -154,17 +149,10 @@ def main(argv: list[str] | None = None) -> None:
                             "runs": [compact(r) for r in relief_rows],
                             "flat_runs": [compact(r) for r in flat_rows]}
     print_tables(families)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip()
-    results = {"commit": commit, "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-               "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, shared",
-               "load": {"before": load_before, "after": os.getloadavg()},
-               "workers": args.workers, "wall_time_s": time.perf_counter() - start,
-               "planner": "frenet (defaults), replan every step", "vehicle": "sedan", "controller": "pure_pursuit",
-               "families": families}
-    args.json_out.parent.mkdir(parents=True, exist_ok=True)
-    args.json_out.write_text(json.dumps(results, indent=1, default=str) + "\n")
-    print(f"\n[wrote {args.json_out}; {results['wall_time_s']:.0f} s wall; commit {commit}]")
+    results = {"workers": args.workers, "planner": "frenet (defaults), replan every step", "vehicle": "sedan",
+               "controller": "pure_pursuit", "families": families}
+    written = json.loads(results_file.write(args.json_out, results).read_text())
+    print(f"\n[wrote {args.json_out}; {written['wall_time_s']:.0f} s wall; commit {written['commit']}]")
 
 
 def print_tables(families: dict) -> None:

@@ -36,7 +36,6 @@ Prints a table per section (measured, closed form, error %); no pass/fail.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
 from dataclasses import asdict, dataclass
@@ -54,6 +53,7 @@ from simgap.sim.mujoco.plant import AGENT, MujocoPlant
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle, load_vehicle
 from simgap.vehicles.constants import GRAVITY
+from simgap.files import BenchmarkResults
 
 PERIOD = 0.01                   # s, drivers
 PHYSICS_STEP = 0.002            # s, the plant's physics step (500 Hz)
@@ -360,10 +360,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rounds", type=int, default=3, help="real-time factor: the best of this many runs")
     parser.add_argument("--json-out", type=Path, default=RESULTS, help="where the figures are written")
     args = parser.parse_args(argv)
+    results_file = BenchmarkResults()
     start = time.perf_counter()
     results = run_sections(args.sections, args.rounds)
-    args.json_out.parent.mkdir(parents=True, exist_ok=True)
-    args.json_out.write_text(json.dumps(results, indent=1) + "\n")
+    results_file.write(args.json_out, results)
     print(f"\n[wrote {args.json_out}; {time.perf_counter() - start:.1f} s wall]")
 
 

@@ -39,6 +39,7 @@ from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.vehicles import load_vehicle
+from simgap.files import BenchmarkResults
 
 DT = 0.1
 LANE = 3.5
@@ -123,7 +124,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--files", nargs="*", type=Path, default=[], help="CommonRoad files with recorded traffic")
     parser.add_argument("--worlds", nargs="*", default=["ideal", "mujoco"])
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     folder = Path(tempfile.mkdtemp(prefix="simgap-scoring-"))
     clock = time.perf_counter()
     import commonroad_dc.costs.evaluation  # noqa: F401  (the once-per-process imports, timed apart)
@@ -143,6 +147,9 @@ def main() -> None:
               f"{r['ms_per_state']:>8.1f} {r['cached_s']:>10.4f} {r['score']:>6.3f} "
               f"{'-' if r['cost'] is None else format(r['cost'], '.0f'):>7} "
               f"{'-' if r['A'] is None else format(r['A'], '.0f'):>6}  {verdict} ({r['outcome']})")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args),
+                                       "rows": rows})
 
 
 if __name__ == "__main__":

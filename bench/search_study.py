@@ -30,6 +30,7 @@ from simgap.experiment.search import parse_budget, run_search
 from simgap.experiment.search_results import StrategyResult
 from simgap.experiment.search_spec import load_search_spec
 from simgap.experiment.store import ResultsStore
+from simgap.files import BenchmarkResults
 
 PHASES = ("job_time_s", "wall_time_s", "time_planning_s", "time_control_s", "time_physics_s", "time_monitoring_s")
 FOUND = (("distinct violations", lambda r: r.distinct), ("failing scenarios", lambda r: r.scenarios),
@@ -109,7 +110,10 @@ def main() -> None:
     parser.add_argument("--probe-runs", type=int, default=20, help="per strategy and seed, for the failure modes")
     parser.add_argument("--out", type=Path, default=Path("search-study"))
     parser.add_argument("--strategy", action="append", default=None)
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     start = time.perf_counter()
     dirs, per_seed = [], []
     for seed in range(args.seeds):
@@ -125,6 +129,8 @@ def main() -> None:
     print(f"\nover {args.seeds} seed{'s' if args.seeds > 1 else ''}:")
     print_spread(per_seed)
     print_phases(dirs, per_seed)
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

@@ -13,11 +13,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-import subprocess
 import sys
 import time
-from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +23,7 @@ from commonroad_dc.feasibility.feasibility_checker import trajectory_feasibility
 from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
 
 from simgap.evaluate.feasibility import ks_feasibility
+from simgap.files import BenchmarkResults
 
 
 def _dt(run_dir: Path) -> float:
@@ -57,6 +55,7 @@ def main() -> int:
     parser.add_argument("--limit", type=int, default=None, help="at most this many runs (spread evenly)")
     parser.add_argument("--json-out", type=Path, default=None)
     args = parser.parse_args()
+    results_file = BenchmarkResults()
     runs = sorted(p.parent for root in args.roots for p in root.rglob("solution.xml"))
     if args.limit and len(runs) > args.limit:
         runs = [runs[i] for i in np.linspace(0, len(runs) - 1, args.limit).round().astype(int)]
@@ -80,17 +79,13 @@ def main() -> int:
     for r in differ:
         print(f"  {r['run']} agent {r['agent']}: library {r['library']}, fast {r['fast']}")
     if args.json_out:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-        args.json_out.parent.mkdir(parents=True, exist_ok=True)
-        args.json_out.write_text(json.dumps({
-            "commit": commit, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "machine": platform.node(), "load": list(__import__("os").getloadavg()),
-            "command": " ".join(sys.argv), "runs": len(runs), "trajectories": len(rows),
+        results_file.write(args.json_out, {
+            "runs": len(runs), "trajectories": len(rows),
             "transitions": transitions, "library_checks": checks, "differ": differ,
             "library_s": {"median": float(np.median(library_s)), "mean": float(library_s.mean()),
                           "max": float(library_s.max())},
             "fast_s": {"median": float(np.median(fast_s)), "mean": float(fast_s.mean()), "max": float(fast_s.max())},
-            "infeasible": infeasible}, indent=1))
+            "infeasible": infeasible})
     return 1 if differ else 0
 
 

@@ -65,6 +65,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 from mb_reference import MultiBodyPlant, sideslip  # noqa: E402
 
+from simgap.files import BenchmarkResults
 from simgap.control import LongitudinalMap, controller_names, make_controller, manoeuvres  # noqa: E402
 from simgap.control.protocol import Command  # noqa: E402
 from simgap.sim.dynamic import track_plans  # noqa: E402
@@ -591,26 +592,32 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--controllers", nargs="+", choices=controller_names(), default=controller_names())
     parser.add_argument("--no-mb", action="store_true", help="skip the MB reference beside the sedan")
     parser.add_argument("--quick", action="store_true", help="smoke run: fewer and shorter runs")
-    parser.add_argument("--json", action="store_true", help="print one JSON object instead of tables")
+    parser.add_argument("--json", nargs="?", const="-", metavar="FILE",
+                        help="alone: print one JSON object instead of tables; with FILE: print the tables and write "
+                             "the figures, with commit, date, machine and load, to this results file")
     args = parser.parse_args(argv)
+    results_file = BenchmarkResults()
+    to_stdout = args.json == "-"
     cars = [catalogue_car(n) for n in args.vehicles]
     if "sedan" in args.vehicles and not args.no_mb:
         cars.append(mb_car())
-    log = sys.stderr if args.json else sys.stdout
+    log = sys.stderr if to_stdout else sys.stdout
     results: dict[str, dict] = {car.name: {} for car in cars}
     total = time.perf_counter()
     for section in args.sections:
         start = time.perf_counter()
         for car in cars:
             results[car.name][section] = run_section(section, car, args.quick, args.controllers)
-        if section == "circle" and not args.json:
+        if section == "circle" and not to_stdout:
             print_circle(results)
         print(f"[{section}: {time.perf_counter() - start:.1f} s wall]", file=log)
-    if args.json:
+    if to_stdout:
         print(json.dumps(benchmark_json(results), indent=1))
     else:
         print_summary(results)
     print(f"[total: {time.perf_counter() - total:.1f} s wall]", file=log)
+    if args.json and not to_stdout:
+        results_file.write(args.json, {"arguments": vars(args), **benchmark_json(results)})
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario
 from simgap.scenario.files import load_scenario, write_scenario
 from simgap.vehicles import vehicle_names
+from simgap.files import BenchmarkResults
 
 
 def main() -> None:
@@ -31,7 +32,10 @@ def main() -> None:
     parser.add_argument("--plot", type=Path)
     parser.add_argument("--kinematic-feedforward", action="store_true",
                         help="controllers without the tyre-based understeer and sideslip feed-forward (ablation)")
+    parser.add_argument("--json", type=Path, metavar="FILE",
+                        help="also write what is printed, with commit, date, machine and load, to this results file")
     args = parser.parse_args()
+    results_file = BenchmarkResults(tee=args.json)
     settings = {}
     if args.kinematic_feedforward:
         settings = {"controller_gains": {"understeer_gradient": 0.0, "sideslip_compensation": 0.0}}
@@ -79,6 +83,8 @@ def main() -> None:
         fig.tight_layout()
         fig.savefig(args.plot, dpi=120)
         print(f"wrote {args.plot}")
+    if args.json:
+        results_file.write(args.json, {"arguments": vars(args)})
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
 In a page, a line ``<!-- run -->`` before a ```` ```console ```` block makes it executable: each line
 starting with ``$ `` is a command, run with bash in a scratch folder of the page (the page's blocks
-run in order, in the same folder), and what follows it is its output. A line ``<!-- file: NAME -->``
+run in order, in the same folder, which links the repository's ``tests`` and ``examples``), and what follows it is its output. A line ``<!-- file: NAME -->``
 before a code block writes the block to NAME in that folder first (a planner the next command runs).
 
     python docs/tutorial_blocks.py --write     # run every block, write the output into the pages
@@ -24,11 +24,14 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
-PAGES = ["getting-started.md", "tutorials/validate-your-planner.md"]
+PAGES = ["getting-started.md", "tutorials/validate-your-planner.md", "tutorials/opendrive-in.md",
+         "tutorials/export.md"]
+LINKED = ["tests", "examples"]       # the repository's folders a page's commands name, as from its root
 BLOCK = re.compile(r"^<!-- (run|file: ([\w./-]+)) -->\n```(\w*)\n(.*?)^```$", re.M | re.S)
 VOLATILE = [(re.compile(r"\d+(?:\.\d+)?/\d+(?:\.\d+)?/\d+(?:\.\d+)?"), "T"),        # plan [ms] mean/p95/max
             (re.compile(r"wall time [^;\n]*"), "wall time T"),
-            (re.compile(r"\bin \d+(?:\.\d+)? s\b"), "in T s")]
+            (re.compile(r"\bin \d+(?:\.\d+)? s\b"), "in T s"),
+            (re.compile(r"\(\d+(?:\.\d+)? s\)"), "(T s)")]
 WIDTH = "110"
 
 
@@ -81,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.pages:
         page = DOCS / name
         with tempfile.TemporaryDirectory(prefix="simgap-tutorial-") as scratch:
+            for folder in LINKED:
+                (Path(scratch) / folder).symlink_to(ROOT / folder)
             new_text, blocks = run_page(page, Path(scratch))
         if args.write:
             page.write_text(new_text)

@@ -93,14 +93,51 @@ def scripts() -> dict[str, str]:
     table = (ROOT / "bench" / "README.md").read_text()
     out = {}
     for line in table.splitlines():
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        if len(cells) >= 5:
-            for name in re.findall(r"results/([\w.-]+\.json)", cells[4]):
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
+        if len(cells) >= 6:           # subject, script, claim, command, runtime, results file
+            for name in re.findall(r"results/([\w.-]+\.json)", cells[-1]):
                 out[name] = re.sub(r"`", "", cells[1])
     return out
 
 
+def _share(goals: int, total: int) -> str:
+    return f"{goals}/{total} ({100 * goals / total:.0f} %)" if total >= 10 else f"{goals}/{total}"
+
+
+def recorded_table(name: str) -> str:
+    """Goals reached per world and kind, from a results file of bench/real_recorded.py (its records:
+    scenario, kind, world, agent, outcome, reason, wall_s, excluded, human); agents that start in a
+    collision or overhanging the road (``excluded``) are not counted, as the benchmark prints."""
+    data = json.loads((RESULTS / name).read_text())
+    records = data["rows"] if isinstance(data, dict) else data
+    kinds = sorted({r["kind"] for r in records})
+    lines = ["| world | " + " | ".join(k.replace("_", "-") for k in kinds) + " | all | files with a human recording "
+             "| files without | errors | wall / scenario |", "|---|" + "---|" * (len(kinds) + 5)]
+    counted = [r for r in records if not r["excluded"]]
+    for world in sorted({r["world"] for r in records}):
+        rows = [r for r in counted if r["world"] == world]
+        goal = [r for r in rows if r["outcome"] == "goal_reached"]
+        cells = [_share(sum(r["kind"] == k for r in goal), sum(r["kind"] == k for r in rows)) for k in kinds]
+        human = [r for r in rows if r["human"]]
+        scenarios = {r["scenario"] for r in records if r["world"] == world}
+        wall = sum(r["wall_s"] for r in records if r["world"] == world) / max(len(scenarios), 1)
+        lines.append(f"| {world} | " + " | ".join(cells) + f" | **{_share(len(goal), len(rows))}** | "
+                     f"{_share(sum(r in goal for r in human), len(human))} | "
+                     f"{_share(sum(r in goal for r in rows if not r['human']), len(rows) - len(human))} | "
+                     f"{sum(r['outcome'] == 'error' for r in rows)} | {wall:.1f} s |")
+    first = sorted({r["world"] for r in records})[0]
+    human = [r for r in counted if r["world"] == first and r["human"]]
+    reached = [r for r in human if r["human"].startswith("goal")]
+    lines.append("| the recorded human | " + " | ".join(
+        _share(sum(r["kind"] == k for r in reached), sum(r["kind"] == k for r in human)) for k in kinds)
+        + f" | {_share(len(reached), len(human))} | | | | |")
+    lines += ["", f"*Generated from `bench/results/{name}` (provenance: {provenance(data)}).*"]
+    return "\n".join(lines)
+
+
 def render_results(which: str | None) -> str:
+    if which and which.startswith("recorded:"):
+        return recorded_table(which.split(":", 1)[1])
     files = sorted(RESULTS.glob("*.json"))
     written_by = scripts()
     if which == "index":

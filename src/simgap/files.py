@@ -246,3 +246,97 @@ def publish(staged: Path, out: Path, names: list[str]) -> list[Path]:
     for name in names:
         os.replace(staged / name, out / name)
     return [out / name for name in names]
+
+
+class BenchmarkResults:
+    """A benchmark's results file: its figures beside where they came from.
+
+    Made when the benchmark starts (the load then is kept), written at its end with
+    ``write(path, figures)``: one JSON object with ``commit`` (the short hash, ``-dirty`` when tracked
+    files differ from it), ``date`` (UTC), ``machine`` (architecture, CPUs, system, Python), ``load``
+    (the 1-minute load average at the start and at the end, and the CPUs it is shared over),
+    ``command`` (how the benchmark was started), ``wall_time_s``, then the figures: a mapping's keys,
+    or a list under ``rows``. ``printed`` tees what the benchmark prints, for a script whose tables
+    are only printed: ``write(path, figures, printed=True)`` adds them as ``printed`` lines (with
+    ``BenchmarkResults(tee=True)``, everything printed until ``write``).
+    """
+
+    PROVENANCE = ("commit", "date", "machine", "load", "command", "wall_time_s")
+
+    def __init__(self, argv: list[str] | None = None, tee: Any = False) -> None:
+        """``tee`` true: keep what is printed from now until ``write`` (as ``printed`` does)."""
+        import sys
+        import time
+        self._start = time.perf_counter()
+        self._load_before = os.getloadavg()[0]
+        self._argv = list(sys.argv if argv is None else argv)
+        self._printed: list[str] = []
+        self._tee: Any = None
+        if tee:
+            self._tee = self.printed()
+            self._tee.__enter__()
+
+    @contextmanager
+    def printed(self) -> Iterator[None]:
+        """Keep a copy of what is printed to stdout inside the block (it is still printed)."""
+        import io
+        import sys
+
+        class Tee(io.TextIOBase):
+            def write(tee, text: str) -> int:
+                self._printed.append(text)
+                return original.write(text)
+
+            def flush(tee) -> None:
+                original.flush()
+
+        original = sys.stdout
+        sys.stdout = Tee()
+        try:
+            yield
+        finally:
+            sys.stdout = original
+
+    def provenance(self) -> dict[str, Any]:
+        import platform
+        import shlex
+        import subprocess
+        import time
+        from datetime import datetime, timezone
+
+        def git(*args: str) -> subprocess.CompletedProcess:
+            return subprocess.run(["git", *args], capture_output=True, text=True, cwd=Path(self._argv[0]).parent
+                                  if self._argv and Path(self._argv[0]).parent.is_dir() else None)
+        commit = git("rev-parse", "--short", "HEAD").stdout.strip() or "unknown"
+        if commit != "unknown" and git("diff", "--quiet", "HEAD", "--").returncode == 1:
+            commit += "-dirty"
+        script = Path(self._argv[0]) if self._argv else Path("?")
+        try:
+            script = script.resolve().relative_to(Path.cwd())
+        except ValueError:
+            pass
+        return {"commit": commit, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.system()} {platform.release()}, "
+                           f"Python {platform.python_version()}",
+                "load": {"start": round(self._load_before, 2), "end": round(os.getloadavg()[0], 2),
+                         "cpus": os.cpu_count()},
+                "command": shlex.join(["python", str(script), *self._argv[1:]]),
+                "wall_time_s": round(time.perf_counter() - self._start, 1)}
+
+    def write(self, path: str | Path, figures: Any = None, printed: bool = False) -> Path:
+        """Write the results file (atomically; its folder is made) and return its path."""
+        import json
+        if self._tee is not None:
+            self._tee.__exit__(None, None, None)
+            self._tee = None
+            printed = True
+        data = self.provenance()
+        if isinstance(figures, dict):
+            data.update({k: v for k, v in figures.items() if k not in self.PROVENANCE})
+        elif figures is not None:
+            data["rows"] = figures
+        if printed:
+            data["printed"] = "".join(self._printed).rstrip("\n").splitlines()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return atomic_write_text(path, json.dumps(data, indent=1, default=str) + "\n")

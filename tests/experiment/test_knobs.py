@@ -32,8 +32,8 @@ def sharp_curve():
 def test_lower_friction_gives_a_larger_lateral_error_on_a_sharp_curve(sharp_curve, backend, settings):
     _, dry = drive(sharp_curve, backend, settings)
     run, snow = drive(sharp_curve, backend, settings | {"road_friction": 0.25})
-    # measured: dynamic (mb) 0.080 -> 0.178 m; mujoco 0.160 -> 0.209 m (0.254 m before its tyres had
-    # load sensitivity, issue 14)
+    # measured: dynamic (mb) 0.080 -> 0.178 m; mujoco 0.160 -> 0.209 m (0.254 m with tyres
+    # without load sensitivity)
     assert snow["max_lateral_offset_m"] > dry["max_lateral_offset_m"] + 0.03
     assert snow["peak_grip_use"] > dry["peak_grip_use"]
     # on snow neither car makes the turn the ideal plan asks for

@@ -17,7 +17,7 @@ planner), the desired speed (simgap's curvature-limited speed profile and goal a
 upstream planner knows no lateral-acceleration bound), the observed state converted to the
 planner's rear-axle state, the plan, and its conversion back to vehicle-centre states on the dt grid.
 
-Upstream pitfalls worked around here (see the report of issue 15):
+Upstream pitfalls worked around here:
 
 * ``debug.multiproc`` defaults to True: every cycle would fork six processes. Switched off.
 * ``set_desired_velocity(v, current_speed=0.0)`` ignores ``v`` and takes the planning problem's
