@@ -313,7 +313,8 @@ def fit_road(piece: RoadPiece) -> RoadFit:
                 1.0) if len(piece.bounds) > 1 else 1.0
     reach = 2.0 * width + 5.0
     bounds = [extended(np.asarray(b, float), reach) for b in piece.bounds]
-    centres = [extended(np.asarray(c, float), CENTRE_REACH_M) for c in piece.centres]
+    centres = [extended(np.asarray(c, float), CENTRE_REACH_M)
+               for c in (piece.centres if piece.lanelet_centres is None else piece.lanelet_centres)]
     t0 = reference_offset(piece.start, piece.start_borders, _reference(piece))
     t1 = reference_offset(piece.end, piece.end_borders, _reference(piece))
     across = centred(np.array([_offsets(pts, normals, b, reach) for b in bounds]),

@@ -7,7 +7,10 @@ where they meet, and junctions where the lanelets fork or merge.
   one road: the group along the road's direction its right lanes, the other its left lanes (their
   lanelets' bounds and centres reversed, so that every road is described left to right along it),
   where their lanes end nearly square to it (`SKEW_M`, `SKEW_SHARE`) or the skew is taken
-  (`_skew_taken`: the lanelets continue at that end and point the road's way).
+  (`_skew_taken`: the lanes point the road's way at each end). A malformed lanelet (bounds that
+  touch, cross or double back) and its same-direction neighbour are one group also where their
+  common bound meets at one end only and lies within `MALFORMED_SHARE_M` elsewhere: their border is
+  the well-formed lanelet's bound and the malformed lane lies midway between its borders.
 * **Road ends.** A lanelet leaves its road at the road's end when it is a right lane and at its
   start when it is a left lane (and enters it at the other end).
 * **Joints.** Where roads meet, one cross-section — a line square to the direction of travel — is
@@ -46,7 +49,7 @@ CONNECTOR_M = 10.0        # the longest connecting road cut from a successor lan
 _DIRECTION_M = 2.0        # the stretch of a lanelet's centre that gives its direction at an end
 SKEW_M = 2.0              # opposite groups are one road only where their lanes end within this along it,
 SKEW_SHARE = 0.25         # ... and within this share of its length (else two roads: one each way), or where
-                          # every end whose lanes end farther apart joins other roads (`_skew_taken`)
+                          # their lanes point the road's way at each end (`_skew_taken`)
 SPREAD_DEG = 30.0         # ... and its lanes' directions there lie within this of the road's
 PAIRED_REFERENCE_M = 4.0  # a road without left lanes shorter than this has its reference midway between its outermost bounds
 ASKEW_M = 0.5             # a junction road end whose bounds end farther apart than this along it is cut back
@@ -54,6 +57,7 @@ ASKEW_MARGIN_M = 2.0      # ... by that much and this (the connecting roads take
 ASKEW_ROAD_M = 2.5        # ... where the road is this long (shorter: wedges and stubs, left whole: a 1.6 m
                           # wedge in DEU_Thiergarten-1 and a 1.8 m stub in USA_Intersection-1 got worse cut)
 CENTRE_WEIGHT = 10.0      # a lane centre's weight against a border's where borders are placed across a road
+MALFORMED_SHARE_M = 4.0   # a malformed lanelet's neighbour within this of it (meeting at one end) is in its group
 MIN_WIDTH_M = 1e-3        # a lane's least width at a joint (OpenDRIVE readers treat zero-width lanes apart)
 
 Border = tuple[int, str]  # (lanelet id, "left" | "right")
@@ -99,6 +103,7 @@ class Strip:
     bounds: tuple[np.ndarray, ...]
     names: tuple[tuple[Border, ...], ...]
     centres: tuple[np.ndarray, ...]
+    lanelet_centres: tuple[np.ndarray, ...] | None = None   # the lanelets' own where ``centres`` differ (`_strip`)
 
     @property
     def middle(self) -> np.ndarray:
@@ -163,6 +168,7 @@ class RoadPiece:
     middle: np.ndarray | None = None
     reference: tuple[int, int] | None = None     # the bounds the reference line runs midway between
                                                  # (default: `reference_bounds`)
+    lanelet_centres: tuple[np.ndarray, ...] | None = None   # the deviation is measured from these where set
 
 
 @dataclass(frozen=True)
@@ -230,15 +236,40 @@ def _shares_bound(a: np.ndarray, b: np.ndarray) -> bool:
             and shapely.hausdorff_distance(LineString(a), LineString(b)) <= SHARED_BOUND_M)
 
 
+def _malformed(lanelet: Lanelet) -> bool:
+    """Whether the lanelet's bounds touch or cross, or one doubles back: it has no faithful lane."""
+    return LineString(lanelet.left_vertices).intersects(LineString(lanelet.right_vertices)) or _doubles_back(lanelet)
+
+
+def _near_malformed(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether a malformed lanelet's bound ``a`` and its neighbour's ``b`` can be one border (the
+    neighbour's): they meet at one end and lie within `MALFORMED_SHARE_M` of each other."""
+    meet = min(np.linalg.norm(a[0] - b[0]), np.linalg.norm(a[-1] - b[-1])) <= SHARED_BOUND_M
+    return bool(meet and shapely.hausdorff_distance(LineString(a), LineString(b)) <= MALFORMED_SHARE_M)
+
+
+def _border(a: Lanelet, a_bound: np.ndarray, b: Lanelet, b_bound: np.ndarray) -> np.ndarray:
+    """The border between neighbours ``a`` and ``b`` (their bounds along the road): ``a``'s, or
+    ``b``'s where they do not share it and only ``a`` is malformed (the well-formed lanelet keeps its lane)."""
+    if _shares_bound(a_bound, b_bound):
+        return a_bound
+    return b_bound if _malformed(a) and not _malformed(b) else a_bound
+
+
 def lateral_groups(network: LaneletNetwork) -> list[tuple[int, ...]]:
-    """Chains of same-direction neighbours that share their common bound, left to right."""
+    """Chains of same-direction neighbours that share their common bound, left to right (or, where
+    one of two is malformed, whose bounds meet at one end and lie near: `_near_malformed`)."""
     by_id = {l.lanelet_id: l for l in network.lanelets}
 
     def right_of(l: Lanelet) -> int | None:
         r = by_id.get(l.adj_right) if l.adj_right is not None and l.adj_right_same_direction else None
         if r is None or r.adj_left != l.lanelet_id or not r.adj_left_same_direction:
             return None
-        return r.lanelet_id if _shares_bound(l.right_vertices, r.left_vertices) else None
+        if _shares_bound(l.right_vertices, r.left_vertices):
+            return r.lanelet_id
+        if (_malformed(l) or _malformed(r)) and _near_malformed(l.right_vertices, r.left_vertices):
+            return r.lanelet_id
+        return None
 
     right = {i: right_of(l) for i, l in by_id.items()}
     has_left = {r for r in right.values() if r is not None}
@@ -320,16 +351,33 @@ def _strip(right: list[Lanelet], left: list[Lanelet]) -> Strip:
     road, each against it)."""
     bounds, names, centres = [], [], []
     for k, l in enumerate(left):                  # the farthest left lane first, reversed
-        bounds.append(l.right_vertices[::-1])
+        bounds.append(_border(l, l.right_vertices[::-1], left[k - 1], left[k - 1].left_vertices[::-1]) if k
+                      else l.right_vertices[::-1])
         names.append(((l.lanelet_id, "right"),) + (((left[k - 1].lanelet_id, "left"),) if k else ()))
         centres.append(l.center_vertices[::-1])
     bounds.append(right[0].left_vertices)
     names.append(((right[0].lanelet_id, "left"),) + (((left[-1].lanelet_id, "left"),) if left else ()))
     for k, l in enumerate(right):
-        bounds.append(l.right_vertices)
+        bounds.append(_border(l, l.right_vertices, right[k + 1], right[k + 1].left_vertices) if k + 1 < len(right)
+                      else l.right_vertices)
         names.append(((l.lanelet_id, "right"),) + (((right[k + 1].lanelet_id, "left"),) if k + 1 < len(right) else ()))
         centres.append(l.center_vertices)
-    return Strip(tuple(l.lanelet_id for l in left + right), len(left), tuple(bounds), tuple(names), tuple(centres))
+    own = tuple(centres)
+    for k, l in enumerate(left + right):   # a malformed lane given its neighbour's bound is placed midway between its borders
+        if _malformed(l) and not (_same(bounds[k], l, k < len(left), "left") and _same(bounds[k + 1], l, k < len(left), "right")):
+            centres[k] = middle_line(bounds[k], bounds[k + 1])
+    return Strip(tuple(l.lanelet_id for l in left + right), len(left), tuple(bounds), tuple(names), tuple(centres),
+                 own if any(c is not o for c, o in zip(centres, own)) else None)
+
+
+def _same(bound: np.ndarray, lanelet: Lanelet, against: bool, side: str) -> bool:
+    """Whether ``bound`` (along the road) is the lanelet's own bound on its ``side`` along the road
+    (within `SHARED_BOUND_M`)."""
+    if against:
+        own = (lanelet.right_vertices if side == "left" else lanelet.left_vertices)[::-1]
+    else:
+        own = lanelet.left_vertices if side == "left" else lanelet.right_vertices
+    return _shares_bound(bound, own)
 
 
 def strips(network: LaneletNetwork) -> list[Strip]:
@@ -349,7 +397,7 @@ def strips(network: LaneletNetwork) -> list[Strip]:
         paired.update({group, other})
         right, left = [by_id[i] for i in group], [by_id[i] for i in reversed(other)]
         strip = _strip(right, left)
-        if left and not _square(strip) and not _skew_taken(strip, by_id):          # two roads (one each way) rather than one askew
+        if left and not _square(strip) and not _skew_taken(strip):          # two roads (one each way) rather than one askew
             paired.discard(other)
             out.append(_strip(right, []))
             continue
@@ -364,27 +412,19 @@ def _square(strip: Strip) -> bool:
     return all(_skew(strip, end) <= min(SKEW_M, SKEW_SHARE * length) for end in ("start", "end"))
 
 
-def _skew_taken(strip: Strip, by_id: dict[int, Lanelet]) -> bool:
+def _skew_taken(strip: Strip) -> bool:
     """Whether a road of opposite groups whose lanes end askew can still be one road: at each end its
     lanes point the road's way (within `SPREAD_DEG`: a 0.3 m strip of DEU_Thiergarten-1 whose lanes
-    turn 54 degrees has no one cross-section there), and an end where no lanelet continues (no joint
-    with other roads, no junction to cut back into: `topology`) is square within `SKEW_M` or
-    `SKEW_SHARE` of its length, whichever is more (CHN_Roundabout-1: a 16.5 m road whose lanes end 12 m apart). Where lanelets continue, a
-    direct link's joint or a junction's cut back road end (`ASKEW_M`) takes the skew: the 7-lane
-    3.9 m crossing strip in DEU_AachenAseag-1 whose 4.5 m skew gave QC gap errors before junction
-    ends were cut back is QC clean as one road now."""
-    length = LineString(strip.axis).length
+    turn 54 degrees has no one cross-section there). Where lanelets continue, a direct link's joint
+    or a junction's cut back road end (`ASKEW_M`) takes the skew: the 7-lane 3.9 m crossing strip in
+    DEU_AachenAseag-1 whose 4.5 m skew gave QC gap errors before junction ends were cut back is QC
+    clean as one road now. An open end (no lanelet continues) has no link whose lanes could part:
+    its skew only moves the lanes' ends off the lanelets' (CHN_Roundabout-1's 16.5 m road 111|109,
+    12 m askew: 0.52 m there, kept as one road)."""
     for end in ("start", "end"):
         heading = _heading_at(strip, end)
         if any(abs(math.remainder(_direction(c, end == "end") - heading, 2 * math.pi)) > math.radians(SPREAD_DEG)
                for c in strip.centres):
-            return False
-        joined = False
-        for k, i in enumerate(strip.lanelets):        # left lanes run against the road
-            l = by_id[i]
-            forward = (k >= strip.left) == (end == "end")
-            joined |= any(j in by_id for j in (l.successor if forward else l.predecessor) or [])
-        if not joined and _skew(strip, end) > max(SKEW_M, SKEW_SHARE * length):
             return False
     return True
 
@@ -585,7 +625,8 @@ def topology(network: LaneletNetwork) -> Topology:
                                                        * joint.normal))
         pieces.append(RoadPiece(strip.lanelets, strip.bounds, strip.centres, joints[(r, "start")],
                                 joints[(r, "end")], borders, borders, (span[0], span[1]),
-                                left=strip.left, middle=strip.middle, reference=strip.reference))
+                                left=strip.left, middle=strip.middle, reference=strip.reference,
+                                lanelet_centres=strip.lanelet_centres))
     for junction, a, b in junction_relations:
         pa, pb = by_id[a], by_id[b]
         start, end = joints[leaves(a)], joints[enters(b)]
