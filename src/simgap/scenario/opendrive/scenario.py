@@ -142,9 +142,11 @@ def reachable(network: LaneletNetwork, start: int) -> set[int]:
 
 
 def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, str] | None = None,
-                       roads: OpenDriveNetwork | None = None) -> ConcreteScenario:
+                       roads: OpenDriveNetwork | None = None, name: str | None = None,
+                       logical: str = "opendrive") -> ConcreteScenario:
     """One agent from ``start`` to ``goal`` on the OpenDRIVE road at ``path`` (``pins``: NAME=VALUE
-    settings of `ProblemSettings`; ``roads``: the file already read)."""
+    settings of `ProblemSettings`; ``roads``: the file already read; ``name`` and ``logical``: what
+    the scenario is called and its logical scenario, by default the file's stem and ``opendrive``)."""
     path = Path(path)
     settings = validated(ProblemSettings, pins or {}, prefix="--set")
     roads = roads or opendrive_network(path)
@@ -159,9 +161,9 @@ def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, 
                                                  "successors and lane changes the same way")
     problem = planning_problem(1, (begin.lanelet, begin.s), (end.lanelet, end.s),
                                initial_speed=settings.initial_speed, time_limit_s=settings.time_limit, dt=settings.dt)
-    name = re.sub(r"[^A-Za-z0-9_-]+", "_", path.stem).strip("_") or "opendrive"
+    name = name or re.sub(r"[^A-Za-z0-9_-]+", "_", path.stem).strip("_") or "opendrive"
     parameters = {"source": path.name, "start": start, "goal": goal, **settings.model_dump()}
-    return ConcreteScenario(name, "opendrive", parameters, scenario_of(name, settings.dt, roads.lanelets),
+    return ConcreteScenario(name, logical, parameters, scenario_of(name, settings.dt, roads.lanelets),
                             PlanningProblemSet([problem]), dict(roads.sections), dict(UNITS), opendrive=roads.origin)
 
 
@@ -179,8 +181,6 @@ def opendrive_template(name: str, logical: str, p: dict[str, Any]) -> ConcreteSc
         raise InputError(f"no OpenDRIVE file {path}", field="fixed.file", allowed="an .xodr file (a path "
                                                                                  "relative to the YAML)")
     pins = {key: str(p[key]) for key in UNITS if key in p}
-    concrete = opendrive_scenario(path, str(p["start"]), str(p["goal"]), pins)
-    concrete.name, concrete.logical = name, logical
-    concrete.scenario = scenario_of(name, concrete.scenario.dt, concrete.scenario.lanelet_network)
+    concrete = opendrive_scenario(path, str(p["start"]), str(p["goal"]), pins, name=name, logical=logical)
     concrete.parameters = {key: value for key, value in p.items() if key != "file"} | {"source": path.name}
     return concrete
