@@ -109,9 +109,9 @@ def human_outcomes(xml: Path) -> dict[int, str]:
     return outcomes
 
 
-def run_one(task: tuple[Path, str, str, str, str, Path | None]) -> list[AgentResult]:
+def run_one(task: tuple[Path, str, str, str, str, Path | None, str | None]) -> list[AgentResult]:
     """Every agent's outcome of one scenario in one world (never raises)."""
-    xml, world, kind, traffic, planner, planner_config = task
+    xml, world, kind, traffic, planner, planner_config, latency = task
     from simgap.cosim import CosimSettings
     from simgap.errors import InputError
     from simgap.experiment.single_run import RunRequest, execute, parse_planners
@@ -120,7 +120,7 @@ def run_one(task: tuple[Path, str, str, str, str, Path | None]) -> list[AgentRes
     try:
         excluded = start_conflicts(xml)
         humans = human_outcomes(xml)
-        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic),
+        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic, **({"latency": latency} if latency else {})),
                                  planner=parse_planners(planner, planner_config)))
     except InputError as exc:
         return [AgentResult(xml.stem, kind, world, None, "refused", str(exc), time.perf_counter() - clock)]
@@ -169,6 +169,9 @@ def main() -> None:
     parser.add_argument("--planner", default="frenet", help="the planner of every agent (as simgap run --planner)")
     parser.add_argument("--planner-config", type=Path, default=None, help="its settings (YAML)")
     parser.add_argument("--json", type=Path, default=None, help="also write every result to this JSON file")
+    parser.add_argument("--latency", default=None, metavar="SECONDS",
+                        help="the plans' latency in the physical worlds (default: measured, the planner's own "
+                             "compute time, which makes a run on a loaded machine differ; a fixed one never does)")
     parser.add_argument("--manifest", type=Path, default=MANIFEST,
                         help=f"the corpus's manifest, for each file's kind (default {MANIFEST.name})")
     args = parser.parse_args()
@@ -184,10 +187,11 @@ def main() -> None:
     if missing:
         sys.exit(f"--only: no file named {', '.join(missing)} in {args.files} (names without .xml)")
     print(f"{len(files)} recorded scenarios in {args.files} ({dict(Counter(kinds.get(p.stem, 'other') for p in files))}), "
-          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, planner {args.planner}"
+          f"worlds {', '.join(args.worlds)}, traffic {args.traffic}, latency {args.latency or 'measured'}, "
+          f"planner {args.planner}"
           f"{' (' + str(args.planner_config) + ')' if args.planner_config else ''}, {args.workers} worker(s)\n")
     print(f"{'scenario':40s} {'kind':10s} {'world':7s} {'agent':>6s} {'outcome':16s} {'time [s]':>8s}  reason")
-    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic, args.planner, args.planner_config)
+    tasks = [(xml, world, kinds.get(xml.stem, "other"), args.traffic, args.planner, args.planner_config, args.latency)
              for world in args.worlds for xml in files]
     results: list[AgentResult] = []
     clock = time.perf_counter()

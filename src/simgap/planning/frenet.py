@@ -1,11 +1,13 @@
 """The Frenet sampling planner on the frenetix core.
 
 Every cycle: project the observed state into the Frenet frame of the reference path → sample end
-time x end speed x lateral offset → the core generates the quartic (longitudinal) and quintic
-(lateral) polynomials, fills in Cartesian coordinates, checks feasibility against the vehicle's
-limits and computes costs → in cost order, a few at a time, check plans against the road's edge,
-other traffic and the lateral-acceleration bound → return the first that passes, converted to
-simgap's convention (vehicle centre, world frame) on the dt grid from the observed time.
+time x end speed x lateral offset → in the core's cost order, a few at a time, check plans against
+the road's edge, other traffic and the lateral-acceleration bound → return the first that passes,
+converted to simgap's convention (vehicle centre, world frame) on the dt grid from the observed
+time. The core generates the quartic (longitudinal) and quintic (lateral) polynomials, fills in
+Cartesian coordinates, checks feasibility against the vehicle's limits and computes costs only for
+the samples the cycle looks at and those that might come before them (`cost_order`): the order
+is the one the core gives when it evaluates every sample.
 
 Beyond the core:
 
@@ -43,6 +45,7 @@ import frenetix.trajectory_functions.cost_functions as cost_functions
 import frenetix.trajectory_functions.feasability_functions as feasibility_functions
 import numpy as np
 
+from simgap.planning.cost_order import CoreReference, CostOrder, cost_floor
 from simgap.planning.collision import (
     DrivableAreaGrid,
     RoadBand,
@@ -133,7 +136,9 @@ class PlanningCycle:
 
     t: float = 0.0
     samples: int = 0
-    feasible: int = 0
+    evaluated: int = 0         # samples the core evaluated (in its cost order, as they were looked at)
+    feasible: int = 0          # feasible among them
+    floor_misses: int = 0      # samples whose cost came out below cost_order's floor (none, or a bug)
     checked: int = 0
     rejected_infeasible: int = 0
     rejected_road: int = 0
@@ -194,7 +199,8 @@ class FrenetPlanner:
         self._outline = footprint_outline(vehicle.length, vehicle.width, s.collision.footprint_point_spacing_m)
         self._edge_outline = footprint_outline(vehicle.length + 2 * ROAD_EDGE_M, vehicle.width + 2 * ROAD_EDGE_M,
                                                s.collision.footprint_point_spacing_m)
-        self._handler: frenetix.TrajectoryHandler | None = None
+        self._core_reference = CoreReference(*self.frame.reference_tables())
+        self._handlers: list[frenetix.TrajectoryHandler] = []
         self._dt: float | None = None
         self._approach: GoalApproach | None = None
         self._goal: Goal | None = None         # the goal's windows, time in seconds (steps of dt)
@@ -205,9 +211,16 @@ class FrenetPlanner:
         self.last_cycle = PlanningCycle()
 
     # -- set-up of the core ------------------------------------------------------------------
-    def _handler_for(self, dt: float) -> frenetix.TrajectoryHandler:
-        if self._handler is not None and self._dt == dt:
-            return self._handler
+    def _handler_for(self, dt: float, batch: int) -> frenetix.TrajectoryHandler:
+        """The core's handler of the ``batch``-th batch of a cycle: one per batch, so that the
+        samples of earlier batches stay valid until the next cycle."""
+        if self._dt != dt:
+            self._handlers, self._dt = [], dt
+        while len(self._handlers) <= batch:
+            self._handlers.append(self._new_handler(dt))
+        return self._handlers[batch]
+
+    def _new_handler(self, dt: float) -> frenetix.TrajectoryHandler:
         limits, wheelbase = self.vehicle.limits, self.vehicle.wheelbase
         whole = self.settings.check_whole_trajectory
         handler = frenetix.TrajectoryHandler(dt=dt)
@@ -230,7 +243,6 @@ class FrenetPlanner:
                                   ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
             if weight > 0:
                 handler.add_cost_function(cls(name, weight))
-        self._handler, self._dt = handler, dt
         return handler
 
     def _approach_for(self, dt: float) -> GoalApproach:
@@ -366,41 +378,60 @@ class FrenetPlanner:
         return replace(start, x0_lon=x0_lon, x0_lat=x0_lat)
 
     def _search(self, start: _Start, traffic: TrafficPrediction, cycle: PlanningCycle) -> CartesianBatch | None:
-        """Sample, evaluate in the core, and return the cheapest plan that passes our checks."""
-        ordered, feasible = self._evaluate(start, cycle)
-        if feasible == 0:
-            return None
-        return self._first_passing(ordered, feasible, start, traffic, cycle)
+        """Sample, and return the cheapest plan that passes our checks, the core evaluating
+        samples in its cost order as they are looked at."""
+        order = self._cost_order(start, cycle)
+        clock, evaluation = time.perf_counter(), cycle.timings["evaluation"]
+        chosen = self._first_passing(order, start, traffic, cycle)
+        cycle.timings["collision"] += time.perf_counter() - clock - (cycle.timings["evaluation"] - evaluation)
+        cycle.feasible += order.feasible
+        cycle.evaluated += order.evaluated
+        cycle.floor_misses += order.floor_misses
+        return chosen
 
-    def _evaluate(self, start: _Start, cycle: PlanningCycle):
-        """The core's samples, feasible ones first in cost order, and how many are feasible."""
+    def _cost_order(self, start: _Start, cycle: PlanningCycle) -> CostOrder:
+        """The cycle's samples (with the last manoeuvre continued), to be evaluated by the core in
+        its cost order (`cost_order`)."""
         s, dt = self.settings, start.dt
         clock = time.perf_counter()
-        handler = self._handler_for(dt)
         speeds = end_speeds(s.sampling, start.v, start.desired, self.vehicle.limits.max_speed)
         matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(s.sampling, dt), speeds,
                                  lateral_offsets(s.sampling))
         continued = self._continued_manoeuvre(start)
         if continued is not None:
             matrix = np.vstack([matrix, continued])
-        if s.costs.velocity_offset > 0:
-            handler.add_cost_function(cost_functions.CalculateVelocityOffsetCost(
-                "velocity_offset", s.costs.velocity_offset, start.desired, dt, s.sampling.t_min_s, False, 2))
-        handler.add_function(trajectory_functions.FillCoordinates(
-            lowVelocityMode=start.low_velocity, initialOrientation=start.yaw_local, coordinateSystem=self.frame.core,
-            horizon=steps_in_horizon(s.sampling, dt) * dt + TIME_NUDGE))
-        handler.generate_trajectories(matrix, start.low_velocity)
         cycle.samples += len(matrix)
-        clock = _lap(cycle, "sampling", clock)
-        if s.concurrent_evaluation:
-            handler.evaluate_all_current_functions_concurrent(False)
-        else:
-            handler.evaluate_all_current_functions(False)
-        feasible = handler.get_feasible_count()
-        cycle.feasible += feasible
-        ordered = handler.get_sorted_trajectories()
-        _lap(cycle, "evaluation", clock)
-        return ordered, feasible
+        points = steps_in_horizon(s.sampling, dt) + 1
+        floor = cost_floor(matrix, dt, points, start.low_velocity, start.desired, s.costs, self._core_reference)
+        functions = [trajectory_functions.FillCoordinates(
+            lowVelocityMode=start.low_velocity, initialOrientation=start.yaw_local, coordinateSystem=self.frame.core,
+            horizon=steps_in_horizon(s.sampling, dt) * dt + TIME_NUDGE)]
+        if s.costs.velocity_offset > 0:
+            functions.append(cost_functions.CalculateVelocityOffsetCost(
+                "velocity_offset", s.costs.velocity_offset, start.desired, dt, s.sampling.t_min_s, False, 2))
+        _lap(cycle, "sampling", clock)
+        batches = iter(range(len(matrix)))
+
+        def evaluate(rows: np.ndarray) -> list[tuple[float, int, object]]:
+            clock = time.perf_counter()
+            handler = self._handler_for(dt, next(batches))
+            handler.add_function(functions[0])
+            for function in functions[1:]:
+                handler.add_cost_function(function)
+            handler.generate_trajectories(np.ascontiguousarray(matrix[rows]), start.low_velocity)
+            if s.concurrent_evaluation:
+                handler.evaluate_all_current_functions_concurrent(False)
+            else:
+                handler.evaluate_all_current_functions(False)
+            feasible = []
+            for sample in handler.get_sorted_trajectories():
+                if not sample.feasible:
+                    break
+                feasible.append((sample.cost, int(rows[sample.uniqueId]), sample))
+            _lap(cycle, "evaluation", clock)
+            return feasible
+
+        return CostOrder(floor, evaluate)
 
     def _continued_manoeuvre(self, start: _Start) -> np.ndarray | None:
         """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
@@ -431,7 +462,7 @@ class FrenetPlanner:
     def _recovery_steps(self, dt: float) -> int:
         return int(round(self.settings.collision.recovery_s / dt))
 
-    def _first_passing(self, ordered, feasible: int, start: _Start, traffic: TrafficPrediction,
+    def _first_passing(self, order: CostOrder, start: _Start, traffic: TrafficPrediction,
                        cycle: PlanningCycle) -> CartesianBatch | None:
         """In cost order, a few at a time: the first plan within the limits, clear of traffic and on
         the road (and within the lateral-acceleration bound if any is). When traffic holds the
@@ -442,15 +473,15 @@ class FrenetPlanner:
         plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they are
         checked again with the recovery time to get back onto the safe cells."""
         leeway = self._leeway(start)
-        clock = time.perf_counter()
         chosen: CartesianBatch | None = None
         blocked = False
         fallback: CartesianBatch | None = None
         checked: list[CartesianBatch] = []
-        taken, chunk, beyond_chosen = 0, FIRST_CHUNK, 0
-        while taken < feasible and beyond_chosen < BLOCKED_SEARCH_SAMPLES:
-            samples = [next(ordered) for _ in range(min(chunk, feasible - taken))]
-            taken += len(samples)
+        chunk, beyond_chosen = FIRST_CHUNK, 0
+        while beyond_chosen < BLOCKED_SEARCH_SAMPLES:
+            samples = order.take(chunk)
+            if not samples:
+                break
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
             only_reaching = chosen is not None and not blocked      # only a plan that reaches the goal would do now
@@ -471,17 +502,14 @@ class FrenetPlanner:
                 if not only_reaching:
                     reaching = reaching[self._reaches_goal(batch, reaching, start)]
                 if len(reaching):               # the cheapest plan that reaches the goal
-                    _lap(cycle, "collision", clock)
                     return _row(batch, int(reaching[0]))
             for i in np.flatnonzero(within):
                 if chosen is None:
                     chosen = _row(batch, i)
                     blocked = self._blocked(chosen, start, cycle)
                     if not (blocked or start.goal_in_reach):
-                        _lap(cycle, "collision", clock)
                         return chosen
                 elif blocked and batch.v[i, -1] >= chosen.v[0, -1] + BLOCKED_SPEED_GAIN * start.desired:
-                    _lap(cycle, "collision", clock)
                     return _row(batch, i)
             if chosen is not None:
                 beyond_chosen += len(samples)
@@ -490,7 +518,6 @@ class FrenetPlanner:
             chosen = self._first_recovering(checked, start, traffic)
         if chosen is None and fallback is None and cycle.rejected_traffic:
             chosen = self._struck_from_behind(checked, start, traffic, leeway, cycle)
-        _lap(cycle, "collision", clock)
         return chosen or fallback
 
     def _struck_from_behind(self, checked: list[CartesianBatch], start: _Start, traffic: TrafficPrediction,

@@ -106,6 +106,10 @@ class FrenetFrame:
         self._line = line
         self.s_min, self.s_max = float(pos[0]), float(pos[-1])
 
+    def reference_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """The core's arc length at its vertices and the curvature it holds there."""
+        return self._pos, self._kappa
+
     def reference_at(self, s_core: np.ndarray):
         """Local heading, curvature and its derivative of the reference at core arc lengths."""
         return (np.interp(s_core, self._pos, self._theta), np.interp(s_core, self._pos, self._kappa),
