@@ -102,37 +102,52 @@ def _on_grid(c: np.ndarray, dt: float, points: int) -> tuple[np.ndarray, np.ndar
     return c @ powers, c @ slopes
 
 
+def _profiles(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``matrix`` with the longitudinal profile of the row before them share it: (the first
+    row of each run of equal profiles, each row's run)."""
+    columns = [0, END_TIME, *range(LONGITUDINAL_START.start, LONGITUDINAL_START.stop), END_SPEED, END_SPEED + 1]
+    lon = matrix[:, columns]
+    new = np.ones(len(matrix), dtype=bool)
+    new[1:] = (lon[1:] != lon[:-1]).any(axis=1)
+    return np.flatnonzero(new), np.cumsum(new) - 1
+
+
 def cost_floor(matrix: np.ndarray, dt: float, points: int, low_velocity: bool, desired_speed: float,
                weights: CostWeights, reference: CoreReference) -> np.ndarray:
     """Per row of the sampling ``matrix``: a lower bound of the cost the core gives the sample
     (``points`` states from the start time, the core's ``FillCoordinates`` in ``low_velocity``
     mode and its cost functions at ``weights``, the velocity offset towards ``desired_speed``).
-    Rows the replica does not cover get 0."""
+    Rows the replica does not cover get 0. The longitudinal profile (and the reference curvature
+    along it) is computed once for rows in a run that share it (the lateral offsets of one end time
+    and speed, as `sampling_matrix` orders them)."""
     n = len(matrix)
     T = matrix[:, END_TIME] - matrix[:, 0]
     actual = np.floor(1 + T / dt).astype(int)        # the core's int(1 + horizon / dt)
     covered = (matrix[:, 0] == 0.0) & (actual >= 2) & (actual <= points)
-    last = np.clip(actual - 1, 0, points - 1)[:, None]
+    first, run = _profiles(matrix)
+    last = np.clip(actual[first] - 1, 0, points - 1)[:, None]
     beyond = np.arange(points)[None, :] - last           # > 0: the core holds the end speed and offset
     held = beyond > 0
-    lon = _longitudinal(matrix)
+    lon = _longitudinal(matrix[first])
     s, ss = _on_grid(lon, dt, points)
     s_last, ss_last = np.take_along_axis(s, last, 1), np.take_along_axis(ss, last, 1)
     ss_last = np.where(np.abs(ss_last) < _EPS, 0.0, ss_last)
     if held.any():
         s = np.where(held, s_last + beyond * dt * ss_last, s)
         ss = np.where(held, ss_last, ss)
+    k_r = np.interp(s, reference.pos, reference.kappa)[run]
     if low_velocity:                       # the lateral polynomial runs over arc length
-        s_end, _ = _polyval(lon, T[:, None])
-        duration = s_end[:, 0] - matrix[:, LONGITUDINAL_START][:, 0]
+        s_end, _ = _polyval(lon, T[first][:, None])
+        duration = (s_end[:, 0] - lon[:, 0])[run]
         duration = np.where(duration > 0.0, duration, T)
         lat = _lateral(matrix, duration)
-        d, dd = _polyval(lat, s - s[:, :1])
+        d, dd = _polyval(lat, (s - s[:, :1])[run])
     else:
         lat = _lateral(matrix, T)
         d, dd = _on_grid(lat, dt, points)
+    held, ss = held[run], ss[run]
     if held.any():
-        d = np.where(held, np.take_along_axis(d, last, 1), d)
+        d = np.where(held, np.take_along_axis(d, last[run], 1), d)
         dd = np.where(held, 0.0, dd)
     if low_velocity:
         standing = None
@@ -140,7 +155,6 @@ def cost_floor(matrix: np.ndarray, dt: float, points: int, low_velocity: bool, d
     else:
         standing = ss <= _MOVING
         slope = dd / np.where(standing, 1.0, ss)
-    k_r = np.interp(s, reference.pos, reference.kappa)
     v = np.abs(ss * (1.0 - k_r * d)) * np.sqrt(1.0 + slope * slope)
     gap = v - desired_speed
     if standing is not None and standing.any():
@@ -152,7 +166,7 @@ def cost_floor(matrix: np.ndarray, dt: float, points: int, low_velocity: bool, d
         tail = d[:, points - points // 2:]
         floor += weights.distance_to_reference_path * np.sqrt(np.einsum("ij,ij->i", tail, tail))
     if weights.longitudinal_jerk > 0:
-        floor += weights.longitudinal_jerk * _jerk_cost(lon, dt)
+        floor += weights.longitudinal_jerk * _jerk_cost(lon, dt)[run]
     if weights.lateral_jerk > 0:
         floor += weights.lateral_jerk * _jerk_cost(lat, dt)
     floor = floor * (1.0 - _MARGIN_REL) - _MARGIN_ABS
