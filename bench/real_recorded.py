@@ -23,6 +23,7 @@ none).
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -157,6 +158,29 @@ def rates(results: list[AgentResult], world: str) -> tuple[dict[str, tuple[int, 
     return {k: (v[0], v[1]) for k, v in table.items()}, errors, sum(walls.values()) / max(len(walls), 1)
 
 
+def diff(before: Path, after: Path) -> int:
+    """Agent by agent, the outcomes of two results files: counts per world and every difference
+    (its reason in each); 1 when any outcome differs."""
+    def outcomes(path: Path) -> dict[tuple, dict]:
+        data = json.loads(path.read_text())
+        rows = data["rows"] if isinstance(data, dict) else data
+        return {(r["scenario"], r["world"], r["agent"]): r for r in rows}
+    old, new = outcomes(before), outcomes(after)
+    worlds = sorted({k[1] for k in old} & {k[1] for k in new})
+    changed = 0
+    for world in worlds:
+        keys = sorted(k for k in old.keys() & new.keys() if k[1] == world)
+        differ = [k for k in keys if old[k]["outcome"] != new[k]["outcome"]]
+        changed += len(differ)
+        print(f"{world}: {len(keys)} agents in both, {len(keys) - len(differ)} with the same outcome, "
+              f"{len(differ)} different; only before {sum(k[1] == world for k in old.keys() - new.keys())}, "
+              f"only after {sum(k[1] == world for k in new.keys() - old.keys())}")
+        for k in differ:
+            print(f"  {k[0]} agent {k[2]}: {old[k]['outcome']} ({old[k]['reason'][:90]}) -> "
+                  f"{new[k]['outcome']} ({new[k]['reason'][:90]})")
+    return 1 if changed else 0
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--files", type=Path, default=os.environ.get("SIMGAP_RECORDED"),
@@ -174,7 +198,12 @@ def main() -> None:
                              "compute time, which makes a run on a loaded machine differ; a fixed one never does)")
     parser.add_argument("--manifest", type=Path, default=MANIFEST,
                         help=f"the corpus's manifest, for each file's kind (default {MANIFEST.name})")
+    parser.add_argument("--diff", nargs=2, type=Path, metavar=("BEFORE", "AFTER"),
+                        help="run nothing: compare two results files (--json) agent by agent and list every "
+                             "outcome that differs")
     args = parser.parse_args()
+    if args.diff:
+        sys.exit(diff(*args.diff))
     results_file = BenchmarkResults()
     if args.files is None or not Path(args.files).is_dir():
         sys.exit(f"--files: a folder of recorded CommonRoad files is needed (got {args.files}); "
