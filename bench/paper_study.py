@@ -18,6 +18,7 @@ from simgap.experiment.runner import run_experiment
 from simgap.experiment.store import ResultsStore
 from simgap.report.scores import store_score_rows as score_table
 from simgap.files import BenchmarkResults
+from simgap.report.time_budget import budget_lines, store_budget
 
 # MultiDrive's Table I (seconds per run): low fidelity (CommonRoad + Frenetix) and high
 # fidelity (BeamNG.tech), 78 scenarios each (high fidelity: per vehicle model).
@@ -63,6 +64,9 @@ def main() -> None:
               f"{means['high'] / means['low']:.2f} (paper {PAPER['high']['mean'] / PAPER['low']['mean']:.1f})")
         print(f"whole study: {PAPER_SEQUENTIAL_H * 3600 / wall:.0f}x faster than the paper's sequential runs")
     print_scores(ResultsStore(args.out))
+    print(f"\nWhere the time went (seconds of worker time; bench/study_budget.py {args.out} --sample N breaks "
+          f"planning down further)")
+    print("\n".join(budget_lines(store_budget(args.out), result.wall_time_s, args.workers)))
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"peak resident memory of the largest worker: {usage.ru_maxrss / 1024:.0f} MB; "
           f"of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")

@@ -27,49 +27,10 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from simgap.experiment.store import ResultsStore
 from simgap.files import BenchmarkResults
+from simgap.report.time_budget import TimeBudget, budget_lines, store_budget
 
-LOOP = ("planning", "physics", "tyres", "control", "backend other", "monitoring", "loop other")
 AFTER = ("scoring", "validation", "io")
-
-
-def store_budget(root: Path) -> dict[str, dict[str, float]]:
-    """Seconds per phase summed over the store's runs, per fidelity and for all ('runs' counts)."""
-    _, rows = ResultsStore(root).query(
-        "SELECT CASE WHEN backend = 'ideal' THEN 'low' ELSE 'high' END, count(*), sum(job_time_s), "
-        "sum(wall_time_s), sum(time_planning_s), sum(coalesce(time_physics_s, 0)), "
-        "sum(coalesce(time_tyres_s, 0)), sum(coalesce(time_control_s, 0)), sum(time_execution_s), "
-        "sum(time_monitoring_s), sum(coalesce(time_scoring_s, 0)), sum(coalesce(time_validation_s, 0)), "
-        "sum(coalesce(time_io_s, 0)) FROM runs WHERE status = 'ok' GROUP BY 1 ORDER BY 1 DESC")
-    budget = {}
-    for fid, n, job, wall, plan, phys, tyres, ctrl, execution, monitor, score, valid, io in rows:
-        b = {"runs": n, "job": job, "planning": plan, "physics": phys, "tyres": tyres, "control": ctrl,
-             "backend other": execution - phys - tyres - ctrl, "monitoring": monitor,
-             "loop other": wall - plan - execution - monitor, "scoring": score, "validation": valid, "io": io}
-        b["per-run overhead"] = job - wall - score - valid - io
-        budget[fid] = b
-    total = defaultdict(float)
-    for b in budget.values():
-        for k, v in b.items():
-            total[k] += v
-    budget["all"] = dict(total)
-    return budget
-
-
-def print_budget(budget: dict[str, dict[str, float]], wall: float | None, workers: int) -> None:
-    phases = (*LOOP, *AFTER, "per-run overhead")
-    fids = list(budget)
-    print(f"{'phase':<18}" + "".join(f"{f + ' [s]':>12}{'share':>7}" for f in fids) + f"{'per run [s]':>13}")
-    for p in (*phases, "job"):
-        cells = "".join(f"{budget[f][p]:>12.1f}{100 * budget[f][p] / budget[f]['job']:>6.1f}%" for f in fids)
-        print(f"{p:<18}{cells}{budget['all'][p] / budget['all']['runs']:>13.3f}")
-    print("runs: " + ", ".join(f"{f} {budget[f]['runs']:.0f}" for f in fids))
-    if wall:
-        idle = workers * wall - budget["all"]["job"]
-        print(f"study wall {wall:.1f} s x {workers} workers = {workers * wall:.1f} worker-s; the runs used "
-              f"{budget['all']['job']:.1f}; set-up, dispatch, store and idle ends: {idle:.1f} "
-              f"({100 * idle / (workers * wall):.1f} %)")
 
 
 def sample_budget(root: Path, n: int) -> dict[str, float]:
@@ -131,9 +92,9 @@ def sample_budget(root: Path, n: int) -> dict[str, float]:
     return dict(spent)
 
 
-def print_sample(spent: dict[str, float], budget: dict[str, dict[str, float]]) -> dict[str, float]:
+def print_sample(spent: dict[str, float], budget: dict[str, TimeBudget]) -> dict[str, float]:
     """The sample's shares, scaled to the store's planning total and per-run overhead."""
-    total_planning = budget["all"]["planning"]
+    total_planning = budget["all"].phases["planning"]
     phases = [k for k in spent if k.startswith("planning: ")]
     other = spent["planning"] - sum(spent[k] for k in phases)
     cycles = spent["cycles"]
@@ -148,11 +109,11 @@ def print_sample(spent: dict[str, float], budget: dict[str, dict[str, float]]) -
     overhead = spent["job"] - spent["loop"] - sum(spent[k] for k in AFTER)
     known = ("scenario loaded", "planner built", "run written")
     print(f"\nper-run overhead ({1e3 * overhead / spent['runs']:.0f} ms per run here; scaled to the study's "
-          f"{budget['all']['per-run overhead']:.1f} s)")
+          f"{budget['all'].phases['per-run overhead']:.1f} s)")
     for k in (*known, "rest"):
         s = spent[k] if k != "rest" else overhead - sum(spent[x] for x in known)
         share = s / overhead if overhead > 0 else 0.0
-        scaled[k] = share * budget["all"]["per-run overhead"]
+        scaled[k] = share * budget["all"].phases["per-run overhead"]
         print(f"{k:<26}{1e3 * s / spent['runs']:>12.0f} ms{100 * share:>7.1f}%{scaled[k]:>11.1f}")
     return scaled
 
@@ -168,9 +129,9 @@ def main() -> None:
     args = parser.parse_args()
     results_file = BenchmarkResults(tee=args.json)
     budget = store_budget(args.study)
-    print(f"where the time of the {budget['all']['runs']:.0f} runs in {args.study} went (seconds of worker time)\n")
-    print_budget(budget, args.wall, args.workers)
-    figures = {"budget": budget}
+    print(f"where the time of the {budget['all'].runs} runs in {args.study} went (seconds of worker time)\n")
+    print("\n".join(budget_lines(budget, args.wall, args.workers)))
+    figures = {"budget": {f: {"runs": b.runs, "job_s": b.job_s, **b.phases} for f, b in budget.items()}}
     if args.sample:
         spent = sample_budget(args.study, args.sample)
         figures |= {"sample": spent, "scaled": print_sample(spent, budget)}
