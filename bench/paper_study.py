@@ -34,6 +34,9 @@ def main() -> None:
     parser.add_argument("--spec", default="paper-curves")
     parser.add_argument("--json", type=Path, metavar="FILE",
                         help="also write what is printed, with commit, date, machine and load, to this results file")
+    parser.add_argument("--against", type=Path, metavar="DIR",
+                        help="another finished study (e.g. before a change): compare every run's fingerprint, "
+                             "outcome and validity verdict with it, and list each that differs")
     args = parser.parse_args()
     results_file = BenchmarkResults(tee=args.json)
     start = time.perf_counter()
@@ -67,11 +70,28 @@ def main() -> None:
     print(f"\nWhere the time went (seconds of worker time; bench/study_budget.py {args.out} --sample N breaks "
           f"planning down further)")
     print("\n".join(budget_lines(store_budget(args.out), result.wall_time_s, args.workers)))
+    if args.against:
+        print_differences(ResultsStore(args.against), ResultsStore(args.out))
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
     print(f"peak resident memory of the largest worker: {usage.ru_maxrss / 1024:.0f} MB; "
           f"of this process: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
     if args.json:
         results_file.write(args.json, {"arguments": vars(args)})
+
+
+def print_differences(before: ResultsStore, after: ResultsStore) -> None:
+    """Run by run (by key), what differs between two studies: fingerprint, outcome, validity."""
+    fields = ("fingerprint", "outcome", "solution_valid", "solution_reason")
+    query = f"SELECT key, {', '.join(fields)} FROM runs WHERE status = 'ok'"
+    old = {r[0]: r[1:] for r in before.query(query)[1]}
+    new = {r[0]: r[1:] for r in after.query(query)[1]}
+    both = sorted(old.keys() & new.keys())
+    print(f"\nAgainst {before.root}: {len(both)} runs in both ({len(old) - len(both)} only there, "
+          f"{len(new) - len(both)} only here)")
+    for i, name in enumerate(fields):
+        differ = [k for k in both if old[k][i] != new[k][i]]
+        print(f"  {name}: {len(both) - len(differ)} equal, {len(differ)} differ"
+              + "".join(f"\n    {k}: {old[k][i]} -> {new[k][i]}" for k in differ[:20]))
 
 
 def print_scores(store: ResultsStore) -> None:
