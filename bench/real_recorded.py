@@ -158,15 +158,15 @@ def rates(results: list[AgentResult], world: str) -> tuple[dict[str, tuple[int, 
     return {k: (v[0], v[1]) for k, v in table.items()}, errors, sum(walls.values()) / max(len(walls), 1)
 
 
-def diff(before: Path, after: Path) -> int:
+def diff(before: Path, after: Path, worlds: list[str]) -> int:
     """Agent by agent, the outcomes of two results files: counts per world and every difference
-    (its reason in each); 1 when any outcome differs."""
+    (its reason in each); how many outcomes differ."""
     def outcomes(path: Path) -> dict[tuple, dict]:
         data = json.loads(path.read_text())
         rows = data["rows"] if isinstance(data, dict) else data
         return {(r["scenario"], r["world"], r["agent"]): r for r in rows}
     old, new = outcomes(before), outcomes(after)
-    worlds = sorted({k[1] for k in old} & {k[1] for k in new})
+    worlds = [w for w in worlds if any(k[1] == w for k in old) and any(k[1] == w for k in new)]
     changed = 0
     for world in worlds:
         keys = sorted(k for k in old.keys() & new.keys() if k[1] == world)
@@ -178,7 +178,7 @@ def diff(before: Path, after: Path) -> int:
         for k in differ:
             print(f"  {k[0]} agent {k[2]}: {old[k]['outcome']} ({old[k]['reason'][:90]}) -> "
                   f"{new[k]['outcome']} ({new[k]['reason'][:90]})")
-    return 1 if changed else 0
+    return changed
 
 
 def main() -> None:
@@ -200,10 +200,15 @@ def main() -> None:
                         help=f"the corpus's manifest, for each file's kind (default {MANIFEST.name})")
     parser.add_argument("--diff", nargs=2, type=Path, metavar=("BEFORE", "AFTER"),
                         help="run nothing: compare two results files (--json) agent by agent and list every "
-                             "outcome that differs")
+                             "outcome that differs (with --json FILE, what it printed goes there)")
     args = parser.parse_args()
     if args.diff:
-        sys.exit(diff(*args.diff))
+        results_file = BenchmarkResults(tee=args.json)
+        changed = diff(*args.diff, args.worlds)
+        if args.json:
+            results_file.write(args.json, {"before": str(args.diff[0]), "after": str(args.diff[1]),
+                                           "outcomes_differ": changed})
+        sys.exit(1 if changed else 0)
     results_file = BenchmarkResults()
     if args.files is None or not Path(args.files).is_dir():
         sys.exit(f"--files: a folder of recorded CommonRoad files is needed (got {args.files}); "
