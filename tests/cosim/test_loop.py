@@ -16,7 +16,7 @@ from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 
-from simgap.cosim import CosimSettings, Run, simulate
+from simgap.cosim import CosimSettings, EventKind, Run, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.relief import ElevationProfile, ReliefProfile, RoadRelief
@@ -103,11 +103,14 @@ def test_planner_failure_triggers_emergency_stop():
     assert any(e.kind == "planner_no_solution" for e in result.events)
 
 
-def test_a_crashing_planner_fails_its_agent_with_the_reason():
+def test_a_crashing_planner_fails_its_agent_with_the_reason(tmp_path):
     settings = CosimSettings(planner_failure_limit=2)
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=3, crash=True)}, settings)
     assert result.agents[0].outcome == "planner_failure"
     assert any("RuntimeError: solver exploded" in e.detail for e in result.events)
+    assert [e.kind for e in result.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [EventKind.PLANNER_FAILURE]
+    result.save(tmp_path / "run")
+    assert Run.load(tmp_path / "run").events == result.events       # typed again when read
 
 
 def test_leaving_the_road_is_off_road():

@@ -51,7 +51,7 @@ from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficPartici
 from simgap.scenario.goal import Goal
 from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea, footprint
-from simgap.sim.protocol import Agent, Backend, PhysicsDiverged, PlanHandover, PlanInForce, Realism
+from simgap.sim.protocol import Agent, Backend, EventKind, PhysicsDiverged, PlanHandover, PlanInForce, Realism
 from simgap.trajectory import Attitude, State, Trajectory
 
 
@@ -400,7 +400,7 @@ class _CoSimulation:
         once, ``give_up``: the planner can plan no more) the agent is given up."""
         p.failures += 1
         p.failures_in_row += 1
-        self.events.append(Event(t, p.agent.id, "planner_no_solution", state.x, state.y,
+        self.events.append(Event(t, p.agent.id, EventKind.PLANNER_NO_SOLUTION, state.x, state.y,
                                  f"{reason}; braking in lane"))
         if p.failures_in_row == 1:
             self._brake(p, state)
@@ -426,9 +426,9 @@ class _CoSimulation:
         contacts = {}
         for ev in self.backend.events():       # a car that reached its goal has left the scenario
             gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
-            if ev.kind == "collision" and not gone:
+            if ev.kind == EventKind.COLLISION and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
-            elif ev.kind == "diverged" and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
+            elif ev.kind == EventKind.DIVERGED and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
                 self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
         present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
         obstacles = self._obstacles_near(present, states, t)

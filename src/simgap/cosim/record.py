@@ -35,7 +35,7 @@ from simgap.errors import InputError
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.cosim.fidelity import Fidelity
-from simgap.sim.protocol import Realism
+from simgap.sim.protocol import EventKind, Realism
 from simgap.trajectory import ATTITUDE_FIELDS, STATE_FIELDS, Attitude, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
@@ -63,11 +63,14 @@ class Event:
 
     t: float
     agent_id: int
-    kind: str
+    kind: EventKind
     x: float | None = None
     y: float | None = None
     detail: str = ""
     other_id: int | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", EventKind(self.kind))
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,7 @@ from simgap.planning.collision import (
     traffic_overlaps,
 )
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
-from simgap.planning.protocol import PlannerSetup, World
+from simgap.planning.protocol import PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
     END_OFFSET,
@@ -147,9 +147,7 @@ class PlanningCycle:
     low_velocity: bool = False
     relaxed: bool = False
     desired_speed: float = 0.0
-    outcome: str = ""          # "planned", "struck_from_behind" (every plan meets traffic, this one only what
-                               # runs into it: FrenetPlanner._struck_from_behind), "no_feasible_sample",
-                               # "all_colliding", "projection_failed"
+    outcome: PlanOutcome | None = None     # None until the cycle ends
     timings: dict[str, float] = field(default_factory=lambda: {p: 0.0 for p in PHASES})
 
 
@@ -276,7 +274,7 @@ class FrenetPlanner:
         start = self._start(origin, t, dt, cycle)
         cycle.timings["projection"] += time.perf_counter() - clock
         if start is None:
-            cycle.outcome = "projection_failed"
+            cycle.outcome = PlanOutcome.PROJECTION_FAILED
             return None
         traffic = predict_traffic(world.traffic, times, self.frame.xy_to_local, self.frame.rotation,
                                   self.settings.collision.traffic_margin_m)
@@ -296,15 +294,15 @@ class FrenetPlanner:
         if chosen is None:
             self._previous = None
             if not cycle.outcome:
-                cycle.outcome = ("no_feasible_sample" if cycle.feasible == cycle.rejected_infeasible
-                                 else "all_colliding")
+                cycle.outcome = (PlanOutcome.NO_FEASIBLE_SAMPLE if cycle.feasible == cycle.rejected_infeasible
+                                 else PlanOutcome.ALL_COLLIDING)
             return None
         p = chosen.parameters[0]
         self._previous = (t + float(p[END_TIME]), float(p[END_SPEED]), float(p[END_OFFSET]))
         clock = time.perf_counter()
         plan = self._to_trajectory(chosen, origin, times, dt)
         cycle.timings["conversion"] += time.perf_counter() - clock
-        cycle.outcome = cycle.outcome or "planned"
+        cycle.outcome = cycle.outcome or PlanOutcome.PLANNED
         self._last_plan = plan
         return plan
 
@@ -328,9 +326,9 @@ class FrenetPlanner:
     def failure_reason(self) -> str:
         """Why the last cycle found no plan, in counts of rejected samples ("" after a plan)."""
         c = self.last_cycle
-        if c.outcome in ("", "planned"):
+        if c.outcome in (None, PlanOutcome.PLANNED):
             return ""
-        if c.outcome == "projection_failed":
+        if c.outcome == PlanOutcome.PROJECTION_FAILED:
             return "the observed state cannot be projected onto the reference path"
         return (f"{c.outcome.replace('_', ' ')}: of {c.samples} samples {c.feasible} feasible; "
                 f"rejected {c.rejected_traffic} for traffic, {c.rejected_road} for the road edge, "
@@ -555,7 +553,7 @@ class FrenetPlanner:
                     break
         if best is None:
             return None
-        cycle.outcome = "struck_from_behind"
+        cycle.outcome = PlanOutcome.STRUCK_FROM_BEHIND
         return _row(best[1], best[2])
 
     def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: _Start) -> np.ndarray:

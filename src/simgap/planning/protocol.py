@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import TYPE_CHECKING, Protocol, Sequence
 
 from commonroad.planning.goal import GoalRegion
@@ -13,6 +14,17 @@ from simgap.trajectory import State, Trajectory
 
 if TYPE_CHECKING:
     from simgap.vehicles.catalogue import Vehicle
+
+
+class PlanOutcome(StrEnum):
+    """How a built-in planner's cycle ended (its diagnostics; a string enum)."""
+
+    PLANNED = "planned"
+    STRUCK_FROM_BEHIND = "struck_from_behind"   # every plan meets traffic, this one only what runs into it
+    NO_FEASIBLE_SAMPLE = "no_feasible_sample"   # nothing within the vehicle's limits
+    ALL_COLLIDING = "all_colliding"             # every plan within the limits meets traffic or leaves the road
+    NO_PLAN = "no_plan"                         # (reactive) no plan found
+    PROJECTION_FAILED = "projection_failed"     # the observed state is not on the reference path
 
 
 @dataclass(frozen=True)

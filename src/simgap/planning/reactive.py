@@ -53,7 +53,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.planning.collision import predict_traffic
-from simgap.planning.protocol import PlannerSetup, World
+from simgap.planning.protocol import PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import plan_reference_path
 from simgap.planning.speed_profile import desired_speed, route_speeds
 from simgap.trajectory import State, Trajectory
@@ -107,7 +107,7 @@ class ReactiveCycle:
     rejected_collision: int = 0
     relaxed: bool = False      # retried from zero acceleration and the reference's curvature
     steering_rate_relaxed: bool = False   # retried without the steering-rate limit
-    outcome: str = ""          # "planned", "no_plan", "projection_failed"
+    outcome: PlanOutcome | None = None     # PLANNED, NO_PLAN or PROJECTION_FAILED; None until the cycle ends
     reason: str = ""
     seconds: float = 0.0
 
@@ -194,7 +194,7 @@ class ReactivePlanner:
         step = int(round(t / self.dt))
         checker = self._collision_checker(world, t, step)
         result = self._attempt(self._planner_state(observed, step), checker, t, cycle)
-        if result is None and cycle.outcome == "no_plan":
+        if result is None and cycle.outcome == PlanOutcome.NO_PLAN:
             # nothing feasible from the observed acceleration and steering angle (physics may hand
             # over values no polynomial continues): once more from the observed pose and speed, with
             # zero acceleration and the reference path's curvature
@@ -204,7 +204,7 @@ class ReactivePlanner:
                                           steer=math.atan(self.vehicle.wheelbase * kappa))
             cycle.relaxed = True
             result = self._attempt(relaxed, checker, t, cycle)
-        if result is None and cycle.outcome == "no_plan" and self.settings.relax_steering_rate:
+        if result is None and cycle.outcome == PlanOutcome.NO_PLAN and self.settings.relax_steering_rate:
             # still nothing: once more without the steering-rate limit (the tightest of the upstream
             # checks; a physical car that drifted needs more than a plan from the ideal state)
             checks = self._config.planning.constraints_to_check
@@ -226,7 +226,7 @@ class ReactivePlanner:
         try:
             up.reset(initial_state_cart=start, initial_state_curv=None, collision_checker=checker)
         except Exception as exc:  # noqa: BLE001 - upstream raises a bare Exception for a reversed heading
-            cycle.outcome, cycle.reason = "projection_failed", f"observed state not on the reference path: {exc}"
+            cycle.outcome, cycle.reason = PlanOutcome.PROJECTION_FAILED, f"observed state not on the reference path: {exc}"
             return None
         s_ref = float(up.x_0_cl[0][0])
         lookahead = max(v, 1.0) * self.settings.lookahead_s
@@ -238,12 +238,12 @@ class ReactivePlanner:
         cycle.rejected_kinematics += up.infeasible_count_kinematics
         cycle.rejected_collision += up.infeasible_count_collision
         if result is None:
-            cycle.outcome = "no_plan"
+            cycle.outcome = PlanOutcome.NO_PLAN
             cycle.reason = (f"no feasible collision-free sample: of {cycle.samples} samples "
                             f"{cycle.rejected_kinematics} beyond the vehicle's limits, "
                             f"{cycle.rejected_collision} colliding")
         else:
-            cycle.outcome, cycle.reason = "planned", ""
+            cycle.outcome, cycle.reason = PlanOutcome.PLANNED, ""
         return result
 
     def _planner_state(self, observed: State, step: int, steer: float | None = None):

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import Enum, StrEnum
 from typing import Mapping, Protocol, Sequence, Union
 
 from commonroad.scenario.scenario import Scenario
@@ -60,13 +60,28 @@ def enters_at(agent: Agent, t: float, dt: float) -> bool:
     return abs(agent.initial_state.t - t) < 0.5 * dt
 
 
+class EventKind(StrEnum):
+    """What a run's event records (a string enum: it compares and serialises as its value): how an
+    agent's run ended (the values of `simgap.cosim.Outcome`), a planning cycle without a plan, or
+    what a backend observed (a contact, a blow-up, damage)."""
+
+    GOAL_REACHED = "goal_reached"
+    COLLISION = "collision"
+    OFF_ROAD = "off_road"
+    PLANNER_FAILURE = "planner_failure"
+    TIMEOUT = "timeout"
+    DIVERGED = "diverged"
+    PLANNER_NO_SOLUTION = "planner_no_solution"
+    DAMAGE = "damage"
+
+
 @dataclass(frozen=True)
 class BackendEvent:
     """Something the backend itself observed (a physical contact, a blow-up)."""
 
     t: float
     agent_id: int
-    kind: str          # "collision" | "diverged" | ...
+    kind: EventKind    # COLLISION, DIVERGED or DAMAGE
     detail: str = ""
     other_id: int | None = None
 
