@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simgap.trajectory import Trajectory, wrap_angle
+from simgap.vehicles.reference_points import along_heading
 
 _MIN_SEGMENT = 1e-6   # m; shorter plan segments are standstill, their direction is the yaw
 _MIN_CURVATURE_DS = 1e-2  # m; below this the curvature comes from the planned steering angle
@@ -175,8 +176,7 @@ def plan_curvature(plan: Trajectory, *, wheelbase: float, rear_axle_to_center: f
     if n == 1:
         return steer_kappa.copy()
     yaw = np.unwrap(np.asarray(plan.yaw, dtype=float))
-    rx = plan.x - rear_axle_to_center * np.cos(yaw)
-    ry = plan.y - rear_axle_to_center * np.sin(yaw)
+    rx, ry = along_heading(plan.x, plan.y, yaw, -rear_axle_to_center)
     ds = np.hypot(np.diff(rx), np.diff(ry))
     dyaw = np.diff(yaw)
     seg_steer = 0.5 * (steer_kappa[:-1] + steer_kappa[1:])

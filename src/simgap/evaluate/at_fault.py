@@ -24,6 +24,7 @@ from shapely.geometry import LineString
 
 from simgap.scenario.road_frame import footprint
 from simgap.trajectory import State
+from simgap.vehicles.reference_points import along_heading
 
 
 class CollisionType(StrEnum):
@@ -44,8 +45,7 @@ class Collision:
 
 def relative_angle(ego: State, rear_axle_to_center: float, x: float, y: float) -> float:
     """The angle [rad, 0..pi] between the ego's heading and the direction from its rear axle to (x, y)."""
-    rx = ego.x - rear_axle_to_center * math.cos(ego.yaw)
-    ry = ego.y - rear_axle_to_center * math.sin(ego.yaw)
+    rx, ry = along_heading(ego.x, ego.y, ego.yaw, -rear_axle_to_center)
     dx, dy = x - rx, y - ry
     norm = math.hypot(dx, dy)
     if norm == 0.0:

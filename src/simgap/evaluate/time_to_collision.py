@@ -21,6 +21,7 @@ import numpy as np
 from simgap.evaluate.road_users import RoadUser
 from simgap.planning.collision import boxes_overlap
 from simgap.trajectory import Trajectory
+from simgap.vehicles.reference_points import along_heading
 
 
 def time_to_collision(ego: Trajectory, length: float, width: float, rear_axle_to_center: float,
@@ -44,7 +45,7 @@ def time_to_collision(ego: Trajectory, length: float, width: float, rear_axle_to
     owid = np.array([o.width for o in others])[None, :]
 
     cos_e, sin_e = np.cos(ego.yaw), np.sin(ego.yaw)
-    rear_x, rear_y = ego.x - rear_axle_to_center * cos_e, ego.y - rear_axle_to_center * sin_e
+    rear_x, rear_y = along_heading(ego.x, ego.y, ego.yaw, -rear_axle_to_center)
     dx, dy = ox - rear_x[:, None], oy - rear_y[:, None]
     dist = np.hypot(dx, dy)
     cos_angle = np.where(dist > 0, (dx * cos_e[:, None] + dy * sin_e[:, None]) / np.where(dist > 0, dist, 1.0), 1.0)

@@ -339,9 +339,7 @@ class FrenetPlanner:
         v = max(float(observed.v), 0.0)
         low_velocity = v < self.settings.sampling.low_velocity_threshold_m_s
         cycle.low_velocity = low_velocity
-        r = self.vehicle.rear_axle_to_center
-        x_rear, y_rear = self.frame.xy_to_local(observed.x - r * math.cos(observed.yaw),
-                                                observed.y - r * math.sin(observed.yaw))
+        x_rear, y_rear = self.frame.xy_to_local(*self.vehicle.rear_axle_of(observed.x, observed.y, observed.yaw))
         yaw_local = self.frame.local_heading(observed.yaw)
         limits = self.vehicle.limits
         a0 = float(np.clip(observed.a, -limits.max_accel, limits.max_accel))
@@ -448,9 +446,8 @@ class FrenetPlanner:
         ``recovery_s`` to get back when it is not, without going further out than it is now (a
         tracking error of centimetres at the edge is no licence to leave the road); anywhere
         when it is off the road already."""
-        r = self.vehicle.rear_axle_to_center
-        centre = (np.array([start.x_rear + r * math.cos(start.yaw_local)]),
-                  np.array([start.y_rear + r * math.sin(start.yaw_local)]), np.array([start.yaw_local]))
+        cx, cy = self.vehicle.centre_of(start.x_rear, start.y_rear, start.yaw_local)
+        centre = (np.array([cx]), np.array([cy]), np.array([start.yaw_local]))
         band = next((b for b in RoadBand if footprints_on_road(self.drivable_area, self._outline, *centre, b)[0]),
                     None)
         if band is RoadBand.SAFE:
@@ -527,11 +524,11 @@ class FrenetPlanner:
         (driving away from it; the cheapest of equals), ``cycle.outcome`` saying so; None when every
         plan runs into someone (the planner fails, and says so)."""
         veh = self.vehicle
-        r, hl, hw = veh.rear_axle_to_center, veh.length / 2, veh.width / 2
+        hl, hw = veh.length / 2, veh.width / 2
         no_traffic = TrafficPrediction(*(np.zeros((0, 1)),) * 3, np.zeros(0), np.zeros(0), np.zeros(0))
         best: tuple[float, CartesianBatch, int] | None = None
         for batch in checked:
-            cx, cy = batch.x + r * np.cos(batch.yaw), batch.y + r * np.sin(batch.yaw)
+            cx, cy = veh.centre_of(batch.x, batch.y, batch.yaw)
             overlaps = traffic_overlaps(cx, cy, batch.yaw, hl, hw, traffic)
             if overlaps is None:      # met only beyond the horizon (braking to a stop): nobody the ego hits
                 at_fault = np.zeros(len(cx), dtype=bool)
@@ -559,17 +556,14 @@ class FrenetPlanner:
     def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: _Start) -> np.ndarray:
         """Per plan ``rows`` of ``batch``: does it reach the goal (every window of a goal state,
         judged at the vehicle's centre) at one of its states?"""
-        r = self.vehicle.rear_axle_to_center
         yaw = batch.yaw[rows]
-        x, y = self.frame.xy_to_world(batch.x[rows] + r * np.cos(yaw), batch.y[rows] + r * np.sin(yaw))
+        x, y = self.frame.xy_to_world(*self.vehicle.centre_of(batch.x[rows], batch.y[rows], yaw))
         t = np.broadcast_to(start.t + start.dt * np.arange(yaw.shape[1]), yaw.shape)
         return self._goal.reached_at(t, x, y, yaw + self.frame.rotation, batch.v[rows]).any(axis=1)
 
     def _at_road_edge(self, start: _Start) -> bool:
         """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""
-        r = self.vehicle.rear_axle_to_center
-        cx0 = start.x_rear + r * math.cos(start.yaw_local)
-        cy0 = start.y_rear + r * math.sin(start.yaw_local)
+        cx0, cy0 = self.vehicle.centre_of(start.x_rear, start.y_rear, start.yaw_local)
         return not footprints_on_road(self.drivable_area, self._edge_outline, np.array([cx0]), np.array([cy0]),
                                       np.array([start.yaw_local]))[0]
 
@@ -618,11 +612,9 @@ class FrenetPlanner:
         """Per plan of ``batch``: hits traffic?, stays on the road?, within ``lateral_bound`` and the
         steering rate?"""
         veh, s = self.vehicle, self.settings
-        r = veh.rear_axle_to_center
         hl, hw = veh.length / 2, veh.width / 2
         n = len(batch.x)
-        cx = batch.x + r * np.cos(batch.yaw)
-        cy = batch.y + r * np.sin(batch.yaw)
+        cx, cy = veh.centre_of(batch.x, batch.y, batch.yaw)
         if traffic.empty:
             hit = np.zeros(n, dtype=bool)
         else:
@@ -640,7 +632,7 @@ class FrenetPlanner:
                     tt = np.minimum(tau[None, :], t_stop)
                     travel = v_end[:, None] * tt - 0.5 * b * tt**2
                     ex, ey, eyaw = self.frame.curvilinear_to_local(batch.s[:, -1:] + travel, batch.d[:, -1:])
-                    ex, ey = ex + r * np.cos(eyaw), ey + r * np.sin(eyaw)
+                    ex, ey = veh.centre_of(ex, ey, eyaw)
                     last = traffic.braking_from_end(steps, dt, s.collision.traffic_deceleration)
                     hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
         # the road only for plans clear of traffic (the road test costs most: many points)
@@ -666,8 +658,7 @@ class FrenetPlanner:
         # continuous heading starting exactly at the observed one
         yaw = observed.yaw + np.concatenate([[0.0], np.cumsum(wrap_angle(np.diff(yaw_local)))])
         yaw = yaw + (wrap_angle(yaw_local[0] + self.frame.rotation - observed.yaw))
-        r = self.vehicle.rear_axle_to_center
-        cx, cy = x + r * np.cos(yaw), y + r * np.sin(yaw)
+        cx, cy = self.vehicle.centre_of(x, y, yaw)
         kappa = plan.kappa[0, :n]
         v = np.maximum(plan.v[0, :n], 0.0)
         steer = np.arctan(self.vehicle.wheelbase * kappa)

@@ -251,10 +251,10 @@ class ReactivePlanner:
         ``steer``, by default the one of the path the vehicle is on (`_kinematic_steer`)."""
         from commonroad_rp.state import ReactivePlannerState
 
-        r, limits = self.vehicle.rear_axle_to_center, self.vehicle.limits
+        limits = self.vehicle.limits
         return ReactivePlannerState(
             time_step=step,
-            position=np.array([observed.x - r * math.cos(observed.yaw), observed.y - r * math.sin(observed.yaw)]),
+            position=np.array(self.vehicle.rear_axle_of(observed.x, observed.y, observed.yaw)),
             orientation=float(observed.yaw), velocity=max(float(observed.v), 0.0),
             acceleration=float(np.clip(observed.a, -limits.max_accel, limits.max_accel)),
             steering_angle=float(np.clip(self._kinematic_steer(observed) if steer is None else steer,
@@ -290,11 +290,10 @@ class ReactivePlanner:
 
     def _trajectory(self, states, observed: State, t: float) -> Trajectory:
         """Upstream rear-axle states -> simgap centre states from ``observed`` on the dt grid."""
-        r = self.vehicle.rear_axle_to_center
         yaw = np.unwrap(np.array([float(st.orientation) for st in states]))
         yaw += 2.0 * math.pi * round((observed.yaw - yaw[0]) / (2.0 * math.pi))   # the observed yaw's branch
-        x = np.array([float(st.position[0]) for st in states]) + r * np.cos(yaw)
-        y = np.array([float(st.position[1]) for st in states]) + r * np.sin(yaw)
+        x, y = self.vehicle.centre_of(np.array([float(st.position[0]) for st in states]),
+                                      np.array([float(st.position[1]) for st in states]), yaw)
         n = len(states)
         columns = dict(
             t=t + self.dt * np.arange(n), x=x, y=y, yaw=yaw,

@@ -18,6 +18,7 @@ from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.vehicles.actuators import Actuators
 from simgap.vehicles.constants import MAX_LENGTH, MAX_SPEED, MAX_WIDTH
+from simgap.vehicles.reference_points import along_heading
 from simgap.vehicles.physics import VehiclePhysics
 
 DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
@@ -77,6 +78,14 @@ class Vehicle(BaseModel):
     @property
     def front_axle_to_center(self) -> float:
         return self.wheelbase - self.rear_axle_to_center
+
+    def centre_of(self, x_rear, y_rear, yaw):
+        """The centre of this vehicle with its rear axle at ``(x_rear, y_rear)`` (floats or arrays)."""
+        return along_heading(x_rear, y_rear, yaw, self.rear_axle_to_center)
+
+    def rear_axle_of(self, x, y, yaw):
+        """The rear axle of this vehicle centred at ``(x, y)`` (floats or arrays)."""
+        return along_heading(x, y, yaw, -self.rear_axle_to_center)
 
 
 def _data_dir() -> Path:
