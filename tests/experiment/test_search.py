@@ -12,11 +12,11 @@ from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
-from simgap.experiment.search_results import summarise
-from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
+from simgap.experiment.search.results import summarise
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.search_space import SearchSpace
-from simgap.experiment.strategies import make_strategy
+from simgap.experiment.search.space import SearchSpace
+from simgap.experiment.search.strategies import make_strategy
 from simgap.scenario.logical import load_logical
 
 from search_specs import LADDER, write

@@ -21,8 +21,8 @@ violations are counted after de-duplication: one closer than ``distinct_radius``
 normalised space, same vehicle and planner) to an earlier one is the same failure.
 
 The parts: `StrategyRun` schedules one strategy's runs (what to run next, what a result sets
-off); `simgap.experiment.search_rows` keeps its ledger (the typed rows, the budget spent, resume);
-`simgap.experiment.ladder` makes a candidate's job in each rung and shares ideal runs.
+off); `simgap.experiment.search.ledger` keeps its ledger (the typed rows: `rows`; the budget spent, resume);
+`simgap.experiment.search.ladder` makes a candidate's job in each rung and shares ideal runs.
 """
 
 from __future__ import annotations
@@ -35,17 +35,17 @@ from typing import Callable
 
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
-from simgap.experiment.ladder import Ladder, SharedIdealRuns
-from simgap.experiment.mode_probes import ModeProbes
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_results import META, StrategyResult, summarise
-from simgap.experiment.search_ledger import SearchLedger
-from simgap.experiment.search_rows import SearchRow
-from simgap.experiment.search_spec import STRATEGIES, Search, SearchSpec, load_search_spec
+from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
+from simgap.experiment.search.ledger import SearchLedger
+from simgap.experiment.search.mode_probes import ModeProbes
+from simgap.experiment.search.results import META, StrategyResult, summarise
+from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.space import Candidate, SearchSpace, Strategy
+from simgap.experiment.search.spec import STRATEGIES, Search, SearchSpec, load_search_spec
+from simgap.experiment.search.strategies import make_strategy
 from simgap.experiment.single_run import software_versions
-from simgap.experiment.search_space import Candidate, SearchSpace, Strategy
-from simgap.experiment.strategies import make_strategy
 from simgap.files import atomic_write_text
 from simgap.sim.registry import preflight
 
@@ -238,7 +238,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
     checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
     each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
-    (`simgap.experiment.mode_probes`), and record what each found in ``search.json``."""
+    (`simgap.experiment.search.mode_probes`), and record what each found in ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
     if not validate and spec.failure.solution_invalid:

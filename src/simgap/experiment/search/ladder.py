@@ -12,11 +12,11 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
-from simgap.experiment.knobs import with_knobs
 from simgap.experiment.job import Job, JobId
-from simgap.experiment.search_rows import SearchRow
-from simgap.experiment.search_spec import Search
-from simgap.experiment.search_space import Candidate
+from simgap.experiment.knobs import with_knobs
+from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.space import Candidate
+from simgap.experiment.search.spec import Search
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario import write_scenario
 from simgap.sim.settings import realism_of
