@@ -176,7 +176,7 @@ def test_candidates_that_differ_only_in_knobs_share_one_ideal_run(tmp_path):
     assert result.runs == 17 and result.cpu_s == 17 * 2.0        # the copies are neither runs nor cost
     # a resumed search knows the verdict and copies it again rather than running the ideal world
     again = knob_grid_run(tmp_path / "s")
-    assert again.runs() == 17 and again.ideal_verdicts
+    assert again.runs() == 17 and again.ideal.verdicts
 
 
 def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):

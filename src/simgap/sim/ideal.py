@@ -16,7 +16,7 @@ from simgap.errors import InputError
 from simgap.scenario.relief import Surface
 from simgap.sim.protocol import (REFERENCE, Agent, BackendEntry, BackendEvent, PlanInForce, Realism, enters_at,
                                  plan_at)
-from simgap.trajectory import Attitude, State
+from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, State
 
 
 class NoSettings(BaseModel):
@@ -40,7 +40,7 @@ class IdealBackend:
         """``settings``: `NoSettings` (the ideal world takes none)."""
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
-        self._dt = 0.1
+        self._dt = DEFAULT_TIME_STEP_S          # the scenario's, once loaded
         self._step = 0
         self.timings: dict[str, float] = {}
         self.notes: list[str] = []
