@@ -108,9 +108,7 @@ def allowed_planners() -> str:
 def load_planner(ref: str, *, file: str | Path | None = None, field: str = "planner") -> PlannerClass:
     """The planner class ``ref`` names (a name or a reference); an `InputError` if none qualifies."""
     ref = ref.strip()
-    if ref in BUILTIN_PLANNERS:
-        return _checked(ref, "built-in", _import_class(BUILTIN_PLANNERS[ref], ref, file, field), file, field)
-    if ":" not in ref:
+    if ":" not in ref:                  # a name: built-in or installed
         if ref not in PLANNERS:
             raise InputError(f"unknown planner '{ref}'", file=file, field=field, allowed=allowed_planners())
         return _checked(ref, PLANNERS.origin(ref), PLANNERS.load(ref, file=file, field=field), file, field)
