@@ -27,8 +27,8 @@ from pathlib import Path
 import yaml
 
 from simgap.experiment.search import parse_budget, run_search
-from simgap.experiment.search_results import StrategyResult
-from simgap.experiment.search_spec import load_search_spec
+from simgap.experiment.search.results import StrategyResult
+from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.store import ResultsStore
 from simgap.files import BenchmarkResults
 

@@ -191,7 +191,7 @@ def cli_reference() -> str:
 
 # --- the rest -----------------------------------------------------------------------------------
 
-BACKEND_MODELS = {"ideal": "simgap.sim.registry:NoSettings", "dynamic": "simgap.sim.dynamic.settings:DynamicSettings",
+BACKEND_MODELS = {"ideal": "simgap.sim.ideal:NoSettings", "dynamic": "simgap.sim.dynamic.settings:DynamicSettings",
                   "mujoco": "simgap.sim.mujoco.settings:MujocoSettings",
                   "beamng": "simgap.sim.beamng.settings:BeamngSettings"}
 

@@ -14,6 +14,8 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+#: a scenario's time step (dt) where it names none [s], and so the time grid of its trajectories
+DEFAULT_TIME_STEP_S = 0.1
 STATE_FIELDS = ("t", "x", "y", "yaw", "v", "a", "yaw_rate", "steer")
 ATTITUDE_FIELDS = ("z", "pitch", "roll")
 

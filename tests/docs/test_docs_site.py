@@ -56,7 +56,7 @@ def _rows(page: str) -> dict[str, str]:
 MODELS = {"reference/loop-settings.html": ["simgap.cosim.loop:CosimSettings", "simgap.cosim.score_settings:ScoreSettings"],
           "reference/planner-settings.html": ["simgap.planning.settings:FrenetSettings"],
           "reference/vehicles.html": ["simgap.vehicles.catalogue:Vehicle"],
-          "reference/search-specs.html": ["simgap.experiment.search_spec:SearchSpec"]}
+          "reference/search-specs.html": ["simgap.experiment.search.spec:SearchSpec"]}
 
 
 def test_every_documented_default_is_the_codes(site):

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simgap.experiment.search_spec import load_search_spec
+from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario import read_metadata

@@ -16,7 +16,7 @@ import yaml
 from simgap.cosim import CosimSettings, Run
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.search import Budget, run_search
-from simgap.experiment.search_results import search_results
+from simgap.experiment.search.results import search_results
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.experiment.store import ResultsStore
 from simgap.report.search_page import build_search_report

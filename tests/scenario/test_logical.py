@@ -180,3 +180,18 @@ parameters:
     with pytest.raises(InputError) as err:
         load_logical(spec).build({})
     assert err.value.field == "fixed.file"
+
+
+@pytest.mark.parametrize("template, arm, agents", [("intersection", 80.0, 3), ("t-junction", 60.0, 3)])
+def test_a_junction_template_takes_its_defaults_from_its_builtin_yaml(tmp_path, template, arm, agents):
+    """A logical scenario of one's own on a junction template that leaves parameters out gets the
+    built-in's defaults (the YAML's, written once), not others of the code's."""
+    spec = tmp_path / "mine.yaml"
+    spec.write_text(f"name: mine\ntemplate: {template}\nparameters:\n"
+                    "  initial_speed: {unit: m/s, min: 0, max: 20, default: 5}\n")
+    concrete = load_logical(spec).build({})
+    builtin = build_scenario(template, {"initial_speed": 5})
+    assert concrete.blueprint.approach_length == builtin.blueprint.approach_length == arm
+    assert concrete.blueprint.lane_width == builtin.blueprint.lane_width == 3.5
+    assert len(concrete.problems.planning_problem_dict) == agents
+    assert concrete.problems.planning_problem_dict[1].initial_state.velocity == 5.0

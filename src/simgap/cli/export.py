@@ -86,7 +86,7 @@ def export_cmd(
 def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
     """One folder per distinct violation: its high-fidelity run as .xosc + .xodr, the CommonRoad
     scenario and violation.json (what made it one); each folder built aside, then moved in."""
-    from simgap.experiment.search_results import search_results
+    from simgap.experiment.search.results import search_results
     from simgap.export.write import export_run
     from simgap.files import replace_directory
 

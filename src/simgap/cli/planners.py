@@ -9,8 +9,8 @@ from rich.table import Table
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
-from simgap.planning.registry import (BUILTIN_PLANNERS, ENTRY_POINT_GROUP, REQUIRED, PlannerClass, installed_planners,
-                                      load_planner, planner_names, settings_fields)
+from simgap.planning.registry import (ENTRY_POINT_GROUP, PLANNERS, REQUIRED, PlannerClass, load_planner,
+                                      planner_names, settings_fields)
 
 planners_app = typer.Typer(help="The planners: built-in, installed (entry points) and your own classes.",
                            invoke_without_command=True)
@@ -25,13 +25,12 @@ def listing(ctx: typer.Context) -> None:
     """
     if ctx.invoked_subcommand is not None:
         return
-    installed = installed_planners()
     table = Table(title="planners", title_justify="left")
     for col in ("name", "origin", "class", "settings"):
         table.add_column(col, justify="right" if col == "settings" else "left")
     descriptions = []
     for name in planner_names():
-        target = BUILTIN_PLANNERS.get(name) or installed[name].value
+        target = PLANNERS.target(name)
         try:
             planner = load_planner(name)
         except Exception as exc:        # a broken installed package: listed, with why it cannot be used

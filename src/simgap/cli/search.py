@@ -42,7 +42,7 @@ def search_cmd(
     simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
     """
     from simgap.experiment.search import parse_budget, run_search
-    from simgap.experiment.search_results import search_results
+    from simgap.experiment.search.results import search_results
     from simgap.report.search_page import build_search_report
 
     limit = parse_budget(budget)
@@ -94,6 +94,6 @@ def status_cmd(out: Path = typer.Argument(..., help="search directory")) -> None
 
     Example: simgap search-status studies/gaps
     """
-    from simgap.experiment.search_results import search_results
+    from simgap.experiment.search.results import search_results
 
     _print(output_console(), search_results(out).strategies)

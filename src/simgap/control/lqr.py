@@ -91,6 +91,7 @@ def lqr_gain(v: float, period: float, wheelbase: float, steer_ff: float, q_lat: 
 
 class LqrController(TrackingController):
     name = "lqr"
+    Gains = LqrGains
 
     def __init__(self, vehicle, gains: LqrGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or LqrGains(), rate_hz)

@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from simgap.control.planned_path import PlannedPath
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import DEFAULT_TIME_STEP_S, State, Trajectory
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,7 @@ class Manoeuvre:
     wheelbase: float
     rear_axle_to_center: float
 
-    def plan(self, t0: float, horizon: float = 3.0, dt: float = 0.1) -> Trajectory:
+    def plan(self, t0: float, horizon: float = 3.0, dt: float = DEFAULT_TIME_STEP_S) -> Trajectory:
         """The reference from ``t0`` over ``horizon`` seconds on a ``dt`` grid."""
         n = int(round(horizon / dt)) + 1
         return Trajectory.from_states([self.state_at(t0 + k * dt) for k in range(n)], dt)

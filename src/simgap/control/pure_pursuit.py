@@ -53,6 +53,7 @@ def _pursuit_curvature(px: float, py: float, yaw: float, tx: float, ty: float) -
 
 class PurePursuitController(TrackingController):
     name = "pure_pursuit"
+    Gains = PurePursuitGains
 
     def __init__(self, vehicle, gains: PurePursuitGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or PurePursuitGains(), rate_hz)

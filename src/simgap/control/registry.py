@@ -1,5 +1,11 @@
 """Controllers by name, and their gains: defaults, overridden by the vehicle's data file.
 
+A controller is a class with a pydantic ``Gains`` model, built as ``cls(vehicle, gains, rate_hz)``
+(`simgap.control.tracking.TrackingController` is the base of the built-in ones). Built-ins are
+one line each in `BUILTIN_CONTROLLERS`; an installed package adds one in the entry-point group
+``simgap.controllers`` (``[project.entry-points."simgap.controllers"]``,
+``my_tracker = "my_package.tracker:MyTracker"``).
+
 A vehicle file may carry, for example::
 
     controllers:
@@ -12,32 +18,46 @@ Keys are validated against the controller's gains model; a wrong key or value is
 
 from __future__ import annotations
 
+import inspect
 from typing import Any, Mapping
 
 from pydantic import BaseModel, ValidationError
 
 from simgap.control.longitudinal import vehicle_source
-from simgap.control.lqr import LqrController, LqrGains
 from simgap.control.protocol import Controller
-from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
-from simgap.control.stanley import StanleyController, StanleyGains
-from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ, TrackingController
+from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
 from simgap.errors import InputError, validation_error
+from simgap.registry import Registry
 
-CONTROLLERS: dict[str, tuple[type[TrackingController], type[BaseModel]]] = {
-    cls.name: (cls, gains) for cls, gains in ((PurePursuitController, PurePursuitGains),
-                                              (StanleyController, StanleyGains), (LqrController, LqrGains))}
-DEFAULT_CONTROLLER = PurePursuitController.name     # every physics backend's, unless told otherwise
+BUILTIN_CONTROLLERS: dict[str, str] = {
+    "pure_pursuit": "simgap.control.pure_pursuit:PurePursuitController",
+    "stanley": "simgap.control.stanley:StanleyController",
+    "lqr": "simgap.control.lqr:LqrController",
+}
+DEFAULT_CONTROLLER = "pure_pursuit"     # every physics backend's, unless told otherwise
+
+
+def _controller_class(obj: Any, name: str) -> type:
+    """``obj`` if it is a controller class: ``command`` and ``reset``, and a pydantic ``Gains``."""
+    gains = getattr(obj, "Gains", None)
+    if not (inspect.isclass(obj) and callable(getattr(obj, "command", None))
+            and callable(getattr(obj, "reset", None)) and isinstance(gains, type) and issubclass(gains, BaseModel)):
+        raise InputError(f"controller '{name}' is not a controller class", field="controller",
+                         allowed="a class with command(measured, plan, t), reset(state) and a pydantic Gains "
+                                 "model, built as cls(vehicle, gains, rate_hz)")
+    return obj
+
+
+#: the controllers by name: the built-ins, then those installed in the entry-point group
+CONTROLLERS: Registry[type] = Registry("controller", "simgap.controllers", BUILTIN_CONTROLLERS, _controller_class)
 
 
 def controller_names() -> list[str]:
-    return list(CONTROLLERS)
+    return CONTROLLERS.names()
 
 
 def _check_name(name: str) -> None:
-    if name not in CONTROLLERS:
-        raise InputError(f"unknown controller '{name}'", field="controller",
-                         allowed=", ".join(CONTROLLERS))
+    CONTROLLERS.target_of(name)
 
 
 def _merge(base: dict[str, Any], override: Mapping[str, Any]) -> dict[str, Any]:
@@ -55,7 +75,7 @@ def controller_gains(name: str, vehicle=None, overrides: Mapping[str, Any] | Non
     """The gains of controller ``name``: defaults, then the vehicle's ``controllers[name]``,
     then ``overrides`` (for example from an experiment's configuration)."""
     _check_name(name)
-    model = CONTROLLERS[name][1]
+    model = CONTROLLERS.load(name).Gains
     values: dict[str, Any] = {}
     source = vehicle_source(vehicle) if vehicle is not None else None
     layers: list[tuple[Mapping[str, Any], str | None]] = []
@@ -89,5 +109,5 @@ def make_controller(name: str, vehicle, rate_hz: float = CONTROLLER_HZ,
         raise InputError(f"controller rate must be >= {MIN_RATE_HZ:g} Hz, got {rate_hz!r}",
                          field="rate_hz")
     gains = controller_gains(name, vehicle, overrides)
-    cls = CONTROLLERS[name][0]
+    cls = CONTROLLERS.load(name)
     return cls(vehicle, gains, rate)

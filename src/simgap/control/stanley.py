@@ -38,6 +38,7 @@ class StanleyGains(TrackingGains):
 
 class StanleyController(TrackingController):
     name = "stanley"
+    Gains = StanleyGains
 
     def __init__(self, vehicle, gains: StanleyGains | None = None, rate_hz: float = CONTROLLER_HZ):
         super().__init__(vehicle, gains or StanleyGains(), rate_hz)

@@ -36,7 +36,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgap.control import DEFAULT_CONTROLLER, controller_names
+from simgap.control import DEFAULT_CONTROLLER
+from simgap.control.registry import CONTROLLERS
 from simgap.sim.settings import realism_of
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
@@ -311,8 +312,7 @@ def check_parameter(logical: LogicalScenario, name: str, low: float, high: float
 
 def check_backend(name: str, path: Path, where: str) -> None:
     """``name`` (the field ``where``.backend) is a backend."""
-    if name not in BACKENDS:
-        raise InputError(f"unknown backend '{name}'", file=path, field=f"{where}.backend", allowed=", ".join(BACKENDS))
+    BACKENDS.target_of(name, file=path, field=f"{where}.backend")
 
 
 def settings_of(backend: str, values: dict[str, Any], path: Path, where: str) -> BaseModel | None:
@@ -323,8 +323,7 @@ def settings_of(backend: str, values: dict[str, Any], path: Path, where: str) ->
 
 
 def check_controller(name: str, path: Path, where: str) -> None:
-    if name not in controller_names():
-        raise InputError(f"unknown controller '{name}'", file=path, field=where, allowed=", ".join(controller_names()))
+    CONTROLLERS.target_of(name, file=path, field=where)
 
 
 def vehicle_ref(name_or_file: str, spec_file: Path) -> str:

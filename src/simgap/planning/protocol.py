@@ -10,7 +10,7 @@ from commonroad.planning.goal import GoalRegion
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.trajectory import State, Trajectory
+from simgap.trajectory import DEFAULT_TIME_STEP_S, State, Trajectory
 
 if TYPE_CHECKING:
     from simgap.vehicles.catalogue import Vehicle
@@ -88,6 +88,6 @@ class PlannerSetup:
 
     @classmethod
     def for_problem(cls, planning_problem: PlanningProblem, vehicle: Vehicle, lanelet_network: LaneletNetwork,
-                    dt: float = 0.1) -> "PlannerSetup":
+                    dt: float = DEFAULT_TIME_STEP_S) -> "PlannerSetup":
         """The setup of the agent that drives ``planning_problem`` (the agent's id is the problem's)."""
         return cls(planning_problem.planning_problem_id, vehicle, lanelet_network, planning_problem, dt)

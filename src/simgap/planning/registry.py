@@ -31,7 +31,7 @@ import re
 import sys
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib.metadata import EntryPoint, entry_points
+from importlib.metadata import EntryPoint
 from pathlib import Path
 from typing import Any, Mapping, Union
 
@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from simgap.errors import InputError, validated
 from simgap.planning.protocol import Planner, PlannerSetup
 from simgap.planning.remote import IsolatedPlannerClass, PlannerTarget, ProcessLimits, RemotePlannerClass
+from simgap.registry import Registry
 
 BUILTIN_PLANNERS: dict[str, str] = {
     "frenet": "simgap.planning.frenet:FrenetPlanner",
@@ -47,6 +48,8 @@ BUILTIN_PLANNERS: dict[str, str] = {
     "idm": "simgap.planning.idm_planner:IdmPlanner",
 }
 ENTRY_POINT_GROUP = "simgap.planners"
+#: the planners by name: the built-ins, then the installed ones (each checked by `load_planner`)
+PLANNERS: Registry[Any] = Registry("planner", ENTRY_POINT_GROUP, BUILTIN_PLANNERS)
 DEFAULT_PLANNER = "frenet"
 LABEL = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"      # what names a planner in job keys, store rows and reports
 
@@ -89,36 +92,26 @@ class PlannerClass:
 
 def installed_planners() -> dict[str, EntryPoint]:
     """The planners installed packages declare in the entry-point group ``simgap.planners``."""
-    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    return PLANNERS.installed()
 
 
 def planner_names() -> list[str]:
     """Built-in names, then installed planners' names."""
-    return list(BUILTIN_PLANNERS) + sorted(set(installed_planners()) - set(BUILTIN_PLANNERS))
+    return PLANNERS.names()
 
 
 def allowed_planners() -> str:
-    return ", ".join(planner_names()) + ", a module:Class or a path/to/file.py:Class"
+    return ", ".join(planner_names()) + ", a module:Class or a path/to/file.py:Class (a name installed in the " \
+        f"entry-point group '{ENTRY_POINT_GROUP}' is one more name)"
 
 
 def load_planner(ref: str, *, file: str | Path | None = None, field: str = "planner") -> PlannerClass:
     """The planner class ``ref`` names (a name or a reference); an `InputError` if none qualifies."""
     ref = ref.strip()
-    if ref in BUILTIN_PLANNERS:
-        return _checked(ref, "built-in", _import_class(BUILTIN_PLANNERS[ref], ref, file, field), file, field)
-    if ":" not in ref:
-        installed = installed_planners()
-        if ref not in installed:
+    if ":" not in ref:                  # a name: built-in or installed
+        if ref not in PLANNERS:
             raise InputError(f"unknown planner '{ref}'", file=file, field=field, allowed=allowed_planners())
-        ep = installed[ref]
-        dist = ep.dist.name if ep.dist is not None else "?"
-        try:
-            cls = ep.load()
-        except (Exception, SystemExit) as exc:      # a broken package (or one that exits): its error, named
-            raise InputError(f"installed planner '{ref}' ({ep.value}, from {dist}) cannot be loaded: "
-                             f"{type(exc).__name__}: {exc}", file=file, field=field,
-                             allowed=allowed_planners()) from None
-        return _checked(ref, f"installed ({dist})", cls, file, field)
+        return _checked(ref, PLANNERS.origin(ref), PLANNERS.load(ref, file=file, field=field), file, field)
     where, _, _ = ref.rpartition(":")
     origin = "file" if where.endswith(".py") or "/" in where or "\\" in where else "module"
     return _checked(ref, origin, _import_class(ref, ref, file, field), file, field)

@@ -23,6 +23,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.reference_path import ReferencePath, dead_end
 from simgap.scenario.goal import Goal, Window, area_of
+from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 if TYPE_CHECKING:
     from simgap.vehicles.catalogue import Vehicle
@@ -56,7 +57,7 @@ def target_in(window: Window, default: float) -> float:
 
 
 def cruise_speed(goal: GoalRegion | None, default: float, max_speed: float, initial_speed: float = 0.0,
-                 dt: float = 0.1) -> float:
+                 dt: float = DEFAULT_TIME_STEP_S) -> float:
     """The cruise speed: the default, or the initial speed when faster (a highway start keeps its
     speed), raised into the goal's velocity window when that lies above; capped at ``max_speed``."""
     speed = max(default, initial_speed)

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from simgap.experiment.search_results import HighRun, SearchResults  # noqa: E402
+from simgap.experiment.search.results import HighRun, SearchResults  # noqa: E402
 from simgap.planning.registry import DEFAULT_PLANNER  # noqa: E402
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402

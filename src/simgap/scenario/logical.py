@@ -41,6 +41,7 @@ from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TI
 from simgap.scenario.opendrive.scenario import opendrive_template
 from simgap.scenario.templates import TEMPLATES as ROAD_TEMPLATES
 from simgap.scenario.templates import ConcreteScenario
+from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 TEMPLATES = ROAD_TEMPLATES | {"opendrive": opendrive_template}
 
@@ -104,7 +105,7 @@ class LogicalScenario(BaseModel):
     @field_validator("fixed")
     @classmethod
     def _fixed_time_step(cls, fixed: dict[str, Any]) -> dict[str, Any]:
-        dt = fixed.get("dt", 0.1)
+        dt = fixed.get("dt", DEFAULT_TIME_STEP_S)
         if not (isinstance(dt, (int, float)) and not isinstance(dt, bool) and math.isfinite(dt)
                 and MIN_TIME_STEP_S <= dt <= MAX_TIME_STEP_S):
             raise ValueError(f"dt is {dt!r} (allowed: {TIME_STEP_ALLOWED})")

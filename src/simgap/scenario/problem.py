@@ -13,6 +13,7 @@ from commonroad.scenario.lanelet import Lanelet
 from commonroad.scenario.state import CustomState, InitialState
 
 from simgap.errors import InputError
+from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 
 def pose_on_lanelet(lanelet: Lanelet, s: float) -> tuple[np.ndarray, float]:
@@ -37,7 +38,7 @@ def planning_problem(
     goal_length: float = 10.0,
     goal_width: float | None = None,
     time_limit_s: float = 30.0,
-    dt: float = 0.1,
+    dt: float = DEFAULT_TIME_STEP_S,
     goal_speed: tuple[float, float] | None = None,
     goal_on_lanelet: bool = False,
 ) -> PlanningProblem:

@@ -20,8 +20,10 @@ import hashlib
 import math
 import re
 from dataclasses import dataclass, field
+from importlib import resources
 from typing import Any, Callable
 
+import yaml
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.scenario import Scenario, ScenarioID
@@ -37,6 +39,7 @@ from simgap.scenario.problem import planning_problem
 from simgap.scenario.relief import (MAX_BANK_DEG, MAX_GRADE_PERCENT, BankKnot, ElevationProfile, ReliefProfile,
                                     VerticalCurve)
 from simgap.scenario.road import LaneLayout, build_road
+from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 LANELET_ID_START = 100  # planning problems (agents) take ids 1, 2, 3, ...
 VERTICAL_RADIUS_M = 500.0       # a vertical curve's radius unless told
@@ -166,7 +169,7 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
         raise InputError("the road crosses itself", field="segments",
                          allowed="segment lists whose road does not overlap itself")
     road = build_road(centre, layout, LANELET_ID_START)
-    dt = float(params.get("dt", 0.1))
+    dt = float(params.get("dt", DEFAULT_TIME_STEP_S))
     network = LaneletNetwork.create_from_lanelet_list(road.lanelets)
     scenario = scenario_of(name, dt, network)
     lane = road.forward[layout.lanes_per_direction - 1]       # the rightmost lane
@@ -242,24 +245,35 @@ INTERSECTION_ARMS = [180.0, 270.0, 0.0, 90.0]    # west, south, east, north
 INTERSECTION_ROUTES = [(0, 2), (1, 3), (2, 1), (3, 2)]  # W→E, S→N, left E→S, left N→E
 
 
-def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[float],
+def builtin_defaults(template: str) -> dict[str, Any]:
+    """The defaults of ``template``, written once, in the built-in logical scenario of the same name
+    (``scenario/builtin/<template>.yaml``): its fixed settings and each parameter's default."""
+    text = (resources.files("simgap.scenario") / "builtin" / f"{template}.yaml").read_text()
+    data = yaml.safe_load(text)
+    return {n: par["default"] for n, par in data["parameters"].items()} | dict(data.get("fixed") or {})
+
+
+def _junction_scenario(name: str, logical: str, p: dict[str, Any], template: str, arms: list[float],
                        routes: list[tuple[int, int]], max_agents: int) -> ConcreteScenario:
-    agents = int(p.get("agents", 2))
+    """The junction of ``arms`` with an agent on each of the first ``agents`` ``routes``; what ``p``
+    leaves out is ``template``'s `builtin_defaults`."""
+    p = p | {k: v for k, v in builtin_defaults(template).items() if k not in p}
+    agents = int(p["agents"])
     if not 2 <= agents <= max_agents:
         raise InputError(f"{agents} agents", field="agents", allowed=f"2 to {max_agents}")
-    approach = float(p.get("approach_length", 50.0))
+    approach = float(p["approach_length"])
     blueprint = JunctionBlueprint(arm_angles=arms, approach_length=approach, lane_width=_lane_width(p),
                                   centre_marking=str(p.get("centre_marking", "solid")), first_id=LANELET_ID_START)
     junction = blueprint.rebuild()
-    dt = float(p.get("dt", 0.1))
+    dt = float(p.get("dt", DEFAULT_TIME_STEP_S))
     scenario = scenario_of(name, dt, LaneletNetwork.create_from_lanelet_list(junction.lanelets))
     network = scenario.lanelet_network
-    stagger = float(p.get("stagger", 8.0))
+    stagger = float(p["stagger"])
     problems = []
     for k, (src, dst) in enumerate(routes[:agents]):
         start = network.find_lanelet_by_id(junction.arms[src].incoming)
         goal = network.find_lanelet_by_id(junction.arms[dst].outgoing)
-        to_junction = float(p.get("start_distance", 30.0)) + k * stagger
+        to_junction = float(p["start_distance"]) + k * stagger
         if to_junction > approach:
             raise InputError(f"agent {k + 1} would start {to_junction:g} m before the junction, "
                              f"beyond the {approach:g} m approach", field="start_distance",
@@ -267,18 +281,18 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], arms: list[fl
         problems.append(planning_problem(
             k + 1, (start, approach - to_junction),
             (goal, float(goal.distance[-1]) - 10.0),
-            initial_speed=float(p.get("initial_speed", 0.0)), dt=dt,
-            time_limit_s=float(p.get("time_limit", 40.0))))
+            initial_speed=float(p["initial_speed"]), dt=dt,
+            time_limit_s=float(p["time_limit"])))
     return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), dict(junction.section_by_id),
                             blueprint=blueprint)
 
 
 def t_junction(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
-    return _junction_scenario(name, logical, p, T_JUNCTION_ARMS, T_JUNCTION_ROUTES, 3)
+    return _junction_scenario(name, logical, p, "t-junction", T_JUNCTION_ARMS, T_JUNCTION_ROUTES, 3)
 
 
 def intersection(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
-    return _junction_scenario(name, logical, p, INTERSECTION_ARMS, INTERSECTION_ROUTES, 4)
+    return _junction_scenario(name, logical, p, "intersection", INTERSECTION_ARMS, INTERSECTION_ROUTES, 4)
 
 
 TEMPLATES: dict[str, Callable[[str, str, dict[str, Any]], ConcreteScenario]] = {

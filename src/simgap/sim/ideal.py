@@ -7,13 +7,29 @@ fidelity ladder.
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 from commonroad.scenario.scenario import Scenario
+from pydantic import BaseModel, ConfigDict
 
+from simgap.errors import InputError
 from simgap.scenario.relief import Surface
-from simgap.sim.protocol import REFERENCE, Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
-from simgap.trajectory import Attitude, State
+from simgap.sim.protocol import (REFERENCE, Agent, BackendEntry, BackendEvent, PlanInForce, Realism, enters_at,
+                                 plan_at)
+from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, State
+
+
+class NoSettings(BaseModel):
+    """The settings of a backend that takes none (the ideal world executes every plan exactly)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def no_settings(settings: Mapping[str, Any]) -> NoSettings:
+    if settings:
+        raise InputError("the ideal backend has no settings: it executes every plan exactly",
+                         field=f"backend_settings.{next(iter(settings))}", allowed="none")
+    return NoSettings()
 
 
 class IdealBackend:
@@ -21,10 +37,10 @@ class IdealBackend:
     realism = Realism.IDEAL
 
     def __init__(self, settings: object = None) -> None:
-        """``settings``: the registry's `NoSettings` (the ideal world takes none)."""
+        """``settings``: `NoSettings` (the ideal world takes none)."""
         self._agents: list[Agent] = []
         self._states: dict[int, State] = {}
-        self._dt = 0.1
+        self._dt = DEFAULT_TIME_STEP_S          # the scenario's, once loaded
         self._step = 0
         self.timings: dict[str, float] = {}
         self.notes: list[str] = []
@@ -60,3 +76,7 @@ class IdealBackend:
 
     def close(self) -> None:
         pass
+
+
+#: the ideal backend, as the registry knows it
+BACKEND = BackendEntry(IdealBackend, no_settings, "simgap.sim.ideal")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum, StrEnum
-from typing import Mapping, Protocol, Sequence, Union
+from typing import Any, Callable, Mapping, Protocol, Sequence, Union
 
 from commonroad.scenario.scenario import Scenario
 
@@ -84,6 +84,21 @@ class BackendEvent:
     kind: EventKind    # COLLISION, DIVERGED or DAMAGE
     detail: str = ""
     other_id: int | None = None
+
+
+@dataclass(frozen=True)
+class BackendEntry:
+    """What a backend declares to the registry (`simgap.sim.registry`): an object that its
+    ``module:attr`` names, for a built-in in `BUILTIN_BACKENDS`, for an installed one in the
+    entry-point group ``simgap.backends``. Each callable may be given as ``module:attr``, imported
+    on first use (naming a backend loads neither its physics engine nor an optional one that is
+    not installed)."""
+
+    make: str | Callable[[Any], Backend]                       # the backend, from its settings model
+    settings: str | Callable[[dict[str, Any]], Any]            # a mapping validated into that model
+    module: str                                                 # must be importable
+    extra: str | None = None                                    # pip extra that installs it (optional backends)
+    check: str | Callable[[Any], None] | None = None            # raises when it cannot run with these settings
 
 
 class PhysicsDiverged(RuntimeError):

@@ -8,7 +8,8 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from simgap.control import DEFAULT_CONTROLLER, controller_names
+from simgap.control import DEFAULT_CONTROLLER
+from simgap.control.registry import CONTROLLERS
 from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
 from simgap.sim.protocol import Realism
 from simgap.vehicles import Vehicle
@@ -67,8 +68,8 @@ class TrackingSettings(BaseModel):
     @field_validator("controller")
     @classmethod
     def _known_controller(cls, name: str) -> str:
-        if name not in controller_names():
-            raise ValueError(f"unknown controller '{name}'; known: {', '.join(controller_names())}")
+        if name not in CONTROLLERS:
+            raise ValueError(f"unknown controller '{name}'; known: {CONTROLLERS.allowed()}")
         return name
 
 

@@ -34,7 +34,7 @@ from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enter
 from simgap.sim.rates import is_multiple, nearest_multiple
 from simgap.scenario.relief import Surface
 from simgap.sim.settings import TrackingSettings
-from simgap.trajectory import Attitude, State
+from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
 
 class Physics(Protocol):
@@ -89,7 +89,7 @@ class TrackedBackend:
         self.timings.setdefault("control", 0.0)
         self.notes = physics.notes
         self._agents: list[Agent] = []
-        self._dt = 0.1
+        self._dt = DEFAULT_TIME_STEP_S          # the scenario's, once loaded
         self._step = 0
         self._present: list[Agent] = []
         self._actuators: dict[int, Actuators] = {}

@@ -26,6 +26,7 @@ from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.road_frame import PathFrame
 from simgap.scenario.templates import ConcreteScenario, scenario_of
+from simgap.trajectory import DEFAULT_TIME_STEP_S
 from simgap.vehicles.constants import MAX_SPEED
 
 PLACE_FORMS = "ROAD:LANE:S (road id, lane id, station along the road [m]) or X,Y (a point on a driving lane)"
@@ -40,7 +41,7 @@ class ProblemSettings(BaseModel):
     initial_speed: float = Field(0.0, ge=0.0, le=MAX_SPEED, description="speed at the start [m/s]")
     time_limit: float = Field(60.0, gt=0.0, le=600.0, description="time to reach the goal [s] (no run simulates "
                                                                    "longer: cosim's MAX_SIMULATED_TIME_S)")
-    dt: float = Field(0.1, ge=MIN_TIME_STEP_S, le=MAX_TIME_STEP_S, description="time step [s]")
+    dt: float = Field(DEFAULT_TIME_STEP_S, ge=MIN_TIME_STEP_S, le=MAX_TIME_STEP_S, description="time step [s]")
 
 
 UNITS = {"initial_speed": "m/s", "time_limit": "s", "dt": "s"}

@@ -13,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from simgap.control.tracking import MIN_RATE_HZ
 from simgap.errors import InputError, validated_settings
 from simgap.sim.rates import steps_per_tick
+from simgap.sim.protocol import BackendEntry
 from simgap.sim.settings import TrackingSettings
 
 ENV = {"host": "SIMGAP_BEAMNG_HOST", "port": "SIMGAP_BEAMNG_PORT", "home": "SIMGAP_BEAMNG_HOME"}
@@ -78,3 +79,8 @@ def with_environment(settings: dict) -> dict:
         else:
             out[key] = value
     return out
+
+
+#: the beamng backend, as the registry knows it (its physics imported when one is made)
+BACKEND = BackendEntry("simgap.sim.beamng.backend:BeamngBackend", load_settings, "beamngpy", extra="beamng",
+                       check="simgap.sim.beamng.session:check_server")

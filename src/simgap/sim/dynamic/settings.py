@@ -8,6 +8,7 @@ from typing import Any
 from pydantic import Field
 
 from simgap.errors import InputError, validated_settings
+from simgap.sim.protocol import BackendEntry
 from simgap.sim.settings import RoadSurface, TrackingSettings
 
 VEHICLE_MODELS = ("st", "mb")       # CommonRoad's single-track and multi-body models
@@ -28,3 +29,7 @@ def dynamic_settings(values: dict[str, Any]) -> DynamicSettings:
         raise InputError(f"unknown vehicle model '{cfg.model}'", field="backend_settings.model",
                          allowed=", ".join(VEHICLE_MODELS))
     return cfg
+
+
+#: the dynamic backend, as the registry knows it (its physics imported when one is made)
+BACKEND = BackendEntry("simgap.sim.dynamic.backend:DynamicBackend", dynamic_settings, "simgap.sim.dynamic.backend")

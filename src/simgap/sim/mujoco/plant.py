@@ -14,13 +14,13 @@ from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Agent, EventKind, PhysicsDiverged
-from simgap.trajectory import State
+from simgap.trajectory import DEFAULT_TIME_STEP_S, State
 from simgap.vehicles import Vehicle
 
 AGENT = 1
 
 
-def proving_ground(dt: float = 0.1) -> Scenario:
+def proving_ground(dt: float = DEFAULT_TIME_STEP_S) -> Scenario:
     """An empty scenario: no lanelets, no obstacles."""
     return Scenario(dt)
 

@@ -9,6 +9,7 @@ from pydantic import Field
 
 from simgap.errors import validated_settings
 from simgap.sim.rates import steps_per_tick
+from simgap.sim.protocol import BackendEntry
 from simgap.sim.settings import RoadFriction, RoadSurface, TrackingSettings
 
 PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
@@ -36,3 +37,8 @@ def mujoco_settings(values: dict[str, Any]) -> MujocoSettings:
     cfg = validated_settings(MujocoSettings, values)
     steps_per_tick(cfg.physics_hz, cfg.controller_hz)
     return cfg
+
+
+#: the mujoco backend, as the registry knows it (its physics imported when one is made)
+BACKEND = BackendEntry("simgap.sim.mujoco.backend:MujocoBackend", mujoco_settings, "mujoco",
+                       check="simgap.sim.mujoco.graphics:check_mujoco_gl")

@@ -4,7 +4,7 @@ A violation *needs* a dimension of the search if moving that one dimension back 
 value — a reality knob's default (the ideal world's assumption), a scenario parameter's default,
 each clipped to the searched range — makes its high-fidelity run stop failing *that way* (it
 passes, or fails by another rule). The *probes* that find out are high-fidelity runs of the
-violation with one dimension at nominal; `simgap.experiment.mode_probes` runs them, budgeted and
+violation with one dimension at nominal; `simgap.experiment.search.mode_probes` runs them, budgeted and
 resumable, into ``<strategy>/probes/`` (a `ProbeRow` each, and the `ProbePlan`: the dimensions
 and their nominal point).
 
@@ -27,7 +27,7 @@ import numpy as np
 from pydantic import BaseModel
 
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_rows import SearchRow
+from simgap.experiment.search.rows import SearchRow
 from simgap.experiment.store import ResultsStore
 from simgap.files import atomic_write_text
 from simgap.planning.registry import DEFAULT_PLANNER

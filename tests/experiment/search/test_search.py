@@ -12,11 +12,11 @@ from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
-from simgap.experiment.search_results import summarise
-from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search, load_search_spec
+from simgap.experiment.search.results import summarise
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.search_space import SearchSpace
-from simgap.experiment.strategies import make_strategy
+from simgap.experiment.search.space import SearchSpace
+from simgap.experiment.search.strategies import make_strategy
 from simgap.scenario.logical import load_logical
 
 from search_specs import LADDER, write
@@ -176,7 +176,7 @@ def test_candidates_that_differ_only_in_knobs_share_one_ideal_run(tmp_path):
     assert result.runs == 17 and result.cpu_s == 17 * 2.0        # the copies are neither runs nor cost
     # a resumed search knows the verdict and copies it again rather than running the ideal world
     again = knob_grid_run(tmp_path / "s")
-    assert again.runs() == 17 and again.ideal_verdicts
+    assert again.runs() == 17 and again.ideal.verdicts
 
 
 def test_grid_visits_every_point_once_in_a_seeded_order(tmp_path):

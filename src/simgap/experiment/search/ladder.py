@@ -12,11 +12,12 @@ from pathlib import Path
 from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
-from simgap.experiment.knobs import with_knobs
 from simgap.experiment.job import Job, JobId
-from simgap.experiment.search_rows import SearchRow
-from simgap.experiment.search_spec import Search
-from simgap.experiment.search_space import Candidate
+from simgap.experiment.knobs import with_knobs
+from simgap.experiment.search.ledger import SearchLedger
+from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.space import Candidate, Strategy
+from simgap.experiment.search.spec import Search
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario import write_scenario
 from simgap.sim.settings import realism_of
@@ -88,28 +89,50 @@ class Ladder:
 class SharedIdealRuns:
     """The ideal runs candidates share, keyed by what an ideal run depends on (`Ladder.ideal_key`):
     the verdicts known (the candidate that ran it), the runs in flight, and the candidates waiting
-    for them."""
+    for them. A candidate whose ideal run is known, or comes in, gets a copy of its row, told to
+    the strategy and kept in the ledger."""
 
-    def __init__(self) -> None:
+    def __init__(self, ladder: Ladder, ledger: SearchLedger, strategy: Strategy) -> None:
+        self.ladder, self.ledger, self.strategy = ladder, ledger, strategy
         self.verdicts: dict[str, int] = {}
         self.running: dict[str, int] = {}
         self.waiting: dict[str, list[int]] = {}
 
-    def known(self, key: str, index: int) -> None:
-        """``index`` ran the ideal run ``key`` depends on, and it finished."""
-        self.verdicts.setdefault(key, index)
+    def known(self, index: int) -> None:
+        """Candidate ``index`` ran its ideal run, and it finished."""
+        self.verdicts.setdefault(self._key(index), index)
 
-    def join(self, key: str, index: int) -> bool:
-        """True if ``index`` waits for a run already in flight; else it runs one itself."""
+    def settle(self, index: int) -> bool:
+        """Settle ``index``'s ideal check without running it, if its ideal verdict is known (copied
+        now) or being run (copied when it comes in); False if it has to run."""
+        key = self._key(index)
+        if key in self.verdicts:
+            self._copy(index, self.verdicts[key])
+            return True
         if key in self.running:
             self.waiting.setdefault(key, []).append(index)
             return True
         self.running[key] = index
         return False
 
-    def finished(self, key: str, index: int, ok: bool) -> list[int]:
-        """``index``'s ideal run finished: the candidates that waited for it."""
+    def finished(self, index: int, ok: bool) -> list[int]:
+        """``index``'s ideal run finished: the candidates that waited for it get a copy of its row;
+        if it failed, they are returned, each to run its own."""
+        key = self._key(index)
         self.running.pop(key, None)
-        if ok:
-            self.known(key, index)
-        return self.waiting.pop(key, [])
+        waiting = self.waiting.pop(key, [])
+        if not ok:
+            return waiting
+        self.verdicts.setdefault(key, index)
+        for other in waiting:
+            self._copy(other, index)
+        return []
+
+    def _key(self, index: int) -> str:
+        return self.ladder.ideal_key(self.ledger.candidates[index])
+
+    def _copy(self, index: int, source: int) -> None:
+        c = self.ledger.candidates[index]
+        row = self.ladder.copied_ideal(c, self.ledger.rows[(source, 0)], self.ledger.elapsed())
+        self.strategy.observe(c, 0, row.judged, row.failed)
+        self.ledger.record(row)

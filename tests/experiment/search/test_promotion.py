@@ -7,13 +7,13 @@ import numpy as np
 
 from simgap.cosim import Outcome
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.multi_fidelity import START_THRESHOLD, MoveAllocation, PromotionThreshold, _Yield, separating_risk
+from simgap.experiment.search.multi_fidelity import START_THRESHOLD, MoveAllocation, PromotionThreshold, _Yield, separating_risk
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
-from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search
-from simgap.experiment.search_space import SearchSpace
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search
+from simgap.experiment.search.space import SearchSpace
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.strategies import make_strategy
+from simgap.experiment.search.strategies import make_strategy
 from simgap.scenario.logical import load_logical
 
 from search_specs import LADDER

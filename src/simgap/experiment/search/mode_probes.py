@@ -1,5 +1,5 @@
 """The probes that tell which dimensions a strategy's violations need (see
-`simgap.experiment.failure_modes`): for each distinct violation, a high-fidelity run per dimension
+`simgap.experiment.search.failure_modes`): for each distinct violation, a high-fidelity run per dimension
 it is off nominal in, with that dimension alone moved back to nominal — the violation's own
 candidate otherwise (its vehicle, planner and seed), through the search's ladder and executor.
 
@@ -14,16 +14,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from simgap.experiment.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow, what_broke
 from simgap.experiment.job import Job
 from simgap.experiment.knobs import KNOBS
-from simgap.experiment.ladder import Ladder, scenario_name
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
-from simgap.experiment.search_ledger import score_drop
-from simgap.experiment.search_rows import SearchRow
-from simgap.experiment.search_space import SearchSpace
-from simgap.experiment.search_spec import SCORE_DROP, Search
+from simgap.experiment.search.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow, what_broke
+from simgap.experiment.search.ladder import Ladder, scenario_name
+from simgap.experiment.search.ledger import score_drop
+from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.space import SearchSpace
+from simgap.experiment.search.spec import SCORE_DROP, Search
 from simgap.experiment.store import ResultsStore
 from simgap.planning.registry import DEFAULT_PLANNER
 

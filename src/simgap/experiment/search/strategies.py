@@ -11,7 +11,7 @@ and tells the strategy each result.
 * ``lhs``: a Latin hypercube design of ``lhs_samples`` points, in its order.
 * ``bo``: Bayesian optimisation in the high fidelity alone: optuna's TPE (multivariate, with a
   constant liar for runs in flight) maximising the objective.
-* ``multi_fidelity`` (`simgap.experiment.multi_fidelity`): the cheap fidelities screen, the
+* ``multi_fidelity`` (`simgap.experiment.search.multi_fidelity`): the cheap fidelities screen, the
   expensive one confirms. Each candidate
   runs first in the screening fidelity; one whose *risk* reaches the promotion threshold goes up
   a rung, ending in the high fidelity. Risk is the largest of: 2 if the screen run already fails,
@@ -54,9 +54,9 @@ import math
 import numpy as np
 from scipy.stats import qmc
 
-from simgap.experiment.multi_fidelity import MultiFidelityStrategy
-from simgap.experiment.search_space import Candidate, SearchSpace, Strategy, uniform_candidate
-from simgap.experiment.search_spec import SearchSpec
+from simgap.experiment.search.multi_fidelity import MultiFidelityStrategy
+from simgap.experiment.search.space import Candidate, SearchSpace, Strategy, uniform_candidate
+from simgap.experiment.search.spec import SearchSpec
 
 
 class GridStrategy(Strategy):

@@ -21,8 +21,8 @@ violations are counted after de-duplication: one closer than ``distinct_radius``
 normalised space, same vehicle and planner) to an earlier one is the same failure.
 
 The parts: `StrategyRun` schedules one strategy's runs (what to run next, what a result sets
-off); `simgap.experiment.search_rows` keeps its ledger (the typed rows, the budget spent, resume);
-`simgap.experiment.ladder` makes a candidate's job in each rung and shares ideal runs.
+off); `simgap.experiment.search.ledger` keeps its ledger (the typed rows: `rows`; the budget spent, resume);
+`simgap.experiment.search.ladder` makes a candidate's job in each rung and shares ideal runs.
 """
 
 from __future__ import annotations
@@ -35,17 +35,17 @@ from typing import Callable
 
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
-from simgap.experiment.ladder import Ladder, SharedIdealRuns
-from simgap.experiment.mode_probes import ModeProbes
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_results import META, StrategyResult, summarise
-from simgap.experiment.search_ledger import SearchLedger
-from simgap.experiment.search_rows import SearchRow
-from simgap.experiment.search_spec import STRATEGIES, Search, SearchSpec, load_search_spec
+from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
+from simgap.experiment.search.ledger import SearchLedger
+from simgap.experiment.search.mode_probes import ModeProbes
+from simgap.experiment.search.results import META, StrategyResult, summarise
+from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.space import Candidate, SearchSpace, Strategy
+from simgap.experiment.search.spec import STRATEGIES, Search, SearchSpec, load_search_spec
+from simgap.experiment.search.strategies import make_strategy
 from simgap.experiment.single_run import software_versions
-from simgap.experiment.search_space import Candidate, SearchSpace, Strategy
-from simgap.experiment.strategies import make_strategy
 from simgap.files import atomic_write_text
 from simgap.sim.registry import preflight
 
@@ -83,7 +83,7 @@ class StrategyRun:
         self.spec, self.strategy, self.budget = search.spec, strategy, budget
         self.ladder = Ladder(search, root)
         self.ledger = SearchLedger(root, space)
-        self.ideal = SharedIdealRuns()
+        self.ideal = SharedIdealRuns(self.ladder, self.ledger, strategy)
         self.high = self.ladder.high
         self.queue: list[tuple[int, int]] = []            # (candidate, rung) follow-ups
         self.in_flight: dict[str, tuple[int, int]] = {}    # job key -> (candidate, rung)
@@ -94,10 +94,6 @@ class StrategyRun:
     @property
     def root(self) -> Path:
         return self.ledger.root
-
-    @property
-    def ideal_verdicts(self) -> dict[str, int]:
-        return self.ideal.verdicts
 
     def runs(self) -> int:
         return self.ledger.runs()
@@ -110,7 +106,7 @@ class StrategyRun:
         for r in self.ledger.load():
             c = self.ledger.candidates[r.candidate]
             if r.rung == 0 and r.ok:
-                self.ideal.known(self.ladder.ideal_key(c), r.candidate)
+                self.ideal.known(r.candidate)
             self.strategy.restore(c, r.rung, r.judged, r.failed)
             if r.rung == self.high and r.ok:
                 self.strategy.confirmed(c, r.failed)
@@ -128,7 +124,7 @@ class StrategyRun:
                 index, rung = self.queue.pop(0)
                 if (index, rung) in self.ledger.rows or (index, rung) in self.in_flight.values():
                     continue
-                if rung == 0 and self._settle_ideal(index):
+                if rung == 0 and self.ideal.settle(index):
                     continue
                 if rung > 0 and self.spec.needs_ideal_first and (index, 0) not in self.ledger.rows:
                     waiting.append((index, rung))
@@ -156,7 +152,7 @@ class StrategyRun:
         first = (self.strategy.first_rung if c.start_rung is None else c.start_rung) % len(self.spec.ladder)
         if first == 0 or not self.spec.needs_ideal_first:
             return self._start(c.index, first)
-        if not self._settle_ideal(c.index):
+        if not self.ideal.settle(c.index):
             self.queue.insert(0, (c.index, first))
             return self._start(c.index, 0)
         if (c.index, 0) in self.ledger.rows:          # a sibling's ideal run, copied
@@ -168,21 +164,6 @@ class StrategyRun:
         job = self.ladder.job(self.ledger.candidates[index], rung)
         self.in_flight[job.key] = (index, rung)
         return job
-
-    def _settle_ideal(self, index: int) -> bool:
-        """Settle ``index``'s ideal check without running it, if its scenario's ideal verdict is
-        known (copied now) or being run (copied when it comes); False if it has to run."""
-        key = self.ladder.ideal_key(self.ledger.candidates[index])
-        if key in self.ideal.verdicts:
-            self._copy_ideal(index, self.ideal.verdicts[key])
-            return True
-        return self.ideal.join(key, index)
-
-    def _copy_ideal(self, index: int, source: int) -> None:
-        c = self.ledger.candidates[index]
-        row = self.ladder.copied_ideal(c, self.ledger.rows[(source, 0)], self.ledger.elapsed())
-        self.strategy.observe(c, 0, row.judged, row.failed)
-        self.ledger.record(row)
 
     def on_result(self, job: Job, result: RunRow) -> None:
         index, rung = self.in_flight.pop(job.key)
@@ -199,13 +180,8 @@ class StrategyRun:
             if row.failed and (index, 0) not in self.ledger.rows:
                 self.queue.insert(0, (index, 0))           # is it a violated assumption?
         self.queue += [(index, r) for r in follow]
-        if rung == 0:
-            waiting = self.ideal.finished(self.ladder.ideal_key(c), index, row.ok)
-            if row.ok:
-                for other in waiting:
-                    self._copy_ideal(other, index)
-            else:                                           # that run failed: each runs its own
-                self.queue[:0] = [(other, 0) for other in waiting]
+        if rung == 0:                                       # those that waited for it: a copy, or (it failed) a run
+            self.queue[:0] = [(other, 0) for other in self.ideal.finished(index, row.ok)]
         self.ledger.save_budget(self.budget)
 
 
@@ -238,7 +214,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
     checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
     each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
-    (`simgap.experiment.mode_probes`), and record what each found in ``search.json``."""
+    (`simgap.experiment.search.mode_probes`), and record what each found in ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
     if not validate and spec.failure.solution_invalid:

@@ -1,5 +1,5 @@
 """The ``multi_fidelity`` strategy: the cheap fidelities screen, the expensive one confirms (see
-`simgap.experiment.strategies` for the whole story). Its parts: the promotion threshold, which
+`simgap.experiment.search.strategies` for the whole story). Its parts: the promotion threshold, which
 learns from what promotions found (`PromotionThreshold`); the map of confirmed failures and open
 proposals, which says how new a candidate is and where to look (`FailureMap`); and the allocation
 of proposals to moves and parents by Thompson sampling on what they found per CPU second
@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_space import Candidate, SearchSpace, Strategy, uniform_candidate
+from simgap.experiment.search.space import Candidate, SearchSpace, Strategy, uniform_candidate
 
 EXPLORE_EVERY = 10          # one candidate in this many is promoted whatever its risk
 # --- multi_fidelity's numbers ---------------------------------------------------------------

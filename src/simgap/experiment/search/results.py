@@ -13,9 +13,9 @@ from typing import Any
 
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
-from simgap.experiment.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
-from simgap.experiment.search_rows import SearchRow, read_search_rows
-from simgap.experiment.search_spec import STRATEGIES, SearchSpec
+from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
+from simgap.experiment.search.rows import SearchRow, read_search_rows
+from simgap.experiment.search.spec import STRATEGIES, SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory

@@ -43,9 +43,21 @@ from simgap.errors import InputError, validated
 from simgap.evaluate.closed_loop_score import COMPONENTS
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.knobs import check_knob
-from simgap.experiment.spec import (BatchSpec, builtin_or_file, check_backend, check_controller, check_parameter,
-                                    check_vehicles, logical_of, planner_choices, read_spec, results_hash,
-                                    results_relevant, settings_of, vehicle_ref)
+from simgap.experiment.spec import (
+    BatchSpec,
+    builtin_or_file,
+    check_backend,
+    check_controller,
+    check_parameter,
+    check_vehicles,
+    logical_of,
+    planner_choices,
+    read_spec,
+    results_hash,
+    results_relevant,
+    settings_of,
+    vehicle_ref,
+)
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
 from simgap.vehicles import DEFAULT_VEHICLE

@@ -16,7 +16,7 @@ import pytest
 
 from simgap.errors import InputError
 from simgap.experiment.search import Budget, run_search
-from simgap.experiment.search_results import search_results
+from simgap.experiment.search.results import search_results
 from simgap.experiment.store import ResultsStore
 from simgap.report.search_page import build_search_report
 

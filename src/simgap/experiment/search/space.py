@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_spec import SearchSpec
+from simgap.experiment.search.spec import SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario.logical import LogicalScenario
 

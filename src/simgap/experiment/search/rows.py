@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search_spec import SCORE_DROP
+from simgap.experiment.search.spec import SCORE_DROP
 from simgap.experiment.store import ResultsStore
 
 _COLUMNS = ("strategy", "candidate", "rung", "rung_backend", "failed", "failure_reason", "elapsed_s", "promote",

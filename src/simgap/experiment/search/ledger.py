@@ -11,9 +11,9 @@ from typing import Any
 
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
-from simgap.experiment.search_rows import SearchRow, read_search_rows
+from simgap.experiment.search.rows import SearchRow, read_search_rows
+from simgap.experiment.search.space import Candidate, SearchSpace
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.search_space import Candidate, SearchSpace
 from simgap.files import atomic_write_text
 from simgap.planning.registry import DEFAULT_PLANNER
 

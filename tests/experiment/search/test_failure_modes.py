@@ -9,16 +9,16 @@ from pathlib import Path
 import pytest
 
 from simgap.cosim import Outcome
-from simgap.experiment.failure_modes import what_broke
+from simgap.experiment.search.failure_modes import what_broke
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.mode_probes import ModeProbes
+from simgap.experiment.search.mode_probes import ModeProbes
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
-from simgap.experiment.search_results import SearchResults, summarise
-from simgap.experiment.search_space import SearchSpace
-from simgap.experiment.search_spec import FailureRule, SearchSpec, checked_search
+from simgap.experiment.search.results import SearchResults, summarise
+from simgap.experiment.search.space import SearchSpace
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search
 from simgap.experiment.store import ResultsStore
-from simgap.experiment.strategies import make_strategy
+from simgap.experiment.search.strategies import make_strategy
 from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 

@@ -1,0 +1,156 @@
+"""A backend and a controller added the way a planner is: a package declares them in the entry-point
+groups ``simgap.backends`` and ``simgap.controllers``, and simgap runs them by name.
+
+"Installed" here, as in tests/cli/test_planner_plugins.py: the package's folder on the path plus a
+``.dist-info`` folder whose ``entry_points.txt`` declares them, which is all importlib.metadata
+reads to find an entry point (what pip would leave, without a build)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from simgap.control import make_controller
+from simgap.control.registry import CONTROLLERS
+from simgap.cosim import CosimSettings, simulate
+from simgap.cosim.agents import agents_from_problems
+from simgap.errors import InputError
+from simgap.planning.frenet import FrenetPlanner
+from simgap.planning.protocol import PlannerSetup
+from simgap.scenario import build_scenario, write_scenario
+from simgap.sim.registry import BACKENDS, backend_settings, make_backend
+from simgap.vehicles import load_vehicle
+
+PACKAGE = '''
+"""A backend and a controller of a package of one's own."""
+from pydantic import BaseModel, ConfigDict
+
+from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
+from simgap.errors import validated_settings
+from simgap.sim.ideal import IdealBackend
+from simgap.sim.protocol import BackendEntry
+
+
+class CountingSettings(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    start_at: int = 0
+
+
+class CountingBackend(IdealBackend):
+    """The ideal world that counts its steps."""
+
+    name = "counting"
+
+    def __init__(self, settings: CountingSettings):
+        super().__init__()
+        self.steps = settings.start_at
+
+    def step(self, plans):
+        self.steps += 1
+        return super().step(plans)
+
+
+BACKEND = BackendEntry(CountingBackend, lambda values: validated_settings(CountingSettings, values),
+                       "toy_plugins")
+
+
+class PatientGains(PurePursuitGains):
+    extra_lookahead_time: float = 0.0
+
+
+class PatientTracker(PurePursuitController):
+    """Pure pursuit that looks a little further ahead."""
+
+    Gains = PatientGains
+
+    def __init__(self, vehicle, gains, rate_hz):
+        super().__init__(vehicle, gains.model_copy(update={
+            "lookahead_time": gains.lookahead_time + gains.extra_lookahead_time}), rate_hz)
+'''
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    """A folder in which the package ``toy_plugins`` is installed."""
+    site = tmp_path_factory.mktemp("site")
+    (site / "toy_plugins.py").write_text(textwrap.dedent(PACKAGE))
+    dist = site / "toy_plugins-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: toy-plugins\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[simgap.backends]\ncounting = toy_plugins:BACKEND\n\n"
+                                           "[simgap.controllers]\npatient = toy_plugins:PatientTracker\n")
+    return site
+
+
+@pytest.fixture
+def installed(site, monkeypatch):
+    monkeypatch.syspath_prepend(str(site))
+    monkeypatch.setattr(BACKENDS, "_loaded", {})
+    monkeypatch.setattr(CONTROLLERS, "_loaded", {})
+    yield
+    sys.modules.pop("toy_plugins", None)
+
+
+def drive(concrete, backend):
+    scenario, problems = concrete.scenario, concrete.problems
+    sedan = load_vehicle("sedan")
+    agents = agents_from_problems(problems, scenario.dt, sedan)
+    planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan,
+                                                             scenario.lanelet_network)) for a in agents}
+    return simulate(scenario, problems, backend, agents, planners, CosimSettings(replan_every=3))
+
+
+def test_installed_names_follow_the_built_in_ones(installed):
+    assert BACKENDS.names() == ["ideal", "dynamic", "mujoco", "beamng", "counting"]
+    assert CONTROLLERS.names() == ["pure_pursuit", "stanley", "lqr", "patient"]
+    assert BACKENDS.origin("counting") == "installed (toy-plugins)"
+    assert CONTROLLERS.target("patient") == "toy_plugins:PatientTracker"
+
+
+def test_an_installed_backend_runs_a_scenario(installed):
+    concrete = build_scenario("curve", {"radius": 20, "angle": 90})
+    backend = make_backend("counting", backend_settings("counting", {"start_at": 1000}))
+    run = drive(concrete, backend)
+    assert run.agents[0].outcome == "goal_reached"
+    assert backend.steps == 1000 + len(run.driven[1]) - 1
+    with pytest.raises(InputError, match="backend_settings.speed"):
+        backend_settings("counting", {"speed": 3})
+
+
+def test_an_installed_controller_drives_a_physics_world(installed):
+    sedan = load_vehicle("sedan")
+    controller = make_controller("patient", sedan, overrides={"extra_lookahead_time": 0.2})
+    assert type(controller).__name__ == "PatientTracker"
+    assert controller.gains.lookahead_time == pytest.approx(make_controller("pure_pursuit", sedan).gains.lookahead_time
+                                                            + 0.2)
+    concrete = build_scenario("curve", {"radius": 20, "angle": 90})
+    run = drive(concrete, make_backend("dynamic", backend_settings("dynamic", {"controller": "patient"})))
+    assert run.agents[0].outcome == "goal_reached"
+    assert run.timings["control"] > 0
+
+
+def test_an_unknown_name_names_the_known_ones_and_the_group(installed):
+    with pytest.raises(InputError) as backend:
+        make_backend("countin")
+    assert "unknown backend 'countin'" in str(backend.value)
+    assert "ideal, dynamic, mujoco" in str(backend.value) and "simgap.backends" in str(backend.value)
+    with pytest.raises(InputError) as controller:
+        make_controller("patent", load_vehicle("sedan"))
+    assert "pure_pursuit, stanley, lqr, patient" in str(controller.value)
+    assert "simgap.controllers" in str(controller.value)
+
+
+def test_simgap_run_takes_an_installed_backend(site, tmp_path):
+    xml = write_scenario(build_scenario("curve", {"radius": 20, "angle": 90}), tmp_path, preview=False)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]), COLUMNS="160")
+    proc = subprocess.run([sys.executable, "-m", "simgap", "run", str(xml), "--backend", "counting", "--no-validate",
+                           "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    meta = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert meta["backend"] == "counting" and meta["agents"][0]["outcome"] == "goal_reached"
