@@ -46,7 +46,7 @@ def test_a_recording_with_its_human_driver_runs_and_is_counted(real_recorded, tm
     xml = recording(tmp_path)
     humans = real_recorded.human_outcomes(xml)
     assert len(humans) == 1 and next(iter(humans.values())).startswith("misses:")
-    (result,) = real_recorded.run_one((xml, "ideal", "highway", "replay", "frenet", None))
+    (result,) = real_recorded.run_one((xml, "ideal", "highway", "replay", "frenet", None, None))
     assert result.outcome == "goal_reached" and result.human.startswith("misses:") and not result.excluded
     table, errors, wall = real_recorded.rates([result], "ideal")
     assert table["highway"] == (1, 1) and table["all"] == (1, 1) and errors == 0 and wall > 0
