@@ -105,7 +105,7 @@ def _share(goals: int, total: int) -> str:
 
 
 def recorded_table(name: str) -> str:
-    """Goals reached per world and kind, from a results file of bench/real_recorded.py (its records:
+    """Goals reached per world and kind, from a results file of bench/recorded/real_recorded.py (its records:
     scenario, kind, world, agent, outcome, reason, wall_s, excluded, human); agents that start in a
     collision or overhanging the road (``excluded``) are not counted, as the benchmark prints."""
     data = json.loads((RESULTS / name).read_text())
