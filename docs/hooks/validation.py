@@ -3,7 +3,9 @@
 ``render_results("index")`` is the list of results files with their provenance and the script that
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
-value. Nothing here is typed: a figure on these pages is the file's.
+value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
+recorded, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
+here is typed: a figure on these pages is the file's.
 """
 
 from __future__ import annotations
@@ -135,9 +137,162 @@ def recorded_table(name: str) -> str:
     return "\n".join(lines)
 
 
+def _generated(name: str, data: Any) -> list[str]:
+    return ["", f"*Generated from `bench/results/{name}` (provenance: {provenance(data)}).*"]
+
+
+def _rows(lines: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(cells) + " |" for cells in lines]
+
+
+def _closed_form_row(check: str, case: str, measured: str, closed: str, error: float | None) -> list[str]:
+    return [check, case, measured, closed, "—" if error is None else f"{error:.2g} %".replace("-", "−")]
+
+
+def road_relief_table(name: str) -> str:
+    """bench/roads/road_relief.py's checks: each drive against its closed form."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| check | case | measured | closed form | error |", "|---|---|---|---|---|"]
+    rows: list[list[str]] = []
+    for i, r in enumerate(data["braking"]):
+        rows.append(_closed_form_row("braking from 100 km/h at the tyres' peak μ, v²/(2g(μ cos θ + sin θ))" if i == 0
+                                     else "", f"{r['grade_percent']:+g} %".replace("+0", "0").replace("-", "−"),
+                                     f"{r['measured']:.2f} m", f"{r['closed_form']:.2f} m", r["error_percent"]))
+    for i, r in enumerate(data["crest"]):
+        rows.append(_closed_form_row("tyre load at a crest's top, m(g − v²/R)" if i == 0 else "",
+                                     f"R {r['radius']:g} m, ±{r['grade_percent']:g} %, {r['speed']:.1f} m/s",
+                                     f"{r['measured']:.0f} N", f"{r['closed_form']:.0f} N", r["error_percent"]))
+    for i, r in enumerate(data["bank"]):
+        rows.append(_closed_form_row("friction a steady turn needs on a bank" if i == 0 else "",
+                                     f"{r['bank_deg']:+g}°, R {r['radius']:.0f} m, {r['speed']:.0f} m/s"
+                                     .replace("+0", "0").replace("-", "−"),
+                                     f"{r['measured']:.5f}", f"{r['closed_form']:.5f}", r["error_percent"]))
+    hold = {r["facing"]: r["moved_m"] * 1000 for r in data["hold"]}
+    grades = sorted({r["grade_percent"] for r in data["hold"]})
+    rows.append(["a braked car on " + ", ".join(f"{g:g} %" for g in grades), " / ".join(f"facing {f}" for f in hold),
+                 "moved " + " / ".join(f"{v:.2f}" for v in hold.values()) + " mm", "stays", "—"])
+    rows.append(["a flat relief against no relief", "on a circle", f"{data['flat_relief_against_plane_m']:g} m apart",
+                 "0 m", "—"])
+    rt = data["realtime"]
+    rows.append([f"real-time factor of one car (physics and control, no planner; best of {rt['rounds']})",
+                 "flat proving ground / banked 3D one", f"{rt['flat']:.1f}× / {rt['relief']:.1f}×", "", ""])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def realism_steps_table(name: str) -> str:
+    """bench/vehicles/realism.py's actuator step responses: the source's figures, the model's, the car's."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| vehicle | channel | dead time: source / model / car [s] | 63 % rise after it: source / model / car [s] |",
+             "|---|---|---|---|"]
+    rows = [[r["vehicle"], r["channel"], f"{r['dead_time_s']:.3f} / {r['measured_dead_s']:.3f} / {r['car_dead_s']:.3f}",
+             f"{r['time_constant_s']:.3f} / {r['measured_rise_s']:.3f} / {r['car_rise_s']:.3f}"]
+            for r in data["step_responses"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def realism_tracking_table(name: str) -> str:
+    """bench/vehicles/realism.py's tracking: RMS / peak lateral error per manoeuvre, controller and car."""
+    data = json.loads((RESULTS / name).read_text())
+    cars = list(dict.fromkeys(r["car"] for r in data["tracking"]))
+    cells: dict[tuple[str, str], dict[str, str]] = {}
+    for r in data["tracking"]:
+        cell = f"{r['rms_m']:.3f} / {r['peak_m']:.3f}"
+        if r["outcome"] != "goal_reached":
+            cell += f" **{r['outcome'].replace('_', ' ')}**"
+        cells.setdefault((r["scenario"], r["controller"].replace("_", " ")), {})[r["car"]] = cell
+    lines = ["| manoeuvre | controller | " + " | ".join(cars) + " |", "|---|---|" + "---|" * len(cars)]
+    rows = [[scenario, controller] + [by_car.get(c, "") for c in cars] for (scenario, controller), by_car in cells.items()]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def _arrow(values: dict[str, float]) -> str:
+    return " → ".join(f"{v:.3f}" for _, v in sorted(values.items(), key=lambda kv: float(kv[0])))
+
+
+def _lane_change(result: dict[str, dict[str, Any]]) -> str:
+    if all(r["peak_lateral_error_m"] is None for r in result.values()):
+        return "state no longer finite (spins)"
+    verdict = "pass" if all(r["passed"] for r in result.values()) else "fail"
+    return verdict + " " + " / ".join("—" if r["peak_lateral_error_m"] is None else f"{r['peak_lateral_error_m']:.2f}"
+                                      for r in result.values())
+
+
+VEHICLE_ROWS = [  # (row, the figure of a car's record, target)
+    ("understeer gradient [deg/g] (fit to 0.4 g)", lambda c: f"{c['understeer_gradient_deg_per_g']:.2f}",
+     "0 to 4 for every car"),
+    ("sideslip gradient [deg/g]", lambda c: f"{c['sideslip_gradient_deg_per_g']:.2f}", ""),
+    ("roll gradient [deg/g] (fit to 0.4 g)", lambda c: f"{c['roll_gradient_deg_per_g']:.1f}",
+     "real cars: sedan 3–6, SUV 5–8"),
+    ("largest lateral acceleration held on the circle [m/s²] (at speed [m/s])",
+     lambda c: f"{c['max_lateral_acceleration']:.2f} ({c['circle_limit_speed']:g})", "suv lower than sedan"),
+    ("yaw-rate rise time, step steer at 80 km/h to ~4 m/s² [s]", lambda c: f"{c['yaw_rate_rise_time_s']:.3f}",
+     "sedan within 30 % of MB; city quicker than sedan"),
+    ("yaw-rate overshoot [%]", lambda c: f"{c['yaw_rate_overshoot_percent']:.1f}", ""),
+    ("braking from 100 km/h, full pedal [m]", lambda c: f"{c['braking_distance_100_m']:.1f}"
+     + (" (wheels lock)" if c.get("braking_full_pedal_locks") else ""), "sedan 35–42"),
+    ("braking, largest pedal that locks no wheel [m]", lambda c: f"{c['braking_distance_100_unlocked_m']:.1f}", ""),
+    ("lateral error on the circle at the last speeds below the limit [m]",
+     lambda c: _arrow(c["circle_near_limit_lateral_error_m"]), "rising progressively"),
+    ("ISO 3888-2 double lane change, 60 km/h: peak lateral error [m] by controller",
+     lambda c: _lane_change(c["lane_change_60"]), "no rollover"),
+    ("beyond the limit: runs, rollovers, largest roll [deg], longest two-wheel lift [s]",
+     lambda c: f"{c['beyond_limit_runs']}, {c['beyond_limit_rollovers']}, {c['beyond_limit_max_roll_deg']:.1f}, "
+               f"{c['beyond_limit_longest_two_wheel_lift_s']:.2f}" if "beyond_limit_runs" in c else "", "no rollover"),
+]
+
+
+def vehicle_dynamics_table(name: str) -> str:
+    """bench/vehicles/vehicle_dynamics.py: each car's handling figures beside the sedan's multi-body reference."""
+    data = json.loads((RESULTS / name).read_text())
+    cars = [k for k, v in data.items() if isinstance(v, dict) and "understeer_gradient_deg_per_g" in v]
+    columns = []
+    for car in cars:
+        columns.append((car, data[car]))
+        if "mb_reference" in data[car]:
+            columns.append((f"MB ({car}'s reference)", data[car]["mb_reference"]))
+    controllers = next(iter(columns))[1].get("lane_change_60", {})
+    lines = ["| | " + " | ".join(c for c, _ in columns) + " | target |", "|---|" + "---|" * (len(columns) + 1)]
+    rows = []
+    for label, figure, target in VEHICLE_ROWS:
+        if "lane change" in label:
+            label += " (" + " / ".join(controllers) + ")"
+        cells = []
+        for _, record in columns:
+            try:
+                cells.append(figure(record))
+            except (KeyError, TypeError):
+                cells.append("—")
+        rows.append([label] + cells + [target])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def opendrive_import_table(name: str) -> str:
+    """bench/export/opendrive_import.py: each public road read, run in both worlds and exported back."""
+    data = json.loads((RESULTS / name).read_text())
+
+    def run(r: dict[str, Any]) -> str:
+        if r.get("outcome") == "goal_reached":
+            return f"goal, {r['time_to_goal_s']:.1f} s"
+        return str(r.get("outcome", "—")).replace("_", " ")
+
+    lines = ["| file | import | lanelets | successors (across roads) | neighbour pairs | lane links kept | ideal | MuJoCo |",
+             "|---|---|---|---|---|---|---|---|"]
+    rows = [[f"`{r['file']}`", f"{r['import_s']:.2f} s", str(r["lanelets"]),
+             f"{r['successors']} ({r['successors_across_roads']})", str(r["neighbour_pairs"]),
+             f"{r['lane_links_kept']} of {r['lane_links_in_file']}" if r["lane_links_in_file"] else "— (one road)",
+             run(r.get("ideal", {})), run(r.get("mujoco", {}))] for r in data["roads"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+TABLES = {"recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+          "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
+          "opendrive_import": opendrive_import_table}
+
+
 def render_results(which: str | None) -> str:
-    if which and which.startswith("recorded:"):
-        return recorded_table(which.split(":", 1)[1])
+    kind, _, name = (which or "").partition(":")
+    if name and kind in TABLES:
+        return TABLES[kind](name)
     files = sorted(RESULTS.glob("*.json"))
     written_by = scripts()
     if which == "index":
