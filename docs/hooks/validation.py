@@ -4,7 +4,7 @@
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
-recorded, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
+printed, recorded, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
 here is typed: a figure on these pages is the file's.
 """
 
@@ -87,7 +87,10 @@ def provenance(data: Any) -> str:
     found = {k: meta[k] for k in PROVENANCE if isinstance(meta, dict) and k in meta}
     if not found:
         return "not recorded in the file"
-    return ", ".join(f"{k} {v}" for k, v in found.items())
+    load = found.get("load")
+    if isinstance(load, dict):
+        found["load"] = f"{load.get('start')} at the start, {load.get('end')} at the end, on {load.get('cpus')} CPUs"
+    return "; ".join(f"{k} {v}" for k, v in found.items())
 
 
 def scripts() -> dict[str, str]:
@@ -275,16 +278,28 @@ def opendrive_import_table(name: str) -> str:
             return f"goal, {r['time_to_goal_s']:.1f} s"
         return str(r.get("outcome", "—")).replace("_", " ")
 
-    lines = ["| file | import | lanelets | successors (across roads) | neighbour pairs | lane links kept | ideal | MuJoCo |",
-             "|---|---|---|---|---|---|---|---|"]
+    def wall(r: dict[str, Any]) -> str:
+        return " / ".join(f"{r[w]['wall_s']:.1f}" if "wall_s" in r.get(w, {}) else "—" for w in ("ideal", "mujoco"))
+
+    lines = ["| file | import | lanelets | successors (across roads) | neighbour pairs | lane links kept | ideal | MuJoCo "
+             "| run wall time, ideal / MuJoCo [s] | exported back: export [s], lanelet centres off [mm] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     rows = [[f"`{r['file']}`", f"{r['import_s']:.2f} s", str(r["lanelets"]),
              f"{r['successors']} ({r['successors_across_roads']})", str(r["neighbour_pairs"]),
              f"{r['lane_links_kept']} of {r['lane_links_in_file']}" if r["lane_links_in_file"] else "— (one road)",
-             run(r.get("ideal", {})), run(r.get("mujoco", {}))] for r in data["roads"]]
+             run(r.get("ideal", {})), run(r.get("mujoco", {})), wall(r),
+             f"{r['export']['export_s']:.1f}, {1000 * r['export']['read_back_m']:.0f}" if "export" in r else "—"]
+            for r in data["roads"]]
     return "\n".join(lines + _rows(rows) + _generated(name, data))
 
 
-TABLES = {"recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+def printed_block(name: str) -> str:
+    """What a benchmark printed, as its results file keeps it (``printed``), under its command."""
+    data = json.loads((RESULTS / name).read_text())
+    return "\n".join(["```console", f"$ {data['command']}", *data["printed"], "```"] + _generated(name, data))
+
+
+TABLES = {"printed": printed_block, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
           "opendrive_import": opendrive_import_table}
 
