@@ -38,7 +38,9 @@ VOLATILE = [(re.compile(r"\d+(?:\.\d+)?/\d+(?:\.\d+)?/\d+(?:\.\d+)?"), "T"),    
             (re.compile(r"\b\d+:\d\d:\d\d\b"), "H:MM:SS"),                                 # progress bars' clocks
             (re.compile(r'"(wall_time_s|planning_(?:mean|p95|max)_s|planning_over_budget|planning|execution|'
                         r'monitoring|scoring|validation|io|physics|tyres|control)": [\d.e-]+'), r'"\1": T'),
-            (re.compile(r"^(│ (?:grid|random|lhs|bo|multi_fidelity) +│) +[\d.]+ (│.*│) +[\d.]+ │$", re.M), r"\1 T \2 T │")]   # a search's min, per CPU-h
+            (re.compile(r"^(│ (?:grid|random|lhs|bo|multi_fidelity) +│) +[\d.]+ (│.*│) +[\d.]+ │$", re.M),
+             r"\1 T \2 T │"),                                                           # a search's min, per CPU-h
+            (re.compile(r"^([\w-]+_s\d+ +\w+ +\w+) +\d+(?:\.\d+)?", re.M), r"\1 T")]          # real_scenarios' wall time
 WIDTH = "110"
 
 

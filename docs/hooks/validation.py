@@ -4,7 +4,7 @@
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
-printed, recorded, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
+printed, gaps, recorded, road_3d, road_3d_grid, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
 here is typed: a figure on these pages is the file's.
 """
 
@@ -88,8 +88,10 @@ def provenance(data: Any) -> str:
     if not found:
         return "not recorded in the file"
     load = found.get("load")
-    if isinstance(load, dict):
-        found["load"] = f"{load.get('start')} at the start, {load.get('end')} at the end, on {load.get('cpus')} CPUs"
+    if isinstance(load, dict) and {"start", "end", "cpus"} <= set(load):
+        found["load"] = f"{load['start']} at the start, {load['end']} at the end, on {load['cpus']} CPUs"
+    elif isinstance(load, dict):
+        found["load"] = ", ".join(f"{k} {v}" for k, v in load.items())
     return "; ".join(f"{k} {v}" for k, v in found.items())
 
 
@@ -299,7 +301,75 @@ def printed_block(name: str) -> str:
     return "\n".join(["```console", f"$ {data['command']}", *data["printed"], "```"] + _generated(name, data))
 
 
-TABLES = {"printed": printed_block, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+def road_3d_table(name: str) -> str:
+    """bench/roads/road_3d_study.py: per 3D family, each world on the 3D road against the road's flat twin."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| family (3D scenarios) | goals, MuJoCo / dynamic on the 3D road | max \\|d\\| [m], MuJoCo: flat twin → 3D road "
+             "(median / max) | dynamic: flat twin → 3D (max) | the flat plan's peak grip use: on its plane → on the real "
+             "road | MuJoCo's peak grip use on the relief: flat twin → 3D | CLS drop against ideal, MuJoCo 3D (mean / max) |",
+             "|---|---|---|---|---|---|---|"]
+    rows = []
+    for family, f in data["families"].items():
+        w = f["worlds"]
+        mj, mjf, dy, dyf, ideal = w["mujoco 3D"], w["mujoco flat"], w["dynamic 3D"], w["dynamic flat"], w["ideal 3D"]
+        rows.append([f"`{family}` ({f['scenarios']})", f"{mj['goals']}/{mj['runs']}, {dy['goals']}/{dy['runs']}",
+                     f"{mjf['max_d_median_m']:.2f} / {mjf['max_d_max_m']:.2f} → {mj['max_d_median_m']:.2f} / "
+                     f"{mj['max_d_max_m']:.2f}", f"{dyf['max_d_max_m']:.2f} → {dy['max_d_max_m']:.2f}",
+                     f"{ideal['grip_2d_max']:.2f} → {ideal['grip_3d_max']:.2f}",
+                     f"{mjf['grip_3d_max']:.2f} → {mj['grip_3d_max']:.2f}",
+                     f"{mj['score_drop_mean']:.3g} / {mj['score_drop_max']:.3g}"])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def road_3d_grid_table(name: str, family: str = "curve-3d") -> str:
+    """bench/roads/road_3d_study.py: MuJoCo's largest max |d| over the radii, by grade and bank."""
+    data = json.loads((RESULTS / name).read_text())
+    runs = [r for r in data["families"][family]["runs"] if r["backend"] == "mujoco" and r["status"] == "ok"]
+    grades, banks = sorted({r["grade"] for r in runs}), sorted({r["bank"] for r in runs})
+    lines = ["| grade \\ bank | " + " | ".join(f"{b:+g}°".replace("+0", "0").replace("-", "−") for b in banks) + " |",
+             "|---|" + "---|" * len(banks)]
+    rows = []
+    for g in grades:
+        cells = []
+        for b in banks:
+            cell = [r for r in runs if r["grade"] == g and r["bank"] == b]
+            worst = max(cell, key=lambda r: r["max_lateral_offset_m"])
+            cells.append(f"{worst['max_lateral_offset_m']:.2f} m (r = {worst['radius']:g} m)")
+        rows.append([f"{g:+g} %".replace("+0", "0").replace("-", "−")] + cells)
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def gaps_table(names: str) -> str:
+    """bench/paper/realism_gaps.py: max |d| against the ideal run per car (median / p90 / max) before and after,
+    and the score drops and missed goals after; ``names``: one file holding both studies, or BEFORE,AFTER."""
+    import numpy as np
+
+    files = names.split(",")
+    studies = [s for f in files for s in json.loads((RESULTS / f).read_text()).values()]
+    before, after = studies[0], studies[-1]
+
+    def car(fidelity: str) -> str:
+        return fidelity.split("/")[1]
+
+    def spread(values: list[float]) -> str:
+        return " / ".join(f"{v:.3f}" for v in (np.median(values), np.percentile(values, 90), max(values)))
+
+    old = {car(k): v for k, v in before.items()}
+    lines = ["| car | runs | max \\|d\\| before (median / p90 / max) [m] | after | score drop > 0 after | goals missed "
+             "after |", "|---|---|---|---|---|---|"]
+    rows = []
+    for fidelity, new in after.items():
+        drops = [d for d in new["score_drop"] if d > 0]
+        rows.append([car(fidelity), str(len(new["max_d"])), spread(old[car(fidelity)]["max_d"]) if car(fidelity) in old
+                     else "—", spread(new["max_d"]),
+                     f"{len(drops)}" + (f" ({', '.join(sorted({f'{d:.3g}' for d in drops}))})" if drops else ""),
+                     str(len(new["missed"]))])
+    data = json.loads((RESULTS / files[-1]).read_text())
+    return "\n".join(lines + _rows(rows) + ["", "*Generated from " + ", ".join(f"`bench/results/{f}`" for f in files)
+                                            + f" (provenance: {provenance(data)}).*"])
+
+
+TABLES = {"printed": printed_block, "gaps": gaps_table, "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
           "opendrive_import": opendrive_import_table}
 

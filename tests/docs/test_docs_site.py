@@ -110,6 +110,14 @@ def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
         assert f"results/{f.name}" in table, f.name
 
 
+def test_every_tutorial_runs_commands():
+    blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
+    tutorials = {f"tutorials/{page.name}" for page in (ROOT / "docs" / "tutorials").glob("*.md")}
+    assert tutorials <= set(blocks.PAGES), f"tutorials whose commands no test runs: {tutorials - set(blocks.PAGES)}"
+    for page in blocks.PAGES:
+        assert "<!-- run -->" in (ROOT / "docs" / page).read_text(), f"{page} has no executed block"
+
+
 def test_the_tutorials_print_what_the_page_shows():
     blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
     assert blocks.main([]) == 0
