@@ -4,7 +4,7 @@
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
-printed, gaps, recorded, road_3d, road_3d_grid, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
+printed, frenetix, gaps, recorded, road_3d, road_3d_grid, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
 here is typed: a figure on these pages is the file's.
 """
 
@@ -369,7 +369,26 @@ def gaps_table(names: str) -> str:
                                             + f" (provenance: {provenance(data)}).*"])
 
 
-TABLES = {"printed": printed_block, "gaps": gaps_table, "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+def frenetix_table(name: str) -> str:
+    """bench/planners/frenetix_guest.py: each planner on the paper's curves, ideal against MuJoCo, per MuJoCo
+    plan-latency setting the benchmark ran with."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| MuJoCo's plan latency | planner | goals ideal, MuJoCo | score ideal / MuJoCo (mean) | max \\|d\\| ideal vs "
+             "MuJoCo, median / max [m] | ms per call, ideal / MuJoCo (mean) |", "|---|---|---|---|---|---|"]
+    rows = []
+    for variant, v in data["variants"].items():
+        for planner, e in v["summary"].items():
+            ideal, mujoco = e["ideal"], e["mujoco"]
+            rows.append([variant.removeprefix("latency="), f"`{planner}`",
+                         f"{ideal['goals']}/{ideal['runs']}, {mujoco['goals']}/{mujoco['runs']}",
+                         f"{ideal['score_mean']:.3f} / {mujoco['score_mean']:.3f}",
+                         f"{e['max_d_median_m']:.3f} / {e['max_d_max_m']:.3f}",
+                         f"{ideal['ms_per_call_mean']:.0f} / {mujoco['ms_per_call_mean']:.0f}"])
+    return "\n".join(lines + _rows(rows) + ["", f"*Generated from `bench/results/{name}` (the file records each "
+                                            "variant's command, load average and guest environment, not its commit).*"])
+
+
+TABLES = {"printed": printed_block, "frenetix": frenetix_table, "gaps": gaps_table, "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
           "opendrive_import": opendrive_import_table}
 
