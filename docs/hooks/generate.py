@@ -30,7 +30,7 @@ from pydantic_core import PydanticUndefined
 # the libraries simgap imports (protobuf through commonroad-io) warn of their own deprecations
 warnings.filterwarnings("ignore", category=DeprecationWarning)
 
-MARKER = re.compile(r"^<!-- gen:(\w+)(?: ([\w.:]+))? -->$", re.M)
+MARKER = re.compile(r"^<!-- gen:(\w+)(?: ([\w.:,]+))? -->$", re.M)
 UNIT = re.compile(r"\[([^\]]*[A-Za-z%^°][^\]]*)\]")
 
 

@@ -3,7 +3,9 @@
 ``render_results("index")`` is the list of results files with their provenance and the script that
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
-value. Nothing here is typed: a figure on these pages is the file's.
+value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
+printed, frenetix, gaps, recorded, road_3d, road_3d_grid, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
+here is typed: a figure on these pages is the file's.
 """
 
 from __future__ import annotations
@@ -85,7 +87,12 @@ def provenance(data: Any) -> str:
     found = {k: meta[k] for k in PROVENANCE if isinstance(meta, dict) and k in meta}
     if not found:
         return "not recorded in the file"
-    return ", ".join(f"{k} {v}" for k, v in found.items())
+    load = found.get("load")
+    if isinstance(load, dict) and {"start", "end", "cpus"} <= set(load):
+        found["load"] = f"{load['start']} at the start, {load['end']} at the end, on {load['cpus']} CPUs"
+    elif isinstance(load, dict):
+        found["load"] = ", ".join(f"{k} {v}" for k, v in load.items())
+    return "; ".join(f"{k} {v}" for k, v in found.items())
 
 
 def scripts() -> dict[str, str]:
@@ -105,7 +112,7 @@ def _share(goals: int, total: int) -> str:
 
 
 def recorded_table(name: str) -> str:
-    """Goals reached per world and kind, from a results file of bench/real_recorded.py (its records:
+    """Goals reached per world and kind, from a results file of bench/recorded/real_recorded.py (its records:
     scenario, kind, world, agent, outcome, reason, wall_s, excluded, human); agents that start in a
     collision or overhanging the road (``excluded``) are not counted, as the benchmark prints."""
     data = json.loads((RESULTS / name).read_text())
@@ -135,9 +142,261 @@ def recorded_table(name: str) -> str:
     return "\n".join(lines)
 
 
+def _generated(name: str, data: Any) -> list[str]:
+    return ["", f"*Generated from `bench/results/{name}` (provenance: {provenance(data)}).*"]
+
+
+def _rows(lines: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(cells) + " |" for cells in lines]
+
+
+def _closed_form_row(check: str, case: str, measured: str, closed: str, error: float | None) -> list[str]:
+    return [check, case, measured, closed, "—" if error is None else f"{error:.2g} %".replace("-", "−")]
+
+
+def road_relief_table(name: str) -> str:
+    """bench/roads/road_relief.py's checks: each drive against its closed form."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| check | case | measured | closed form | error |", "|---|---|---|---|---|"]
+    rows: list[list[str]] = []
+    for i, r in enumerate(data["braking"]):
+        rows.append(_closed_form_row("braking from 100 km/h at the tyres' peak μ, v²/(2g(μ cos θ + sin θ))" if i == 0
+                                     else "", f"{r['grade_percent']:+g} %".replace("+0", "0").replace("-", "−"),
+                                     f"{r['measured']:.2f} m", f"{r['closed_form']:.2f} m", r["error_percent"]))
+    for i, r in enumerate(data["crest"]):
+        rows.append(_closed_form_row("tyre load at a crest's top, m(g − v²/R)" if i == 0 else "",
+                                     f"R {r['radius']:g} m, ±{r['grade_percent']:g} %, {r['speed']:.1f} m/s",
+                                     f"{r['measured']:.0f} N", f"{r['closed_form']:.0f} N", r["error_percent"]))
+    for i, r in enumerate(data["bank"]):
+        rows.append(_closed_form_row("friction a steady turn needs on a bank" if i == 0 else "",
+                                     f"{r['bank_deg']:+g}°, R {r['radius']:.0f} m, {r['speed']:.0f} m/s"
+                                     .replace("+0", "0").replace("-", "−"),
+                                     f"{r['measured']:.5f}", f"{r['closed_form']:.5f}", r["error_percent"]))
+    hold = {r["facing"]: r["moved_m"] * 1000 for r in data["hold"]}
+    grades = sorted({r["grade_percent"] for r in data["hold"]})
+    rows.append(["a braked car on " + ", ".join(f"{g:g} %" for g in grades), " / ".join(f"facing {f}" for f in hold),
+                 "moved " + " / ".join(f"{v:.2f}" for v in hold.values()) + " mm", "stays", "—"])
+    rows.append(["a flat relief against no relief", "on a circle", f"{data['flat_relief_against_plane_m']:g} m apart",
+                 "0 m", "—"])
+    rt = data["realtime"]
+    rows.append([f"real-time factor of one car (physics and control, no planner; best of {rt['rounds']})",
+                 "flat proving ground / banked 3D one", f"{rt['flat']:.1f}× / {rt['relief']:.1f}×", "", ""])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def realism_steps_table(name: str) -> str:
+    """bench/vehicles/realism.py's actuator step responses: the source's figures, the model's, the car's."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| vehicle | channel | dead time: source / model / car [s] | 63 % rise after it: source / model / car [s] |",
+             "|---|---|---|---|"]
+    rows = [[r["vehicle"], r["channel"], f"{r['dead_time_s']:.3f} / {r['measured_dead_s']:.3f} / {r['car_dead_s']:.3f}",
+             f"{r['time_constant_s']:.3f} / {r['measured_rise_s']:.3f} / {r['car_rise_s']:.3f}"]
+            for r in data["step_responses"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def realism_tracking_table(name: str) -> str:
+    """bench/vehicles/realism.py's tracking: RMS / peak lateral error per manoeuvre, controller and car."""
+    data = json.loads((RESULTS / name).read_text())
+    cars = list(dict.fromkeys(r["car"] for r in data["tracking"]))
+    cells: dict[tuple[str, str], dict[str, str]] = {}
+    for r in data["tracking"]:
+        cell = f"{r['rms_m']:.3f} / {r['peak_m']:.3f}"
+        if r["outcome"] != "goal_reached":
+            cell += f" **{r['outcome'].replace('_', ' ')}**"
+        cells.setdefault((r["scenario"], r["controller"].replace("_", " ")), {})[r["car"]] = cell
+    lines = ["| manoeuvre | controller | " + " | ".join(cars) + " |", "|---|---|" + "---|" * len(cars)]
+    rows = [[scenario, controller] + [by_car.get(c, "") for c in cars] for (scenario, controller), by_car in cells.items()]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def _arrow(values: dict[str, float]) -> str:
+    return " → ".join(f"{v:.3f}" for _, v in sorted(values.items(), key=lambda kv: float(kv[0])))
+
+
+def _lane_change(result: dict[str, dict[str, Any]]) -> str:
+    if all(r["peak_lateral_error_m"] is None for r in result.values()):
+        return "state no longer finite (spins)"
+    verdict = "pass" if all(r["passed"] for r in result.values()) else "fail"
+    return verdict + " " + " / ".join("—" if r["peak_lateral_error_m"] is None else f"{r['peak_lateral_error_m']:.2f}"
+                                      for r in result.values())
+
+
+VEHICLE_ROWS = [  # (row, the figure of a car's record, target)
+    ("understeer gradient [deg/g] (fit to 0.4 g)", lambda c: f"{c['understeer_gradient_deg_per_g']:.2f}",
+     "0 to 4 for every car"),
+    ("sideslip gradient [deg/g]", lambda c: f"{c['sideslip_gradient_deg_per_g']:.2f}", ""),
+    ("roll gradient [deg/g] (fit to 0.4 g)", lambda c: f"{c['roll_gradient_deg_per_g']:.1f}",
+     "real cars: sedan 3–6, SUV 5–8"),
+    ("largest lateral acceleration held on the circle [m/s²] (at speed [m/s])",
+     lambda c: f"{c['max_lateral_acceleration']:.2f} ({c['circle_limit_speed']:g})", "suv lower than sedan"),
+    ("yaw-rate rise time, step steer at 80 km/h to ~4 m/s² [s]", lambda c: f"{c['yaw_rate_rise_time_s']:.3f}",
+     "sedan within 30 % of MB; city quicker than sedan"),
+    ("yaw-rate overshoot [%]", lambda c: f"{c['yaw_rate_overshoot_percent']:.1f}", ""),
+    ("braking from 100 km/h, full pedal [m]", lambda c: f"{c['braking_distance_100_m']:.1f}"
+     + (" (wheels lock)" if c.get("braking_full_pedal_locks") else ""), "sedan 35–42"),
+    ("braking, largest pedal that locks no wheel [m]", lambda c: f"{c['braking_distance_100_unlocked_m']:.1f}", ""),
+    ("lateral error on the circle at the last speeds below the limit [m]",
+     lambda c: _arrow(c["circle_near_limit_lateral_error_m"]), "rising progressively"),
+    ("ISO 3888-2 double lane change, 60 km/h: peak lateral error [m] by controller",
+     lambda c: _lane_change(c["lane_change_60"]), "no rollover"),
+    ("beyond the limit: runs, rollovers, largest roll [deg], longest two-wheel lift [s]",
+     lambda c: f"{c['beyond_limit_runs']}, {c['beyond_limit_rollovers']}, {c['beyond_limit_max_roll_deg']:.1f}, "
+               f"{c['beyond_limit_longest_two_wheel_lift_s']:.2f}" if "beyond_limit_runs" in c else "", "no rollover"),
+]
+
+
+def vehicle_dynamics_table(name: str) -> str:
+    """bench/vehicles/vehicle_dynamics.py: each car's handling figures beside the sedan's multi-body reference."""
+    data = json.loads((RESULTS / name).read_text())
+    cars = [k for k, v in data.items() if isinstance(v, dict) and "understeer_gradient_deg_per_g" in v]
+    columns = []
+    for car in cars:
+        columns.append((car, data[car]))
+        if "mb_reference" in data[car]:
+            columns.append((f"MB ({car}'s reference)", data[car]["mb_reference"]))
+    controllers = next(iter(columns))[1].get("lane_change_60", {})
+    lines = ["| | " + " | ".join(c for c, _ in columns) + " | target |", "|---|" + "---|" * (len(columns) + 1)]
+    rows = []
+    for label, figure, target in VEHICLE_ROWS:
+        if "lane change" in label:
+            label += " (" + " / ".join(controllers) + ")"
+        cells = []
+        for _, record in columns:
+            try:
+                cells.append(figure(record))
+            except (KeyError, TypeError):
+                cells.append("—")
+        rows.append([label] + cells + [target])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def opendrive_import_table(name: str) -> str:
+    """bench/export/opendrive_import.py: each public road read, run in both worlds and exported back."""
+    data = json.loads((RESULTS / name).read_text())
+
+    def run(r: dict[str, Any]) -> str:
+        if r.get("outcome") == "goal_reached":
+            return f"goal, {r['time_to_goal_s']:.1f} s"
+        return str(r.get("outcome", "—")).replace("_", " ")
+
+    def wall(r: dict[str, Any]) -> str:
+        return " / ".join(f"{r[w]['wall_s']:.1f}" if "wall_s" in r.get(w, {}) else "—" for w in ("ideal", "mujoco"))
+
+    lines = ["| file | import | lanelets | successors (across roads) | neighbour pairs | lane links kept | ideal | MuJoCo "
+             "| run wall time, ideal / MuJoCo [s] | exported back: export [s], lanelet centres off [mm] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    rows = [[f"`{r['file']}`", f"{r['import_s']:.2f} s", str(r["lanelets"]),
+             f"{r['successors']} ({r['successors_across_roads']})", str(r["neighbour_pairs"]),
+             f"{r['lane_links_kept']} of {r['lane_links_in_file']}" if r["lane_links_in_file"] else "— (one road)",
+             run(r.get("ideal", {})), run(r.get("mujoco", {})), wall(r),
+             f"{r['export']['export_s']:.1f}, {1000 * r['export']['read_back_m']:.0f}" if "export" in r else "—"]
+            for r in data["roads"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def printed_block(name: str) -> str:
+    """What a benchmark printed, as its results file keeps it (``printed``), under its command."""
+    data = json.loads((RESULTS / name).read_text())
+    return "\n".join(["```console", f"$ {data['command']}", *data["printed"], "```"] + _generated(name, data))
+
+
+def road_3d_table(name: str) -> str:
+    """bench/roads/road_3d_study.py: per 3D family, each world on the 3D road against the road's flat twin."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| family (3D scenarios) | goals, MuJoCo / dynamic on the 3D road | max \\|d\\| [m], MuJoCo: flat twin → 3D road "
+             "(median / max) | dynamic: flat twin → 3D (max) | the flat plan's peak grip use: on its plane → on the real "
+             "road | MuJoCo's peak grip use on the relief: flat twin → 3D | CLS drop against ideal, MuJoCo 3D (mean / max) |",
+             "|---|---|---|---|---|---|---|"]
+    rows = []
+    for family, f in data["families"].items():
+        w = f["worlds"]
+        mj, mjf, dy, dyf, ideal = w["mujoco 3D"], w["mujoco flat"], w["dynamic 3D"], w["dynamic flat"], w["ideal 3D"]
+        rows.append([f"`{family}` ({f['scenarios']})", f"{mj['goals']}/{mj['runs']}, {dy['goals']}/{dy['runs']}",
+                     f"{mjf['max_d_median_m']:.2f} / {mjf['max_d_max_m']:.2f} → {mj['max_d_median_m']:.2f} / "
+                     f"{mj['max_d_max_m']:.2f}", f"{dyf['max_d_max_m']:.2f} → {dy['max_d_max_m']:.2f}",
+                     f"{ideal['grip_2d_max']:.2f} → {ideal['grip_3d_max']:.2f}",
+                     f"{mjf['grip_3d_max']:.2f} → {mj['grip_3d_max']:.2f}",
+                     f"{mj['score_drop_mean']:.3g} / {mj['score_drop_max']:.3g}"])
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def road_3d_grid_table(name: str, family: str = "curve-3d") -> str:
+    """bench/roads/road_3d_study.py: MuJoCo's largest max |d| over the radii, by grade and bank."""
+    data = json.loads((RESULTS / name).read_text())
+    runs = [r for r in data["families"][family]["runs"] if r["backend"] == "mujoco" and r["status"] == "ok"]
+    grades, banks = sorted({r["grade"] for r in runs}), sorted({r["bank"] for r in runs})
+    lines = ["| grade \\ bank | " + " | ".join(f"{b:+g}°".replace("+0", "0").replace("-", "−") for b in banks) + " |",
+             "|---|" + "---|" * len(banks)]
+    rows = []
+    for g in grades:
+        cells = []
+        for b in banks:
+            cell = [r for r in runs if r["grade"] == g and r["bank"] == b]
+            worst = max(cell, key=lambda r: r["max_lateral_offset_m"])
+            cells.append(f"{worst['max_lateral_offset_m']:.2f} m (r = {worst['radius']:g} m)")
+        rows.append([f"{g:+g} %".replace("+0", "0").replace("-", "−")] + cells)
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def gaps_table(names: str) -> str:
+    """bench/paper/realism_gaps.py: max |d| against the ideal run per car (median / p90 / max) before and after,
+    and the score drops and missed goals after; ``names``: one file holding both studies, or BEFORE,AFTER."""
+    import numpy as np
+
+    files = names.split(",")
+    studies = [s for f in files for s in json.loads((RESULTS / f).read_text()).values()]
+    before, after = studies[0], studies[-1]
+
+    def car(fidelity: str) -> str:
+        return fidelity.split("/")[1]
+
+    def spread(values: list[float]) -> str:
+        return " / ".join(f"{v:.3f}" for v in (np.median(values), np.percentile(values, 90), max(values)))
+
+    old = {car(k): v for k, v in before.items()}
+    lines = ["| car | runs | max \\|d\\| before (median / p90 / max) [m] | after | score drop > 0 after | goals missed "
+             "after |", "|---|---|---|---|---|---|"]
+    rows = []
+    for fidelity, new in after.items():
+        drops = [d for d in new["score_drop"] if d > 0]
+        rows.append([car(fidelity), str(len(new["max_d"])), spread(old[car(fidelity)]["max_d"]) if car(fidelity) in old
+                     else "—", spread(new["max_d"]),
+                     f"{len(drops)}" + (f" ({', '.join(sorted({f'{d:.3g}' for d in drops}))})" if drops else ""),
+                     str(len(new["missed"]))])
+    data = json.loads((RESULTS / files[-1]).read_text())
+    return "\n".join(lines + _rows(rows) + ["", "*Generated from " + ", ".join(f"`bench/results/{f}`" for f in files)
+                                            + f" (provenance: {provenance(data)}).*"])
+
+
+def frenetix_table(name: str) -> str:
+    """bench/planners/frenetix_guest.py: each planner on the paper's curves, ideal against MuJoCo, per MuJoCo
+    plan-latency setting the benchmark ran with."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| MuJoCo's plan latency | planner | goals ideal, MuJoCo | score ideal / MuJoCo (mean) | max \\|d\\| ideal vs "
+             "MuJoCo, median / max [m] | ms per call, ideal / MuJoCo (mean) |", "|---|---|---|---|---|---|"]
+    rows = []
+    for variant, v in data["variants"].items():
+        for planner, e in v["summary"].items():
+            ideal, mujoco = e["ideal"], e["mujoco"]
+            rows.append([variant.removeprefix("latency="), f"`{planner}`",
+                         f"{ideal['goals']}/{ideal['runs']}, {mujoco['goals']}/{mujoco['runs']}",
+                         f"{ideal['score_mean']:.3f} / {mujoco['score_mean']:.3f}",
+                         f"{e['max_d_median_m']:.3f} / {e['max_d_max_m']:.3f}",
+                         f"{ideal['ms_per_call_mean']:.0f} / {mujoco['ms_per_call_mean']:.0f}"])
+    return "\n".join(lines + _rows(rows) + ["", f"*Generated from `bench/results/{name}` (the file records each "
+                                            "variant's command, load average and guest environment, not its commit).*"])
+
+
+TABLES = {"printed": printed_block, "frenetix": frenetix_table, "gaps": gaps_table, "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+          "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
+          "opendrive_import": opendrive_import_table}
+
+
 def render_results(which: str | None) -> str:
-    if which and which.startswith("recorded:"):
-        return recorded_table(which.split(":", 1)[1])
+    kind, _, name = (which or "").partition(":")
+    if name and kind in TABLES:
+        return TABLES[kind](name)
     files = sorted(RESULTS.glob("*.json"))
     written_by = scripts()
     if which == "index":

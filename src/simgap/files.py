@@ -253,7 +253,7 @@ class BenchmarkResults:
 
     Made when the benchmark starts (the load then is kept), written at its end with
     ``write(path, figures)``: one JSON object with ``commit`` (the short hash, ``-dirty`` when tracked
-    files differ from it), ``date`` (UTC), ``machine`` (architecture, CPUs, system, Python), ``load``
+    files other than ``bench/results/`` differ from it), ``date`` (UTC), ``machine`` (architecture, CPUs, system, Python), ``load``
     (the 1-minute load average at the start and at the end, and the CPUs it is shared over),
     ``command`` (how the benchmark was started), ``wall_time_s``, then the figures: a mapping's keys,
     or a list under ``rows``. ``printed`` tees what the benchmark prints, for a script whose tables
@@ -308,7 +308,9 @@ class BenchmarkResults:
             return subprocess.run(["git", *args], capture_output=True, text=True, cwd=Path(self._argv[0]).parent
                                   if self._argv and Path(self._argv[0]).parent.is_dir() else None)
         commit = git("rev-parse", "--short", "HEAD").stdout.strip() or "unknown"
-        if commit != "unknown" and git("diff", "--quiet", "HEAD", "--").returncode == 1:
+        # results files written since (this benchmark's or another's) are not code: they leave the commit clean
+        if commit != "unknown" and git("diff", "--quiet", "HEAD", "--", ":(top)",
+                                       ":(top,exclude)bench/results").returncode == 1:
             commit += "-dirty"
         script = Path(self._argv[0]) if self._argv else Path("?")
         try:

@@ -1,4 +1,4 @@
-"""Smoke test of bench/real_recorded.py on a file shaped like a converted recording: a planning
+"""Smoke test of bench/recorded/real_recorded.py on a file shaped like a converted recording: a planning
 problem with its human driver's vehicle beside it (a dynamic obstacle at the same initial state).
 The bench reports numbers, not pass/fail; this checks that it runs end to end, tells the human
 driver from the traffic and counts both."""
@@ -21,7 +21,7 @@ from simgap.scenario.files import write_scenario
 
 @pytest.fixture(scope="module")
 def real_recorded(bench_module):
-    return bench_module("real_recorded")
+    return bench_module("recorded/real_recorded")
 
 
 def recording(tmp_path: Path) -> Path:

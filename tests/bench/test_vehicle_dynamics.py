@@ -1,4 +1,4 @@
-"""Smoke test of bench/vehicle_dynamics.py: its whole quick run with ``--json`` (every section) on one
+"""Smoke test of bench/vehicles/vehicle_dynamics.py: its whole quick run with ``--json`` (every section) on one
 MuJoCo car prints one JSON object with figures that any tyre model must give (the bench itself
 reports numbers, not pass/fail)."""
 
@@ -12,7 +12,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def vehicle_dynamics(bench_module):
-    return bench_module("vehicle_dynamics")
+    return bench_module("vehicles/vehicle_dynamics")
 
 
 def test_quick_json_benchmark_of_one_car_gives_sane_handling_figures(vehicle_dynamics, capsys):

@@ -3,7 +3,7 @@
 Every controller gets receding 3 s windows of the reference, a new one every 0.1 s (as from a
 planner), runs at 100 Hz, and drives the plant (RK4 at 1 kHz, steering servo 0.05 s with the
 0.4 rad/s rate limit, powertrain lag 0.1 s). Bounds are about three times what the controllers
-reach with their default gains (see bench/controller_circle.py for the numbers).
+reach with their default gains (see bench/vehicles/controller_circle.py for the numbers).
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ from simgap.scenario.opendrive.scenario import opendrive_scenario
 ROADS = Path(__file__).parents[1] / "scenario" / "opendrive_roads"
 ROUTES = yaml.safe_load((ROADS / "routes.yaml").read_text())
 # the fitted export of these takes 25-55 s (long lanelets: a 500 m straight of the banked loop, the
-# motorway's); bench/opendrive_import.py exports them back and reports the figures
+# motorway's); bench/export/opendrive_import.py exports them back and reports the figures
 SLOW_TO_EXPORT = {"velodrome.xodr", "Ex_Entry_Exit.xodr"}
 
 

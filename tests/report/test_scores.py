@@ -1,4 +1,4 @@
-"""The score table of a results store (what bench/paper_study.py prints), on rows made up by hand."""
+"""The score table of a results store (what bench/paper/paper_study.py prints), on rows made up by hand."""
 
 from __future__ import annotations
 

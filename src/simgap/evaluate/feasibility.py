@@ -15,7 +15,7 @@ the model is a plain ODE; its simulation (RK4, 20 substeps, vectorised over ever
 within ``SURE_COST`` (< 0.02) of the next state, and the optimiser, which minimises that same
 distance, ends as near or nearer: within the criteria. Every other transition — near a limit, or farther
 from the next state — is checked by the library itself, in order, and the first it finds
-infeasible is the verdict. `bench/validity.py` holds the verdicts against the library's alone.
+infeasible is the verdict. `bench/scores/validity.py` holds the verdicts against the library's alone.
 """
 
 from __future__ import annotations

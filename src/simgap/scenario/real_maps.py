@@ -1,4 +1,4 @@
-"""Real road networks and scenarios on them: the corpus of `bench/real_scenarios.py`.
+"""Real road networks and scenarios on them: the corpus of `bench/recorded/real_scenarios.py`.
 
 The maps are the public lanelet networks that ship with the ``commonroad-dataset-converter``
 package (BSD-3-Clause; road networks of the INTERACTION, exiD, inD, rounD, uniD, SinD and MONA

@@ -107,7 +107,7 @@ class VehiclePhysics(BaseModel):
         """Linear-range understeer gradient of the tyres at static axle loads [rad s^2/m]:
         K_us = m / L (b / C_f - a / C_r), C the axle's cornering stiffness (steering angle
         delta = L / R + K_us a_y on a steady circle). Load transfer, roll and compliance are not
-        in it; `bench/vehicle_dynamics.py` measures the whole car."""
+        in it; `bench/vehicles/vehicle_dynamics.py` measures the whole car."""
         c_front, c_rear = self.axle_cornering_stiffness(wheelbase, rear_axle_to_center)
         b = rear_axle_to_center
         return self.mass / wheelbase * (b / c_front - (wheelbase - b) / c_rear)

@@ -34,7 +34,7 @@ def sharp_curve(tmp_path_factory):
 @pytest.mark.parametrize("vehicle_name", vehicle_names())
 def test_every_vehicle_drives_the_sharp_curve_to_its_goal(sharp_curve, vehicle_name, tmp_path):
     # the perfect machine: the physics alone (the suv's real steering, 0.24 s + 0.27 s, leaves this
-    # curve's lane by 1.4 cm: tests/cosim/test_realism.py and bench/realism.py measure the real cars)
+    # curve's lane by 1.4 cm: tests/cosim/test_realism.py and bench/vehicles/realism.py measure the real cars)
     run = execute(RunRequest(scenario=sharp_curve, backend="mujoco", vehicles=vehicle_name,
                              backend_settings=backend_settings("mujoco", {"realism": "ideal"})), tmp_path / "run")
     agent = run.agents[0]

@@ -1,5 +1,5 @@
 """The MuJoCo world on a road's relief against closed-form physics (the drives are
-bench/road_relief.py's, which prints the same figures as tables)."""
+bench/roads/road_relief.py's, which prints the same figures as tables)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from simgap.vehicles import load_vehicle
 
-BENCH = Path(__file__).resolve().parents[3] / "bench" / "road_relief.py"
+BENCH = Path(__file__).resolve().parents[3] / "bench" / "roads" / "road_relief.py"
 
 
 @pytest.fixture(scope="module")

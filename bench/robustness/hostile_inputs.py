@@ -1,0 +1,1236 @@
+"""Hostile-input sweep: what a careless or hostile user gives simgap, and what simgap does.
+
+Every case builds what it needs in a folder of its own (scenario, spec, vehicle and planner files,
+mutated as the case says), runs the real `simgap` command as a subprocess with a wall-time limit,
+and sorts the outcome into one verdict:
+
+    refusal        exit 2, one line on stderr naming the file/field, no traceback
+    messy-refusal  exit 2, but several lines or the file/field not named
+    recorded       the run (or experiment) was written with the failure's reason, exit 0/1
+    handled        the case's expected good outcome was checked and holds (a capped plan, a
+                   rerun after a deleted run, a whole report after SIGKILL, ...)
+    traceback      a Python traceback reached the user
+    hang           still running at the case's time limit (killed)
+    silent-accept  exit 0 (or a result written) where the input should have been refused or failed
+    data-loss      a result missing, half-written or lost (where checkable)
+    other          anything else (see the note)
+    skipped        the case could not be set up on this machine (e.g. no tmpfs mounts)
+
+Each case has a short name and the number of the kind of hostile input it belongs to (its item). The sweep prints a table
+(case, item, verdict, seconds, note), the counts per verdict, writes them as JSON with --json, and
+exits 0: it is a benchmark, not a test.
+
+Usage (from the repository root; run it niced, one case at a time):
+
+    PYTHONPATH=src MUJOCO_GL=egl nice -n 5 python bench/robustness/hostile_inputs.py [--json FILE]
+        [--only SUBSTRING ...] [--timeout 120] [--keep DIR] [--list]
+
+--only runs the cases whose name contains one of the substrings; --keep leaves every case's
+folder (stdout, stderr, files) in DIR; --list prints the cases and exits. Cases with a full or
+read-only disk mount a small tmpfs (root only; skipped otherwise).
+Every command runs under an 8 GB data limit (RLIMIT_DATA), so a memory bomb ends that command
+and not the machine's other work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import textwrap
+import threading
+import time
+import xml.etree.ElementTree as ET
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable, Iterator
+from simgap.files import BenchmarkResults
+
+REPO = Path(__file__).resolve().parents[2]
+SRC = REPO / "src"
+TIMEOUT_S = 120.0
+MEMORY_LIMIT_GB = 8.0      # each command's data limit: a memory bomb fails it instead of the machine
+
+REFUSAL, MESSY, RECORDED, HANDLED = "refusal", "messy-refusal", "recorded", "handled"
+TRACEBACK, HANG, SILENT, LOSS, OTHER, SKIPPED = "traceback", "hang", "silent-accept", "data-loss", "other", "skipped"
+VERDICTS = (REFUSAL, MESSY, RECORDED, HANDLED, TRACEBACK, HANG, SILENT, LOSS, OTHER, SKIPPED)
+
+
+# --------------------------------------------------------------------------------------------
+# running the command
+
+@dataclass
+class Proc:
+    """One finished (or killed) `simgap` process."""
+
+    args: list[str]
+    rc: int | None
+    stdout: str
+    stderr: str
+    seconds: float
+    timed_out: bool = False
+    max_rss_mb: float = 0.0
+
+    def stderr_lines(self) -> list[str]:
+        return [line for line in self.stderr.splitlines() if line.strip()]
+
+
+class Child:
+    """A `simgap` process started in a session of its own (so a timeout kills its workers too)."""
+
+    counter = 0
+
+    def __init__(self, args: list[str], cwd: Path, env: dict | None = None, umask: int | None = None):
+        Child.counter += 1
+        self.args, self.cwd = [str(a) for a in args], cwd
+        self.out_file = cwd / f".stdout-{Child.counter}"
+        self.err_file = cwd / f".stderr-{Child.counter}"
+        environment = dict(os.environ, PYTHONPATH=str(SRC))
+        environment.setdefault("MUJOCO_GL", "egl")
+        environment.update(env or {})
+        environment = {k: v for k, v in environment.items() if v is not None}     # None: unset it
+        self.start = time.monotonic()
+        with self.out_file.open("w") as out, self.err_file.open("w") as err:
+            self.popen = subprocess.Popen([sys.executable, "-m", "simgap", *self.args], cwd=cwd, stdout=out,
+                                          stderr=err, env=environment, start_new_session=True,
+                                          preexec_fn=lambda: _limits(umask))
+        self.killed = False
+
+    def kill(self) -> None:
+        """SIGKILL the process and everything it started (its own process group)."""
+        self.killed = True
+        try:
+            os.killpg(self.popen.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+    def wait(self, timeout: float | None = None) -> Proc:
+        timer = threading.Timer(timeout or TIMEOUT_S, self.kill)
+        timer.start()
+        try:
+            _, status, usage = os.wait4(self.popen.pid, 0)
+        finally:
+            timer.cancel()
+        self.popen.returncode = rc = os.waitstatus_to_exitcode(status)
+        return Proc(self.args, rc, self.out_file.read_text(errors="replace"), self.err_file.read_text(errors="replace"),
+                    time.monotonic() - self.start, timed_out=self.killed, max_rss_mb=usage.ru_maxrss / 1024)
+
+
+def _limits(umask: int | None) -> None:
+    """In the child, before simgap starts: the memory limit, and the umask if asked."""
+    limit = int(MEMORY_LIMIT_GB * 2**30)
+    resource.setrlimit(resource.RLIMIT_DATA, (limit, limit))
+    if umask is not None:
+        os.umask(umask)
+
+
+def simgap(*args, cwd: Path, env: dict | None = None, timeout: float | None = None, umask: int | None = None) -> Proc:
+    return Child(list(args), cwd, env, umask).wait(timeout)
+
+
+# --------------------------------------------------------------------------------------------
+# judging an outcome
+
+@dataclass
+class Outcome:
+    verdict: str
+    note: str = ""
+    stderr: str = ""
+    seconds: float = 0.0
+
+
+def problem(p: Proc) -> Outcome | None:
+    """The verdict every case shares: a hang or a traceback, whatever was expected."""
+    if p.timed_out:
+        return Outcome(HANG, f"killed after {p.seconds:.0f} s", p.stderr)
+    text = p.stdout + "\n" + p.stderr
+    if "Traceback" in text:
+        tail = [line for line in text.splitlines() if line.strip()]
+        return Outcome(TRACEBACK, tail[-1][:200] if tail else "", p.stderr)
+    return None
+
+
+def refused(p: Proc, names: tuple[str, ...] = ()) -> Outcome | None:
+    """Exit 2: a clean refusal when one line names every one of ``names``, messy otherwise."""
+    if p.rc != 2:
+        return None
+    lines = p.stderr_lines()
+    missing = [n for n in names if n not in p.stderr]
+    if len(lines) == 1 and not missing:
+        return Outcome(REFUSAL, lines[0][:160], p.stderr)
+    why = f"{len(lines)} lines on stderr" if len(lines) != 1 else f"does not name {', '.join(missing)}"
+    return Outcome(MESSY, f"{why}: {' '.join(lines)[:160]}", p.stderr)
+
+
+def expect_refusal(p: Proc, *names: str) -> Outcome:
+    """The input should have been refused (exit 2, one line naming ``names``)."""
+    verdict = problem(p) or refused(p, names)
+    if verdict:
+        return verdict
+    if p.rc == 0:
+        return Outcome(SILENT, "exit 0: accepted", p.stderr)
+    return Outcome(OTHER, f"exit {p.rc}: {' '.join(p.stderr_lines())[:160]}", p.stderr)
+
+
+def run_record(out: Path) -> dict | None:
+    try:
+        return json.loads((out / "run.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def failure_reason(record: dict) -> str | None:
+    """Why a run failed, as its record says (None when it records no failure)."""
+    if record.get("failure"):
+        return str(record["failure"])
+    for agent in record.get("agents", []):
+        if agent.get("outcome") != "goal_reached" or agent.get("planner_failures"):
+            detail = next((e.get("detail") for e in record.get("events", []) if e.get("detail")), "")
+            return f"agent {agent['id']} {agent.get('outcome')}: {detail}"
+    return None
+
+
+def expect_record(p: Proc, out: Path) -> Outcome:
+    """The run should be written with the failure's reason (or refused before it ran)."""
+    verdict = problem(p) or refused(p)
+    if verdict:
+        return verdict
+    record = run_record(out)
+    if record is None:
+        return Outcome(LOSS, f"exit {p.rc}, no run.json written; stdout: {p.stdout.strip()[:80]!r}", p.stderr)
+    reason = failure_reason(record)
+    if reason:
+        return Outcome(RECORDED, f"exit {p.rc}: {reason[:150]}", p.stderr)
+    return Outcome(SILENT, f"exit {p.rc}: run recorded without a failure", p.stderr)
+
+
+def expect(p: Proc, ok: bool, good: str, bad_verdict: str, bad: str) -> Outcome:
+    """A case-specific check: HANDLED when ``ok``, else ``bad_verdict``."""
+    verdict = problem(p)
+    if verdict:
+        return verdict
+    return Outcome(HANDLED, good, p.stderr) if ok else Outcome(bad_verdict, bad, p.stderr)
+
+
+# --------------------------------------------------------------------------------------------
+# what the cases are built from
+
+PLANNERS = '''
+"""Hostile planners: each returns (or does) one thing a planner should not."""
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from simgap.trajectory import State, Trajectory
+
+
+def columns(observed, t, dt, n=31, speed=10.0):
+    """A straight plan at ``speed`` along the car's heading, as mutable arrays."""
+    k = np.arange(n, dtype=float)
+    s = speed * dt * k
+    return dict(t=t + dt * k, x=observed.x + s * math.cos(observed.yaw), y=observed.y + s * math.sin(observed.yaw),
+                yaw=np.full(n, observed.yaw), v=np.full(n, speed), a=np.zeros(n), yaw_rate=np.zeros(n),
+                steer=np.zeros(n))
+
+
+def mutated(observed, t, dt, change, n=31, plan_dt=None):
+    c = columns(observed, t, plan_dt or dt, n)
+    change(c)
+    return Trajectory(plan_dt or dt, **c)
+
+
+class NaN:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: c["x"].__setitem__(1, float("nan")))
+
+class Inf:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: c["v"].__setitem__(-1, float("inf")))
+
+class Dict:
+    def plan(self, observed, t, world):
+        return {"x": [1, 2], "y": [0, 0]}
+
+class Str:
+    def plan(self, observed, t, world):
+        return "forward"
+
+class List:
+    def plan(self, observed, t, world):
+        return [observed, observed]
+
+class Array:
+    def plan(self, observed, t, world):
+        return np.zeros((31, 8))
+
+class NoneAlways:
+    def plan(self, observed, t, world):
+        return None
+
+class OneState:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: None, n=1)
+
+class StartsLate:
+    def plan(self, observed, t, world):
+        return mutated(observed, t + 1.0, world.dt, lambda c: None)
+
+class OtherGrid:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: None, plan_dt=2 * world.dt)
+
+class OffGrid:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: c["t"].__setitem__(slice(10, None), c["t"][10:] + 0.37 * world.dt))
+
+class Backwards:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: None, plan_dt=-world.dt)
+
+class Teleport:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: c["x"].__setitem__(slice(1, None), 1e300))
+
+class Lightspeed:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: c["v"].__setitem__(slice(None), 1e300))
+
+class Huge:
+    def plan(self, observed, t, world):
+        return mutated(observed, t, world.dt, lambda c: None, n=1_000_000)
+
+class Raises:
+    def plan(self, observed, t, world):
+        raise ValueError("hostile planner")
+
+class Recurses:
+    def plan(self, observed, t, world):
+        return self.plan(observed, t, world)
+
+class Exits:
+    def plan(self, observed, t, world):
+        sys.exit(3)
+
+class HardExit:
+    def plan(self, observed, t, world):
+        os._exit(0)
+
+class Interrupts:
+    def plan(self, observed, t, world):
+        raise KeyboardInterrupt
+
+class ExitsWhenBuilt:
+    def __init__(self):
+        sys.exit(3)
+    def plan(self, observed, t, world):
+        return None
+
+class CustomBase(BaseException):
+    pass
+
+class RaisesBase:
+    def plan(self, observed, t, world):
+        raise CustomBase("not an Exception")
+
+class NeverReturns:
+    def plan(self, observed, t, world):
+        while True:
+            time.sleep(0.01)
+
+class BusyForever:
+    def plan(self, observed, t, world):
+        while True:
+            pass
+
+class Slow:
+    def plan(self, observed, t, world):
+        time.sleep(1.0)
+        return mutated(observed, t, world.dt, lambda c: None)
+
+class Stands:
+    def plan(self, observed, t, world):
+        return Trajectory(world.dt, **columns(observed, t, world.dt, speed=0.0))
+
+def not_a_class(observed, t, world):
+    return None
+'''
+
+SPEC_TWO_RUNS = """name: two
+logical: curve
+parameters: {radius: {values: [50, 100]}, angle: {values: [30]}}
+fidelities: [{backend: ideal}]
+cosim: {replan_every: 3}
+"""
+
+ALIAS_BOMB = "\n".join(["a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+                       + [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 12)]) + "\n"
+
+
+class Stock:
+    """What many cases share, built once in the sweep's folder: a scenario, the planners, a run,
+    the sedan's data file."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        self._scenario: Path | None = None
+        self._run: Path | None = None
+
+    @property
+    def scenario(self) -> Path:
+        if self._scenario is None:
+            folder = self.root / "stock"
+            folder.mkdir(exist_ok=True)
+            p = simgap("generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview",
+                       "--out", folder / "scenarios", cwd=folder)
+            assert p.rc == 0, p.stderr
+            self._scenario = folder / "scenarios" / "curve_radius-50_angle-30.xml"
+        return self._scenario
+
+    @property
+    def run(self) -> Path:
+        if self._run is None:
+            out = self.root / "stock" / "run"
+            p = simgap("run", self.scenario, "--no-validate", "--replan-every", "3", "--out", out, cwd=self.root)
+            assert p.rc == 0, p.stderr
+            self._run = out
+        return self._run
+
+    def planners(self, folder: Path) -> Path:
+        path = folder / "hostile.py"
+        path.write_text(PLANNERS)
+        return path
+
+    @staticmethod
+    def sedan_text() -> str:
+        return (SRC / "simgap" / "vehicles" / "data" / "sedan.yaml").read_text()
+
+
+def mutate_xml(source: Path, target: Path, change: Callable[[ET.Element], None]) -> Path:
+    tree = ET.parse(source)
+    change(tree.getroot())
+    tree.write(target, encoding="UTF-8", xml_declaration=True)
+    return target
+
+
+def set_text(path: str, value: str) -> Callable[[ET.Element], None]:
+    def change(root: ET.Element) -> None:
+        root.find(path).text = value
+    return change
+
+
+def set_attr(name: str, value: str) -> Callable[[ET.Element], None]:
+    return lambda root: root.set(name, value)
+
+
+def zero_width_lanelet(root: ET.Element) -> None:
+    lanelet = root.find("lanelet")
+    right = lanelet.find("rightBound")
+    for point, left in zip(right.findall("point"), lanelet.find("leftBound").findall("point")):
+        point.find("x").text, point.find("y").text = left.find("x").text, left.find("y").text
+
+
+def start_after_goal(root: ET.Element) -> None:
+    root.find("planningProblem/initialState/time/exact").text = "700"
+
+
+def goal_window_huge(root: ET.Element) -> None:
+    root.find("planningProblem/goalState/time/intervalEnd").text = "2000000000"
+
+
+def static_obstacles(count: int, far: bool = True) -> Callable[[ET.Element], None]:
+    def change(root: ET.Element) -> None:
+        problem_at = list(root).index(root.find("planningProblem"))
+        for i in range(count):
+            x, y = (5000.0 + 10 * (i % 200), 5000.0 + 10 * (i // 200)) if far else (150.0 + i, 60.0)
+            obstacle = ET.fromstring(
+                f"<staticObstacle id='{5_000_000 + i}'><type>parkedVehicle</type><shape><rectangle>"
+                f"<length>4.0</length><width>2.0</width></rectangle></shape><initialState><position><point>"
+                f"<x>{x}</x><y>{y}</y></point></position><orientation><exact>0.0</exact></orientation>"
+                f"<time><exact>0</exact></time><velocity><exact>0.0</exact></velocity><acceleration><exact>0.0"
+                f"</exact></acceleration><yawRate><exact>0.0</exact></yawRate><slipAngle><exact>0.0</exact>"
+                f"</slipAngle></initialState></staticObstacle>")
+            root.insert(problem_at + i, obstacle)
+    return change
+
+
+INITIAL = "planningProblem/initialState"
+XML_CASES = [  # name, item, change, what the refusal should name
+    ("dt-zero", 2, set_attr("timeStepSize", "0"), ("timeStepSize",)),
+    ("dt-negative", 2, set_attr("timeStepSize", "-0.1"), ("timeStepSize",)),
+    ("dt-nan", 2, set_attr("timeStepSize", "nan"), ("timeStepSize",)),
+    ("dt-inf", 2, set_attr("timeStepSize", "inf"), ("timeStepSize",)),
+    ("dt-text", 2, set_attr("timeStepSize", "fast"), ()),
+    ("v0-nan", 3, set_text(f"{INITIAL}/velocity/exact", "nan"), ("velocity",)),
+    ("v0-negative", 3, set_text(f"{INITIAL}/velocity/exact", "-5"), ("velocity",)),
+    ("v0-1e300", 3, set_text(f"{INITIAL}/velocity/exact", "1e300"), ("velocity",)),
+    ("v0-inf", 3, set_text(f"{INITIAL}/velocity/exact", "inf"), ("velocity",)),
+    ("yaw0-nan", 3, set_text(f"{INITIAL}/orientation/exact", "nan"), ("orientation",)),
+    ("x0-nan", 3, set_text(f"{INITIAL}/position/point/x", "nan"), ("position",)),
+    ("start-after-goal-window", 3, start_after_goal, ("time",)),
+    ("zero-width-lanelet", 3, zero_width_lanelet, ("lanelet",)),
+    ("lanelet-nan-coordinate", 3, set_text("lanelet/leftBound/point/x", "nan"), ("lanelet",)),
+]
+
+VEHICLE_CASES = [  # name, old text, new text, field the refusal should name, backend
+    ("vehicle-width-400", "width: 1.610", "width: 400", "width", "ideal"),
+    ("vehicle-power-1e15", "max_power: 115000.0", "max_power: 1.0e15", "max_power", "dynamic"),
+    ("vehicle-rear-axle-50", "rear_axle_to_center: 1.4227", "rear_axle_to_center: 50", "rear_axle_to_center",
+     "mujoco"),
+    ("vehicle-mass-nan", "mass: 1093.3", "mass: .nan", "mass", "dynamic"),
+    ("vehicle-mass-negative", "mass: 1093.3", "mass: -1000", "mass", "dynamic"),
+    ("vehicle-wheelbase-40", "wheelbase: 2.578766", "wheelbase: 40", "wheelbase", "ideal"),
+    ("vehicle-top-speed-1e300", "max_speed: 50.8", "max_speed: 1.0e300", "max_speed", "ideal"),
+]
+
+PLANNER_CASES = [  # name, item, class, extra run options, what is expected
+    ("plan-nan", 1, "NaN", (), "record"),
+    ("plan-inf", 1, "Inf", (), "record"),
+    ("plan-dict", 1, "Dict", (), "record"),
+    ("plan-string", 1, "Str", (), "record"),
+    ("plan-list", 1, "List", (), "record"),
+    ("plan-ndarray", 1, "Array", (), "record"),
+    ("plan-none", 1, "NoneAlways", (), "record"),
+    ("plan-one-state", 1, "OneState", (), "record"),
+    ("plan-starts-late", 1, "StartsLate", (), "record"),
+    ("plan-other-grid", 1, "OtherGrid", (), "record"),
+    ("plan-off-grid", 1, "OffGrid", (), "record"),
+    ("plan-backwards-dt", 1, "Backwards", (), "record"),
+    ("plan-teleport-1e300", 1, "Teleport", (), "record"),
+    ("plan-speed-1e300", 1, "Lightspeed", (), "record"),
+    ("plan-raises", 1, "Raises", (), "record"),
+    ("plan-recursion", 1, "Recurses", (), "record"),
+    ("planner-sys-exit", 9, "Exits", (), "record"),
+    ("planner-os-exit-0", 9, "HardExit", (), "record"),
+    ("planner-keyboard-interrupt", 9, "Interrupts", (), "record"),
+    ("planner-exit-in-constructor", 9, "ExitsWhenBuilt", (), "record"),
+    ("planner-base-exception", 9, "RaisesBase", (), "record"),
+    ("plan-never-returns", 4, "NeverReturns", ("--run-timeout", "3"), "record"),
+    ("plan-never-returns-budget", 4, "NeverReturns", ("--planning-budget", "0.1", "--run-timeout", "3"), "record"),
+    ("plan-busy-loop", 4, "BusyForever", ("--run-timeout", "3"), "record"),
+    ("plan-slow", 4, "Slow", ("--run-timeout", "4"), "record"),
+]
+
+RUN_OPTION_CASES = [  # name, item, options, what the refusal should name
+    ("max-time-inf", 4, ("--max-time", "inf"), ("max_time",)),
+    ("max-time-nan", 4, ("--max-time", "nan"), ("max_time",)),
+    ("max-time-1e9", 4, ("--max-time", "1e9"), ("max_time",)),
+    ("max-time-negative", 4, ("--max-time", "-1"), ("max_time",)),
+    ("run-timeout-inf", 4, ("--run-timeout", "inf"), ("run-timeout",)),
+    ("run-timeout-zero", 4, ("--run-timeout", "0"), ("run-timeout",)),
+    ("run-timeout-nan", 4, ("--run-timeout", "nan"), ("run-timeout",)),
+    ("planning-budget-nan", 4, ("--planning-budget", "nan"), ("planning_budget",)),
+    ("knob-friction-nan", 3, ("--backend", "dynamic", "--knob", "road_friction=nan"), ("road_friction",)),
+    ("road-friction-negative", 3, ("--backend", "mujoco", "--road-friction", "-1"), ("road_friction",)),
+    ("controller-hz-inf", 3, ("--backend", "dynamic", "--controller-hz", "inf"), ("controller_hz",)),
+    ("planner-map-twice", 5, ("--planner", "1=frenet,1=idm"), ("planner",)),
+    ("planner-map-no-agent", 5, ("--planner", "7=idm"), ("planner",)),
+    ("vehicle-map-agent-0", 5, ("--vehicle", "0=suv,1=sedan"), ("vehicle",)),
+    ("vehicle-map-twice", 5, ("--vehicle", "1=sedan,1=suv"), ("vehicle",)),
+]
+
+LOGICAL = """name: hostile
+template: curve
+fixed: {fixed}
+parameters:
+  radius: {{unit: m, min: 10, max: 100, default: 50}}
+  angle: {{unit: deg, min: -90, max: 90, default: 30}}
+"""
+LOGICAL_CASES = [  # name, item, logical YAML, what the refusal should name
+    ("logical-dt-zero", 2, LOGICAL.format(fixed="{dt: 0, straight_length: 100}"), ("dt",)),
+    ("logical-dt-negative", 2, LOGICAL.format(fixed="{dt: -0.1, straight_length: 100}"), ("dt",)),
+    ("logical-dt-nan", 2, LOGICAL.format(fixed="{dt: .nan, straight_length: 100}"), ("dt",)),
+    ("road-1e9-m", 4, LOGICAL.format(fixed="{straight_length: 1.0e+9}"), ("straight_length",)),
+    ("junction-approach-1e9-m", 4, "name: long\ntemplate: t-junction\nfixed: {approach_length: 1.0e+9}\n"
+     "parameters:\n  lane_width: {unit: m, min: 2.5, max: 5, default: 3.0}\n", ("approach_length",)),
+    ("logical-duplicate-key", 5, LOGICAL.format(fixed="{straight_length: 100}") + "name: again\n", ("twice",)),
+    ("logical-alias-bomb", 8, ALIAS_BOMB, ("alias",)),
+    ("logical-python-tag", 8, "name: !!python/object/apply:os.system ['echo pwned > pwned.txt']\n"
+     "template: curve\n", ()),
+    ("logical-name-dotdot", 8, LOGICAL.format(fixed="{straight_length: 100}").replace("name: hostile",
+                                                                                     "name: ../../escaped"), ()),
+]
+
+SPEC_CASES = [  # name, item, experiment spec YAML, what the refusal should name
+    ("spec-fidelity-twice", 5, SPEC_TWO_RUNS.replace("[{backend: ideal}]", "[{backend: ideal}, {backend: ideal}]"),
+     ("fidelities",)),
+    ("spec-vehicle-twice", 5, SPEC_TWO_RUNS.replace("[{backend: ideal}]",
+                                                   "[{backend: dynamic, vehicles: [sedan, sedan]}]"), ("fidelities",)),
+    ("spec-duplicate-key", 5, SPEC_TWO_RUNS + "name: again\n", ("twice",)),
+    ("spec-duplicate-nested-key", 5, SPEC_TWO_RUNS.replace("{replan_every: 3}", "{replan_every: 3, replan_every: 1}"),
+     ("twice",)),
+    ("spec-alias-bomb", 8, ALIAS_BOMB, ("alias",)),
+    ("spec-random-100000", 8, SPEC_TWO_RUNS.replace("parameters: {radius: {values: [50, 100]}, angle: {values: [30]}}",
+                                                    "sampler: {kind: random, samples: 100000}"), ("samples",)),
+    ("spec-grid-40000", 8, SPEC_TWO_RUNS.replace(
+        "{radius: {values: [50, 100]}, angle: {values: [30]}}",
+        "{radius: {values: [%s]}, angle: {values: [%s]}}" % (", ".join(str(10 + i * 0.4) for i in range(200)),
+                                                              ", ".join(str(-80 + i * 0.8) for i in range(200)))),
+     ()),
+    ("spec-run-timeout-inf", 4, SPEC_TWO_RUNS + "run_timeout_s: .inf\n", ("run_timeout_s",)),
+    ("spec-repeats-1e9", 8, SPEC_TWO_RUNS + "repeats: 1000000000\n", ("repeats",)),
+]
+
+QUERY_CASES = [  # name, SQL, a file it must not have written (relative to the case folder)
+    ("query-copy-to", "COPY runs TO '{folder}/leak.csv'", "leak.csv"),
+    ("query-read-csv", "SELECT * FROM read_csv('/etc/passwd')", None),
+    ("query-read-text", "SELECT * FROM read_text('/etc/hostname')", None),
+    ("query-attach", "ATTACH '{folder}/other.db' AS other", "other.db"),
+    ("query-create-table", "CREATE TABLE t AS SELECT 1 AS x", None),
+    ("query-bad-sql", "SELEKT nothing", None),
+]
+
+
+# --------------------------------------------------------------------------------------------
+# the cases
+
+@dataclass
+class Case:
+    name: str
+    item: int
+    run: Callable[[Path, Stock], Outcome]
+
+
+CASES: list[Case] = []
+
+
+def case(name: str, item: int):
+    def register(fn: Callable[[Path, Stock], Outcome]) -> Callable[[Path, Stock], Outcome]:
+        CASES.append(Case(name, item, fn))
+        return fn
+    return register
+
+
+def _xml_case(change, names):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        xml = mutate_xml(stock.scenario, folder / "hostile.xml", change)
+        return expect_refusal(simgap("run", xml, "--no-validate", "--out", folder / "r", cwd=folder),
+                              "hostile.xml", *names)
+    return run
+
+
+def _vehicle_case(old, new, field_name, backend):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        text = stock.sedan_text()
+        assert old in text, old
+        (folder / "absurd.yaml").write_text(text.replace(old, new, 1))
+        return expect_refusal(simgap("run", stock.scenario, "--backend", backend, "--no-validate", "--vehicle",
+                                     folder / "absurd.yaml", "--out", folder / "r", cwd=folder),
+                              "absurd.yaml", field_name)
+    return run
+
+
+def _planner_case(cls, options):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        planners = stock.planners(folder)
+        p = simgap("run", stock.scenario, "--no-validate", "--planner", f"{planners}:{cls}", *options,
+                   "--out", folder / "r", cwd=folder)
+        return expect_record(p, folder / "r")
+    return run
+
+
+def _option_case(options, names):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        return expect_refusal(simgap("run", stock.scenario, "--no-validate", *options, "--out", folder / "r",
+                                     cwd=folder), *names)
+    return run
+
+
+def _logical_case(text, names):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "logical.yaml").write_text(text)
+        p = simgap("generate", folder / "logical.yaml", "--no-preview", "--out", folder / "out", cwd=folder)
+        if (folder / "pwned.txt").exists():
+            return Outcome(SILENT, "the YAML tag ran a command", p.stderr, p.seconds)
+        escaped = [x for x in folder.parent.glob("*escaped*")]
+        if escaped:
+            return Outcome(LOSS, f"wrote outside --out: {escaped[0]}", p.stderr, p.seconds)
+        return expect_refusal(p, "logical.yaml", *names)
+    return run
+
+
+def _spec_case(text, names):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "spec.yaml").write_text(text)
+        p = simgap("experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1",
+                   "--no-report", "--no-validate", cwd=folder, timeout=60)
+        outcome = expect_refusal(p, "spec.yaml", *names)
+        written = list((folder / "exp" / "scenarios").glob("*.xml")) if (folder / "exp").exists() else []
+        if written and outcome.verdict not in (REFUSAL, MESSY):
+            outcome.note += f"; {len(written)} scenario files written"
+        return outcome
+    return run
+
+
+def _store_state(exp: Path) -> dict:
+    return {str(f): (f.stat().st_size, f.stat().st_mtime_ns) for f in exp.rglob("*") if f.is_file()}
+
+
+def _query_case(sql, forbidden):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        exp = experiment(folder)
+        stored = _store_state(exp)
+        p = simgap("experiment", "query", exp, sql.format(folder=folder), cwd=folder)
+        if forbidden and (folder / forbidden).exists():
+            return Outcome(SILENT, f"the query wrote {forbidden}", p.stderr, p.seconds)
+        if p.rc == 0 and not forbidden and "passwd" not in sql and stored == _store_state(exp):
+            return Outcome(HANDLED, "exit 0, ran in memory only: the store's files are unchanged", p.stderr, p.seconds)
+        if "passwd" in sql and "root:" in p.stdout:
+            return Outcome(SILENT, "the query read /etc/passwd", p.stderr, p.seconds)
+        return expect_refusal(p, "SQL")
+    return run
+
+
+for _name, _item, _change, _names in XML_CASES:
+    case(_name, _item)(_xml_case(_change, _names))
+for _name, _old, _new, _field, _backend in VEHICLE_CASES:
+    case(_name, 3)(_vehicle_case(_old, _new, _field, _backend))
+for _name, _item, _cls, _options, _ in PLANNER_CASES:
+    case(_name, _item)(_planner_case(_cls, _options))
+for _name, _item, _options, _names in RUN_OPTION_CASES:
+    case(_name, _item)(_option_case(_options, _names))
+for _name, _item, _text, _names in LOGICAL_CASES:
+    case(_name, _item)(_logical_case(_text, _names))
+for _name, _item, _text, _names in SPEC_CASES:
+    case(_name, _item)(_spec_case(_text, _names))
+for _name, _sql, _forbidden in QUERY_CASES:
+    case(_name, 10)(_query_case(_sql, _forbidden))
+
+
+def experiment(folder: Path, spec: str = SPEC_TWO_RUNS, name: str = "exp") -> Path:
+    """A finished two-run ideal experiment in ``folder/name``."""
+    (folder / "spec.yaml").write_text(spec)
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", folder / name, "--workers", "1", "--no-report",
+               "--no-validate", cwd=folder)
+    assert p.rc == 0, p.stderr
+    return folder / name
+
+
+# ---- item 1: a plan that is long but valid is cut, not stored whole
+
+@case("plan-1e6-states", 1)
+def _(folder: Path, stock: Stock) -> Outcome:
+    planners = stock.planners(folder)
+    p = simgap("run", stock.scenario, "--no-validate", "--planner", f"{planners}:Huge", "--max-time", "3",
+               "--out", folder / "r", cwd=folder)
+    size = sum(f.stat().st_size for f in (folder / "r").glob("*")) / 1e6 if (folder / "r").exists() else 0
+    small = run_record(folder / "r") is not None and size < 50 and p.max_rss_mb < 4000
+    return expect(p, small, f"run of {size:.1f} MB, peak RSS {p.max_rss_mb:.0f} MB", SILENT,
+                  f"exit {p.rc}: run of {size:.1f} MB, peak RSS {p.max_rss_mb:.0f} MB")
+
+
+# ---- item 4: runs without an end
+
+@case("goal-window-2e9-steps", 4)
+def _(folder: Path, stock: Stock) -> Outcome:
+    xml = mutate_xml(stock.scenario, folder / "long.xml", goal_window_huge)
+    planners = stock.planners(folder)
+    p = simgap("run", xml, "--no-validate", "--planner", f"{planners}:Stands", "--replan-every", "10",
+               "--out", folder / "r", cwd=folder)
+    record = run_record(folder / "r")
+    return expect(p, record is not None, f"ended by itself after {p.seconds:.0f} s: {failure_reason(record or {})}",
+                  LOSS, f"exit {p.rc}, no run.json")
+
+
+@case("obstacles-20000-far", 4)
+def _(folder: Path, stock: Stock) -> Outcome:
+    xml = mutate_xml(stock.scenario, folder / "crowded.xml", static_obstacles(20000))
+    p = simgap("run", xml, "--no-validate", "--replan-every", "3", "--max-time", "20", "--out", folder / "r",
+               cwd=folder)
+    record = run_record(folder / "r")
+    return expect(p, record is not None, f"ran in {p.seconds:.0f} s", LOSS, f"exit {p.rc}, no run.json")
+
+
+@case("dt-1e-9", 2)
+def _(folder: Path, stock: Stock) -> Outcome:
+    xml = mutate_xml(stock.scenario, folder / "tiny.xml", set_attr("timeStepSize", "1e-9"))
+    p = simgap("run", xml, "--no-validate", "--out", folder / "r", cwd=folder)
+    verdict = problem(p) or refused(p)
+    if verdict:
+        return verdict
+    record = run_record(folder / "r")
+    if record is None:
+        return Outcome(LOSS, f"exit {p.rc}, no run.json", p.stderr)
+    return Outcome(SILENT if p.rc == 0 else RECORDED, f"exit {p.rc}: ran a 1 ns step: {failure_reason(record)}",
+                   p.stderr)
+
+
+@case("experiment-planner-hang", 4)
+def _(folder: Path, stock: Stock) -> Outcome:
+    planners = stock.planners(folder)
+    spec = SPEC_TWO_RUNS + f"run_timeout_s: 2\nplanners: ['{planners}:NeverReturns']\n"
+    (folder / "spec.yaml").write_text(spec)
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1", "--no-report",
+               "--no-validate", cwd=folder)
+    ok = "2 ran now (2 failed)" in " ".join(p.stdout.split())
+    return expect(p, ok, "both runs recorded as failed", OTHER, f"exit {p.rc}: {' '.join(p.stdout.split())[:160]}")
+
+
+# ---- item 5: the store
+
+def _truncate_first_row(exp: Path) -> Path:
+    row = sorted((exp / "store" / "rows").glob("*.parquet"))[0]
+    row.write_bytes(row.read_bytes()[:100])
+    return row
+
+
+@case("store-truncated-row-status", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    exp = experiment(folder)
+    row = _truncate_first_row(exp)
+    p = simgap("experiment", "status", exp, cwd=folder)
+    ok = p.rc == 0 and row.name in p.stdout and "1 done" in p.stdout and "1 left" in p.stdout
+    return expect(p, ok, "named the row, counted its run as left", OTHER, f"exit {p.rc}: {p.stdout.strip()[:160]}")
+
+
+@case("store-truncated-row-query", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    exp = experiment(folder)
+    row = _truncate_first_row(exp)
+    p = simgap("experiment", "query", exp, "SELECT count(*) AS n FROM runs", cwd=folder)
+    ok = p.rc == 0 and row.name in p.stdout + p.stderr
+    return expect(p, ok, "named the row, queried the rest", OTHER, f"exit {p.rc}: {p.stderr.strip()[:160]}")
+
+
+@case("store-truncated-row-resume", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    exp = experiment(folder)
+    _truncate_first_row(exp)
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", exp, "--workers", "1", "--no-report",
+               "--no-validate", cwd=folder)
+    after = simgap("experiment", "status", exp, cwd=folder)
+    ok = "1 ran now" in " ".join(p.stdout.split()) and "2 done" in after.stdout
+    return expect(p, ok, "reran the run of the cut row; 2 done", LOSS, f"exit {p.rc}: {after.stdout.strip()[:160]}")
+
+
+@case("store-deleted-run-dir", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    exp = experiment(folder)
+    gone = sorted((exp / "runs").iterdir())[0]
+    shutil.rmtree(gone)
+    status = simgap("experiment", "status", exp, cwd=folder)
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", exp, "--workers", "1", "--no-validate",
+               cwd=folder)
+    report = exp / "report" / "index.html"
+    ok = "1 left" in status.stdout and any(gone.rglob("run.json")) and report.exists()
+    return expect(p, ok, "status saw it, resume reran it, report whole", LOSS,
+                  f"status: {status.stdout.strip()[:100]}; run.json back: {any(gone.rglob('run.json'))}")
+
+
+@case("store-two-writers", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    spec = SPEC_TWO_RUNS.replace("[50, 100]", "[20, 50, 100]").replace("[30]", "[30, 60]")
+    (folder / "spec.yaml").write_text(spec)
+    args = ("experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1", "--no-report",
+            "--no-validate")
+    first = Child(list(args), folder)
+    deadline = time.monotonic() + 30
+    while not (folder / "exp" / "runs").exists() and time.monotonic() < deadline:
+        time.sleep(0.2)
+    second = simgap(*args, cwd=folder)
+    done = first.wait()
+    verdict = problem(done) or problem(second)
+    if verdict:
+        return verdict
+    ran = " ".join(done.stdout.split())
+    if "6 ran now" not in ran:
+        return Outcome(LOSS, f"first run: {ran[:120]}", done.stderr)
+    return refused(second, ("another",)) or Outcome(SILENT, f"second run exit {second.rc}: "
+                                                    f"{' '.join(second.stdout.split())[:120]}", second.stderr)
+
+
+@case("search-strategy-twice", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "search.yaml").write_text(
+        "name: t\nlogical: curve\nparameters: {radius: {min: 10, max: 50}}\n"
+        "ladder: [{backend: ideal}, {backend: dynamic}]\nstrategies: [grid, grid]\n")
+    return expect_refusal(simgap("search", folder / "search.yaml", "--budget", "2", "--out", folder / "s",
+                                 "--no-report", cwd=folder, timeout=60), "search.yaml", "strategies")
+
+
+@case("planner-config-duplicate-key", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "planner.yaml").write_text("speed: {cruise_m_s: 8}\nspeed: {cruise_m_s: 12}\n")
+    return expect_refusal(simgap("run", stock.scenario, "--planner-config", folder / "planner.yaml", "--out",
+                                 folder / "r", cwd=folder), "planner.yaml", "twice")
+
+
+# ---- item 6: outputs and environment
+
+OUT_IS_FILE = [  # name, the command before --out (STOCK_RUN / SCENARIO stand for the stock's)
+    ("out-file-generate", ["generate", "curve"]),
+    ("out-file-experiment", ["experiment", "run", "demo"]),
+    ("out-file-search", ["search", "curve-gaps", "--budget", "2"]),
+    ("out-file-demo", ["demo"]),
+    ("out-file-report", ["report", "STOCK_RUN"]),
+    ("out-file-run", ["run", "SCENARIO", "--no-validate"]),
+    ("out-file-render", ["render", "STOCK_RUN"]),
+    ("out-file-compare", ["compare", "STOCK_RUN", "STOCK_RUN"]),
+    ("out-file-export", ["export", "STOCK_RUN"]),
+]
+
+
+def _out_is_file(command):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        notes = folder / "notes.txt"
+        notes.write_text("mine")
+        args = [stock.run if a == "STOCK_RUN" else stock.scenario if a == "SCENARIO" else a for a in command]
+        p = simgap(*args, "--out", notes, cwd=folder, timeout=60)
+        if notes.read_text() != "mine":
+            return Outcome(LOSS, "the user's file was overwritten", p.stderr, p.seconds)
+        return expect_refusal(p, "notes.txt")
+    return run
+
+
+for _name, _command in OUT_IS_FILE:
+    case(_name, 6)(_out_is_file(_command))
+
+
+@case("out-300-char-name-generate", 6)
+def _(folder: Path, stock: Stock) -> Outcome:
+    return expect_refusal(simgap("generate", "curve", "--out", folder / ("d" * 300), cwd=folder), "300")
+
+
+@case("out-300-char-name-run", 6)
+def _(folder: Path, stock: Stock) -> Outcome:
+    return expect_refusal(simgap("run", stock.scenario, "--out", folder / ("d" * 300), cwd=folder), "300")
+
+
+@case("mujoco-gl-bogus-render-3d", 6)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("render", stock.run, "--3d", "--out", folder / "pictures", cwd=folder, env={"MUJOCO_GL": "bogus"})
+    outcome = expect_refusal(p, "MUJOCO_GL")
+    if (folder / "pictures").exists() and outcome.verdict == REFUSAL:
+        return Outcome(LOSS, "refused but left an output folder", p.stderr, p.seconds)
+    return outcome
+
+
+@case("mujoco-gl-bogus-run", 6)
+def _(folder: Path, stock: Stock) -> Outcome:
+    return expect_refusal(simgap("run", stock.scenario, "--backend", "mujoco", "--out", folder / "r", cwd=folder,
+                                 env={"MUJOCO_GL": "bogus"}), "MUJOCO_GL")
+
+
+@contextmanager
+def tmpfs(path: Path, options: str) -> Iterator[bool]:
+    """``path`` as a tmpfs mounted with ``options``; yields False when it cannot be mounted."""
+    path.mkdir(parents=True, exist_ok=True)
+    mounted = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(path)],
+                                                   capture_output=True).returncode == 0
+    try:
+        yield mounted
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(path)], capture_output=True)
+
+
+def _disk_case(options: str, command: Callable[[Path, Stock, Path], list], fragment: str):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        disk = folder / "disk"
+        stock.scenario, stock.run                                       # built before the mount
+        with tmpfs(disk, options) as mounted:
+            if not mounted:
+                return Outcome(SKIPPED, "cannot mount a tmpfs here")
+            p = simgap(*command(folder, stock, disk / "out"), cwd=folder)
+            leftovers = sorted(str(f.relative_to(disk)) for f in disk.rglob("*"))
+        verdict = problem(p)
+        if verdict:
+            return verdict
+        one_line = len(p.stderr_lines()) == 1 and fragment in p.stderr
+        if p.rc in (1, 2) and one_line:
+            if leftovers and not any(f.endswith("run.json") for f in leftovers):
+                return Outcome(LOSS, f"one line, but left {leftovers[:3]}", p.stderr)
+            return Outcome(REFUSAL, p.stderr_lines()[0][:160], p.stderr)
+        return Outcome(OTHER if p.rc else SILENT, f"exit {p.rc}: {' '.join(p.stderr_lines())[:160]}", p.stderr)
+    return run
+
+
+case("out-read-only-run", 6)(_disk_case("ro,size=1m", lambda f, s, out: ["run", s.scenario, "--no-validate",
+                                                                          "--out", out], "read-only"))
+case("out-read-only-generate", 6)(_disk_case("ro,size=1m", lambda f, s, out: ["generate", "curve", "--set",
+                                                                               "radius=50", "--set", "angle=30",
+                                                                               "--out", out], "read-only"))
+case("out-full-disk-run", 6)(_disk_case("size=64k", lambda f, s, out: ["run", s.scenario, "--no-validate",
+                                                                       "--out", out], "space"))
+case("out-full-disk-generate", 6)(_disk_case("size=32k", lambda f, s, out: ["generate", "curve", "--set",
+                                                                            "radius=50", "--set", "angle=30",
+                                                                            "--out", out], "space"))
+
+
+# ---- item 7: killed half-way
+
+def _killed_report(fraction: float):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        exp = experiment(folder, SPEC_TWO_RUNS.replace("[50, 100]", "[20, 50, 100]"))
+        clock = simgap("report", exp / "runs", "--out", folder / "timing", cwd=folder)
+        child = Child(["report", exp / "runs", "--out", folder / "rep"], folder)
+        time.sleep(fraction * clock.seconds)
+        child.kill()
+        child.wait()
+        rep = folder / "rep"
+        whole = not rep.exists() or (rep / "index.html").exists()
+        again = simgap("report", exp / "runs", "--out", rep, cwd=folder)
+        note = f"killed at {fraction * clock.seconds:.1f} s: folder {'absent' if not rep.exists() else 'whole'}" \
+            if whole else f"killed at {fraction * clock.seconds:.1f} s: assets without index.html"
+        if not whole:
+            return Outcome(LOSS, note, again.stderr)
+        return expect(again, again.rc == 0, note + "; rerun wrote it", LOSS,
+                      note + f"; rerun exit {again.rc}: {' '.join(again.stderr_lines())[:100]}")
+    return run
+
+
+case("sigkill-report-early", 7)(_killed_report(0.8))
+case("sigkill-report-late", 7)(_killed_report(0.95))
+
+
+@case("sigkill-run", 7)
+def _(folder: Path, stock: Stock) -> Outcome:
+    child = Child(["run", stock.scenario, "--out", folder / "r"], folder)
+    time.sleep(4.0)
+    child.kill()
+    child.wait()
+    out = folder / "r"
+    whole = not out.exists() or run_record(out) is not None
+    again = simgap("run", stock.scenario, "--no-validate", "--out", out, cwd=folder)
+    if not whole:
+        return Outcome(LOSS, f"left {sorted(f.name for f in out.iterdir())} without run.json", again.stderr)
+    return expect(again, again.rc == 0, f"folder {'whole' if out.exists() else 'absent'} after the kill; rerun wrote it",
+                  LOSS, f"rerun exit {again.rc}: {' '.join(again.stderr_lines())[:100]}")
+
+
+@case("sigkill-experiment-resume", 7)
+def _(folder: Path, stock: Stock) -> Outcome:
+    spec = SPEC_TWO_RUNS.replace("[50, 100]", "[20, 50, 100]").replace("[30]", "[30, 60]")
+    (folder / "spec.yaml").write_text(spec)
+    args = ["experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1", "--no-report",
+            "--no-validate"]
+    child = Child(args, folder)
+    deadline = time.monotonic() + 60
+    while len(list((folder / "exp" / "store" / "rows").glob("*.parquet"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    child.kill()
+    child.wait()
+    p = simgap(*args, cwd=folder)
+    status = simgap("experiment", "status", folder / "exp", cwd=folder)
+    ok = "6 done, 0 failed, 0 left" in status.stdout
+    return expect(p, ok, f"resumed: {' '.join(p.stdout.split())[:90]}", LOSS, f"status: {status.stdout.strip()[:120]}")
+
+
+@case("render-corrupt-run", 7)
+def _(folder: Path, stock: Stock) -> Outcome:
+    run = folder / "run"
+    shutil.copytree(stock.run, run)
+    (run / "run.json").write_text((run / "run.json").read_text()[:500])
+    p = simgap("render", run, "--out", folder / "pictures", cwd=folder)
+    outcome = expect_refusal(p, "run.json")
+    if (folder / "pictures").exists():
+        outcome = Outcome(LOSS, f"left a folder: {sorted(x.name for x in (folder / 'pictures').iterdir())}",
+                          p.stderr, p.seconds)
+    return outcome
+
+
+# ---- item 8: memory bombs in other YAML inputs, and XML
+
+def _bomb_case(option: str):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "bomb.yaml").write_text(ALIAS_BOMB)
+        backend = ["--backend", "dynamic"] if option == "--backend-config" else []
+        p = simgap("run", stock.scenario, *backend, option, folder / "bomb.yaml", "--out", folder / "r",
+                   cwd=folder, timeout=60)
+        outcome = expect_refusal(p, "bomb.yaml")
+        outcome.note += f" (peak RSS {p.max_rss_mb:.0f} MB)"
+        return outcome
+    return run
+
+
+case("planner-config-alias-bomb", 8)(_bomb_case("--planner-config"))
+case("backend-config-alias-bomb", 8)(_bomb_case("--backend-config"))
+case("score-config-alias-bomb", 8)(_bomb_case("--score-config"))
+case("vehicle-file-alias-bomb", 8)(_bomb_case("--vehicle"))
+
+
+@case("xml-billion-laughs", 8)
+def _(folder: Path, stock: Stock) -> Outcome:
+    text = stock.scenario.read_text()
+    entities = '<!DOCTYPE commonRoad [<!ENTITY l0 "lol">' + "".join(
+        f'<!ENTITY l{i} "{("&l%d;" % (i - 1)) * 10}">' for i in range(1, 10)) + "]>"
+    text = text.replace("?>", "?>" + entities, 1).replace("<scenarioTags/>", "<scenarioTags/><!-- &l9; -->", 1)
+    text = text.replace('author="simgap"', 'author="&l9;"', 1)
+    (folder / "laughs.xml").write_text(text)
+    p = simgap("run", folder / "laughs.xml", "--no-validate", "--out", folder / "r", cwd=folder, timeout=60)
+    outcome = expect_refusal(p, "laughs.xml")
+    outcome.note += f" (peak RSS {p.max_rss_mb:.0f} MB)"
+    return outcome
+
+
+@case("xml-external-entity", 8)
+def _(folder: Path, stock: Stock) -> Outcome:
+    text = stock.scenario.read_text().replace("?>", '?><!DOCTYPE commonRoad [<!ENTITY xxe SYSTEM '
+                                              '"file:///etc/passwd">]>', 1)
+    (folder / "xxe.xml").write_text(text.replace('author="simgap"', 'author="&xxe;"', 1))
+    p = simgap("run", folder / "xxe.xml", "--no-validate", "--out", folder / "r", cwd=folder)
+    written = [f.read_text(errors="replace") for f in (folder / "r").glob("*")] if (folder / "r").exists() else []
+    if "root:" in p.stdout + p.stderr + "".join(written):
+        return Outcome(SILENT, "the entity was expanded: /etc/passwd in the output", p.stderr, p.seconds)
+    verdict = problem(p) or refused(p, ("xxe.xml",))
+    return verdict or Outcome(HANDLED, f"exit {p.rc}: entity not expanded", p.stderr)
+
+
+# ---- item 9: a planner's hard exit inside an experiment
+
+@case("experiment-planner-os-exit", 9)
+def _(folder: Path, stock: Stock) -> Outcome:
+    planners = stock.planners(folder)
+    (folder / "spec.yaml").write_text(SPEC_TWO_RUNS + f"planners: ['{planners}:HardExit']\n")
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1", "--no-report",
+               "--no-validate", cwd=folder)
+    status = simgap("experiment", "status", folder / "exp", cwd=folder)
+    ok = "2 failed" in status.stdout
+    return expect(p, ok, f"both recorded failed: {' '.join(status.stdout.split())[:120]}", LOSS,
+                  f"exit {p.rc}; status: {' '.join(status.stdout.split())[:120]}")
+
+
+@case("planner-not-a-class", 9)
+def _(folder: Path, stock: Stock) -> Outcome:
+    planners = stock.planners(folder)
+    return expect_refusal(simgap("run", stock.scenario, "--planner", f"{planners}:not_a_class", "--out",
+                                 folder / "r", cwd=folder), "not_a_class")
+
+
+@case("planner-file-syntax-error", 9)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "broken.py").write_text("class Broken(:\n    pass\n")
+    return expect_refusal(simgap("run", stock.scenario, "--planner", f"{folder / 'broken.py'}:Broken", "--out",
+                                 folder / "r", cwd=folder), "broken.py")
+
+
+@case("planner-import-exits", 9)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "exits.py").write_text("import sys\nsys.exit(4)\nclass P:\n    pass\n")
+    p = simgap("run", stock.scenario, "--planner", f"{folder / 'exits.py'}:P", "--out", folder / "r", cwd=folder)
+    return expect_refusal(p, "exits.py")
+
+
+# ---- item 10: smaller
+
+@case("experiment-out-users-folder", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    mine = folder / "mine"
+    mine.mkdir()
+    (mine / "thesis.tex").write_text("mine")
+    (folder / "spec.yaml").write_text(SPEC_TWO_RUNS)
+    p = simgap("experiment", "run", folder / "spec.yaml", "--out", mine, "--workers", "1", "--no-report",
+               "--no-validate", cwd=folder)
+    outcome = expect_refusal(p, "thesis.tex")
+    if outcome.verdict == SILENT:
+        outcome.note = f"wrote into the user's folder: {sorted(x.name for x in mine.iterdir())}"
+    return outcome
+
+
+@case("piped-table-whole", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("vehicles", cwd=folder, env={"COLUMNS": None, "LINES": None})
+    ok = p.rc == 0 and "…" not in p.stdout
+    return expect(p, ok, "no column cut", SILENT, "a table cut with '…' when piped")
+
+
+@case("run-dir-permissions-umask", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("run", stock.scenario, "--no-validate", "--replan-every", "3", "--out", folder / "r", cwd=folder,
+               umask=0o022)
+    mode = (folder / "r").stat().st_mode & 0o777 if (folder / "r").exists() else None
+    return expect(p, mode == 0o755, "0755 under umask 022", OTHER, f"mode {oct(mode) if mode else None}")
+
+
+@case("resume-says-failed-earlier", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    planners = stock.planners(folder)
+    (folder / "spec.yaml").write_text(SPEC_TWO_RUNS + f"run_timeout_s: 1\nplanners: ['{planners}:NeverReturns']\n")
+    args = ["experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1", "--no-report",
+            "--no-validate"]
+    first = simgap(*args, cwd=folder)
+    again = simgap(*args, cwd=folder)
+    ok = "--retry-failed" in again.stdout and "2 of the runs" in " ".join(again.stdout.split())
+    return problem(first) or expect(again, ok, "said 2 failed earlier and how to retry", OTHER,
+                                    " ".join(again.stdout.split())[:160])
+
+
+# --------------------------------------------------------------------------------------------
+# the sweep
+
+def run_case(c: Case, root: Path, stock: Stock) -> Outcome:
+    folder = root / c.name
+    folder.mkdir(parents=True)
+    start = time.monotonic()
+    try:
+        outcome = c.run(folder, stock)
+    except Exception as exc:                     # the sweep's own failure to build the case
+        outcome = Outcome(OTHER, f"sweep error: {type(exc).__name__}: {exc}"[:200])
+    outcome.seconds = time.monotonic() - start
+    outcome.note = outcome.note.replace(f"{folder}/", "")            # paths relative to the case's folder
+    return outcome
+
+
+def print_table(results: list[dict]) -> None:
+    width = max(len(r["case"]) for r in results)
+    print(f"{'case':<{width}}  item  {'verdict':<13} {'s':>6}  note")
+    for r in results:
+        print(f"{r['case']:<{width}}  {r['item']:>4}  {r['verdict']:<13} {r['seconds']:>6.1f}  {r['note']}")
+    counts = {v: sum(r["verdict"] == v for r in results) for v in VERDICTS}
+    print("\n" + ", ".join(f"{v}: {n}" for v, n in counts.items() if n) + f" ({len(results)} cases)")
+    flagged = [r for r in results if r["verdict"] not in (REFUSAL, RECORDED, HANDLED)]
+    for r in flagged:
+        lines = [line for line in r["stderr"].splitlines() if line.strip()][:3]
+        print(f"\n{r['case']} (item {r['item']}): {r['verdict']}: {r['note']}")
+        for line in lines:
+            print("    " + textwrap.shorten(line, 200))
+
+
+def main(argv: list[str] | None = None) -> int:
+    global TIMEOUT_S
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, help="write every case's outcome to this file")
+    parser.add_argument("--only", nargs="+", help="run only cases whose name contains one of these")
+    parser.add_argument("--timeout", type=float, default=TIMEOUT_S, help="wall-time limit per command [s]")
+    parser.add_argument("--keep", type=Path, help="keep every case's folder here")
+    parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    args = parser.parse_args(argv)
+    results_file = BenchmarkResults()
+    TIMEOUT_S = args.timeout
+    cases = [c for c in CASES if not args.only or any(s in c.name for s in args.only)]
+    if args.list:
+        for c in cases:
+            print(f"{c.item:>2}  {c.name}")
+        return 0
+    if args.keep:
+        args.keep.mkdir(parents=True, exist_ok=True)
+    root = Path(tempfile.mkdtemp(prefix="simgap-hostile-", dir=args.keep))
+    stock = Stock(root)
+    results = []
+    try:
+        for i, c in enumerate(cases, 1):
+            outcome = run_case(c, root, stock)
+            results.append({"case": c.name, "item": c.item, **asdict(outcome)})
+            print(f"[{i}/{len(cases)}] {c.name}: {outcome.verdict} ({outcome.seconds:.1f} s) {outcome.note}",
+                  file=sys.stderr, flush=True)
+    finally:
+        if args.keep is None:
+            shutil.rmtree(root, ignore_errors=True)
+    print_table(results)
+    if args.json:
+        results_file.write(args.json, {"cases": results, "counts": {
+            v: sum(r["verdict"] == v for r in results) for v in VERDICTS}})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
