@@ -5,8 +5,8 @@ wrote each (from bench/README.md's table); ``render_results("all")`` shows every
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
 printed, printed_section, planners, planner_scores, frenetix, gaps, recorded, road_3d, road_3d_grid,
-road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing here is typed:
-a figure on these pages is the file's.
+road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import, export_maps). Nothing
+here is typed: a figure on these pages is the file's.
 """
 
 from __future__ import annotations
@@ -434,12 +434,24 @@ def printed_section(spec: str) -> str:
     return "\n".join(["```console", f"$ {data['command']}", "...", *lines[start:end], "```"] + _generated(name, data))
 
 
+def export_maps_table(name: str) -> str:
+    """bench/export/export.py's per-map table, built by the script's own ``table`` (what ``--table`` prints) from the
+    results file."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("simgap_bench_export", ROOT / "bench" / "export" / "export.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    data = json.loads((RESULTS / name).read_text())
+    return "\n".join([script.table(data["rows"] if isinstance(data, dict) else data)] + _generated(name, data))
+
+
 TABLES = {"printed": printed_block, "printed_section": printed_section, "planners": planner_table,
           "planner_scores": planner_scores_table, "frenetix": frenetix_table, "gaps": gaps_table,
           "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": recorded_table,
           "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
-          "opendrive_import": opendrive_import_table}
+          "opendrive_import": opendrive_import_table, "export_maps": export_maps_table}
 
 
 def render_results(which: str | None) -> str:

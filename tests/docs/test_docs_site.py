@@ -116,6 +116,9 @@ def test_validation_tables_are_the_results_files_figures(site):
     printed = "\n".join(json.loads((ROOT / "bench" / "results" / "paper_study.json").read_text())["printed"])
     section = validation.printed_section("paper_study.json,Scores").split("```")[1].splitlines()[3:]
     assert section[0].startswith("Scores") and "\n".join(section) + "\n\n" in printed + "\n\n"
+    export = (site / "tutorials/export.html").read_text()
+    for row in json.loads((ROOT / "bench" / "results" / "export.json").read_text())["rows"]:
+        assert re.search(rf"<td>{re.escape(row['map'])}</td>\s*<td[^>]*>{row['roads']}</td>", export), row["map"]
 
 
 def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
