@@ -5,8 +5,8 @@ wrote each (from bench/README.md's table); ``render_results("all")`` shows every
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
 printed, printed_section, planners, planner_scores, frenetix, gaps, recorded, road_3d, road_3d_grid,
-road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import, export_maps). Nothing
-here is typed: a figure on these pages is the file's.
+road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import, export_maps,
+real_scenarios). Nothing here is typed: a figure on these pages is the file's.
 """
 
 from __future__ import annotations
@@ -446,12 +446,31 @@ def export_maps_table(name: str) -> str:
     return "\n".join([script.table(data["rows"] if isinstance(data, dict) else data)] + _generated(name, data))
 
 
+def real_scenarios_table(name: str) -> str:
+    """bench/recorded/real_scenarios.py: goals reached per world (its ``goal_rates``) and every run that missed,
+    with the outcome and reason it printed (the script cuts a reason at 110 characters: marked …)."""
+    data = json.loads((RESULTS / name).read_text())
+    runs = [m.groups() for m in (re.match(r"(\S+)\s+(\w+)\s+(\w+)\s+[\d.]+  (.*)$", line)
+                                 for line in "\n".join(data["printed"]).splitlines()) if m]
+    lines = ["| world | goal reached | mean wall time per scenario | not reached: scenario, outcome (reason) |",
+             "|---|---|---|---|"]
+    rows = []
+    for world, rate in data["goal_rates"].items():
+        missed = [f"`{scenario}`, {outcome.replace('_', ' ')} ({reason.strip()}{'…' if len(reason) >= 110 else ''})"
+                  for scenario, w, outcome, reason in runs if w == world and outcome != "goal_reached"]
+        share = 100 * rate["goals"] / max(rate["agents"], 1)
+        rows.append([world, f"{rate['goals']} / {rate['agents']} ({share:.0f} %)",
+                     f"{rate['mean_wall_s']:.1f} s", "; ".join(missed) or "—"])
+    return "\n".join(lines + _rows([[_fmt(c) for c in r] for r in rows]) + _generated(name, data))
+
+
 TABLES = {"printed": printed_block, "printed_section": printed_section, "planners": planner_table,
           "planner_scores": planner_scores_table, "frenetix": frenetix_table, "gaps": gaps_table,
           "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": recorded_table,
           "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
-          "opendrive_import": opendrive_import_table, "export_maps": export_maps_table}
+          "opendrive_import": opendrive_import_table, "export_maps": export_maps_table,
+          "real_scenarios": real_scenarios_table}
 
 
 def render_results(which: str | None) -> str:

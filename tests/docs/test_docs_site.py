@@ -116,6 +116,14 @@ def test_validation_tables_are_the_results_files_figures(site):
     printed = "\n".join(json.loads((ROOT / "bench" / "results" / "paper_study.json").read_text())["printed"])
     section = validation.printed_section("paper_study.json,Scores").split("```")[1].splitlines()[3:]
     assert section[0].startswith("Scores") and "\n".join(section) + "\n\n" in printed + "\n\n"
+    scenarios = json.loads((ROOT / "bench" / "results" / "real_scenarios.json").read_text())
+    table = validation.real_scenarios_table("real_scenarios.json").splitlines()
+    for world, rate in scenarios["goal_rates"].items():
+        row = next(line for line in table if line.startswith(f"| {world} |"))
+        missed = [line.split()[0] for line in scenarios["printed"]
+                  if re.match(rf"\S+\s+{world}\s+(?!goal_reached)\w+ ", line)]
+        assert f"| {rate['goals']} / {rate['agents']} " in row and len(missed) == rate["agents"] - rate["goals"]
+        assert all(f"`{name}`" in row for name in missed)
     export = (site / "tutorials/export.html").read_text()
     for row in json.loads((ROOT / "bench" / "results" / "export.json").read_text())["rows"]:
         assert re.search(rf"<td>{re.escape(row['map'])}</td>\s*<td[^>]*>{row['roads']}</td>", export), row["map"]
