@@ -4,8 +4,9 @@
 wrote each (from bench/README.md's table); ``render_results("all")`` shows every file's figures as
 tables: a list of records as rows, a mapping of records as rows keyed by name, scalars as name and
 value; ``render_results("KIND:FILE")`` is one benchmark's table as its page shows it (``TABLES``:
-printed, frenetix, gaps, recorded, road_3d, road_3d_grid, road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import). Nothing
-here is typed: a figure on these pages is the file's.
+printed, printed_section, planners, planner_scores, frenetix, gaps, recorded, road_3d, road_3d_grid,
+road_relief, realism_steps, realism_tracking, vehicle_dynamics, opendrive_import, export_maps,
+real_scenarios). Nothing here is typed: a figure on these pages is the file's.
 """
 
 from __future__ import annotations
@@ -111,12 +112,15 @@ def _share(goals: int, total: int) -> str:
     return f"{goals}/{total} ({100 * goals / total:.0f} %)" if total >= 10 else f"{goals}/{total}"
 
 
-def recorded_table(name: str) -> str:
+def recorded_table(spec: str) -> str:
     """Goals reached per world and kind, from a results file of bench/recorded/real_recorded.py (its records:
     scenario, kind, world, agent, outcome, reason, wall_s, excluded, human); agents that start in a
-    collision or overhanging the road (``excluded``) are not counted, as the benchmark prints."""
+    collision or overhanging the road (``excluded``) are not counted, as the benchmark prints. ``spec``: FILE, or
+    FILE,WORLD for one world's row of a file that holds several."""
+    name, _, only = spec.partition(",")
     data = json.loads((RESULTS / name).read_text())
     records = data["rows"] if isinstance(data, dict) else data
+    records = [r for r in records if not only or r["world"] == only]
     kinds = sorted({r["kind"] for r in records})
     lines = ["| world | " + " | ".join(k.replace("_", "-") for k in kinds) + " | all | files with a human recording "
              "| files without | errors | wall / scenario |", "|---|" + "---|" * (len(kinds) + 5)]
@@ -388,9 +392,85 @@ def frenetix_table(name: str) -> str:
                                             "variant's command, load average and guest environment, not its commit).*"])
 
 
-TABLES = {"printed": printed_block, "frenetix": frenetix_table, "gaps": gaps_table, "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": lambda n: recorded_table(n), "road_relief": road_relief_table, "realism_steps": realism_steps_table,
+def _num(value: float | None, spec: str) -> str:
+    return "—" if value is None else format(value, spec)
+
+
+def planner_table(name: str) -> str:
+    """bench/planners/planner_study.py: per scenario and planner, goals, times, the cross-fidelity gap and the cost
+    of a planning call (its results file's ``rows``)."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| scenario | planner | goal ideal | goal mujoco | t_goal ideal [s] | t_goal mujoco [s] | gap mean [m] "
+             "| gap max [m] | failed cycles | calls | ms/call | p95 ms |", "|---|" * 1 + "---|" * 11]
+    rows = [[r["scenario"].replace("-r", " r"), r["planner"], f"{r['goals_ideal']}/{r['agents']}",
+             f"{r['goals_mujoco']}/{r['agents']}", _num(r["time_to_goal_ideal_s"], ".1f"),
+             _num(r["time_to_goal_mujoco_s"], ".1f"), _num(r["gap_mean_m"], ".3f"), _num(r["gap_max_m"], ".3f"),
+             str(r["planner_failures"]), str(r["planning_calls"]), f"{r['ms_per_call_mean']:.1f}",
+             f"{r['ms_per_call_p95']:.1f}"] for r in data["rows"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def planner_scores_table(name: str) -> str:
+    """bench/planners/planner_study.py: per scenario and planner, the closed-loop score, the KS2/SM1 cost and the
+    valid solutions in each world (its results file's ``rows``)."""
+    data = json.loads((RESULTS / name).read_text())
+    lines = ["| scenario | planner | score ideal → MuJoCo | KS2/SM1 cost ideal → MuJoCo | valid ideal / MuJoCo |",
+             "|---|---|---|---|---|"]
+    rows = [[r["scenario"].replace("-r", " r"), r["planner"],
+             f"{_num(r['score_ideal'], '.3f')} → {_num(r['score_mujoco'], '.3f')}",
+             f"{_num(r['cost_ideal'], '.0f')} → {_num(r['cost_mujoco'], '.0f')}",
+             f"{r['valid_ideal']}/{r['agents']} / {r['valid_mujoco']}/{r['agents']}"] for r in data["rows"]]
+    return "\n".join(lines + _rows(rows) + _generated(name, data))
+
+
+def printed_section(spec: str) -> str:
+    """One section of what a benchmark printed: ``FILE,HEADING``, the printed lines from the first that starts with
+    HEADING to the next blank line, under the benchmark's command."""
+    name, _, heading = spec.partition(",")
+    data = json.loads((RESULTS / name).read_text())
+    lines = "\n".join(data["printed"]).splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(heading))
+    end = next((i for i in range(start, len(lines)) if not lines[i].strip()), len(lines))
+    return "\n".join(["```console", f"$ {data['command']}", "...", *lines[start:end], "```"] + _generated(name, data))
+
+
+def export_maps_table(name: str) -> str:
+    """bench/export/export.py's per-map table, built by the script's own ``table`` (what ``--table`` prints) from the
+    results file."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("simgap_bench_export", ROOT / "bench" / "export" / "export.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    data = json.loads((RESULTS / name).read_text())
+    return "\n".join([script.table(data["rows"] if isinstance(data, dict) else data)] + _generated(name, data))
+
+
+def real_scenarios_table(name: str) -> str:
+    """bench/recorded/real_scenarios.py: goals reached per world (its ``goal_rates``) and every run that missed,
+    with the outcome and reason it printed (the script cuts a reason at 110 characters: marked …)."""
+    data = json.loads((RESULTS / name).read_text())
+    runs = [m.groups() for m in (re.match(r"(\S+)\s+(\w+)\s+(\w+)\s+[\d.]+  (.*)$", line)
+                                 for line in "\n".join(data["printed"]).splitlines()) if m]
+    lines = ["| world | goal reached | mean wall time per scenario | not reached: scenario, outcome (reason) |",
+             "|---|---|---|---|"]
+    rows = []
+    for world, rate in data["goal_rates"].items():
+        missed = [f"`{scenario}`, {outcome.replace('_', ' ')} ({reason.strip()}{'…' if len(reason) >= 110 else ''})"
+                  for scenario, w, outcome, reason in runs if w == world and outcome != "goal_reached"]
+        share = 100 * rate["goals"] / max(rate["agents"], 1)
+        rows.append([world, f"{rate['goals']} / {rate['agents']} ({share:.0f} %)",
+                     f"{rate['mean_wall_s']:.1f} s", "; ".join(missed) or "—"])
+    return "\n".join(lines + _rows([[_fmt(c) for c in r] for r in rows]) + _generated(name, data))
+
+
+TABLES = {"printed": printed_block, "printed_section": printed_section, "planners": planner_table,
+          "planner_scores": planner_scores_table, "frenetix": frenetix_table, "gaps": gaps_table,
+          "road_3d": road_3d_table, "road_3d_grid": road_3d_grid_table, "recorded": recorded_table,
+          "road_relief": road_relief_table, "realism_steps": realism_steps_table,
           "realism_tracking": realism_tracking_table, "vehicle_dynamics": vehicle_dynamics_table,
-          "opendrive_import": opendrive_import_table}
+          "opendrive_import": opendrive_import_table, "export_maps": export_maps_table,
+          "real_scenarios": real_scenarios_table}
 
 
 def render_results(which: str | None) -> str:

@@ -95,6 +95,40 @@ def test_knobs_and_validation_tables_come_from_the_code_and_the_results(site):
         json.loads(f.read_text())
 
 
+def test_validation_tables_are_the_results_files_figures(site):
+    validation = _module("simgap_docs_validation", ROOT / "docs" / "hooks" / "validation.py")
+    study = json.loads((ROOT / "bench" / "results" / "planner_study.json").read_text())
+    table = [line for line in validation.planner_table("planner_study.json").splitlines()[2:] if line.startswith("|")]
+    assert len(table) == len(study["rows"])
+    for line, row in zip(table, study["rows"]):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[1] == row["planner"] and cells[2] == f"{row['goals_ideal']}/{row['agents']}"
+        assert cells[7] == f"{row['gap_max_m']:.3f}" and cells[10] == f"{row['ms_per_call_mean']:.1f}"
+    planners = (site / "validation/planners.html").read_text()
+    assert "copied by hand" not in planners.lower() and f"{study['rows'][0]['ms_per_call_p95']:.1f}" in planners
+    # one world's row of a file holding two is that world's row of the whole table, and the only one
+    both = validation.recorded_table("recorded_corpus_cost_order_latency_100ms.json").splitlines()
+    ideal = validation.recorded_table("recorded_corpus_cost_order_latency_100ms.json,ideal").splitlines()
+    assert [line for line in ideal if line.startswith("| ideal |")] == [line for line in both
+                                                                         if line.startswith("| ideal |")]
+    assert not [line for line in ideal if line.startswith("| mujoco |")]
+    # a printed section is the benchmark's own lines, from its heading to the next blank line
+    printed = "\n".join(json.loads((ROOT / "bench" / "results" / "paper_study.json").read_text())["printed"])
+    section = validation.printed_section("paper_study.json,Scores").split("```")[1].splitlines()[3:]
+    assert section[0].startswith("Scores") and "\n".join(section) + "\n\n" in printed + "\n\n"
+    scenarios = json.loads((ROOT / "bench" / "results" / "real_scenarios.json").read_text())
+    table = validation.real_scenarios_table("real_scenarios.json").splitlines()
+    for world, rate in scenarios["goal_rates"].items():
+        row = next(line for line in table if line.startswith(f"| {world} |"))
+        missed = [line.split()[0] for line in scenarios["printed"]
+                  if re.match(rf"\S+\s+{world}\s+(?!goal_reached)\w+ ", line)]
+        assert f"| {rate['goals']} / {rate['agents']} " in row and len(missed) == rate["agents"] - rate["goals"]
+        assert all(f"`{name}`" in row for name in missed)
+    export = (site / "tutorials/export.html").read_text()
+    for row in json.loads((ROOT / "bench" / "results" / "export.json").read_text())["rows"]:
+        assert re.search(rf"<td>{re.escape(row['map'])}</td>\s*<td[^>]*>{row['roads']}</td>", export), row["map"]
+
+
 def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
     table = (ROOT / "bench" / "README.md").read_text()
     assert not list((ROOT / "bench").glob("*.py")), "a benchmark belongs in the folder of its subject"
