@@ -22,10 +22,10 @@ from cosim.real_like import DT, box_goal, highway, lane_y, recorded_car, start
 from simgap.cosim import AgentOutcome, Outcome, Run
 from simgap.cosim.score_settings import CostFunctionId
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, solution_xml
-from simgap.evaluate.solution_check import check_solution
+from simgap.evaluate.solution_check import SolutionCheck, check_solution
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.scenario import build_scenario, write_scenario
+from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.trajectory import Trajectory
 from simgap.vehicles import load_vehicle
@@ -210,12 +210,35 @@ def test_the_cost_function_comes_from_the_benchmark_id_when_it_names_one(tmp_pat
 
 def test_a_crash_of_the_checker_costs_the_verdict_not_the_run(tmp_path):
     # the `triangle` library segfaults triangulating this curve's road boundary (commonroad-
-    # drivability-checker 2025.3.1); the check runs in a process of its own
+    # drivability-checker 2025.3.1); the check runs in a process of its own. The run itself keeps
+    # well inside the road (its check needs no boundary): a copy of it shifted to the road's edge does.
     xml = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 60.0}), tmp_path, preview=False)
     run = execute(RunRequest(xml, validate=True), tmp_path / "run")
-    agent = run.agents[0]
-    assert agent.solution_valid is None
-    assert agent.solution_reason == "the drivability checker crashed (signal 11) in agent 1's road boundary check"
-    assert json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]["solution_reason"] == agent.solution_reason
+    assert run.agents[0].solution_valid is True
+    scenario, problems = load_scenario(xml)
+    solution = run_solution(run, scenario, VehicleType.BMW_320i, CostFunctionId.SM1)
+    for state in solution.planning_problem_solutions[0].trajectory.state_list[5:40]:
+        state.position = state.position + np.array([0.0, -1.5])      # on the straight, over the right edge
+    checks, _ = checked_solution(solution, scenario, problems, xml, None)
+    assert checks[1] == SolutionCheck(None, "the drivability checker crashed (signal 11) in agent 1's road boundary check")
     again = execute(RunRequest(paper_curve_xml(tmp_path), validate=True), tmp_path / "after")     # the next check has a new process
     assert again.agents[0].solution_valid is True
+
+
+def test_a_footprint_at_the_road_edge_is_left_to_the_library_and_overlapping_lanelets_too():
+    from simgap.evaluate import solution_check
+
+    scenario = highway(lanes=1)
+    problems = straight_problem()
+    inside = run_solution(straight_run(scenario), scenario, VehicleType.BMW_320i, CostFunctionId.SM1)
+    pps = inside.planning_problem_solutions[0]
+    assert solution_check._well_inside_the_road(scenario, problems, pps)
+    off = straight_run(scenario)
+    d = off.driven[1]
+    edge = np.where((np.arange(len(d.t)) >= 5) & (np.arange(len(d.t)) < 20), 1.5, 0.0)   # half the car beyond the edge
+    off.driven[1] = Trajectory(DT, t=d.t, x=d.x, y=d.y + edge, yaw=d.yaw, v=d.v, a=d.a, yaw_rate=d.yaw_rate,
+                               steer=d.steer)
+    check = verdict(scenario, problems, off)
+    assert check.valid is False and check.reason.startswith("leaves the road boundary"), check.reason
+    junction = build_scenario("intersection", {}).scenario               # its lanelets overlap where they cross
+    assert solution_check._road_interior(junction) is None

@@ -81,9 +81,10 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
     except checker.CollisionException:
         return SolutionCheck(False, _obstacle_collision(pps, scenario))
     on_stage("road boundary")
-    ego = checker._create_pp_solution_collision_object(problem_set, pps, scenario.dt)
-    if _road_boundary(scenario).collide(ego):           # the library's boundary_collision, its boundary kept
-        return SolutionCheck(False, _boundary_collision(pps, scenario))
+    if not _well_inside_the_road(scenario, problem_set, pps):
+        ego = checker._create_pp_solution_collision_object(problem_set, pps, scenario.dt)
+        if _road_boundary(scenario).collide(ego):           # the library's boundary_collision, its boundary kept
+            return SolutionCheck(False, _boundary_collision(pps, scenario))
     on_stage("collision between agents")
     others = [o for o in solution.planning_problem_solutions if o.planning_problem_id != pid]
     for other in others:
@@ -125,6 +126,61 @@ def _road_boundary(scenario: Scenario):
     while len(_BOUNDARIES) > BOUNDARIES_KEPT:
         _BOUNDARIES.popitem(last=False)
     return boundary
+
+
+# A footprint this far inside the road cannot touch the library's road boundary, which lies outside
+# the lanelets; the boundary (a triangulation, a quarter of a second per scenario) is built only for
+# footprints nearer the edge, and on roads whose lanelets overlap (junctions), where it may not.
+ROAD_INTERIOR_MARGIN_M = 0.05
+_INTERIORS: OrderedDict[int, tuple[Scenario, object | None]] = OrderedDict()
+atexit.register(_INTERIORS.clear)
+
+
+def _road_interior(scenario: Scenario):
+    """The union of ``scenario``'s lanelets shrunk by `ROAD_INTERIOR_MARGIN_M` (prepared); None when
+    lanelets overlap or a lanelet's polygon is not simple. Kept like the boundaries."""
+    import shapely
+    from shapely.ops import unary_union
+
+    key = id(scenario)
+    if key in _INTERIORS and _INTERIORS[key][0] is scenario:
+        _INTERIORS.move_to_end(key)
+        return _INTERIORS[key][1]
+    interior = None
+    polygons = [shapely.Polygon(lanelet.polygon.vertices) for lanelet in scenario.lanelet_network.lanelets]
+    if polygons and all(p.is_valid for p in polygons):
+        road = unary_union(polygons)
+        if sum(p.area for p in polygons) - road.area <= 1e-6 * road.area:      # no lanelet overlaps another
+            interior = road.buffer(-ROAD_INTERIOR_MARGIN_M)
+            shapely.prepare(interior)
+    _INTERIORS[key] = (scenario, interior)
+    while len(_INTERIORS) > BOUNDARIES_KEPT:
+        _INTERIORS.popitem(last=False)
+    return interior
+
+
+def _well_inside_the_road(scenario: Scenario, problem_set: PlanningProblemSet, pps: PlanningProblemSolution) -> bool:
+    """Every footprint of the trajectory the library checks (its states, its vehicle's rectangle)
+    lies in `_road_interior`."""
+    import numpy as np
+    import shapely
+    from commonroad_dc.feasibility import solution_checker as checker
+
+    interior = _road_interior(scenario)
+    if interior is None:
+        return False
+    dynamics, trajectory = checker._simulate_trajectory_if_input_vector(problem_set, pps, scenario.dt)
+    shape = dynamics.shape
+    if type(shape).__name__ != "Rectangle" or np.any(np.asarray(shape.center, dtype=float)) or shape.orientation:
+        return False
+    xy = np.array([st.position for st in trajectory.state_list], dtype=float)
+    yaw = np.array([st.orientation for st in trajectory.state_list], dtype=float)
+    c, s = np.cos(yaw), np.sin(yaw)
+    corners = np.stack([np.stack([xy[:, 0] + a * c - b * s, xy[:, 1] + a * s + b * c], axis=1)
+                        for a, b in ((shape.length / 2, shape.width / 2), (shape.length / 2, -shape.width / 2),
+                                     (-shape.length / 2, -shape.width / 2), (-shape.length / 2, shape.width / 2))],
+                       axis=1)
+    return bool(shapely.contains(interior, shapely.polygons(corners)).all())
 
 
 def _feasible(pps: PlanningProblemSolution, alone: Solution, dt: float,
