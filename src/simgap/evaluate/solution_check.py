@@ -9,6 +9,10 @@ inputs reconstructed state by state). The first that fails is the reason; the ch
 not run. Where the library only says *that* something failed, the time (and the obstacle) is
 located with its own collision objects.
 
+The library's road boundary is a triangulation of the road's outside, a quarter of a second to build
+per scenario (and it crashes the process on some curves): it is built only for a trajectory with a
+footprint within `ROAD_INTERIOR_MARGIN_M` of the road's edge, or on a road whose lanelets overlap.
+
 The library's feasibility check is slow (milliseconds per state); a KS trajectory takes
 `simgap.evaluate.feasibility`'s fast path, with the library's verdicts, and the library checks
 only the transitions near a limit. Runs are checked after they are saved, in a process of their
