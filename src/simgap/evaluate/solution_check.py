@@ -110,57 +110,63 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
     return SolutionCheck(True)
 
 
-_BOUNDARIES: OrderedDict[int, tuple[Scenario, object]] = OrderedDict()
 BOUNDARIES_KEPT = 8
-atexit.register(_BOUNDARIES.clear)      # freed before the interpreter tears the bindings down
 
 
-def _road_boundary(scenario: Scenario):
-    """The library's road-boundary collision checker of ``scenario`` (its triangulation, a third
-    of a second to build), kept for the last `BOUNDARIES_KEPT` scenario objects checked: the
-    checker process reads a scenario file once for all the runs on it (`simgap.evaluate.validity`)."""
+class _PerScenario:
+    """What was built from each of the last `BOUNDARIES_KEPT` scenario objects checked: the checker
+    process reads a scenario file once for all the runs on it (`simgap.evaluate.validity`)."""
+
+    def __init__(self, build: Callable[[Scenario], object]):
+        self._build = build
+        self._kept: OrderedDict[int, tuple[Scenario, object]] = OrderedDict()
+        atexit.register(self._kept.clear)      # freed before the interpreter tears the bindings down
+
+    def __call__(self, scenario: Scenario):
+        key = id(scenario)
+        if key in self._kept and self._kept[key][0] is scenario:
+            self._kept.move_to_end(key)
+            return self._kept[key][1]
+        value = self._build(scenario)
+        self._kept[key] = (scenario, value)
+        while len(self._kept) > BOUNDARIES_KEPT:
+            self._kept.popitem(last=False)
+        return value
+
+
+def _construct_road_boundary(scenario: Scenario):
+    """The library's road-boundary collision checker of ``scenario`` (its triangulation, a quarter
+    of a second to build)."""
     from commonroad_dc.feasibility import solution_checker as checker
 
-    key = id(scenario)
-    if key in _BOUNDARIES and _BOUNDARIES[key][0] is scenario:
-        _BOUNDARIES.move_to_end(key)
-        return _BOUNDARIES[key][1]
-    boundary = checker._construct_boundary_checker(scenario)
-    _BOUNDARIES[key] = (scenario, boundary)
-    while len(_BOUNDARIES) > BOUNDARIES_KEPT:
-        _BOUNDARIES.popitem(last=False)
-    return boundary
+    return checker._construct_boundary_checker(scenario)
 
 
 # A footprint this far inside the road cannot touch the library's road boundary, which lies outside
-# the lanelets; the boundary (a triangulation, a quarter of a second per scenario) is built only for
-# footprints nearer the edge, and on roads whose lanelets overlap (junctions), where it may not.
+# the lanelets; the boundary is built only for footprints nearer the edge, and on roads whose
+# lanelets overlap (junctions), where it may not.
 ROAD_INTERIOR_MARGIN_M = 0.05
-_INTERIORS: OrderedDict[int, tuple[Scenario, object | None]] = OrderedDict()
-atexit.register(_INTERIORS.clear)
 
 
-def _road_interior(scenario: Scenario):
+def _construct_road_interior(scenario: Scenario):
     """The union of ``scenario``'s lanelets shrunk by `ROAD_INTERIOR_MARGIN_M` (prepared); None when
-    lanelets overlap or a lanelet's polygon is not simple. Kept like the boundaries."""
+    lanelets overlap or a lanelet's polygon is not simple."""
     import shapely
     from shapely.ops import unary_union
 
-    key = id(scenario)
-    if key in _INTERIORS and _INTERIORS[key][0] is scenario:
-        _INTERIORS.move_to_end(key)
-        return _INTERIORS[key][1]
-    interior = None
     polygons = [shapely.Polygon(lanelet.polygon.vertices) for lanelet in scenario.lanelet_network.lanelets]
-    if polygons and all(p.is_valid for p in polygons):
-        road = unary_union(polygons)
-        if sum(p.area for p in polygons) - road.area <= 1e-6 * road.area:      # no lanelet overlaps another
-            interior = road.buffer(-ROAD_INTERIOR_MARGIN_M)
-            shapely.prepare(interior)
-    _INTERIORS[key] = (scenario, interior)
-    while len(_INTERIORS) > BOUNDARIES_KEPT:
-        _INTERIORS.popitem(last=False)
+    if not polygons or not all(p.is_valid for p in polygons):
+        return None
+    road = unary_union(polygons)
+    if sum(p.area for p in polygons) - road.area > 1e-6 * road.area:      # a lanelet overlaps another
+        return None
+    interior = road.buffer(-ROAD_INTERIOR_MARGIN_M)
+    shapely.prepare(interior)
     return interior
+
+
+_road_boundary = _PerScenario(_construct_road_boundary)
+_road_interior = _PerScenario(_construct_road_interior)
 
 
 def _well_inside_the_road(scenario: Scenario, problem_set: PlanningProblemSet, pps: PlanningProblemSolution) -> bool:
