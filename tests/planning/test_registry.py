@@ -182,7 +182,9 @@ def test_a_planner_that_raises_fails_its_cycles_and_the_run_goes_on(curve_xml, f
     assert agent.planner_exceptions == 5 and agent.planner_failures == 5
     assert run.planner_errors[0].exception == "ValueError" and run.planner_errors[0].t == pytest.approx(1.0)
     assert "in plan" in run.planner_errors[0].traceback and "flaky at t = 1.0" in run.planner_errors[0].traceback
-    assert agent.planning_calls > 100 and 0 < agent.planning_mean_s <= agent.planning_p95_s <= agent.planning_max_s
+    # (the mean is no invariant below the p95: with cycles of ~2 ms, one slow first call lifts it above)
+    assert agent.planning_calls > 100 and 0 < agent.planning_p95_s <= agent.planning_max_s
+    assert 0 < agent.planning_mean_s <= agent.planning_max_s
     assert agent.planning_over_budget == 0
     assert run.settings["planner"]["name"] == "Flaky"
     assert run.settings["planner"]["settings"]["speed"]["cruise_m_s"] == 10.0      # the full settings
