@@ -14,27 +14,26 @@ from rich.table import Table
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
-from simgap.cosim import Run
 from simgap.errors import InputError
-from simgap.evaluate.closed_loop_score import score_drop, score_weights_of
-from simgap.evaluate.compare import compare_runs
-from simgap.evaluate.criticality import run_criticality
+from simgap.evaluate.closed_loop_score import score_drop
+from simgap.evaluate.compare import compare_histories
 from simgap.files import writable_directory
+from simgap.record import RunRecord, read_run
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
 from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.sections import RoadSections
 
 METRICS = ("lateral_displacement", "position_error", "orientation_error", "velocity_error")
 UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error": "rad", "velocity_error": "m/s"}
 
 
-def score_comparison(a: Run, b: Run) -> list[dict]:
+def score_comparison(a: RunRecord, b: RunRecord) -> list[dict]:
     """Per agent of both runs: each world's score, cost and validity, the score's drop and the
     components that lost it (the largest loss first)."""
-    weights = score_weights_of(b)
+    weights = b.settings.cosim.score.weights
     out = []
-    for aid in sorted({x.id for x in a.agents} & {x.id for x in b.agents}):
-        agent_a = next(x for x in a.agents if x.id == aid)
-        agent_b = next(x for x in b.agents if x.id == aid)
+    for aid in sorted({x.id for x in a.evaluation.agents} & {x.id for x in b.evaluation.agents}):
+        agent_a, agent_b = a.evaluation.agent(aid), b.evaluation.agent(aid)
         drop, losses = score_drop(agent_a, agent_b, weights)
         out.append({"agent_id": aid,
                     **{side: {"score": x.score, "solution_cost": x.solution_cost, "solution_valid": x.solution_valid,
@@ -68,7 +67,7 @@ def print_scores(console: Console, result: dict) -> None:
     console.print(table)
 
 
-def _label(run: Run, run_dir: Path) -> str:
+def _label(run: RunRecord, run_dir: Path) -> str:
     return f"{run.fidelity.label} ({run_dir.name})"
 
 
@@ -84,17 +83,19 @@ def compare(
 
     Example: simgap compare runs/c10 runs/c10-dynamic --out runs/c10-vs-dynamic
     """
-    a, b = Run.load(run_a), Run.load(run_b)
+    a, b = read_run(run_a), read_run(run_b)
     if a.scenario_id != b.scenario_id:
         raise InputError(f"runs are of different scenarios ('{a.scenario_id}' and '{b.scenario_id}')",
                          file=run_b, field="scenario_id", allowed=f"a run of '{a.scenario_id}'")
-    xml = Path(a.scenario_path) if a.scenario_path and Path(a.scenario_path).exists() else run_a / "driven.xml"
+    path = a.settings.scenario_path
+    xml = Path(path) if path and Path(path).exists() else run_a / "driven.xml"
     scenario, problems = load_scenario(xml)
-    sections = a.sections or read_metadata(xml).get("sections")
-    comparisons = compare_runs(a, b, scenario, problems, sections)
+    sections = a.settings.sections or RoadSections.of_json(read_metadata(xml).get("sections"))
+    comparisons = compare_histories(a.history, b.history, scenario, problems, sections)
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
               "agents": [c.as_dict() for c in comparisons], "scores": score_comparison(a, b),
-              "criticality": {"a": run_criticality(run_a, a.driven), "b": run_criticality(run_b, b.driven)}}
+              "criticality": {"a": [asdict(c) for c in a.evaluation.criticality],
+                              "b": [asdict(c) for c in b.evaluation.criticality]}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for c in comparisons:
@@ -102,7 +103,7 @@ def compare(
                           out / f"d_over_s_agent{c.agent_id}.png",
                           f"{a.scenario_id}, agent {c.agent_id}: lateral offset from the lane centre",
                           None if c.section_along_s is None else (c.s, c.section_along_s))
-            plot_v_over_t({result["a"]: a.driven[c.agent_id], result["b"]: b.driven[c.agent_id]},
+            plot_v_over_t({result["a"]: a.history.driven[c.agent_id], result["b"]: b.history.driven[c.agent_id]},
                           out / f"v_over_t_agent{c.agent_id}.png", f"{a.scenario_id}, agent {c.agent_id}: speed")
         (out / "comparison.json").write_text(json.dumps(result, indent=2))
     if as_json:

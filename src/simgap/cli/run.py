@@ -17,16 +17,18 @@ from rich.table import Table
 from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
-from simgap.cosim import REFERENCE, AgentOutcome, CosimSettings, Outcome, Run
+from simgap.cosim import REFERENCE, CosimSettings, Outcome
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.cosim.loop import MAX_SIMULATED_TIME_S
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
+from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.planning.remote import ProcessLimits
+from simgap.record import RunRecord
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
@@ -177,23 +179,24 @@ def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
     return apply_knobs(backend, values)
 
 
-def print_summary(console: Console, result: Run) -> None:
-    table = Table(title=f"{result.scenario_id} — {result.backend}")
-    budget = result.settings.get("cosim", {}).get("planning_budget_s")
+def print_summary(console: Console, result: RunRecord) -> None:
+    table = Table(title=f"{result.scenario_id} — {result.history.backend}")
+    budget = result.settings.cosim.planning_budget_s
     columns = ["agent", "planner", "vehicle", "outcome", "goal at [s]", "driven [m]", "gap [m]", "failed",
                "plan [ms]"] + (["> budget"] if budget else []) + ["score", "solution", "cost"]
     for col in columns:
         table.add_column(escape(col), justify="left" if col in ("planner", "vehicle", "outcome", "solution") else "right",
                          no_wrap=True)
-    for a in result.agents:
-        colour = "green" if a.outcome == Outcome.GOAL_REACHED else "red"
+    for agent in result.agents:
+        h, a = agent.history, agent.evaluation
+        colour = "green" if h.outcome == Outcome.GOAL_REACHED else "red"
         times = "—" if a.planning_mean_s is None else \
             "/".join(f"{1000 * v:.1f}" for v in (a.planning_mean_s, a.planning_p95_s, a.planning_max_s))
-        table.add_row(str(a.id), escape(a.planner), a.vehicle, f"[{colour}]{a.outcome}[/{colour}]",
+        table.add_row(str(a.id), escape(agent.planner), h.vehicle.name, f"[{colour}]{h.outcome}[/{colour}]",
                       "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
                       f"{a.distance_m:.1f}",
                       "—" if a.min_distance_to_traffic_m is None else f"{a.min_distance_to_traffic_m:.2f}",
-                      f"{a.planner_failures}" + (f" ({a.planner_exceptions} raised)" if a.planner_exceptions else ""),
+                      f"{h.planner_failures}" + (f" ({h.planner_exceptions} raised)" if h.planner_exceptions else ""),
                       times,
                       *([str(a.planning_over_budget)] if budget else []),
                       "—" if a.score is None else f"{a.score:.3f}", _validity(a.solution_valid),
@@ -205,15 +208,15 @@ def print_summary(console: Console, result: Run) -> None:
                   + "; score: closed-loop score (nuPlan's CLS); solution: the driven trajectory as a CommonRoad "
                   "solution (solution.xml), valid by commonroad-drivability-checker; cost: its cost function's "
                   "total", style="dim")
-    for a in result.agents:
+    for a in result.evaluation.agents:
         for line in score_lines(a):
             console.print(escape(line))
-    for error in result.planner_errors[:1]:
+    for error in result.history.planner_errors[:1]:
         console.print(f"[red]agent {error.agent_id}'s planner raised {escape(error.exception)}"
                       f"{'' if error.t is None else f' at t = {error.t:.1f} s'}: {escape(error.message)}[/red] "
-                      "(tracebacks in run.json, planner_errors)")
-    phases = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items())
-    console.print(f"wall time {result.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
+                      "(tracebacks in run.json, history.planner_errors)")
+    phases = ", ".join(f"{k} {v:.2f} s" for k, v in result.all_timings.items())
+    console.print(f"wall time {result.history.wall_time_s:.2f} s ({phases}); fingerprint {result.fingerprint}")
     if result.failure:
         console.print(f"[red]run failed: {result.failure}[/red]")
 
@@ -222,7 +225,7 @@ def _validity(valid: bool | None) -> str:
     return "[green]valid[/green]" if valid else "[red]invalid[/red]" if valid is False else "—"
 
 
-def score_lines(a: AgentOutcome) -> list[str]:
+def score_lines(a: AgentEvaluation) -> list[str]:
     """What an agent's score and cost are made of, in a line each."""
     if a.score is None:
         lines = [f"agent {a.id}: no score (it drove no step)"]

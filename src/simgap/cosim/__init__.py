@@ -1,9 +1,9 @@
-"""The synchronous multi-agent co-simulation loop and the `Run` record it produces."""
+"""The synchronous multi-agent co-simulation loop and the `History` it leaves behind."""
 
 from simgap.cosim.fidelity import REFERENCE, Fidelity
+from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
 from simgap.cosim.loop import CosimSettings, not_started, simulate
-from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
 from simgap.sim.protocol import EventKind
 
-__all__ = ["AgentOutcome", "CosimSettings", "Event", "EventKind", "Fidelity", "Outcome", "PlannerError", "REFERENCE", "Run",
-           "not_started", "simulate"]
+__all__ = ["AgentHistory", "CosimSettings", "Event", "EventKind", "Fidelity", "History", "Outcome", "PlannerError",
+           "REFERENCE", "not_started", "simulate"]

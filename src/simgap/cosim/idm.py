@@ -95,6 +95,7 @@ class IdmTraffic:
                 self._driven.append(vehicle)
         self.reach = ObstacleReach.of([TrafficParticipant(o.id, o.length, o.width, o.motion) for o in self._replayed],
                                       [pv.obstacle.id for pv in self._driven])
+        self.driven_ids = tuple(pv.obstacle.id for pv in self._driven)
         self._t = None
         self._place(0.0)
 

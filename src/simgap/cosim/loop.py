@@ -42,9 +42,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
-from simgap.cosim.record import AgentOutcome, Event, Outcome, PlannerError, Run
+from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
-from simgap.cosim.sensing import PROFILES, Localisation, SensingProfile, SensingSettings
+from simgap.cosim.sensing import Localisation, SensingSettings, localisation_accuracy
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
@@ -117,6 +117,8 @@ class _AgentProgress:
     localisation: Localisation                  # what its planner sees of its car
     driven: list[State] = field(default_factory=list)
     attitudes: list[Attitude] = field(default_factory=list)    # beside `driven`, where the backend has them
+    standing: list[State] = field(default_factory=list)        # after its outcome, while in the world
+    observed: list[State] = field(default_factory=list)        # what its planner saw, per planning call
     plans: list[Trajectory] = field(default_factory=list)
     plan: Trajectory | None = None              # the newest plan (what the other agents see)
     in_force: Trajectory | None = None          # the plan the car follows
@@ -124,14 +126,10 @@ class _AgentProgress:
     latencies: list[float] = field(default_factory=list)
     plan_age: int = 0
     outcome: Outcome | None = None
-    time_to_goal: float | None = None
     failures_in_row: int = 0
     failures: int = 0
     exceptions: int = 0
     call_times: list[float] = field(default_factory=list)     # wall time of every planning call [s]
-    over_budget: int = 0
-    min_distance: float = math.inf
-    max_excursion: float = 0.0
 
     @property
     def active(self) -> bool:
@@ -193,7 +191,7 @@ def simulate(
     seed: int = 0,
     wall_time_limit_s: float | None = None,
     relief: Surface | None = None,
-) -> Run:
+) -> History:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend`` on the road's
     ``relief`` (None: flat); ``seed`` seeds the localisations' errors. A run still going after
     ``wall_time_limit_s`` (even in a planning call that does not return) is stopped and recorded as
@@ -215,11 +213,12 @@ class _CoSimulation:
         self.dt = float(scenario.dt)
         self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
         self.events: list[Event] = []
+        self.traffic_driven: dict[int, list[State]] = {}     # the IDM traffic's states, by obstacle
         self.planner_errors: list[PlannerError] = []
         self.traffic: Traffic = make_traffic(scenario, settings.traffic)
         self.road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
         self.progress_of: dict[int, _AgentProgress] = {}
-        self.accuracy = settings.sensing.accuracy() if self.realism is Realism.REAL else PROFILES[SensingProfile.PERFECT]
+        self.accuracy = localisation_accuracy(settings.sensing, self.realism)
         for a in agents:
             problem = problems.planning_problem_dict[a.id]
             goal = Goal.of(problem.goal, self.dt)
@@ -229,7 +228,7 @@ class _CoSimulation:
         self.horizon = max(p.deadline for p in self.progress_of.values())
         self.agents = agents
 
-    def run(self, progress: Callable[[float], None] | None) -> Run:
+    def run(self, progress: Callable[[float], None] | None) -> History:
         wall_start = time.perf_counter()
         self.backend.load(self._scenario_for_backend(), self.agents, self.relief)
         failure = None
@@ -239,6 +238,7 @@ class _CoSimulation:
             with interruptions(limit):
                 states = self.backend.reset()
                 self._drove(states)
+                self._record_traffic(0.0)
                 while any(p.active for p in self.progress_of.values()):
                     if limit is not None and time.perf_counter() - wall_start > limit:
                         raise WallClockExceeded(limit)
@@ -292,6 +292,8 @@ class _CoSimulation:
         clock = time.perf_counter()
         self.traffic.advance(t, self.dt, snapshot)
         self._drove({aid: st for aid, st in states.items() if self.progress_of[aid].active})
+        self._stood(states)
+        self._record_traffic(t + self.dt)
         self._monitor(states, t + self.dt)
         self.timings["monitoring"] += time.perf_counter() - clock
         return states
@@ -304,6 +306,19 @@ class _CoSimulation:
             self.progress_of[aid].driven.append(st)
             if aid in attitudes:
                 self.progress_of[aid].attitudes.append(attitudes[aid])
+
+    def _stood(self, states: Mapping[int, State]) -> None:
+        """Record where the finished agents still in the world stand (their cars stay there)."""
+        for aid, st in states.items():
+            p = self.progress_of[aid]
+            if not p.active and p.outcome not in _LEFT_THE_WORLD:
+                p.standing.append(st)
+
+    def _record_traffic(self, t: float) -> None:
+        """Record where the road users the loop drives itself (IDM traffic) are at ``t``."""
+        if self.traffic.driven_ids:
+            for oid, (state, _, _) in self.traffic.poses(t, self.traffic.driven_ids).items():
+                self.traffic_driven.setdefault(oid, []).append(state)
 
     def _plan(self, p: _AgentProgress, state: State, t: float, snapshot: Mapping[int, TrafficParticipant]) -> None:
         """Let ``p``'s planner plan when it is due; a failure brakes the agent in its lane."""
@@ -320,6 +335,7 @@ class _CoSimulation:
         world = World(self.scenario.lanelet_network, p.problem.goal, dt,
                       tuple(_traffic_for(p.agent.id, snapshot, self.traffic.participants())))
         observed = p.localisation.observe(p.driven, t)
+        p.observed.append(observed)
         clock = time.perf_counter()
         self.planning_agent = p.agent.id
         try:
@@ -339,8 +355,6 @@ class _CoSimulation:
         self.planning_agent = None
         elapsed = time.perf_counter() - clock
         p.call_times.append(elapsed)
-        if settings.planning_budget_s is not None and elapsed > settings.planning_budget_s:
-            p.over_budget += 1
         if plan is None:
             self._planner_failed(p, state, t, reason)
         else:
@@ -414,8 +428,6 @@ class _CoSimulation:
     def _finish(self, p: _AgentProgress, outcome: Outcome, state: State, detail: str = "",
                 other: int | None = None) -> None:
         p.outcome = outcome
-        if outcome == Outcome.GOAL_REACHED:
-            p.time_to_goal = state.t
         self.events.append(Event(state.t, p.agent.id, outcome, state.x, state.y, detail, other))
 
     def _monitor(self, states: Mapping[int, State], t: float) -> None:
@@ -431,32 +443,31 @@ class _CoSimulation:
             elif ev.kind == EventKind.DIVERGED and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
                 self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
         present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
-        obstacles = self._obstacles_near(present, states, t)
+        active = [aid for aid in present if progress_of[aid].active]
+        obstacles = self._obstacles_near(active, states, t)
         obstacle_shapes = {oid: footprint(st, length, width) for oid, (st, length, width) in obstacles.items()}
         poses = {aid: states[aid] for aid in present} | {oid: st for oid, (st, _, _) in obstacles.items()}
-        for aid in present:
+        for aid in active:
             p = progress_of[aid]
             others = {oid: shapes[oid] for oid in present if oid != aid} | obstacle_shapes
-            hit = _first_contact(p, shapes[aid], others)
+            hit = _first_contact(shapes[aid], others)
             if aid in contacts and hit is None:
                 hit = contacts[aid]
             excursion = self.road.excursion(shapes[aid])
-            p.max_excursion = max(p.max_excursion, excursion)
-            if p.active:
-                detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
-                                                                 poses.get(hit), hit in progress_of)
-                self._judge(p, states[aid], hit, excursion, detail)
+            detail = "" if hit is None else collision_detail(states[aid], p.agent.vehicle.length, hit,
+                                                             poses.get(hit), hit in progress_of)
+            self._judge(p, states[aid], hit, excursion, detail)
 
     def _obstacles_near(self, present: list[int], states: Mapping[int, State],
                         t: float) -> dict[int, tuple[State, float, float]]:
-        """The obstacles at ``t`` that may touch a present agent or come closer to it than anything
-        has so far (`ObstacleReach.near`): every other one is farther, and needs no footprint."""
+        """The obstacles at ``t`` that may touch a present agent (`ObstacleReach.near`): every other
+        one is farther, and needs no footprint."""
         reach = self.traffic.reach
         near = set()
         for aid in present:
             p, st = self.progress_of[aid], states[aid]
             near.update(reach.near(t, st.x, st.y, math.hypot(p.agent.vehicle.length, p.agent.vehicle.width) / 2,
-                                   p.min_distance).tolist())
+                                   0.0).tolist())
         return self.traffic.poses(t, [int(i) for i in reach.ids[sorted(near)]])
 
     def _judge(self, p: _AgentProgress, state: State, hit: int | None, excursion: float, detail: str = "") -> None:
@@ -470,33 +481,23 @@ class _CoSimulation:
             self._finish(p, Outcome.TIMEOUT, state, f"goal not reached by t = {p.deadline:.1f} s: "
                                               f"{p.goal.miss_reason(p.driven)}")
 
-    def _record(self, wall_time: float, backend_notes: list[str], failure: str | None) -> Run:
+    def _record(self, wall_time: float, backend_notes: list[str], failure: str | None) -> History:
         dt = self.dt
-        outcomes = []
+        agents = []
         for aid, p in self.progress_of.items():
             driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
-            outcomes.append(AgentOutcome(
-                id=aid, vehicle=p.agent.vehicle.name, outcome=p.outcome or Outcome.TIMEOUT,
-                time_to_goal_s=None if p.time_to_goal is None else round(p.time_to_goal, 6),
-                distance_m=round(driven.path_length(), 3),
-                min_distance_to_traffic_m=None if math.isinf(p.min_distance) else round(p.min_distance, 3),
-                max_road_excursion_m=round(p.max_excursion, 3), planner_failures=p.failures,
-                planner_exceptions=p.exceptions, **planning_time_stats(p.call_times), planning_over_budget=p.over_budget,
-                plan_latency_mean_s=round(float(np.mean(p.latencies)), 6) if p.latencies else None,
-                plan_latency_max_s=round(max(p.latencies), 6) if p.latencies else None))
-        settings = {"cosim": self.settings.model_dump(mode="json"), "realism": self.realism.value,
-                    "sensing_accuracy": self.accuracy.model_dump(mode="json")}
-        return Run(
-            scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, agents=outcomes,
-            driven={aid: Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
-                    for aid, p in self.progress_of.items()},
-            plans={aid: p.plans for aid, p in self.progress_of.items()},
-            attitudes={aid: tuple(p.attitudes) for aid, p in self.progress_of.items()
-                       if p.attitudes and len(p.attitudes) == len(p.driven)},
-            events=self.events, timings=self.timings, wall_time_s=wall_time,
-            settings=settings | ({"backend_notes": backend_notes} if backend_notes else {}),
-            failure=failure, planner_errors=self.planner_errors,
-        )
+            agents.append(AgentHistory(
+                id=aid, vehicle=p.agent.vehicle, outcome=p.outcome or Outcome.TIMEOUT, driven=driven,
+                plans=tuple(p.plans), observed=Trajectory.from_states(p.observed, dt),
+                attitudes=tuple(p.attitudes) if p.attitudes and len(p.attitudes) == len(p.driven) else (),
+                standing=Trajectory.from_states(p.standing, dt) if p.standing else None,
+                planning_call_s=tuple(p.call_times), plan_latency_s=tuple(p.latencies),
+                planner_failures=p.failures, planner_exceptions=p.exceptions))
+        return History(
+            scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, realism=self.realism,
+            agents=tuple(agents), events=tuple(self.events), timings=self.timings, wall_time_s=wall_time,
+            failure=failure, planner_errors=tuple(self.planner_errors), backend_notes=tuple(backend_notes),
+            traffic={oid: Trajectory.from_states(states, dt) for oid, states in self.traffic_driven.items()})
 
 
 def collision_detail(ego: State, ego_length: float, other_id: int, other: State | None, agent: bool) -> str:
@@ -517,15 +518,9 @@ def collision_detail(ego: State, ego_length: float, other_id: int, other: State 
     return f"ran into {who} at {ego.v:.1f} m/s (the other at {other.v:.1f} m/s)"
 
 
-def _first_contact(p: _AgentProgress, shape, others) -> int | None:
-    """The first of ``others`` that ``shape`` touches (None: clear); updates the closest distance."""
-    hit = None
-    for oid, other_shape in others.items():
-        dist = shape.distance(other_shape)
-        p.min_distance = min(p.min_distance, dist)
-        if dist <= 0.0 and hit is None:
-            hit = oid
-    return hit
+def _first_contact(shape, others) -> int | None:
+    """The first of ``others`` that ``shape`` touches (None: clear)."""
+    return next((oid for oid, other_shape in others.items() if shape.distance(other_shape) <= 0.0), None)
 
 
 def _traffic_snapshot(progress_of: Mapping[int, _AgentProgress], states: Mapping[int, State],
@@ -549,35 +544,24 @@ def _traffic_for(aid: int, snapshot: Mapping[int, TrafficParticipant],
     return [tp for oid, tp in snapshot.items() if oid != aid] + list(obstacles)
 
 
-def planning_time_stats(call_times: list[float]) -> dict[str, float | int | None]:
-    """Calls, mean, 95th percentile and maximum of the wall times of one agent's planning calls."""
-    if not call_times:
-        return {"planning_calls": 0}
-    times = np.asarray(call_times)
-    return {"planning_calls": len(times), "planning_mean_s": round(float(times.mean()), 6),
-            "planning_p95_s": round(float(np.percentile(times, 95)), 6), "planning_max_s": round(float(times.max()), 6)}
-
-
 def not_started(scenario: Scenario, backend: str, agents: list[Agent], errors: list[PlannerError],
-                settings: CosimSettings | None = None) -> Run:
-    """The record of a run that could not start because planners raised in their constructors:
+                realism: Realism = Realism.IDEAL) -> History:
+    """The history of a run that could not start because planners raised in their constructors:
     every agent a planner failure where it stands, the exceptions with their tracebacks."""
     dt = float(scenario.dt)
     failed = {e.agent_id: e for e in errors}
-    outcomes, events = [], []
+    histories, events = [], []
     for a in agents:
         st = a.initial_state
         detail = (f"planner raised {failed[a.id].exception} in its constructor: {failed[a.id].message}"
                   if a.id in failed else "another agent's planner could not be built")
-        outcomes.append(AgentOutcome(a.id, a.vehicle.name, Outcome.PLANNER_FAILURE, None, 0.0, None,
-                                     planner_failures=1 if a.id in failed else 0,
-                                     planner_exceptions=1 if a.id in failed else 0))
+        histories.append(AgentHistory(a.id, a.vehicle, Outcome.PLANNER_FAILURE, Trajectory.from_states([st], dt),
+                                      planner_failures=1 if a.id in failed else 0,
+                                      planner_exceptions=1 if a.id in failed else 0))
         events.append(Event(st.t, a.id, Outcome.PLANNER_FAILURE, st.x, st.y, detail))
     first = errors[0]
-    return Run(scenario_id=str(scenario.scenario_id), backend=backend, dt=dt, agents=outcomes,
-               driven={a.id: Trajectory.from_states([a.initial_state], dt) for a in agents},
-               plans={a.id: [] for a in agents}, events=events,
-               settings={"cosim": (settings or CosimSettings()).model_dump(mode="json")},
-               failure=f"the planner of agent {first.agent_id} raised {first.exception} in its constructor: "
-                       f"{first.message}",
-               planner_errors=list(errors))
+    return History(scenario_id=str(scenario.scenario_id), backend=backend, dt=dt, realism=realism,
+                   agents=tuple(histories), events=tuple(events),
+                   failure=f"the planner of agent {first.agent_id} raised {first.exception} in its constructor: "
+                           f"{first.message}",
+                   planner_errors=tuple(errors))

@@ -20,6 +20,7 @@ from typing import Sequence
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from simgap.sim.protocol import Realism
 from simgap.trajectory import STATE_FIELDS, State, wrap_angle
 
 
@@ -92,6 +93,11 @@ class SensingSettings(BaseModel):
         """The profile's accuracy with the fields that are set over it."""
         changes = {k: v for k, v in self.model_dump(exclude={"profile"}).items() if v is not None}
         return PROFILES[self.profile].model_copy(update=changes)
+
+
+def localisation_accuracy(settings: SensingSettings, realism: Realism) -> LocalisationAccuracy:
+    """How exactly a planner sees its car: as ``settings`` say in a world of realism real, else exactly."""
+    return settings.accuracy() if realism is Realism.REAL else PROFILES[SensingProfile.PERFECT]
 
 
 class Localisation:

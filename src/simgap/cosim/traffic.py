@@ -76,6 +76,7 @@ class Traffic(Protocol):
     """The non-agent traffic of one run (`ReplayedTraffic`, or `simgap.cosim.idm.IdmTraffic`)."""
 
     reach: ObstacleReach
+    driven_ids: tuple[int, ...]      # the obstacles it drives itself (not as recorded)
 
     def participants(self) -> Sequence[TrafficParticipant]:
         """Every obstacle as planners see it now: its size and predicted motion."""
@@ -94,6 +95,7 @@ class ReplayedTraffic:
         self._participants = non_agent_traffic(scenario)
         self._by_id = {o.id: o for o in self._participants}
         self.reach = ObstacleReach.of(self._participants)
+        self.driven_ids: tuple[int, ...] = ()
 
     def participants(self) -> Sequence[TrafficParticipant]:
         return self._participants

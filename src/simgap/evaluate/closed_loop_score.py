@@ -33,13 +33,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.loop import CosimSettings
-from simgap.cosim.record import AgentOutcome, Outcome, Run
+from simgap.cosim.history import AgentHistory, History, Outcome
 from simgap.cosim.score_settings import ScoreSettings, ScoreWeights
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
 from simgap.evaluate.lane_occupancy import LaneOccupancy
@@ -50,6 +51,9 @@ from simgap.scenario.road_frame import footprint
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.scenario.goal import Goal
 from simgap.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from simgap.evaluate.run_evaluation import AgentEvaluation
 
 #: component -> (role, meaning); the multipliers first, then the weighted terms
 COMPONENTS = {
@@ -152,12 +156,13 @@ def _goal_progress(problem: PlanningProblem, frame, s_start: float) -> float:
 class _AgentScorer:
     """Everything one agent's score needs: its run, the road, the others, the settings."""
 
-    def __init__(self, run: Run, outcome: AgentOutcome, problem: PlanningProblem | None, lanes: LaneOccupancy,
-                 users: dict[int, RoadUser], cosim: CosimSettings):
-        self.run, self.outcome, self.problem, self.lanes = run, outcome, problem, lanes
+    def __init__(self, history: History, agent: AgentHistory, road_excursion_m: float, problem: PlanningProblem | None,
+                 lanes: LaneOccupancy, users: dict[int, RoadUser], cosim: CosimSettings):
+        self.history, self.agent, self.problem, self.lanes = history, agent, problem, lanes
+        self.road_excursion_m = road_excursion_m
         self.users, self.cosim, self.settings = users, cosim, cosim.score
-        self.driven: Trajectory = run.driven[outcome.id]
-        self.vehicle = run.vehicle_of(outcome.id)
+        self.driven: Trajectory = agent.driven
+        self.vehicle = agent.vehicle
         self.measures: dict[str, float | None] = {}
 
     def score(self) -> ClosedLoopScore:
@@ -178,7 +183,7 @@ class _AgentScorer:
 
     def _collisions(self) -> list[Collision]:
         """The agent's collision (the loop ends its run at the first), classified."""
-        event = next((e for e in self.run.events if e.agent_id == self.outcome.id and e.kind == Outcome.COLLISION),
+        event = next((e for e in self.history.events if e.agent_id == self.agent.id and e.kind == Outcome.COLLISION),
                      None)
         if event is None:
             self.measures["collision"] = None
@@ -202,19 +207,19 @@ class _AgentScorer:
         return [collision]
 
     def _drivable_area(self) -> float:
-        value, beyond = drivable_area_multiplier(self.outcome.outcome, self.outcome.max_road_excursion_m,
+        value, beyond = drivable_area_multiplier(self.agent.outcome, self.road_excursion_m,
                                                  self.cosim.offroad_tolerance, self.settings)
         self.measures["max_road_excursion_m"] = beyond
         return value
 
     def _driving_direction(self, lane_ids: np.ndarray) -> float:
         progress = self.lanes.progress_along_lanes(self.driven, lane_ids)
-        worst = worst_wrong_way(progress, self.run.dt, self.settings.direction_horizon_s)
+        worst = worst_wrong_way(progress, self.history.dt, self.settings.direction_horizon_s)
         self.measures["max_wrong_way_m"] = worst
         return direction_multiplier(worst, self.settings)
 
     def _progress_ratio(self) -> float:
-        measured = None if self.outcome.outcome == Outcome.GOAL_REACHED else self._progress()
+        measured = None if self.agent.outcome == Outcome.GOAL_REACHED else self._progress()
         if measured is None:
             self.measures["progress_ratio"] = 1.0
             return 1.0
@@ -234,7 +239,7 @@ class _AgentScorer:
         if frame is not None:
             s, _ = frame.project(np.array([[first.x, first.y], [last.x, last.y]]))
             return float(s[1] - s[0]), _goal_progress(self.problem, frame, float(s[0]))
-        goal = Goal.of(self.problem.goal, self.run.dt)
+        goal = Goal.of(self.problem.goal, self.history.dt)
         away = goal.distance_from_position(first.x, first.y)
         if away is None:
             return None
@@ -242,7 +247,7 @@ class _AgentScorer:
 
     def _time_to_collision(self, collisions: list[Collision]) -> float:
         st = self.settings
-        others = [u for uid, u in self.users.items() if uid != self.outcome.id]
+        others = [u for uid, u in self.users.items() if uid != self.agent.id]
         collided = {c.other_id for c in collisions}
         vehicle, driven = self.vehicle, self.driven
 
@@ -282,13 +287,15 @@ class _AgentScorer:
         return float(all(within.values()))
 
 
-def closed_loop_scores(run: Run, scenario: Scenario, problems: PlanningProblemSet,
-                       cosim: CosimSettings) -> dict[int, ClosedLoopScore]:
-    """Every agent's closed-loop score (none for an agent that drove no step: its run failed before)."""
+def closed_loop_scores(history: History, road_excursions_m: dict[int, float], scenario: Scenario,
+                       problems: PlanningProblemSet, cosim: CosimSettings) -> dict[int, ClosedLoopScore]:
+    """Every agent's closed-loop score (none for an agent that drove no step: its run failed before),
+    given each agent's largest road excursion (`simgap.evaluate.closest_approach`)."""
     lanes = LaneOccupancy(scenario.lanelet_network)
-    users = road_users(run, scenario)
-    return {a.id: _AgentScorer(run, a, problems.planning_problem_dict.get(a.id), lanes, users, cosim).score()
-            for a in run.agents if a.id in run.driven and len(run.driven[a.id]) > 1}
+    users = road_users(history, scenario)
+    return {a.id: _AgentScorer(history, a, road_excursions_m[a.id], problems.planning_problem_dict.get(a.id), lanes,
+                               users, cosim).score()
+            for a in history.agents if len(a.driven) > 1}
 
 
 # ------------------------------------------------------------------------------ across fidelities
@@ -302,12 +309,7 @@ class ComponentLoss:
     regained: float          # the other run's score with this component as in the reference, minus its score
 
 
-def score_weights_of(run: Run) -> ScoreWeights:
-    """The weights ``run`` was scored with (as its record keeps them; defaults where it keeps none)."""
-    return ScoreSettings.model_validate(((run.settings.get("cosim") or {}).get("score")) or {}).weights
-
-
-def score_drop(a: AgentOutcome, b: AgentOutcome, weights: ScoreWeights) -> tuple[float, list[ComponentLoss]]:
+def score_drop(a: "AgentEvaluation", b: "AgentEvaluation", weights: ScoreWeights) -> tuple[float, list[ComponentLoss]]:
     """``a``'s score minus ``b``'s, and the components that lost it, the largest loss first: each
     ranked by how much of ``b``'s score would come back if it alone were as in ``a``."""
     if a.score is None or b.score is None or not a.score_components or not b.score_components:

@@ -12,7 +12,8 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.record import Run
+from simgap.cosim.history import History
+from simgap.scenario.sections import RoadSections
 from simgap.evaluate.errors import (Aggregate, frenet_tracking_errors, interp_by_s, lateral_displacement_by_s,
                                     time_aligned_errors, tracking_errors)
 from simgap.evaluate.route_centre import route_centre, section_of_s
@@ -56,8 +57,9 @@ class AgentComparison:
         }
 
 
-def compare_runs(a: Run, b: Run, scenario: Scenario, problems: PlanningProblemSet,
-                 sections: dict[str, str] | None = None, ds: float = 0.5) -> list[AgentComparison]:
+def compare_histories(a: History, b: History, scenario: Scenario, problems: PlanningProblemSet,
+                      sections: RoadSections | None = None, ds: float = 0.5) -> list[AgentComparison]:
+    """Run ``b`` against run ``a`` of the same scenario, agent by agent (agents with a route only)."""
     out = []
     for aid in sorted(set(a.driven) & set(b.driven)):
         problem = problems.planning_problem_dict[aid]

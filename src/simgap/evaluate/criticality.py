@@ -1,6 +1,6 @@
 """Criticality of a driven scenario, per ordered agent pair, from commonroad-crime.
 
-The driven scenario holds every agent as a dynamic obstacle (see `export.driven_scenario`).
+The driven scenario holds every agent as a dynamic obstacle (`simgap.cosim.driven_scenario`).
 For each pair (ego, other) the measures are evaluated every ``every`` steps and the most
 critical value is kept: the smallest time-to-collision (TTC) and time headway (THW), the
 largest brake threat number (BTN) and steer threat number (STN). A step at which CriMe cannot
@@ -11,16 +11,17 @@ from __future__ import annotations
 
 import logging
 import math
+import os
+import sys
 import warnings
-from dataclasses import asdict, dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass
 from itertools import permutations
-from pathlib import Path
-from typing import Iterable
 
-from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.record import AGENT_ID_OFFSET
+from simgap.cosim.driven_scenario import driven_scenario
+from simgap.cosim.history import AGENT_ID_OFFSET, History
 
 # measure name -> (CriMe class name, True when smaller values are more critical)
 MEASURES = {"ttc": ("TTC", True), "thw": ("THW", True), "btn": ("BTN", False), "stn": ("STN", False)}
@@ -45,6 +46,33 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
     if len(obstacle_ids) < 2:
         return []
     driven.assign_obstacles_to_lanelets()
+    with _quiet():
+        return _pairs(driven, obstacle_ids, every, measures, crime_measures, CriMeConfiguration)
+
+
+@contextmanager
+def _quiet():
+    """CriMe's libraries talk on the process's standard output and error (LAPACK's complaints about
+    DLASCL, logged errors of its lane smoothing) where a measure is undefined; the measure is then
+    skipped and counted, and they are silenced here."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    try:
+        with open(os.devnull, "w") as null, warnings.catch_warnings():
+            for fd in saved:
+                os.dup2(null.fileno(), fd)
+            warnings.simplefilter("ignore")
+            logging.disable(logging.CRITICAL)
+            yield
+    finally:
+        logging.disable(logging.NOTSET)
+        for fd, copy in saved.items():
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
+def _pairs(driven, obstacle_ids, every, measures, crime_measures, CriMeConfiguration) -> list[PairCriticality]:
     out = []
     for ego, other in permutations(sorted(obstacle_ids), 2):
         ego_obs = driven.obstacle_by_id(obstacle_ids[ego])
@@ -58,15 +86,10 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
             worst, at, skipped = (math.inf if smaller_is_worse else 0.0), None, 0
             for k in range(0, last + 1, every):
                 try:
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")
-                        logging.disable(logging.WARNING)
-                        value = float(measure.compute(obstacle_ids[other], k, verbose=False))
+                    value = float(measure.compute(obstacle_ids[other], k, verbose=False))
                 except Exception:  # CriMe raises assorted errors where a measure is undefined
                     skipped += 1
                     continue
-                finally:
-                    logging.disable(logging.NOTSET)
                 if math.isnan(value):
                     skipped += 1
                     continue
@@ -76,13 +99,12 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
     return out
 
 
-def run_criticality(run_dir: Path, agent_ids: Iterable[int]) -> list[dict]:
-    """`pair_criticality` of the driven scenario a run directory holds (``driven.xml``), as rows."""
-    agent_ids = list(agent_ids)
-    if len(agent_ids) < 2:
-        return []
-    driven, _ = CommonRoadFileReader(str(Path(run_dir) / "driven.xml")).open()
-    return [asdict(r) for r in pair_criticality(driven, {aid: AGENT_ID_OFFSET + aid for aid in agent_ids})]
+def run_criticality(history: History, scenario: Scenario) -> tuple[PairCriticality, ...]:
+    """`pair_criticality` of every agent pair of ``history`` in its driven scenario (none for one agent)."""
+    if len(history.agents) < 2:
+        return ()
+    driven = driven_scenario(scenario, history)
+    return tuple(pair_criticality(driven, {a.id: AGENT_ID_OFFSET + a.id for a in history.agents}))
 
 
 def _last_step(obstacle) -> int:

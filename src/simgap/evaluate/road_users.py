@@ -15,7 +15,7 @@ import numpy as np
 from commonroad.scenario.obstacle import ObstacleType
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.record import Run
+from simgap.cosim.history import History
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.trajectory import Trajectory
 
@@ -69,13 +69,13 @@ class RoadUser:
                         np.interp(t, m.t, np.unwrap(m.yaw)), np.interp(t, m.t, m.v))
 
 
-def road_users(run: Run, scenario: Scenario) -> dict[int, RoadUser]:
+def road_users(history: History, scenario: Scenario) -> dict[int, RoadUser]:
     """Every agent (on its driven trajectory) and every obstacle (on its recorded motion), by id."""
     out = {}
     for obstacle in recorded_obstacles(scenario):
         kind = kind_of(scenario.obstacle_by_id(obstacle.id).obstacle_type)
         out[obstacle.id] = RoadUser(obstacle.id, kind, obstacle.length, obstacle.width, obstacle.motion)
-    for aid, driven in run.driven.items():
-        vehicle = run.vehicle_of(aid)
-        out[aid] = RoadUser(aid, RoadUserKind.VEHICLE, vehicle.length, vehicle.width, driven)
+    for agent in history.agents:
+        out[agent.id] = RoadUser(agent.id, RoadUserKind.VEHICLE, agent.vehicle.length, agent.vehicle.width,
+                                 agent.driven)
     return out

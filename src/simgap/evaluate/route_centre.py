@@ -13,6 +13,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from simgap.errors import InputError
 from simgap.planning.reference_path import lanelet_routes, preferred_route
 from simgap.scenario.road_frame import PathFrame
+from simgap.scenario.sections import UNKNOWN, RoadSections
 
 
 def route_lanelets(network: LaneletNetwork, problem: PlanningProblem) -> list[int]:
@@ -34,7 +35,7 @@ def route_centre(network: LaneletNetwork, problem: PlanningProblem) -> PathFrame
     return PathFrame(xy)
 
 
-def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: dict[str, str],
+def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: RoadSections,
                  s: np.ndarray) -> np.ndarray:
     """The road section kind (straight, curve, clothoid, junction) at each arc length ``s``."""
     ids = route_lanelets(network, problem)
@@ -43,8 +44,8 @@ def section_of_s(network: LaneletNetwork, problem: PlanningProblem, sections: di
         lanelet = network.find_lanelet_by_id(i)
         acc += float(lanelet.distance[-1])
         bounds.append(acc)
-        kinds.append(sections.get(str(i), "unknown"))
+        kinds.append(sections.kind_of(i))
     if not bounds:
-        return np.full(len(s), "unknown")
+        return np.full(len(s), UNKNOWN)
     idx = np.clip(np.searchsorted(np.array(bounds), s), 0, len(kinds) - 1)
     return np.array(kinds)[idx]

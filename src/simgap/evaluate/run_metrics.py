@@ -14,6 +14,7 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
+from simgap.cosim.history import History
 from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
 from simgap.evaluate.surface_grip import grip_use_on_surface
@@ -42,23 +43,23 @@ def lane_excursion(driven, vehicle: Vehicle, scenario: Scenario, problem) -> flo
     return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in driven), default=0.0)
 
 
-def run_metrics(run, scenario: Scenario, problems: PlanningProblemSet, road_friction: float,
+def run_metrics(history: History, scenario: Scenario, problems: PlanningProblemSet, road_friction: float,
                 relief=None) -> dict[str, float]:
-    """`RUN_METRICS` of ``run`` on a road of friction ``road_friction`` and surface ``relief`` (the
+    """`RUN_METRICS` of ``history`` on a road of friction ``road_friction`` and surface ``relief`` (the
     scenario's surface, `simgap.scenario.ground.ground_of`; None: flat) (NaN where an agent has no route to its goal)."""
     worst = {name: -math.inf for name in RUN_METRICS}
     grip = road_friction * GRAVITY
-    for outcome in run.agents:
-        driven = run.driven[outcome.id]
-        problem = problems.planning_problem_dict.get(outcome.id)
+    for agent in history.agents:
+        driven = agent.driven
+        problem = problems.planning_problem_dict.get(agent.id)
         frame = route_centre(scenario.lanelet_network, problem) if problem is not None else None
         values = {name: math.nan for name in RUN_METRICS}
         if frame is not None and len(driven):
             _, d = lateral_profile(driven, frame)
             values["max_lateral_offset_m"] = float(np.max(np.abs(d)))
-            lateral = frenet_tracking_errors(driven, run.plans.get(outcome.id, []), frame).lateral
+            lateral = frenet_tracking_errors(driven, list(agent.plans), frame).lateral
             values["max_tracking_lateral_m"] = float(np.max(np.abs(lateral))) if len(lateral) else 0.0
-            values["max_lane_excursion_m"] = lane_excursion(driven, run.vehicle_of(outcome.id), scenario, problem)
+            values["max_lane_excursion_m"] = lane_excursion(driven, agent.vehicle, scenario, problem)
         if len(driven):
             combined = np.hypot(driven.a, driven.v * driven.yaw_rate)
             values["peak_grip_use"] = float(combined.max() / grip)

@@ -28,7 +28,7 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
-from simgap.cosim.record import PartialCost, Run
+from simgap.cosim.history import History
 from simgap.cosim.score_settings import CostFunctionId
 from simgap.trajectory import Trajectory
 from simgap.vehicles import Vehicle
@@ -42,6 +42,18 @@ PARTIAL_COSTS = {"A": "acceleration", "J": "jerk", "Jlat": "lateral jerk", "Jlon
                  "SA": "steering angle", "SR": "steering rate", "Y": "yaw rate", "LC": "lane centre offset",
                  "V": "velocity offset", "Vlon": "longitudinal velocity offset", "O": "orientation offset",
                  "D": "distance to obstacles", "L": "path length", "T": "time", "ID": "inverse duration"}
+
+
+@dataclass(frozen=True)
+class PartialCost:
+    """One term of a CommonRoad cost function: its value (unweighted) and its weight."""
+
+    cost: float
+    weight: float
+
+    @property
+    def weighted(self) -> float:
+        return self.cost * self.weight
 
 
 @dataclass(frozen=True)
@@ -81,12 +93,14 @@ def solution_trajectory(driven: Trajectory, dt: float) -> CrTrajectory:
     return CrTrajectory(int(steps[0]), states)
 
 
-def run_solution(run: Run, scenario: Scenario, vehicle_type: VehicleType, cost_function: CostFunctionId) -> Solution:
+def run_solution(history: History, scenario: Scenario, vehicle_type: VehicleType,
+                 cost_function: CostFunctionId) -> Solution:
     """Every agent's driven trajectory (with at least two states) as one CommonRoad solution."""
     cost = CostFunction[cost_function.value]
+    driven = history.driven
     solutions = [PlanningProblemSolution(aid, VEHICLE_MODEL, vehicle_type, cost,
-                                         solution_trajectory(run.driven[aid], run.dt))
-                 for aid in sorted(run.driven) if len(run.driven[aid]) >= 2]
+                                         solution_trajectory(driven[aid], history.dt))
+                 for aid in sorted(driven) if len(driven[aid]) >= 2]
     return Solution(scenario.scenario_id, solutions, date=None)
 
 

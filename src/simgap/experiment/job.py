@@ -57,16 +57,13 @@ class JobId:
 
     @classmethod
     def from_columns(cls, cols: Mapping[str, Any]) -> "JobId":
-        """The identity of a stored row (the inverse of `columns`). Rows written before the
-        ``stage`` column name their stage, and a repeat 0, in their key only: read from it there."""
+        """The identity of a stored row (the inverse of `columns`; older rows through
+        `simgap.record.migrate_row`)."""
         fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None,
                             Fidelity.realism_of_label(str(cols.get("fidelity") or "")))
         key = str(cols["key"])
         repeat = int(cols.get("repeat") or 0)
-        stage = cols.get("stage")
-        if stage is None:                       # a row from before the stage column
-            named = key.split("/")[1] if key.count("/") else ""
-            stage = named if named and named != fidelity.label else None
+        stage = cols["stage"]
         return cls(cols["scenario"], fidelity, repeat if repeat or key.endswith("/r0") else None,
                    int(cols.get("seed") or 0), cols.get("planner") or DEFAULT_PLANNER, stage or None)
 
@@ -121,3 +118,4 @@ class JobContext:
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
     validate: bool = False                        # check each run's solution (slow; the CLI asks unless --no-validate)
+    criticality: bool = True                      # evaluate the criticality of agent pairs (a search need not)

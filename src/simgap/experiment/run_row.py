@@ -12,15 +12,18 @@ a data file, ``vehicle_file`` holds that file.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Literal, Mapping
 
 import pyarrow as pa
 
 from simgap.cosim import Outcome
 from simgap.evaluate.closed_loop_score import COMPONENTS
+from simgap.evaluate.errors import comfort
+from simgap.evaluate.run_evaluation import worst_scores
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.job import Job, JobId
+from simgap.record import FORMAT_VERSION, RunRecord
 from simgap.vehicles import is_vehicle_file
 
 Status = Literal["ok", "failed"]
@@ -66,6 +69,36 @@ class RunRow:
     extra: dict[str, Any] = field(default_factory=dict)         # columns a caller adds (a search's)
 
     @classmethod
+    def of(cls, job: Job, record: RunRecord, run_dir: str, job_time_s: float) -> "RunRow":
+        """The row of a finished run: a projection of its record (scalars summed or taken worst
+        over its agents) under the job's identity; ``run_dir`` relative to the experiment's folder."""
+        history, evaluation = record.history, record.evaluation
+        outcomes = [a.outcome for a in history.agents]
+        agents = evaluation.agents
+        times = [a.time_to_goal_s for a in agents if a.time_to_goal_s is not None]
+        gaps = [a.min_distance_to_traffic_m for a in agents if a.min_distance_to_traffic_m is not None]
+        peaks = [comfort(a.driven) for a in history.agents]
+        return cls(
+            job.id, job.parameters, job.vehicle, "failed" if history.failure else "ok", history.failure or "",
+            outcome=Outcome.worst(outcomes), agents=len(agents),
+            goals_reached=outcomes.count(Outcome.GOAL_REACHED),
+            time_to_goal_max_s=max(times) if len(times) == len(outcomes) and times else math.nan,
+            distance_m=sum(a.distance_m for a in agents),
+            max_road_excursion_m=max((a.max_road_excursion_m for a in agents), default=0.0),
+            planner_failures=sum(a.planner_failures for a in history.agents),
+            planner_exceptions=sum(a.planner_exceptions for a in history.agents),
+            planning_mean_s=_slowest(a.planning_mean_s for a in agents),
+            planning_p95_s=_slowest(a.planning_p95_s for a in agents),
+            planning_max_s=_slowest(a.planning_max_s for a in agents),
+            planning_over_budget=sum(a.planning_over_budget for a in agents),
+            min_distance_m=min(gaps) if gaps else math.nan,
+            peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
+            peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
+            wall_time_s=history.wall_time_s, fingerprint=record.fingerprint, run_dir=run_dir,
+            job_time_s=job_time_s, metrics=dict(evaluation.metrics), timings=record.all_timings,
+            versions=dict(record.settings.versions), **asdict(worst_scores(evaluation)))
+
+    @classmethod
     def failed(cls, job: Job, reason: str) -> "RunRow":
         return cls(job.id, job.parameters, job.vehicle, "failed", reason)
 
@@ -92,7 +125,7 @@ class RunRow:
     def from_columns(cls, cols: Mapping[str, Any]) -> "RunRow":
         """A row as the store holds it, typed again (the inverse of `columns`): identity, the
         parameters, the scalars, metrics, timings and versions; every other column in ``extra``."""
-        rest = {k: v for k, v in cols.items() if k not in _ID_COLUMNS}
+        rest = {k: v for k, v in cols.items() if k not in _ID_COLUMNS and k != "format_version"}
         parameters = {k[len("param_"):]: rest.pop(k) for k in list(rest) if k.startswith("param_")}
         metrics = {k: rest.pop(k) for k in list(rest) if k in RUN_METRICS}
         components = {name: rest.pop(f"score_{name}") for name in COMPONENTS if f"score_{name}" in rest}
@@ -107,7 +140,7 @@ class RunRow:
 
     def columns(self) -> dict[str, Any]:
         """The row as the store writes it (one flat mapping of column to value)."""
-        cols = self.id.columns() | {"vehicle_file": self.vehicle_file}
+        cols = self.id.columns() | {"vehicle_file": self.vehicle_file, "format_version": FORMAT_VERSION}
         cols |= {f"param_{k}": float(v) for k, v in self.parameters.items()}
         for f in fields(self):
             if f.name in _SCALARS:
@@ -125,12 +158,19 @@ class RunRow:
         cols = self.columns()
         types = {"key": pa.string(), "scenario": pa.string(), "fidelity": pa.string(), "backend": pa.string(),
                  "vehicle": pa.string(), "controller": pa.string(), "planner": pa.string(),
-                 "repeat": pa.int64(), "seed": pa.int64(), "stage": pa.string(), "vehicle_file": pa.string()} | _SCALARS
+                 "repeat": pa.int64(), "seed": pa.int64(), "stage": pa.string(), "vehicle_file": pa.string(),
+                 "format_version": pa.int64()} | _SCALARS
         types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_")) or k in self.metrics}
         types |= {f"score_{name}": pa.float64() for name in self.score_components}
         types |= {k: pa.string() for k in cols if k.startswith("version_")}
         inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra else None
         return pa.schema([pa.field(k, types[k]) if k in types else inferred.field(k) for k in cols])
+
+
+def _slowest(values) -> float:
+    """The largest of the agents' planning-time figures (NaN when no agent planned)."""
+    known = [v for v in values if v is not None]
+    return max(known) if known else math.nan
 
 
 def _arrow_type(annotation: str) -> pa.DataType:

@@ -1,4 +1,5 @@
-"""One run wired end to end: scenario file → agents → planners → backend → loop → run directory.
+"""One run wired end to end: scenario file → agents → planners → backend → simulate → History →
+evaluate → RunRecord → run directory.
 
 This is the one place where a concrete planner and a concrete backend meet; the CLI and the
 batch executors call it.
@@ -9,31 +10,33 @@ from __future__ import annotations
 import importlib.metadata
 import time
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from pydantic import BaseModel
 
-from simgap.cosim import REFERENCE, CosimSettings, PlannerError, Run, not_started, simulate
+from simgap.cosim import REFERENCE, CosimSettings, PlannerError, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
+from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
-from simgap.export.driven_scenario import driven_scenario
+from simgap.cosim.sensing import localisation_accuracy
 from simgap.errors import InputError
-from simgap.evaluate.run_metrics import run_metrics
-from simgap.evaluate.run_scores import check_run_solution, score_run
+from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
+from simgap.record import PlannerRecord, RunRecord, RunSettings, rewrite_record, write_run
 from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario.sections import RoadSections
 from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
-from simgap.sim.settings import road_friction
+from simgap.sim.settings import realism_of, road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
 
 VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
@@ -59,6 +62,7 @@ class RunRequest:
                                                # the CLI's commands ask for it unless --no-validate)
     check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
     run_timeout_s: float | None = None         # wall time the co-simulation may take (None: no limit)
+    criticality: bool = True                   # evaluate the criticality of agent pairs (commonroad-crime; slow)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -144,8 +148,8 @@ def _check_agents_assigned_exist(request: RunRequest, agent_ids: list[int]) -> N
 
 
 def execute(request: RunRequest, out: Path | None = None,
-            progress: Callable[[float], None] | None = None) -> Run:
-    """Run ``request``; write the run directory to ``out`` when given."""
+            progress: Callable[[float], None] | None = None) -> RunRecord:
+    """Run ``request`` — simulate, evaluate, record — and write the run directory to ``out`` when given."""
     scenario, problems = load_scenario(request.scenario)
     _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
     scenario, recorded_egos = without_recorded_egos(scenario, problems)
@@ -163,9 +167,9 @@ def execute(request: RunRequest, out: Path | None = None,
         for a in agents:
             choice = planner_of(request.planner, a.id, [b.id for b in agents])
             planner_class, settings = choice.load()
-            planner_records[a.id] = {"name": choice.name, "planner": choice.planner, "settings":
-                                     settings.model_dump(mode="json") if isinstance(settings, BaseModel) else
-                                     dict(settings or {})}
+            planner_records[a.id] = PlannerRecord(choice.name, choice.planner,
+                                                  settings.model_dump(mode="json") if isinstance(settings, BaseModel)
+                                                  else dict(settings or {}))
             setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network,
                                  problems.planning_problem_dict[a.id], dt)
             try:
@@ -179,51 +183,45 @@ def execute(request: RunRequest, out: Path | None = None,
             if callable(getattr(planners[a.id], "close", None)):
                 closing.callback(planners[a.id].close)
         if errors:
-            run = not_started(scenario, request.backend, agents, errors, request.cosim)
+            history = not_started(scenario, request.backend, agents, errors, realism_of(request.backend_settings))
         else:
             backend = make_backend(request.backend, request.backend_settings)
-            run = simulate(scenario, problems, backend, agents, planners, request.cosim, progress, seed=request.seed,
-                           wall_time_limit_s=request.run_timeout_s, relief=relief)
+            history = simulate(scenario, problems, backend, agents, planners, request.cosim, progress,
+                               seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=relief)
         for aid, planner in planners.items():
             if callable(getattr(planner, "record", None)):
-                planner_records[aid]["process"] = planner.record()
-    for outcome in run.agents:
-        outcome.planner = planner_records[outcome.id]["name"]
-        outcome.recorded_as = recorded_egos.get(outcome.id)
-    run.scenario_id = meta.get("name", Path(request.scenario).stem)
-    run.scenario_path = str(request.scenario)
-    run.parameters = meta.get("parameters", {})
-    run.sections = meta.get("sections", {})
-    run.versions = software_versions()
-    run.seed = request.seed
-    run.vehicles = {a.id: a.vehicle for a in agents}
-    run.metrics = run_metrics(run, scenario, problems, road_friction(request.backend_settings), relief)
+                planner_records[aid] = replace(planner_records[aid], process=planner.record())
+    settings = RunSettings(
+        scenario_id=meta.get("name", Path(request.scenario).stem), cosim=request.cosim,
+        planner=_planner_record(request.planner, planner_records), scenario_path=str(request.scenario),
+        parameters=meta.get("parameters", {}), parameter_units=meta.get("units", {}),
+        sections=RoadSections.of_json(meta.get("sections")), backend=request.backend_settings.model_dump(mode="json"),
+        sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
+        planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
+        versions=software_versions())
+    context = EvaluationContext(scenario, problems, request.cosim, road_friction(request.backend_settings),
+                                planner_vehicle, relief, Path(request.scenario), request.criticality)
     clock = time.perf_counter()
-    solution = score_run(run, scenario, problems, request.cosim, planner_vehicle, request.scenario)
-    run.timings["scoring"] = time.perf_counter() - clock
-    run.settings |= {"parameter_units": meta.get("units", {}),
-                     "planner": _planner_record(request.planner, planner_records),
-                     "backend": request.backend_settings.model_dump(mode="json"),
-                     "planner_vehicle": request.planner_vehicle}
+    evaluation = evaluate(history, context)
+    timings = {"scoring": time.perf_counter() - clock}
     if out is not None:
         t0 = time.perf_counter()
-        xml = scenario_xml(driven_scenario(scenario, agents, run), problems)
-        run.timings["io"] = time.perf_counter() - t0
-        run.save(out, xml, solution_xml(solution), meta)
+        xml = scenario_xml(driven_scenario(scenario, history), problems)
+        timings["io"] = time.perf_counter() - t0
+        write_run(RunRecord(history, evaluation, settings, timings), out, xml,
+                  solution_xml(solution_of(history, context)), meta)
     if request.validate:           # the slow check, once the run is safe on disk
         clock = time.perf_counter()
-        cached = check_run_solution(run, solution, scenario, problems, request.scenario,
-                                    SolutionCheckCache(request.check_cache))
-        run.timings["validation"] = time.perf_counter() - clock
-        run.settings["solution_check"] = "cached" if cached else "checked"
-        if out is not None:
-            run.save_record(out)
-    return run
+        evaluation = with_validity(evaluation, history, context, SolutionCheckCache(request.check_cache))
+        timings["validation"] = time.perf_counter() - clock
+    record = RunRecord(history, evaluation, settings, timings)
+    if out is not None and request.validate:
+        rewrite_record(record, out)
+    return record
 
 
-def _planner_record(planners: PlannerAssignment, planner_records: dict[int, dict]) -> dict[str, Any]:
-    """run.json's ``settings.planner``: name, reference and full settings of the planner of every
-    agent (``agents`` per agent id when they differ)."""
+def _planner_record(planners: PlannerAssignment, planner_records: dict[int, PlannerRecord]) -> PlannerRecord:
+    """The record of the planner of every agent (``agents`` per agent id when they differ)."""
     if isinstance(planners, PlannerChoice):
-        return next(iter(planner_records.values())) if planner_records else {"name": planners.name, "planner": planners.planner}
-    return {"name": assignment_label(planners), "agents": {str(aid): r for aid, r in planner_records.items()}}
+        return next(iter(planner_records.values())) if planner_records else PlannerRecord(planners.name, planners.planner)
+    return PlannerRecord(assignment_label(planners), agents=planner_records)

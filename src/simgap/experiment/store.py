@@ -29,6 +29,7 @@ import pyarrow.parquet as pq
 from simgap.errors import InputError
 from simgap.experiment.run_row import RunRow
 from simgap.files import atomic_write, remove_stale_temporaries
+from simgap.record import migrate_row
 
 
 WORKER_DIED = "worker died"     # the failure of a run whose worker died under it (a crash, a kill, a lost node)
@@ -72,7 +73,7 @@ class ResultsStore:
         usable = {}
         for path in self.row_files():
             try:
-                rows = pq.read_table(path).to_pylist()
+                rows = [migrate_row(r) for r in pq.read_table(path).to_pylist()]
             except (pa.ArrowException, OSError) as exc:
                 self.unusable_rows[path] = f"cannot be read ({str(exc).splitlines()[0]})"
                 continue

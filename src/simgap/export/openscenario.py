@@ -24,9 +24,9 @@ from commonroad.scenario.obstacle import ObstacleType
 from commonroad.scenario.scenario import Scenario
 from scenariogeneration import xosc
 
-from simgap.cosim.record import Run
+from simgap.record import RunRecord
 from simgap.errors import InputError
-from simgap.export.driven_scenario import AGENT_ID_OFFSET
+from simgap.cosim.history import AGENT_ID_OFFSET
 from simgap.scenario.goal import Goal
 from simgap.sim.protocol import Realism
 from simgap.scenario.obstacles import recorded_obstacles
@@ -94,23 +94,25 @@ class RoadUser:
     standing: bool = False               # a static obstacle: placed, never moved
 
 
-def road_users(run: Run, scenario: Scenario) -> list[RoadUser]:
-    """Every agent of ``run`` (what it drove) and every recorded road user of ``scenario`` (its
-    recording; agents stored in a driven scenario are left out)."""
+def road_users(run: RunRecord, scenario: Scenario) -> list[RoadUser]:
+    """Every agent of ``run`` (what it drove), every road user the run's traffic drove itself (as
+    it drove: IDM traffic) and every other recorded road user of ``scenario`` (its recording;
+    agents stored in a driven scenario are left out)."""
     users = []
-    for outcome in run.agents:
-        vehicle = run.vehicle_of(outcome.id)
+    history = run.history
+    for agent in history.agents:
+        vehicle = agent.vehicle
         height = vehicle.physics.height if vehicle.physics is not None else HEIGHT[Category.CAR]
-        users.append(RoadUser(f"agent_{outcome.id}", Category.CAR, vehicle.length, vehicle.width, height,
-                              run.driven[outcome.id], vehicle))
+        users.append(RoadUser(f"agent_{agent.id}", Category.CAR, vehicle.length, vehicle.width, height,
+                              agent.driven, vehicle))
     for obstacle in recorded_obstacles(scenario):
         if obstacle.id >= AGENT_ID_OFFSET:
             continue
         kind = scenario.obstacle_by_id(obstacle.id).obstacle_type
         category = _CATEGORY.get(kind, Category.CAR if kind in _VEHICLES else Category.OBJECT)
-        motion = obstacle.motion
+        motion = history.traffic.get(obstacle.id, obstacle.motion)
         if obstacle.static:
-            motion = Trajectory.from_states([motion[0]], run.dt)
+            motion = Trajectory.from_states([motion[0]], history.dt)
         users.append(RoadUser(f"obstacle_{obstacle.id}", category, obstacle.length, obstacle.width, HEIGHT[category],
                               motion, standing=obstacle.static))
     return users
@@ -151,14 +153,14 @@ def _at_start() -> xosc.ValueTrigger:
     return xosc.ValueTrigger("at_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterThan))
 
 
-def _goal_conditions(run: Run, problems: PlanningProblemSet, minor: int) -> list:
+def _goal_conditions(run: RunRecord, problems: PlanningProblemSet, minor: int) -> list:
     """Each agent within its goal (the first goal state with a position), after its window opens."""
     conditions = []
-    for outcome in run.agents:
-        problem = problems.planning_problem_dict.get(outcome.id)
+    for agent in run.history.agents:
+        problem = problems.planning_problem_dict.get(agent.id)
         if problem is None:
             continue
-        goal = Goal.of(problem.goal, run.dt)
+        goal = Goal.of(problem.goal, run.history.dt)
         state = next((gs for gs in goal.states if gs.position is not None), None)
         if state is None:
             continue
@@ -168,16 +170,16 @@ def _goal_conditions(run: Run, problems: PlanningProblemSet, minor: int) -> list
         extra = {"distance_type": xosc.RelativeDistanceType.euclidianDistance,
                  "coordinate_system": xosc.CoordinateSystem.entity} if minor >= 1 else {}
         conditions.append(xosc.EntityTrigger(
-            f"agent_{outcome.id}_in_goal", 0, xosc.ConditionEdge.none,
+            f"agent_{agent.id}_in_goal", 0, xosc.ConditionEdge.none,
             xosc.DistanceCondition(float(radius), xosc.Rule.lessThan, xosc.WorldPosition(centre.x, centre.y, 0, 0),
-                                   alongroute=False, freespace=False, **extra), f"agent_{outcome.id}"))
+                                   alongroute=False, freespace=False, **extra), f"agent_{agent.id}"))
         if state.time is not None and state.time.lo > 0:
-            conditions.append(xosc.ValueTrigger(f"agent_{outcome.id}_goal_window_open", 0, xosc.ConditionEdge.none,
+            conditions.append(xosc.ValueTrigger(f"agent_{agent.id}_goal_window_open", 0, xosc.ConditionEdge.none,
                                                 xosc.SimulationTimeCondition(state.time.lo, xosc.Rule.greaterThan)))
     return conditions
 
 
-def openscenario(run: Run, users: list[RoadUser], problems: PlanningProblemSet, road_file: str,
+def openscenario(run: RunRecord, users: list[RoadUser], problems: PlanningProblemSet, road_file: str,
                  version: OpenScenarioVersion, description: str, friction: float) -> xosc.Scenario:
     """The OpenSCENARIO scenario of ``run`` and its road ``users`` on the road network in
     ``road_file`` (a path relative to the written .xosc)."""
@@ -219,7 +221,7 @@ def openscenario(run: Run, users: list[RoadUser], problems: PlanningProblemSet, 
     environment = xosc.Environment("road", xosc.TimeOfDay(False, 2024, 6, 1, 12, 0, 0), weather,
                                    xosc.RoadCondition(friction))
     init.add_global_action(xosc.EnvironmentAction(environment))
-    end = max(float(u.trajectory.t[-1]) for u in users) + run.dt
+    end = max(float(u.trajectory.t[-1]) for u in users) + run.history.dt
     stop = xosc.Trigger("stop")
     goals = _goal_conditions(run, problems, minor)
     if goals:
@@ -238,31 +240,32 @@ def openscenario(run: Run, users: list[RoadUser], problems: PlanningProblemSet, 
                          creation_date=datetime.datetime.now().replace(microsecond=0))
 
 
-def description(run: Run, users: list[RoadUser], notes: list[str]) -> str:
+def description(run: RunRecord, users: list[RoadUser], notes: list[str]) -> str:
     """The file's description: what ran, and the settings OpenSCENARIO has no place for."""
     late = [u.name for u in users if u.trajectory.t[0] > 1e-9]
     if late:
         notes = notes + [f"{len(late)} road user(s) recorded from a later time ({', '.join(late[:3])}"
                          f"{', ...' if len(late) > 3 else ''}) stand at their first position until then"]
-    backend = run.settings.get("backend") or {}
-    cosim = run.settings.get("cosim") or {}
-    sensing = {k: v for k, v in (cosim.get("sensing") or {}).items() if v is not None}
-    planner = (run.settings.get("planner") or {}).get("name", "")
-    parts = [f"simgap run of {run.scenario_id} in the {run.backend} world"
+    backend = run.settings.backend
+    cosim = run.settings.cosim
+    sensing = {k: v for k, v in cosim.sensing.model_dump(mode="json").items() if v is not None}
+    planner = run.settings.planner.name
+    parts = [f"simgap run of {run.scenario_id} in the {run.history.backend} world"
              + (f" (controller {backend['controller']})" if backend.get("controller") else "")
-             + (f", planner {planner}" if planner else "") + f", seed {run.seed}"]
+             + (f", planner {planner}" if planner else "") + f", seed {run.settings.seed}"]
     settings = {k: backend[k] for k in ("realism", "steer_delay", "steer_lag", "pedal_delay", "pedal_lag", "road_bank",
                                         "road_grade") if backend.get(k)}
     if run.realism is Realism.REAL:
-        settings |= {f"sensing.{k}": v for k, v in sensing.items()} | {"latency": cosim.get("latency")}
-    if cosim.get("traffic") and cosim["traffic"] != "replay":
-        settings["traffic"] = cosim["traffic"]
-        notes = notes + ["recorded traffic moved by the IDM in the run; its motion is not in the run record, the "
+        settings |= {f"sensing.{k}": v for k, v in sensing.items()} | {"latency": cosim.latency}
+    if cosim.traffic.value != "replay":
+        settings["traffic"] = cosim.traffic.value
+        notes = notes + ["recorded traffic moved by the IDM in the run: written as it drove" if run.history.traffic else
+                         "recorded traffic moved by the IDM in the run; its motion is not in the run record, the "
                          "recording is written"]
     if settings:
         parts.append("settings: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                                             for k, v in settings.items()))
-    outcomes = ", ".join(f"agent {a.id} {a.outcome.value}" for a in run.agents)
+    outcomes = ", ".join(f"agent {a.id} {a.outcome.value}" for a in run.history.agents)
     parts.append(f"outcome: {outcomes}")
     parts.append("goals end the story by position and window start; their velocity and orientation windows "
                  "are not conditions here")

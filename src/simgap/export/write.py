@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.cosim.record import Run
+from simgap.record import read_run
 from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
@@ -123,20 +123,21 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     blueprint (default: the one the run names)."""
     started = time.perf_counter()
     run_dir, out = Path(run_dir), Path(out)
-    run = Run.load(run_dir)
+    run = read_run(run_dir)
+    scenario_path = run.settings.scenario_path
     source = run_dir / "driven.xml"
     if not source.exists():
-        if not run.scenario_path or not Path(run.scenario_path).exists():
+        if not scenario_path or not Path(scenario_path).exists():
             raise InputError("the run has no driven.xml and its scenario file is gone", file=run_dir,
                              allowed="a run directory written by simgap run, an experiment or a search")
-        source = Path(run.scenario_path)
+        source = Path(scenario_path)
     scenario, problems = load_scenario(source)
-    backend = run.settings.get("backend") or {}
+    backend = run.settings.backend
     surface = Surface(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
                       float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
-    name = _safe(name or f"{run.scenario_id}_{run.backend}")
+    name = _safe(name or f"{run.scenario_id}_{run.history.backend}")
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
-                           (Path(run.scenario_path) if run.scenario_path else None))
+                           (Path(scenario_path) if scenario_path else None))
     with staged_directory(out, name) as staged:
         roads, road_path, samples = _write_road(scenario.lanelet_network, name, blueprint, surface, staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))

@@ -1,9 +1,10 @@
-"""The runs a report is made of: found under a directory, labelled by fidelity, grouped by
-scenario and planner, each physics run compared with the reference (ideal) run of its scenario
-with the same planner.
+"""The runs a report is made of: their records (`simgap.record`), found under a directory,
+labelled by fidelity, grouped by scenario and planner, each physics run compared with the
+reference (ideal) run of its scenario with the same planner (the comparison is
+`simgap.evaluate.compare`'s; the report computes no metric of its own).
 
 A run's fidelity (`simgap.cosim.Fidelity`) labels it: ``ideal``, ``mujoco/suv``, ...; its planner
-is the name run.json records (``settings.planner.name``; ``frenet`` for runs older than planners).
+is the one its record names (`simgap.record.RunSettings.planner`).
 """
 
 from __future__ import annotations
@@ -15,39 +16,23 @@ from pathlib import Path
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim import REFERENCE, Outcome, Run
+from simgap.cosim import REFERENCE, Outcome
 from simgap.errors import InputError
-from simgap.evaluate.compare import AgentComparison, compare_runs
-from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
-from simgap.evaluate.route_centre import route_centre
-from simgap.evaluate.run_metrics import lane_excursion
+from simgap.evaluate.compare import AgentComparison, compare_histories
 from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario
+from simgap.scenario.sections import RoadSections
 
-@dataclass
-class AgentTracking:
-    """Planned versus driven within one run, for one agent."""
-
-    agent_id: int
-    position: Aggregate
-    orientation: Aggregate
-    velocity: Aggregate
-    lateral: Aggregate
-    longitudinal: Aggregate
-    comfort: Comfort
-    lane_excursion: float          # largest distance [m] the footprint reached beyond the route's lanes
-
-
-@dataclass
+@dataclass(frozen=True)
 class RunEntry:
     run_dir: Path
-    run: Run
+    run: RunRecord
     fidelity: str
-    tracking: list[AgentTracking] = field(default_factory=list)
 
     @property
     def failed(self) -> bool:
-        return self.run.failure is not None or any(a.outcome != Outcome.GOAL_REACHED for a in self.run.agents)
+        return self.run.failure is not None or self.run.history.outcome != Outcome.GOAL_REACHED
 
 
 @dataclass
@@ -56,7 +41,7 @@ class ScenarioGroup:
     parameters: dict
     scenario: Scenario
     problems: PlanningProblemSet
-    sections: dict[str, str] | None
+    sections: RoadSections
     runs: dict[str, RunEntry]                                           # by fidelity, the reference first
     comparisons: dict[str, list[AgentComparison]] = field(default_factory=dict)   # fidelity vs reference
     planner: str = DEFAULT_PLANNER                                      # every run's planner
@@ -87,50 +72,31 @@ def find_run_dirs(root: Path) -> list[Path]:
     return dirs
 
 
-def _tracking(run: Run, scenario: Scenario, problems: PlanningProblemSet) -> list[AgentTracking]:
-    out = []
-    for aid, driven in sorted(run.driven.items()):
-        plans = run.plans.get(aid, [])
-        errs = tracking_errors(driven, plans)
-        problem = problems.planning_problem_dict.get(aid)
-        frame = route_centre(scenario.lanelet_network, problem) if problem is not None else None
-        frenet = frenet_tracking_errors(driven, plans, frame) if frame is not None else None
-        out.append(AgentTracking(aid, Aggregate.of(errs.position), Aggregate.of(errs.orientation),
-                                 Aggregate.of(errs.velocity),
-                                 Aggregate.of(frenet.lateral) if frenet else Aggregate.of([]),
-                                 Aggregate.of(frenet.longitudinal) if frenet else Aggregate.of([]),
-                                 comfort(driven),
-                                 lane_excursion(driven, run.vehicle_of(aid), scenario, problem)
-                                 if problem is not None else float("nan")))
-    return out
-
-
-def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet, dict | None]:
-    run = entry.run
+def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet]:
     xml = entry.run_dir / "driven.xml"
     if not xml.exists():
         raise InputError("run has no driven.xml (the scenario it ran)", file=entry.run_dir)
-    scenario, problems = load_scenario(xml)
-    return scenario, problems, run.sections or None
+    return load_scenario(xml)
 
 
 def collect(root: Path) -> list[ScenarioGroup]:
-    """Every run below ``root``, grouped by scenario and planner, with tracking errors and comparisons."""
+    """Every run below ``root``, grouped by scenario and planner, each physics run compared with its
+    scenario's reference run (`simgap.evaluate.compare`)."""
     groups: dict[tuple[str, str], ScenarioGroup] = {}
     for run_dir in find_run_dirs(root):
-        run = Run.load(run_dir)
+        run = read_run(run_dir)
         entry = RunEntry(run_dir, run, run.fidelity.label)
         planner = run.planner
         group = groups.get((run.scenario_id, planner))
         if group is None:
-            scenario, problems, sections = _scenario_of(entry)
+            scenario, problems = _scenario_of(entry)
             group = groups[run.scenario_id, planner] = ScenarioGroup(
-                run.scenario_id, dict(run.parameters), scenario, problems, sections, {}, planner=planner)
+                run.scenario_id, dict(run.settings.parameters), scenario, problems, run.settings.sections, {},
+                planner=planner)
         if entry.fidelity in group.runs:
             raise InputError(f"two runs of scenario '{run.scenario_id}' with fidelity '{entry.fidelity}' and planner "
                              f"'{planner}' (the other: {group.runs[entry.fidelity].run_dir})", file=run_dir,
                              field="fidelity", allowed="one run per scenario, fidelity and planner")
-        entry.tracking = _tracking(run, group.scenario, group.problems)
         group.runs[entry.fidelity] = entry
     for group in groups.values():
         group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))   # ideal first
@@ -139,6 +105,6 @@ def collect(root: Path) -> list[ScenarioGroup]:
             continue
         for fidelity, entry in group.runs.items():
             if fidelity != REFERENCE:
-                group.comparisons[fidelity] = compare_runs(ref.run, entry.run, group.scenario, group.problems,
-                                                           group.sections)
+                group.comparisons[fidelity] = compare_histories(ref.run.history, entry.run.history, group.scenario,
+                                                                group.problems, group.sections)
     return sorted(groups.values(), key=lambda g: (g.scenario_id, g.planner))

@@ -16,7 +16,7 @@ from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from commonroad.visualization.draw_params import MPDrawParams  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
-from simgap.cosim.record import Run  # noqa: E402
+from simgap.record import RunRecord, read_run  # noqa: E402
 from simgap.errors import InputError  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 
@@ -32,10 +32,10 @@ def load_driven(run_dir: Path):
     if not xml.exists():
         raise InputError("run has no driven.xml to draw", file=run_dir)
     scenario, problems = CommonRoadFileReader(str(xml)).open()
-    return scenario, problems, Run.load(run_dir)
+    return scenario, problems, read_run(run_dir)
 
 
-def draw_scene(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: str) -> None:
+def draw_scene(rnd: MPRenderer, scenario, problems, run: RunRecord, step: int, title: str) -> None:
     params = MPDrawParams()
     params.time_begin = step
     params.dynamic_obstacle.draw_icon = True
@@ -45,10 +45,10 @@ def draw_scene(rnd: MPRenderer, scenario, problems, run: Run, step: int, title: 
     problems.draw(rnd)
     rnd.render()
     ax = rnd.ax
-    for i, (aid, traj) in enumerate(sorted(run.driven.items())):
+    for i, (aid, traj) in enumerate(sorted(run.history.driven.items())):
         k = min(step + 1, len(traj))
         ax.plot(traj.x[:k], traj.y[:k], LINE_STYLES[i % 4], color=AGENT_COLOURS[i % 6], lw=2.0,
-                zorder=60, label=f"agent {aid} ({run.agents[i].outcome})")
+                zorder=60, label=f"agent {aid} ({run.history.agents[i].outcome})")
         ax.annotate(str(aid), (traj.x[k - 1], traj.y[k - 1]), xytext=(5, 5), textcoords="offset points",
                     fontsize=9, fontweight="bold", color=AGENT_COLOURS[i % 6], zorder=70)
     ax.set_title(title)
@@ -67,11 +67,11 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     out_dir.mkdir(parents=True, exist_ok=True)
     limits = plot_limits(scenario, margin=10.0)
     size = figure_size(limits, width=10.0)
-    last = max(len(t) for t in run.driven.values()) - 1
+    last = max(len(t) for t in run.history.driven.values()) - 1
 
     rnd = MPRenderer(plot_limits=limits, figsize=size)
     draw_scene(rnd, scenario, problems, run, last,
-          f"{run.scenario_id} — {run.backend}: driven paths, t = {last * run.dt:.1f} s")
+          f"{run.scenario_id} — {run.history.backend}: driven paths, t = {last * run.history.dt:.1f} s")
     png = out_dir / PICTURES[0]
     rnd.f.savefig(png, dpi=110, bbox_inches="tight")
     plt.close(rnd.f)
@@ -82,9 +82,9 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     frames = []
     for step in list(range(0, last, frame_every)) + [last]:
         rnd = MPRenderer(plot_limits=limits, figsize=(size[0] * 0.7, size[1] * 0.7))
-        draw_scene(rnd, scenario, problems, run, step, f"{run.scenario_id} — {run.backend}, t = {step * run.dt:.1f} s")
+        draw_scene(rnd, scenario, problems, run, step, f"{run.scenario_id} — {run.history.backend}, t = {step * run.history.dt:.1f} s")
         rnd.f.canvas.draw()
         frames.append(np.asarray(rnd.f.canvas.buffer_rgba())[..., :3].copy())
         plt.close(rnd.f)
-    imageio.mimsave(gif, frames, duration=1000.0 * frame_every * run.dt, loop=0)
+    imageio.mimsave(gif, frames, duration=1000.0 * frame_every * run.history.dt, loop=0)
     return [png, gif]

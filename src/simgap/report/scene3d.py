@@ -25,7 +25,8 @@ import numpy as np  # noqa: E402
 from commonroad.scenario.scenario import Scenario  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
-from simgap.cosim.record import AGENT_ID_OFFSET, Run  # noqa: E402
+from simgap.cosim.history import AGENT_ID_OFFSET  # noqa: E402
+from simgap.record import RunRecord  # noqa: E402
 from simgap.files import atomic_write  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
 from simgap.scenario import read_metadata  # noqa: E402
@@ -61,18 +62,18 @@ ReplayWorld = Callable[[Scenario, Mapping[int, Vehicle], Mapping[int, Trajectory
                        Replay3D]
 
 
-def _replay(scenario: Scenario, run: Run, world: ReplayWorld, relief: Surface | None) -> Replay3D:
+def _replay(scenario: Scenario, run: RunRecord, world: ReplayWorld, relief: Surface | None) -> Replay3D:
     scene = copy.deepcopy(scenario)
     for obstacle in list(scene.dynamic_obstacles):
         if obstacle.obstacle_id >= AGENT_ID_OFFSET:
             scene.remove_obstacle(obstacle)
-    return world(scene, {a.id: run.vehicle_of(a.id) for a in run.agents},
-                 {a.id: run.driven[a.id] for a in run.agents}, run.dt, relief)
+    return world(scene, {a.id: run.history.vehicle_of(a.id) for a in run.history.agents},
+                 {a.id: run.history.driven[a.id] for a in run.history.agents}, run.history.dt, relief)
 
 
-def _instant(run: Run) -> int:
+def _instant(run: RunRecord) -> int:
     """The step at which the first agent turns hardest (largest |yaw rate|)."""
-    driven = run.driven[run.agents[0].id]
+    driven = run.history.driven[run.history.agents[0].id]
     return int(np.argmax(np.abs(driven.yaw_rate))) if len(driven) else 0
 
 
@@ -86,7 +87,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
     scenario, problems, run = load_driven(run_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     replay = _replay(scenario, run, world, ground_of(read_metadata(run_dir / "driven.xml"), scenario.lanelet_network))
-    first = run.agents[0].id
+    first = run.history.agents[0].id
     step = _instant(run)
     written = []
 
@@ -95,7 +96,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
         imageio.imwrite(out_dir / name, image)
         written.append(out_dir / name)
 
-    duration = (max(len(t) for t in run.driven.values()) - 1) * run.dt
+    duration = (max(len(t) for t in run.history.driven.values()) - 1) * run.history.dt
     times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
     frames = replay.chase_frames(times, first, VIDEO)
     if on_frame is not None:
@@ -125,17 +126,17 @@ def write_video(path: Path, frames: Iterator[np.ndarray], fps: int) -> Path:
     return atomic_write(path, encode, keep_suffix=True)
 
 
-def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: Run, step: int) -> Path:
+def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: RunRecord, step: int) -> Path:
     limits = plot_limits(scenario, margin=10.0)
     width, height = figure_size(limits, width=7.0)
     fig = plt.figure(figsize=(7.0 + 7.0 * image.shape[1] / image.shape[0] * 0.6, max(height, 4.5)))
     ax3d = fig.add_axes([0.0, 0.08, 0.55, 0.84])
     ax3d.imshow(image)
     ax3d.set_axis_off()
-    ax3d.set_title(f"3D ({run.backend}), t = {step * run.dt:.1f} s")
+    ax3d.set_title(f"3D ({run.history.backend}), t = {step * run.history.dt:.1f} s")
     ax2d = fig.add_axes([0.58, 0.12, 0.40, 0.78])
     rnd = MPRenderer(plot_limits=limits, ax=ax2d)
-    draw_scene(rnd, scenario, problems, run, step, f"2D CommonRoad scene, t = {step * run.dt:.1f} s")
+    draw_scene(rnd, scenario, problems, run, step, f"2D CommonRoad scene, t = {step * run.history.dt:.1f} s")
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -11,9 +11,10 @@ from typing import Sequence
 
 import numpy as np
 
-from simgap.cosim import REFERENCE, AgentOutcome
+from simgap.cosim import REFERENCE
 from simgap.cosim.score_settings import ScoreWeights
-from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop, score_weights_of
+from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop
+from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.experiment.run_row import RunRow
 from simgap.report.collection import ScenarioGroup
 
@@ -27,17 +28,17 @@ SCORES_NOTE = ("<p>score: the closed-loop score (built like nuPlan's CLS: the mu
 
 
 def _weights(entry) -> ScoreWeights:
-    return score_weights_of(entry.run)
+    return entry.run.settings.cosim.score.weights
 
 
-def agent_drops(group: ScenarioGroup, fidelity: str) -> list[tuple[AgentOutcome, float, list]]:
+def agent_drops(group: ScenarioGroup, fidelity: str) -> list[tuple[AgentEvaluation, float, list]]:
     """Each agent of ``fidelity``'s run: (the agent, its score drop from the ideal run, the losses)."""
     ideal, entry = group.reference, group.runs.get(fidelity)
     if ideal is None or entry is None:
         return []
     out = []
-    reference = {a.id: a for a in ideal.run.agents}
-    for agent in entry.run.agents:
+    reference = {a.id: a for a in ideal.run.evaluation.agents}
+    for agent in entry.run.evaluation.agents:
         if agent.id in reference:
             drop, losses = score_drop(reference[agent.id], agent, _weights(entry))
             out.append((agent, drop, losses))
@@ -56,7 +57,7 @@ def score_rows(groups: Sequence[ScenarioGroup], variants: list[tuple[str, str]])
     rows = []
     for planner, fidelity in variants:
         mine = [g for g in groups if g.planner == planner and fidelity in g.runs]
-        agents = [a for g in mine for a in g.runs[fidelity].run.agents]
+        agents = [a for g in mine for a in g.runs[fidelity].run.evaluation.agents]
         scores = [a.score for a in agents if a.score is not None]
         costs = [a.solution_cost for a in agents if a.solution_cost is not None]
         checked = [a for a in agents if a.solution_valid is not None]
@@ -114,7 +115,7 @@ def breakdown_rows(group: ScenarioGroup) -> list[dict]:
     rows = []
     for fidelity, entry in group.runs.items():
         drops = {a.id: (d, losses) for a, d, losses in agent_drops(group, fidelity)} if fidelity != REFERENCE else {}
-        for a in entry.run.agents:
+        for a in entry.run.evaluation.agents:
             if a.score is None:
                 continue
             drop, losses = drops.get(a.id, (math.nan, []))
@@ -131,11 +132,11 @@ def breakdown_rows(group: ScenarioGroup) -> list[dict]:
     return rows
 
 
-def _scored(row: RunRow) -> AgentOutcome:
-    """A store row's scores as an agent outcome (the worst agent's, as the row keeps them)."""
-    return AgentOutcome(0, "", "goal_reached", None, 0.0, None, score=row.score,
-                        score_components={name: v for name, v in row.score_components.items()
-                                          if v is not None and not math.isnan(v)})
+def _scored(row: RunRow) -> AgentEvaluation:
+    """A store row's scores as an agent's evaluation (the worst agent's, as the row keeps them)."""
+    return AgentEvaluation(0, None, 0.0, None, score=row.score,
+                           score_components={name: v for name, v in row.score_components.items()
+                                             if v is not None and not math.isnan(v)})
 
 
 def store_score_rows(rows: list[RunRow]) -> list[dict]:

@@ -11,17 +11,16 @@ box plots, criticality of agent pairs, and the run's 2D and 3D pictures and its 
 from __future__ import annotations
 
 import html
-import json
 import math
 import shutil
 from collections import Counter
+from dataclasses import asdict
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
 from simgap.errors import InputError
-from simgap.evaluate.criticality import run_criticality
 from simgap.evaluate.errors import lateral_profile
 from simgap.files import atomic_write_text, replace_directory
 from simgap.evaluate.route_centre import route_centre
@@ -164,15 +163,15 @@ def _realism_note(groups, fidelities: list[str]) -> str:
             items.append(f"<li>{html.escape(fidelity)}: a perfect machine (realism ideal): actuators that act at once, "
                          "the exact state observed, plans that take no time</li>")
             continue
-        accuracy = run.settings.get("sensing_accuracy") or {}
-        cosim = run.settings.get("cosim") or {}
-        actuators = [n.split(": ", 1)[1] for n in run.settings.get("backend_notes", []) if ": actuators" in n][:1]
-        latencies = [a.plan_latency_mean_s for a in run.agents if a.plan_latency_mean_s is not None]
+        accuracy, cosim = run.settings.sensing_accuracy, run.settings.cosim
+        actuators = [n.split(": ", 1)[1] for n in run.history.backend_notes if ": actuators" in n][:1]
+        latencies = [a.plan_latency_mean_s for a in run.evaluation.agents if a.plan_latency_mean_s is not None]
+        drift = "" if accuracy is None else (f" (drift {accuracy.position_drift_m:g} m, {accuracy.heading_drift_deg:g} "
+                                             f"deg, estimate {accuracy.latency_s:g} s old)")
         items.append(
             f"<li>{html.escape(fidelity)}: the real car (realism real): {html.escape(actuators[0] if actuators else 'actuators as its vehicle file')}; "
-            f"localisation {html.escape(str((cosim.get('sensing') or {}).get('profile', '')))} "
-            f"(drift {accuracy.get('position_drift_m', 0):g} m, {accuracy.get('heading_drift_deg', 0):g} deg, "
-            f"estimate {accuracy.get('latency_s', 0):g} s old); plan latency {html.escape(str(cosim.get('latency')))}"
+            f"localisation {html.escape(cosim.sensing.profile.value)}{drift}; "
+            f"plan latency {html.escape(str(cosim.latency))}"
             + (f" ({1000 * sum(latencies) / len(latencies):.0f} ms on average in its first run)" if latencies else "")
             + "</li>")
     return f"<p>The physical worlds' cars:</p><ul>{''.join(items)}</ul>" if items else ""
@@ -217,15 +216,8 @@ def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
 
 # ------------------------------------------------------------------------------ pages
 def _criticality(entry) -> list[dict]:
-    """Most critical TTC, THW, BTN, STN per agent pair (cached in the run directory)."""
-    if len(entry.run.driven) < 2:
-        return []
-    cache = entry.run_dir / "criticality.json"
-    if cache.exists():
-        return json.loads(cache.read_text())
-    rows = run_criticality(entry.run_dir, entry.run.driven)
-    atomic_write_text(cache, json.dumps(rows))
-    return rows
+    """Most critical TTC, THW, BTN, STN per agent pair, as the run's evaluation holds them."""
+    return [asdict(c) for c in entry.run.evaluation.criticality]
 
 
 def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
@@ -244,7 +236,7 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
             "orientation errors at equal time.</p>", table(_gap_rows(group)),
             "<h2>Scores</h2>", SCORES_NOTE, table(breakdown_rows(group)),
             "<h2>Plots</h2>"]
-    for aid in sorted({aid for e in group.runs.values() for aid in e.run.driven}):
+    for aid in sorted({a.id for e in group.runs.values() for a in e.run.history.agents}):
         body += _agent_figures(group, aid, adir, rel)
     body += _scenario_figures(group, adir, rel)
     crit = [{"fidelity": fidelity} | r for fidelity, entry in group.runs.items() for r in _criticality(entry)]
@@ -262,18 +254,20 @@ def _outcome_rows(group: ScenarioGroup) -> list[dict]:
     """Per fidelity and agent: how the run ended and how closely the vehicle tracked its plans."""
     rows = []
     for fidelity, entry in group.runs.items():
-        outcomes = {a.id: a for a in entry.run.agents}
-        for t in entry.tracking:
-            a = outcomes[t.agent_id]
-            rows.append({"fidelity": fidelity, "agent": t.agent_id, "outcome": a.outcome,
+        for agent in entry.run.agents:
+            a, t = agent.evaluation, agent.evaluation.tracking
+            rows.append({"fidelity": fidelity, "agent": agent.id, "outcome": agent.history.outcome,
                          "time to goal [s]": a.time_to_goal_s if a.time_to_goal_s is not None else "—",
-                         "beyond road [m]": a.max_road_excursion_m, "beyond lane [m]": t.lane_excursion,
-                         "planner failures": a.planner_failures,
+                         "beyond road [m]": a.max_road_excursion_m,
+                         "beyond lane [m]": "—" if t is None else t.lane_excursion_m,
+                         "planner failures": agent.history.planner_failures,
                          "min distance [m]": a.min_distance_to_traffic_m if a.min_distance_to_traffic_m is not None else "—",
-                         "peak a_lat [m/s²]": t.comfort.peak_lateral_acceleration, "peak jerk [m/s³]": t.comfort.peak_jerk,
-                         "tracking lateral rms/max [m]": f"{t.lateral.rms:.3f} / {t.lateral.max:.3f}",
-                         "tracking longitudinal rms/max [m]": f"{t.longitudinal.rms:.3f} / {t.longitudinal.max:.3f}",
-                         "wall time [s]": entry.run.wall_time_s})
+                         "peak a_lat [m/s²]": "—" if t is None else t.comfort.peak_lateral_acceleration,
+                         "peak jerk [m/s³]": "—" if t is None else t.comfort.peak_jerk,
+                         "tracking lateral rms/max [m]": "—" if t is None else f"{t.lateral.rms:.3f} / {t.lateral.max:.3f}",
+                         "tracking longitudinal rms/max [m]":
+                             "—" if t is None else f"{t.longitudinal.rms:.3f} / {t.longitudinal.max:.3f}",
+                         "wall time [s]": entry.run.history.wall_time_s})
     return rows
 
 
@@ -297,8 +291,8 @@ def _agent_figures(group: ScenarioGroup, aid: int, adir: Path, rel: str) -> list
     figures = []
     problem = group.problems.planning_problem_dict.get(aid)
     frame = route_centre(group.scenario.lanelet_network, problem) if problem is not None else None
-    curves = {f: lateral_profile(e.run.driven[aid], frame) for f, e in group.runs.items()
-              if frame is not None and aid in e.run.driven}
+    curves = {f: lateral_profile(e.run.history.driven[aid], frame) for f, e in group.runs.items()
+              if frame is not None and aid in e.run.history.driven}
     if curves:
         shading = next(((c.s, c.section_along_s) for comps in reversed(list(group.comparisons.values()))
                         for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
@@ -307,7 +301,7 @@ def _agent_figures(group: ScenarioGroup, aid: int, adir: Path, rel: str) -> list
                       f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading)
         figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity", zoom=True,
                               half=True))
-    trajs = {f: e.run.driven[aid] for f, e in group.runs.items() if aid in e.run.driven}
+    trajs = {f: e.run.history.driven[aid] for f, e in group.runs.items() if aid in e.run.history.driven}
     plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
     figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
     return figures
@@ -315,7 +309,7 @@ def _agent_figures(group: ScenarioGroup, aid: int, adir: Path, rel: str) -> list
 
 def _scenario_figures(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
     """Every fidelity's planned and driven paths from above, and the spread of |d| per fidelity."""
-    plot_paths_from_above(group.scenario, {f: e.run for f, e in group.runs.items()}, adir / "paths.png",
+    plot_paths_from_above(group.scenario, {f: e.run.history for f, e in group.runs.items()}, adir / "paths.png",
                           f"{group.scenario_id}: planned and driven paths of every fidelity")
     figures = [figure(rel + "paths.png", "planned (thin, every 10th plan) and driven (thick) paths", zoom=True,
                       half=True)]
@@ -406,8 +400,8 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
         body += _score_heatmaps(groups, fidelities, planners, params[0], params[1], assets)
     label = {v: f"{v[0]} · {v[1]}" if len(planners) > 1 else v[1] for v in variants}
     entries = {v: [g.runs[v[1]] for g in groups if g.planner == v[0] and v[1] in g.runs] for v in variants}
-    wall = {label[v]: [e.run.wall_time_s for e in entries[v]] for v in variants}
-    phases = {label[v]: [e.run.timings for e in entries[v]] for v in variants}
+    wall = {label[v]: [e.run.history.wall_time_s for e in entries[v]] for v in variants}
+    phases = {label[v]: [e.run.all_timings for e in entries[v]] for v in variants}
     body += ["<h2>Run times per fidelity</h2>",
              "<p>Wall time of a run (min, max, mean, median, standard deviation; the paper's Table I) and the mean "
              "time of each phase.</p>", table(runtime_table(wall, phases)),
@@ -418,7 +412,7 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
              table([{"planner": v[0], "fidelity": v[1]} | _planning_row(entries[v]) for v in variants])]
     outcome_rows = []
     for v in variants:
-        counts = Counter(a.outcome for e in entries[v] for a in e.run.agents)
+        counts = Counter(a.outcome for e in entries[v] for a in e.run.history.agents)
         outcome_rows.append({"planner": v[0], "fidelity": v[1]} | dict(sorted(counts.items())))
     body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows),
              "<h2>Scenarios, largest gap first</h2>", table(_ranking_rows(groups, params))]
@@ -429,9 +423,9 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
 
 def _planning_row(entries) -> dict:
     """Time per planning call over ``entries``' agents (ms), exceptions and calls over budget."""
-    agents = [a for e in entries for a in e.run.agents if a.planning_calls]
+    agents = [a for e in entries for a in e.run.evaluation.agents if a.planning_calls]
     calls = sum(a.planning_calls for a in agents)
-    raised = sum(a.planner_exceptions for e in entries for a in e.run.agents)
+    raised = sum(a.planner_exceptions for e in entries for a in e.run.history.agents)
     if not calls:                   # (planners that raised in their constructors)
         return {"calls": 0, "raised": raised}
     return {"calls": calls,
@@ -447,8 +441,8 @@ def _headline_rows(groups: list[ScenarioGroup], variants: list[tuple[str, str]])
     for planner, fidelity in variants:
         mine = [g for g in groups if g.planner == planner]
         entries = [g.runs[fidelity] for g in mine if fidelity in g.runs]
-        goals = sum(a.outcome == Outcome.GOAL_REACHED for e in entries for a in e.run.agents)
-        agents = sum(len(e.run.agents) for e in entries)
+        goals = sum(a.outcome == Outcome.GOAL_REACHED for e in entries for a in e.run.history.agents)
+        agents = sum(len(e.run.history.agents) for e in entries)
         gaps = [c.lateral_displacement.max for g in mine for c in g.comparisons.get(fidelity, [])
                 if math.isfinite(c.lateral_displacement.max)]
         rows.append({"planner": planner, "fidelity": fidelity, "runs": len(entries),
@@ -456,7 +450,7 @@ def _headline_rows(groups: list[ScenarioGroup], variants: list[tuple[str, str]])
                      "goal rate": f"{100 * goals / agents:.0f} %" if agents else "—",
                      "median max |d| [m]": float(np.median(gaps)) if gaps else "—",
                      "largest max |d| [m]": max(gaps) if gaps else "—",
-                     "mean wall time [s]": float(np.mean([e.run.wall_time_s for e in entries]))})
+                     "mean wall time [s]": float(np.mean([e.run.history.wall_time_s for e in entries]))})
     return rows
 
 
@@ -506,7 +500,7 @@ def _heatmaps(groups: list[ScenarioGroup], fidelities: list[str], planners: list
 def _axis_labels(groups: list[ScenarioGroup], xp: str, yp: str) -> tuple[str, str]:
     """The two parameters with their units (as the runs record them)."""
     units = {k: u for g in groups for e in g.runs.values()
-             for k, u in (e.run.settings.get("parameter_units") or {}).items()}
+             for k, u in e.run.settings.parameter_units.items()}
     xlabel, ylabel = (f"{p} [{units[p]}]" if units.get(p, "-") != "-" else p for p in (xp, yp))
     return xlabel, ylabel
 
@@ -541,7 +535,7 @@ def _ranking_rows(groups: list[ScenarioGroup], params: list[str]) -> list[dict]:
     rows = []
     for g in ranked:
         gap, fidelity = g.largest_gap()
-        outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.agents}))
+        outcomes = ", ".join(sorted({a.outcome for e in g.runs.values() for a in e.run.history.agents}))
         rows.append({"scenario": Raw(f"<a href='scenarios/{_slug(g.name)}.html'>"
                                      f"{html.escape(g.scenario_id)}</a>"), "planner": g.planner,
                      "largest max |d| [m]": gap, "in fidelity": fidelity or "—",

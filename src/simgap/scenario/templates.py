@@ -39,6 +39,7 @@ from simgap.scenario.problem import planning_problem
 from simgap.scenario.relief import (MAX_BANK_DEG, MAX_GRADE_PERCENT, BankKnot, ElevationProfile, ReliefProfile,
                                     VerticalCurve)
 from simgap.scenario.road import LaneLayout, build_road
+from simgap.scenario.sections import RoadSections
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 LANELET_ID_START = 100  # planning problems (agents) take ids 1, 2, 3, ...
@@ -56,14 +57,14 @@ class ConcreteScenario:
     parameters: dict[str, Any]
     scenario: Scenario
     problems: PlanningProblemSet
-    sections: dict[int, str] = field(default_factory=dict)   # lanelet id -> straight|curve|clothoid|junction
+    sections: RoadSections = field(default_factory=RoadSections)   # lanelet id -> straight|curve|clothoid|junction
     units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
     blueprint: RoadBlueprint | JunctionBlueprint | None = None   # what the road network was built from
     opendrive: OpenDriveOrigin | None = None     # the OpenDRIVE file its lanelets were read from, and its relief
 
     def metadata(self) -> dict[str, Any]:
         meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
-                "sections": {str(k): v for k, v in sorted(self.sections.items())},
+                "sections": self.sections.as_json(),
                 "blueprint": self.blueprint.model_dump(mode="json", exclude_none=True) if self.blueprint else None}
         if self.opendrive is not None:
             meta["opendrive"] = self.opendrive.model_dump(mode="json", exclude_none=True)
@@ -187,7 +188,7 @@ def road_scenario(name: str, logical: str, params: dict[str, Any], segments: lis
                               centre_marking=layout.centre_marking, first_id=LANELET_ID_START,
                               relief=_road_relief(params, segments))
     return ConcreteScenario(name, logical, params, scenario, PlanningProblemSet([problem]),
-                            dict(road.section_by_id), blueprint=blueprint)
+                            RoadSections(road.section_by_id), blueprint=blueprint)
 
 
 CURVE_LENGTH_FIELDS = "straight_length, radius, angle, transition"
@@ -283,7 +284,7 @@ def _junction_scenario(name: str, logical: str, p: dict[str, Any], template: str
             (goal, float(goal.distance[-1]) - 10.0),
             initial_speed=float(p["initial_speed"]), dt=dt,
             time_limit_s=float(p["time_limit"])))
-    return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), dict(junction.section_by_id),
+    return ConcreteScenario(name, logical, p, scenario, PlanningProblemSet(problems), RoadSections(junction.section_by_id),
                             blueprint=blueprint)
 
 

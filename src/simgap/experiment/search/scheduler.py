@@ -237,7 +237,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         sroot.mkdir(parents=True, exist_ok=True)
         run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, budget)
         run.resume()
-        context = JobContext(sroot, planner_vehicle=search.planner_vehicle, validate=validate)
+        context = JobContext(sroot, planner_vehicle=search.planner_vehicle, validate=validate, criticality=False)
 
         def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
             run.on_result(job, row)
@@ -252,7 +252,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
                             {v.candidate: v.ideal_row for v in found.found})
         if probes.pending and probe_runs > 0:
             runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle,
-                                                   validate=validate), probes.on_result)
+                                                   validate=validate, criticality=False), probes.on_result)
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
         _record_findings(root, results[-1])
     return results

@@ -12,16 +12,15 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 
-from simgap.cosim.record import AGENT_ID_OFFSET, Run
-from simgap.sim.protocol import Agent
+from simgap.cosim.history import AGENT_ID_OFFSET, History
 
 
-def driven_scenario(scenario: Scenario, agents: list[Agent], run: Run) -> Scenario:
+def driven_scenario(scenario: Scenario, history: History) -> Scenario:
     """A copy of ``scenario`` with each agent added as a dynamic obstacle (id offset by 100000)."""
     driven = copy.deepcopy(scenario)
-    for agent in agents:
-        traj = run.driven[agent.id]
-        steps = [int(round(t / run.dt)) for t in traj.t]
+    for agent in history.agents:
+        traj = agent.driven
+        steps = [int(round(t / history.dt)) for t in traj.t]
         first = traj[0]
         init = InitialState(time_step=steps[0], position=first.position, orientation=first.yaw,
                             velocity=first.v, acceleration=first.a, yaw_rate=first.yaw_rate,

@@ -1,0 +1,164 @@
+"""What a co-simulation leaves behind: its `History`, frozen.
+
+`simulate` (`simgap.cosim.loop`) returns one: per agent the states it drove, the plans its planner
+made, the states its planner observed, how its run ended and when; the events of the run; the
+wall time of every planning call and the latency of every plan; the timings of the loop's phases.
+A History holds what happened and nothing computed from it: every metric and score of a run is
+`simgap.evaluate.run_evaluation.evaluate`'s, and the record on disk is `simgap.record`'s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import traceback
+from dataclasses import dataclass, field
+from enum import StrEnum
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from simgap.sim.protocol import EventKind, Realism
+from simgap.trajectory import STATE_FIELDS, Attitude, Trajectory
+from simgap.vehicles import Vehicle
+
+AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
+
+
+class Outcome(StrEnum):
+    """How an agent's run ended (a string enum: it compares and serialises as its value)."""
+
+    GOAL_REACHED = "goal_reached"
+    COLLISION = "collision"
+    OFF_ROAD = "off_road"
+    PLANNER_FAILURE = "planner_failure"      # no feasible plan for too long
+    TIMEOUT = "timeout"                      # the goal not reached by its deadline
+    DIVERGED = "diverged"                    # the physics blew up
+
+    @classmethod
+    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
+        """The first outcome that is not reaching the goal, else reaching it."""
+        return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened to an agent at a time and place."""
+
+    t: float
+    agent_id: int
+    kind: EventKind
+    x: float | None = None
+    y: float | None = None
+    detail: str = ""
+    other_id: int | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", EventKind(self.kind))
+
+
+@dataclass(frozen=True)
+class PlannerError:
+    """An exception a planner raised: in its constructor (``t`` None) or in a planning cycle."""
+
+    agent_id: int
+    t: float | None
+    exception: str          # the exception's type
+    message: str
+    traceback: str
+
+    @classmethod
+    def of(cls, exc: BaseException, agent_id: int, t: float | None) -> "PlannerError":
+        trace = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+        remote = getattr(exc, "remote_traceback", "")     # a planner in its own process: its own traceback too
+        return cls(agent_id, t, type(exc).__name__, str(exc),
+                   trace + (f"\nThe planner's process reported:\n{remote}" if remote else ""))
+
+
+@dataclass(frozen=True)
+class AgentHistory:
+    """One agent's part of a run: what it drove, planned and saw, and how its run ended."""
+
+    id: int
+    vehicle: Vehicle                            # the model it drove
+    outcome: Outcome
+    driven: Trajectory                          # its states until its outcome (the first: where it started)
+    plans: tuple[Trajectory, ...] = ()          # every plan its planner made, in order
+    observed: Trajectory | None = None          # the state its planner observed at each planning call
+                                                # (None: a run recorded before observations were kept)
+    attitudes: tuple[Attitude, ...] = ()        # beside each driven state, where the world is 3D
+    standing: Trajectory | None = None          # its states after its outcome while it stayed in the world
+                                                # (other agents still driving; None: none)
+    planning_call_s: tuple[float, ...] = ()     # wall time of every planning call
+    plan_latency_s: tuple[float, ...] = ()      # how long after its planning time each plan reached the car
+    planner_failures: int = 0                   # planning cycles without a plan (None or an exception)
+    planner_exceptions: int = 0                 # ... of them, cycles in which the planner raised
+
+    @property
+    def time_to_goal_s(self) -> float | None:
+        """When it reached its goal (None: it did not)."""
+        return float(self.driven.t[-1]) if self.outcome == Outcome.GOAL_REACHED and len(self.driven) else None
+
+    @property
+    def in_the_world(self) -> Trajectory:
+        """Every state it was in the world at: driven, then standing."""
+        if self.standing is None or not len(self.standing):
+            return self.driven
+        return Trajectory(self.driven.dt, **{f: np.concatenate([getattr(self.driven, f), getattr(self.standing, f)])
+                                             for f in STATE_FIELDS})
+
+
+@dataclass(frozen=True)
+class History:
+    """A run as it happened (frozen): its agents, events, timings and how it ended."""
+
+    scenario_id: str
+    backend: str
+    dt: float
+    realism: Realism
+    agents: tuple[AgentHistory, ...]
+    events: tuple[Event, ...] = ()
+    timings: Mapping[str, float] = field(default_factory=dict)     # seconds per loop phase and backend part
+    wall_time_s: float = 0.0
+    failure: str | None = None                  # why the run failed as a whole (None: it did not)
+    planner_errors: tuple[PlannerError, ...] = ()    # the first few exceptions, with tracebacks
+    backend_notes: tuple[str, ...] = ()         # what the backend said about how it built the world
+    traffic: Mapping[int, Trajectory] = field(default_factory=dict)   # the road users the loop drove (IDM),
+                                                                      # as they drove (replayed ones: none)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
+        object.__setattr__(self, "traffic", MappingProxyType(dict(self.traffic)))
+
+    def agent(self, agent_id: int) -> AgentHistory:
+        return next(a for a in self.agents if a.id == agent_id)
+
+    @property
+    def driven(self) -> dict[int, Trajectory]:
+        return {a.id: a.driven for a in self.agents}
+
+    @property
+    def plans(self) -> dict[int, list[Trajectory]]:
+        return {a.id: list(a.plans) for a in self.agents}
+
+    @property
+    def vehicles(self) -> dict[int, Vehicle]:
+        return {a.id: a.vehicle for a in self.agents}
+
+    def vehicle_of(self, agent_id: int) -> Vehicle:
+        return self.agent(agent_id).vehicle
+
+    @property
+    def outcome(self) -> Outcome:
+        """The first agent outcome that is not reaching the goal."""
+        return Outcome.worst([a.outcome for a in self.agents])
+
+    @property
+    def fingerprint(self) -> str:
+        """SHA-256 over every agent's driven trajectory: equal iff the runs drove identically."""
+        h = hashlib.sha256()
+        for a in sorted(self.agents, key=lambda a: a.id):
+            h.update(str(a.id).encode())
+            for f in STATE_FIELDS:
+                h.update(np.ascontiguousarray(getattr(a.driven, f), dtype="<f8").tobytes())
+        return h.hexdigest()[:16]

@@ -1,0 +1,342 @@
+"""A run directory written and read: the one place that knows how a `RunRecord` is kept on disk,
+and how older run directories and store rows are read (`migrate`, `migrate_row`).
+
+A run directory holds:
+
+- ``run.json``            the record but its trajectories: ``format_version``, ``settings``,
+                          ``history`` (agents, events, planning-call times, plan latencies, timings),
+                          ``evaluation`` (metrics, scores, solution cost and validity, criticality),
+                          ``timings`` (scoring, io, validation) and the run's ``fingerprint``
+- ``trajectories.parquet`` the states, one row each, by ``kind``: ``driven`` (with ``z``, ``pitch``,
+                          ``roll`` from a 3D world), ``planned`` (by the plan's start ``plan_t``),
+                          ``observed`` (what the planner saw at each call), ``standing`` (an agent
+                          still in the world after its outcome), ``traffic`` (road users the loop
+                          drove itself; ``agent_id`` is the obstacle's id)
+- ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
+                          offset by `AGENT_ID_OFFSET`), and ``driven.json`` its sidecar (the road's relief)
+- ``solution.xml``        every agent's driven trajectory as a CommonRoad solution
+
+The directory is built next to its destination and swapped into place (`simgap.files.replace_directory`),
+so a reader never sees a half-written run. Format 1 — ``run.json`` without ``format_version``, as
+simgap wrote it until 2026-11-27 — is read through `migrate`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
+from simgap.cosim.loop import CosimSettings
+from simgap.cosim.sensing import LocalisationAccuracy
+from simgap.errors import InputError
+from simgap.evaluate.criticality import PairCriticality
+from simgap.evaluate.errors import Aggregate, Comfort
+from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunEvaluation, SolutionCheckSource)
+from simgap.evaluate.solution import PartialCost
+from simgap.files import atomic_write_text, replace_directory
+from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
+from simgap.scenario.sections import RoadSections
+from simgap.sim.protocol import Realism
+from simgap.trajectory import ATTITUDE_FIELDS, STATE_FIELDS, Attitude, Trajectory
+from simgap.vehicles import Vehicle, load_vehicle
+
+RUN_FILE = "run.json"
+TRAJECTORIES_FILE = "trajectories.parquet"
+RECORD_TIMINGS = ("scoring", "io", "validation")      # phases outside the loop, timed by the record's writer
+
+
+# ------------------------------------------------------------------------------ writing
+def write_run(record: RunRecord, run_dir: str | Path, driven_scenario_xml: str | None = None,
+              solution_xml: str | None = None, scenario_metadata: Mapping[str, Any] | None = None) -> Path:
+    """Write the run directory atomically (built aside, then swapped into place)."""
+    def write(tmp: Path) -> None:
+        (tmp / RUN_FILE).write_text(_run_json(record))
+        pq.write_table(_trajectory_table(record.history), tmp / TRAJECTORIES_FILE)
+        if driven_scenario_xml is not None:
+            (tmp / "driven.xml").write_text(driven_scenario_xml)
+            if scenario_metadata:
+                (tmp / "driven.json").write_text(json.dumps(dict(scenario_metadata), indent=2))
+        if solution_xml is not None:
+            (tmp / "solution.xml").write_text(solution_xml)
+
+    return replace_directory(run_dir, write)
+
+
+def rewrite_record(record: RunRecord, run_dir: str | Path) -> Path:
+    """Rewrite the ``run.json`` of a written run directory (atomically), e.g. once its solution has
+    been checked; its trajectories are the same."""
+    return atomic_write_text(Path(run_dir) / RUN_FILE, _run_json(record))
+
+
+def _run_json(record: RunRecord) -> str:
+    return json.dumps({"format_version": record.format_version, "fingerprint": record.fingerprint,
+                       "settings": _settings_json(record.settings), "history": _history_json(record.history),
+                       "evaluation": _evaluation_json(record.evaluation),
+                       "timings": {k: round(v, 4) for k, v in record.timings.items()}},
+                      indent=2, default=_json_default)
+
+
+def _settings_json(s: RunSettings) -> dict[str, Any]:
+    return {"scenario_id": s.scenario_id, "scenario_path": s.scenario_path, "parameters": dict(s.parameters),
+            "parameter_units": dict(s.parameter_units), "sections": s.sections.as_json(), "seed": s.seed,
+            "cosim": s.cosim.model_dump(mode="json"), "backend": dict(s.backend),
+            "sensing_accuracy": None if s.sensing_accuracy is None else s.sensing_accuracy.model_dump(mode="json"),
+            "planner": _planner_json(s.planner), "planner_vehicle": s.planner_vehicle,
+            "recorded_as": {str(k): v for k, v in s.recorded_as.items()}, "versions": dict(s.versions)}
+
+
+def _planner_json(p: PlannerRecord) -> dict[str, Any]:
+    out: dict[str, Any] = {"name": p.name, "planner": p.planner, "settings": dict(p.settings)}
+    if p.process is not None:
+        out["process"] = dict(p.process)
+    if p.agents:
+        out["agents"] = {str(aid): _planner_json(a) for aid, a in p.agents.items()}
+    return out
+
+
+def _history_json(h: History) -> dict[str, Any]:
+    return {"scenario_id": h.scenario_id, "backend": h.backend, "dt": h.dt, "realism": h.realism.value,
+            "wall_time_s": round(h.wall_time_s, 4), "failure": h.failure,
+            "agents": [{"id": a.id, "vehicle": a.vehicle.model_dump(mode="json"), "outcome": a.outcome.value,
+                        "planner_failures": a.planner_failures, "planner_exceptions": a.planner_exceptions,
+                        "planning_call_s": list(a.planning_call_s), "plan_latency_s": list(a.plan_latency_s)}
+                       for a in h.agents],
+            "events": [asdict(e) for e in h.events], "timings": {k: round(v, 4) for k, v in h.timings.items()},
+            "planner_errors": [asdict(e) for e in h.planner_errors], "backend_notes": list(h.backend_notes)}
+
+
+def _evaluation_json(e: RunEvaluation) -> dict[str, Any]:
+    return {"agents": [_agent_evaluation_json(a) for a in e.agents], "metrics": dict(e.metrics),
+            "criticality": [asdict(c) for c in e.criticality],
+            "solution_check": None if e.solution_check is None else e.solution_check.value}
+
+
+def _agent_evaluation_json(a: AgentEvaluation) -> dict[str, Any]:
+    out = {f.name: getattr(a, f.name) for f in fields(a)}
+    out["tracking"] = None if a.tracking is None else asdict(a.tracking)
+    out["score_components"] = dict(a.score_components)
+    out["score_measures"] = dict(a.score_measures)
+    out["solution_partial_costs"] = {k: asdict(v) for k, v in a.solution_partial_costs.items()}
+    return out
+
+
+def _trajectory_table(history: History) -> pa.Table:
+    attitudes = any(a.attitudes for a in history.agents)
+    third = ATTITUDE_FIELDS if attitudes else ()
+    cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}
+    cols.update({f: [] for f in STATE_FIELDS + third})
+
+    def add(kind: str, aid: int, plan_t: float, traj: Trajectory, attitude: tuple[Attitude, ...] = ()) -> None:
+        n = len(traj)
+        cols["kind"].extend([kind] * n)
+        cols["agent_id"].extend([aid] * n)
+        cols["plan_t"].extend([plan_t] * n)
+        cols["k"].extend(range(n))
+        for f in STATE_FIELDS:
+            cols[f].extend(getattr(traj, f).tolist())
+        for f in third:
+            cols[f].extend([getattr(a, f) for a in attitude] if attitude else [math.nan] * n)
+
+    agents = sorted(history.agents, key=lambda a: a.id)
+    for a in agents:
+        add("driven", a.id, math.nan, a.driven, a.attitudes)
+    for a in agents:
+        for plan in a.plans:
+            add("planned", a.id, float(plan.t[0]), plan)
+    for a in agents:
+        if a.observed is not None and len(a.observed):
+            add("observed", a.id, math.nan, a.observed)
+        if a.standing is not None and len(a.standing):
+            add("standing", a.id, math.nan, a.standing)
+    for oid, traj in sorted(history.traffic.items()):
+        add("traffic", oid, math.nan, traj)
+    schema = pa.schema([("kind", pa.string()), ("agent_id", pa.int64()), ("plan_t", pa.float64()),
+                        ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS + third])
+    return pa.table(cols, schema=schema)
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, Mapping):
+        return dict(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+# ------------------------------------------------------------------------------ reading
+def read_run(run_dir: str | Path) -> RunRecord:
+    """The record of a run directory (of any format: older ones through `migrate`)."""
+    run_dir = Path(run_dir)
+    meta_path = run_dir / RUN_FILE
+    if not meta_path.exists():
+        raise InputError("not a run directory (no run.json)", file=run_dir)
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the run's record: {exc}", file=meta_path,
+                         allowed="the run.json simgap wrote; run the scenario again") from None
+    try:
+        meta = migrate(meta, run_dir)
+        states = _read_states(run_dir / TRAJECTORIES_FILE, float(meta["history"]["dt"]))
+        return RunRecord(history=_history(meta["history"], states), evaluation=_evaluation(meta["evaluation"]),
+                         settings=_settings(meta["settings"]), timings=meta.get("timings") or {},
+                         format_version=int(meta["format_version"]))
+    except InputError:
+        raise
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"the run's record is not one simgap wrote ({type(exc).__name__}: {exc})", file=meta_path,
+                         allowed=f"a run.json of format {FORMAT_VERSION} or older; run the scenario again") from None
+
+
+def _read_states(path: Path, dt: float) -> dict[str, Any]:
+    """The trajectories of a run directory by kind: ``driven`` etc. agent id -> Trajectory,
+    ``planned`` agent id -> [Trajectory], ``attitudes`` agent id -> (Attitude, ...)."""
+    try:
+        table = pq.read_table(path).to_pydict()
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
+                         allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    groups: dict[tuple[str, int, float], list[int]] = {}
+    for i, (kind, aid, pt) in enumerate(zip(table["kind"], table["agent_id"], table["plan_t"])):
+        groups.setdefault((kind, aid, pt if kind == "planned" else -1.0), []).append(i)
+    out: dict[str, Any] = {"driven": {}, "planned": {}, "observed": {}, "standing": {}, "traffic": {},
+                           "attitudes": {}}
+    for (kind, aid, _), rows in groups.items():
+        traj = Trajectory(dt, **{f: [table[f][i] for i in rows] for f in STATE_FIELDS})
+        if kind == "planned":
+            out["planned"].setdefault(aid, []).append(traj)
+            continue
+        out.setdefault(kind, {})[aid] = traj
+        if kind == "driven" and "z" in table and not math.isnan(table["z"][rows[0]]):
+            out["attitudes"][aid] = tuple(Attitude(*(table[f][i] for f in ATTITUDE_FIELDS)) for i in rows)
+    return out
+
+
+def _history(h: Mapping[str, Any], states: Mapping[str, Any]) -> History:
+    agents = tuple(AgentHistory(
+        id=int(a["id"]), vehicle=Vehicle.model_validate(a["vehicle"]), outcome=Outcome(a["outcome"]),
+        driven=states["driven"][int(a["id"])], plans=tuple(states["planned"].get(int(a["id"]), ())),
+        observed=states["observed"].get(int(a["id"])), attitudes=states["attitudes"].get(int(a["id"]), ()),
+        standing=states["standing"].get(int(a["id"])),
+        planning_call_s=tuple(a.get("planning_call_s") or ()), plan_latency_s=tuple(a.get("plan_latency_s") or ()),
+        planner_failures=int(a.get("planner_failures", 0)), planner_exceptions=int(a.get("planner_exceptions", 0)))
+        for a in h["agents"])
+    return History(scenario_id=h["scenario_id"], backend=h["backend"], dt=float(h["dt"]),
+                   realism=Realism(h["realism"]), agents=agents, events=tuple(Event(**e) for e in h.get("events") or ()),
+                   timings=h.get("timings") or {}, wall_time_s=float(h.get("wall_time_s") or 0.0),
+                   failure=h.get("failure"), planner_errors=tuple(PlannerError(**e) for e in h.get("planner_errors") or ()),
+                   backend_notes=tuple(h.get("backend_notes") or ()), traffic=states["traffic"])
+
+
+def _evaluation(e: Mapping[str, Any]) -> RunEvaluation:
+    agents = []
+    for a in e["agents"]:
+        a = dict(a)
+        tracking = a.pop("tracking", None)
+        agents.append(AgentEvaluation(
+            **a | {"solution_partial_costs": {k: PartialCost(**v) for k, v in (a.get("solution_partial_costs") or {}).items()}},
+            tracking=None if tracking is None else AgentTracking(
+                **{k: Aggregate(**tracking[k]) for k in ("position", "orientation", "velocity", "lateral", "longitudinal")},
+                comfort=Comfort(**tracking["comfort"]), lane_excursion_m=tracking["lane_excursion_m"])))
+    check = e.get("solution_check")
+    return RunEvaluation(tuple(agents), e.get("metrics") or {},
+                         tuple(PairCriticality(**c) for c in e.get("criticality") or ()),
+                         None if check is None else SolutionCheckSource(check))
+
+
+def _planner(p: Mapping[str, Any]) -> PlannerRecord:
+    return PlannerRecord(name=p.get("name") or DEFAULT_PLANNER, planner=p.get("planner", ""),
+                         settings=p.get("settings") or {}, process=p.get("process"),
+                         agents={int(aid): _planner(a) for aid, a in (p.get("agents") or {}).items()})
+
+
+def _settings(s: Mapping[str, Any]) -> RunSettings:
+    accuracy = s.get("sensing_accuracy")
+    return RunSettings(
+        scenario_id=s["scenario_id"], cosim=CosimSettings.model_validate(s.get("cosim") or {}),
+        planner=_planner(s.get("planner") or {}), scenario_path=s.get("scenario_path"),
+        parameters=s.get("parameters") or {}, parameter_units=s.get("parameter_units") or {},
+        sections=RoadSections.of_json(s.get("sections")), backend=s.get("backend") or {},
+        sensing_accuracy=None if accuracy is None else LocalisationAccuracy.model_validate(accuracy),
+        planner_vehicle=s.get("planner_vehicle") or "", recorded_as={int(k): v for k, v in (s.get("recorded_as") or {}).items()},
+        seed=int(s.get("seed") or 0), versions=s.get("versions") or {})
+
+
+# ------------------------------------------------------------------------------ older formats
+def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
+    """A ``run.json`` of any format as one of the current format (`FORMAT_VERSION`).
+
+    Format 1 (no ``format_version``) kept every agent's outcome, metrics and scores in one list
+    and the settings as one mapping; it is split into history, evaluation and settings. What it did
+    not keep stays empty: planning-call times and plan latencies (their statistics are kept), what
+    the planners observed, tracking; its vehicles, where not kept (runs before 2026-11), are the
+    catalogue's of that name; its realism, where not kept, ideal; its planner, where not named,
+    ``frenet``. The criticality a report cached in the run directory (``criticality.json``) is
+    read as its evaluation's."""
+    version = int(meta.get("format_version", 1))
+    if version > FORMAT_VERSION:
+        raise InputError(f"run.json of format {version}, newer than this simgap reads",
+                         file=None if run_dir is None else Path(run_dir) / RUN_FILE, field="format_version",
+                         allowed=f"formats 1 to {FORMAT_VERSION}: update simgap")
+    if version == FORMAT_VERSION:
+        return dict(meta)
+    settings = dict(meta.get("settings") or {})
+    vehicles = meta.get("vehicles") or {}
+    timings = meta.get("timings") or {}
+    agents = meta["agents"]
+    history = {
+        "scenario_id": meta["scenario_id"], "backend": meta["backend"], "dt": meta["dt"],
+        "realism": settings.get("realism", Realism.IDEAL.value), "wall_time_s": meta.get("wall_time_s", 0.0),
+        "failure": meta.get("failure"), "events": meta.get("events") or [],
+        "timings": {k: v for k, v in timings.items() if k not in RECORD_TIMINGS},
+        "planner_errors": meta.get("planner_errors") or [], "backend_notes": settings.get("backend_notes") or [],
+        "agents": [{"id": a["id"], "outcome": a["outcome"],
+                    "vehicle": vehicles.get(str(a["id"])) or load_vehicle(a["vehicle"]).model_dump(mode="json"),
+                    "planner_failures": a.get("planner_failures", 0),
+                    "planner_exceptions": a.get("planner_exceptions", 0)} for a in agents]}
+    kept = {f.name for f in fields(AgentEvaluation)} - {"tracking"}
+    criticality_file = None if run_dir is None else Path(run_dir) / "criticality.json"
+    criticality = json.loads(criticality_file.read_text()) if criticality_file and criticality_file.is_file() else []
+    evaluation = {"agents": [{k: v for k, v in a.items() if k in kept} for a in agents],
+                  "metrics": meta.get("metrics") or {}, "criticality": criticality,
+                  "solution_check": settings.get("solution_check")}
+    cosim = settings.get("cosim") or {}
+    planner_names = {a["id"]: a.get("planner") for a in agents}
+    planner = dict(settings.get("planner") or {})
+    if not planner.get("name"):
+        planner["name"] = next((n for n in planner_names.values() if n), DEFAULT_PLANNER)
+    run_settings = {
+        "scenario_id": meta["scenario_id"], "scenario_path": meta.get("scenario_path"),
+        "parameters": meta.get("parameters") or {}, "parameter_units": settings.get("parameter_units") or {},
+        "sections": meta.get("sections") or {}, "seed": meta.get("seed", 0),
+        "cosim": {k: v for k, v in cosim.items() if k in CosimSettings.model_fields},
+        "backend": settings.get("backend") or {}, "sensing_accuracy": settings.get("sensing_accuracy"),
+        "planner": planner, "planner_vehicle": settings.get("planner_vehicle") or "",
+        "recorded_as": {str(a["id"]): a["recorded_as"] for a in agents if a.get("recorded_as") is not None},
+        "versions": meta.get("versions") or {}}
+    return {"format_version": FORMAT_VERSION, "settings": run_settings, "history": history, "evaluation": evaluation,
+            "timings": {k: v for k, v in timings.items() if k in RECORD_TIMINGS}}
+
+
+def migrate_row(columns: Mapping[str, Any]) -> dict[str, Any]:
+    """A results-store row of any format as one of the current format: rows written before the
+    ``stage`` column name their stage (and a repeat 0) in their key only."""
+    cols = dict(columns)
+    if cols.get("format_version") is None:
+        if cols.get("stage") is None:
+            key, fidelity = str(cols["key"]), str(cols.get("fidelity") or "")
+            named = key.split("/")[1] if key.count("/") else ""
+            cols["stage"] = named if named and named != fidelity else ""
+        cols["format_version"] = FORMAT_VERSION
+    return cols
