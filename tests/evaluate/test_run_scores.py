@@ -91,11 +91,11 @@ def test_a_planner_that_drives_off_the_road_scores_zero(tmp_path):
     planner.write_text(STRAIGHT_AHEAD)
     curve = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 90.0}), tmp_path, preview=False)
     run = execute(RunRequest(curve, planner=PlannerChoice(planner=f"{planner}:StraightAhead"), validate=True), tmp_path / "run")
-    agent = run.agents[0]
-    assert agent.outcome == Outcome.OFF_ROAD
+    assert run.history.agents[0].outcome == Outcome.OFF_ROAD
+    agent = run.evaluation.agents[0]
     assert agent.score == 0.0 and agent.score_components["drivable_area"] == 0.0
     assert agent.solution_valid is False and agent.solution_reason.startswith("goal not reached")
-    saved = json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]
+    saved = json.loads((tmp_path / "run" / "run.json").read_text())["evaluation"]["agents"][0]
     assert saved["score"] == 0.0 and saved["solution_valid"] is False and saved["solution_cost"] > 0
     assert Path(tmp_path / "run" / "solution.xml").is_file()
 

@@ -6,6 +6,7 @@ trajectory is CostFunctionEvaluator's own for the same solution file; an invalid
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +20,8 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from commonroad_dc.costs.evaluation import CostFunctionEvaluator
 
 from cosim.real_like import DT, box_goal, highway, lane_y, recorded_car, start
-from simgap.cosim import AgentOutcome, Outcome, Run
+from simgap.cosim import AgentHistory, History, Outcome
+from simgap.sim.protocol import Realism
 from simgap.cosim.score_settings import CostFunctionId
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, solution_xml
 from simgap.evaluate.solution_check import SolutionCheck, check_solution
@@ -45,8 +47,8 @@ def paper_curve_run(tmp_path_factory):
 
 def test_the_ideal_run_of_a_paper_curve_is_a_valid_ks2_sm1_solution(paper_curve_run):
     run, run_dir = paper_curve_run
-    agent = run.agents[0]
-    assert agent.outcome == Outcome.GOAL_REACHED
+    assert run.history.agents[0].outcome == Outcome.GOAL_REACHED
+    agent = run.evaluation.agents[0]
     assert agent.solution_valid is True and agent.solution_reason == ""
     assert agent.solution_benchmark.startswith("KS2:SM1:")
     weights = {name: c.weight for name, c in agent.solution_partial_costs.items()}
@@ -55,24 +57,24 @@ def test_the_ideal_run_of_a_paper_curve_is_a_valid_ks2_sm1_solution(paper_curve_
     assert agent.solution_partial_costs["L"].cost == pytest.approx(agent.distance_m, abs=0.5)   # path length
     assert max(agent.solution_partial_costs.values(), key=lambda c: c.weighted) is \
         agent.solution_partial_costs["A"]         # starting from standstill, the acceleration dominates
-    assert {"scoring", "validation"} <= set(run.timings)
+    assert set(run.timings) == {"scoring", "io", "validation"}
     # the file commonroad-io reads back is the driven trajectory
     solution = CommonRoadSolutionReader.open(str(run_dir / "solution.xml"))
     assert solution.benchmark_id == agent.solution_benchmark
     states = solution.planning_problem_solutions[0].trajectory.state_list
-    driven = run.driven[1]
+    driven = run.history.driven[1]
     assert len(states) == len(driven)
     assert np.allclose([s.position for s in states], np.column_stack([driven.x, driven.y]))
     assert np.allclose([s.velocity for s in states], driven.v) and np.allclose([s.orientation for s in states], driven.yaw)
-    saved = json.loads((run_dir / "run.json").read_text())["agents"][0]
+    saved = json.loads((run_dir / "run.json").read_text())["evaluation"]["agents"][0]
     assert saved["solution_valid"] is True and saved["score"] == pytest.approx(agent.score)
 
 
 def test_a_rerun_is_not_checked_again(paper_curve_run, tmp_path):
     run, run_dir = paper_curve_run
-    again = execute(RunRequest(run.scenario_path, validate=True), tmp_path / "again")
+    again = execute(RunRequest(Path(run.settings.scenario_path), validate=True), tmp_path / "again")
     assert again.fingerprint == run.fingerprint
-    assert again.settings["solution_check"] == "cached" and again.agents[0].solution_valid is True
+    assert again.evaluation.solution_check == "cached" and again.evaluation.agents[0].solution_valid is True
     assert again.timings["validation"] < 0.1 * run.timings["validation"]
 
 
@@ -113,9 +115,8 @@ def recorded_scenario_with_a_human(tmp_path):
                         y=[s.position[1] for s in states], yaw=[s.orientation for s in states],
                         v=[s.velocity for s in states], a=np.zeros(len(states)), yaw_rate=np.zeros(len(states)),
                         steer=[getattr(s, "steering_angle", 0.0) for s in states])
-    run = Run(str(scenario.scenario_id), "recorded", DT,
-              [AgentOutcome(1, "sedan", Outcome.GOAL_REACHED, driven.t_end, driven.path_length(), None)],
-              {1: driven}, {1: []}, vehicles={1: SEDAN})
+    run = History(str(scenario.scenario_id), "recorded", DT, Realism.IDEAL,
+                  (AgentHistory(1, SEDAN, Outcome.GOAL_REACHED, driven),))
     return scenario, problems, xml, run
 
 
@@ -156,15 +157,14 @@ def test_the_human_drove_a_valid_solution_and_the_verdict_is_cached(tmp_path):
 
 
 # ------------------------------------------------------------------------------ invalid solutions
-def straight_run(scenario, speed=10.0, steps=30, jump_at=None) -> Run:
+def straight_run(scenario, speed=10.0, steps=30, jump_at=None) -> History:
     t = DT * np.arange(steps + 1)
     x = 10.0 + speed * t + (np.where(np.arange(steps + 1) >= jump_at, 3.0, 0.0) if jump_at else 0.0)
     n = len(t)
     driven = Trajectory(DT, t=t, x=x, y=np.full(n, lane_y(0)), yaw=np.zeros(n), v=np.full(n, speed),
                         a=np.zeros(n), yaw_rate=np.zeros(n), steer=np.zeros(n))
-    return Run(str(scenario.scenario_id), "test", DT,
-               [AgentOutcome(1, "sedan", Outcome.GOAL_REACHED, driven.t_end, driven.path_length(), None)],
-               {1: driven}, {1: []}, vehicles={1: SEDAN})
+    return History(str(scenario.scenario_id), "test", DT, Realism.IDEAL,
+                   (AgentHistory(1, SEDAN, Outcome.GOAL_REACHED, driven),))
 
 
 def straight_problem(speed=10.0, goal_x=40.0) -> PlanningProblemSet:
@@ -214,9 +214,9 @@ def test_a_crash_of_the_checker_costs_the_verdict_not_the_run(tmp_path):
     # well inside the road (its check needs no boundary): a copy of it shifted to the road's edge does.
     xml = write_scenario(build_scenario("curve", {"radius": 10.0, "angle": 60.0}), tmp_path, preview=False)
     run = execute(RunRequest(xml, validate=True), tmp_path / "run")
-    assert run.agents[0].solution_valid is True
+    assert run.evaluation.agents[0].solution_valid is True
     scenario, problems = load_scenario(xml)
-    solution = run_solution(run, scenario, VehicleType.BMW_320i, CostFunctionId.SM1)
+    solution = run_solution(run.history, scenario, VehicleType.BMW_320i, CostFunctionId.SM1)
     for state in solution.planning_problem_solutions[0].trajectory.state_list[5:40]:
         state.position = state.position + np.array([0.0, -1.5])      # on the straight, over the right edge
     checks, _ = checked_solution(solution, scenario, problems, xml, None)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Mapping
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
@@ -42,6 +42,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.history import AgentHistory, History, Outcome
 from simgap.cosim.score_settings import ScoreSettings, ScoreWeights
+from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
@@ -287,10 +288,14 @@ class _AgentScorer:
         return float(all(within.values()))
 
 
-def closed_loop_scores(history: History, road_excursions_m: dict[int, float], scenario: Scenario,
-                       problems: PlanningProblemSet, cosim: CosimSettings) -> dict[int, ClosedLoopScore]:
-    """Every agent's closed-loop score (none for an agent that drove no step: its run failed before),
-    given each agent's largest road excursion (`simgap.evaluate.closest_approach`)."""
+def closed_loop_scores(history: History, scenario: Scenario, problems: PlanningProblemSet, cosim: CosimSettings,
+                       road_excursions_m: Mapping[int, float] | None = None) -> dict[int, ClosedLoopScore]:
+    """Every agent's closed-loop score (none for an agent that drove no step: its run failed
+    before), given each agent's largest road excursion (`simgap.evaluate.closest_approach`;
+    measured here when not given)."""
+    if road_excursions_m is None:
+        road_excursions_m = {aid: a.max_road_excursion_m
+                             for aid, a in closest_approaches(history, scenario, cosim.offroad_tolerance).items()}
     lanes = LaneOccupancy(scenario.lanelet_network)
     users = road_users(history, scenario)
     return {a.id: _AgentScorer(history, a, road_excursions_m[a.id], problems.planning_problem_dict.get(a.id), lanes,
