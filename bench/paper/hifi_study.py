@@ -22,9 +22,10 @@ from pathlib import Path
 import mujoco
 
 from simgap.cosim import CosimSettings
-from simgap.evaluate.compare import compare_runs
+from simgap.evaluate.compare import compare_histories
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, load_scenario, read_metadata, write_scenario
+from simgap.scenario.sections import RoadSections
 from simgap.vehicles import vehicle_names
 from simgap.files import BenchmarkResults
 
@@ -52,23 +53,23 @@ def main() -> None:
             radius, angle = (float(x) for x in spec.split(","))
             xml = write_scenario(build_scenario("curve", {"radius": radius, "angle": angle}), Path(tmp), preview=False)
             scenario, problems = load_scenario(xml)
-            sections = read_metadata(xml).get("sections")
+            sections = RoadSections.of_json(read_metadata(xml).get("sections"))
             for vehicle in args.vehicles:
                 ideal_walls, hifi_walls = [], []
                 for _ in range(args.repeat):
                     ideal = execute(RunRequest(scenario=xml, backend="ideal", vehicles=vehicle, cosim=cosim))
                     hifi = execute(RunRequest(scenario=xml, backend="mujoco", vehicles=vehicle, cosim=cosim,
                                               backend_settings={"controller": args.controller}))
-                    ideal_walls.append(ideal.wall_time_s)
-                    hifi_walls.append(hifi.wall_time_s)
+                    ideal_walls.append(ideal.history.wall_time_s)
+                    hifi_walls.append(hifi.history.wall_time_s)
                 wi, wh = statistics.median(ideal_walls), statistics.median(hifi_walls)
-                cmp = compare_runs(ideal, hifi, scenario, problems, sections)[0]
+                cmp = compare_histories(ideal.history, hifi.history, scenario, problems, sections)[0]
                 by = cmp.by_section
-                tm = hifi.timings
+                tm = hifi.all_timings
                 phases = f"{tm['planning']:.2f}/{tm['execution']:.2f}/{tm['physics']:.2f}/{tm['control']:.2f}"
                 straight = by.get("straight")
                 curve = by.get("curve")
-                print(f"{radius:g} m {angle:g}°".ljust(10) + f" {vehicle:<6} {hifi.agents[0].outcome:<13} {wi:>9.2f} "
+                print(f"{radius:g} m {angle:g}°".ljust(10) + f" {vehicle:<6} {hifi.history.agents[0].outcome:<13} {wi:>9.2f} "
                       f"{wh:>10.2f} {wh / wi:>5.2f} {phases:>24} "
                       f"{cmp.lateral_displacement.rms:>6.3f}/{cmp.lateral_displacement.max:<7.3f}"
                       f"{straight.max if straight else float('nan'):>14.3f} {curve.max if curve else float('nan'):>11.3f}")

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simgap.cosim import CosimSettings
+from simgap.cosim import CosimSettings, History
 from simgap.scenario.road_frame import PathFrame
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import load_scenario
@@ -37,12 +37,12 @@ def generate(logical: str, out: Path, **params) -> list[Path]:
     return sorted(out.glob("*.xml"))
 
 
-def lane_centre_deviation(run, scenario_path: Path) -> float:
+def lane_centre_deviation(history: History, scenario_path: Path) -> float:
     """Largest distance of any planned position from the centre line of the lanelets it is on."""
     scenario, _ = load_scenario(scenario_path)
     centres = [PathFrame(l.center_vertices) for l in scenario.lanelet_network.lanelets]
     worst = 0.0
-    for plans in run.plans.values():
+    for plans in history.plans.values():
         pts = np.vstack([np.column_stack([p.x, p.y]) for p in plans])
         dists = np.min(np.vstack([np.abs(c.project(pts)[1]) for c in centres]), axis=0)
         worst = max(worst, float(dists.max()))
@@ -58,12 +58,12 @@ def timed_runs(out: Path) -> None:
             path = generate("curve", out / f"r{radius}a{angle}v{v0}", radius=radius, angle=angle,
                             initial_speed=v0)[0]
             for replan in (3, 1):
-                run = execute(RunRequest(scenario=path, cosim=CosimSettings(replan_every=replan)))
-                a = run.agents[0]
-                cycles = sum(len(p) for p in run.plans.values())
+                record = execute(RunRequest(scenario=path, cosim=CosimSettings(replan_every=replan)))
+                a = record.history.agents[0]
+                cycles = sum(len(p) for p in record.history.plans.values())
                 print(f"{radius:>6} {angle:>6} {v0:>8} {replan:>6} {a.outcome:>14} "
-                      f"{(a.time_to_goal_s or float('nan')):>10.1f} {cycles:>6} {run.wall_time_s:>8.2f} "
-                      f"{run.timings['planning']:>12.2f}")
+                      f"{(a.time_to_goal_s or float('nan')):>10.1f} {cycles:>6} {record.history.wall_time_s:>8.2f} "
+                      f"{record.all_timings['planning']:>12.2f}")
 
 
 def grid(out: Path) -> None:
@@ -73,13 +73,13 @@ def grid(out: Path) -> None:
     worst, walls, failures = 0.0, [], []
     t0 = time.perf_counter()
     for path in paths:
-        run = execute(RunRequest(scenario=path))
-        walls.append(run.wall_time_s)
-        o = run.agents[0].outcome
+        record = execute(RunRequest(scenario=path))
+        walls.append(record.history.wall_time_s)
+        o = record.history.agents[0].outcome
         outcomes[o] = outcomes.get(o, 0) + 1
         if o != "goal_reached":
             failures.append((path.stem, o))
-        worst = max(worst, lane_centre_deviation(run, path))
+        worst = max(worst, lane_centre_deviation(record.history, path))
     print(f"scenarios: {len(paths)}; outcomes: {outcomes}; total {time.perf_counter() - t0:.1f} s")
     print(f"run wall time: median {statistics.median(walls):.2f} s, max {max(walls):.2f} s")
     print(f"worst planned-path deviation from a lane centre: {worst:.2f} m")
@@ -91,12 +91,13 @@ def junctions(out: Path) -> None:
     print("\n## Multi-agent junctions (3 agents)")
     for logical in ("t-junction", "intersection"):
         path = generate(logical, out / logical, agents=3)[0]
-        run = execute(RunRequest(scenario=path))
-        print(f"{logical}: wall {run.wall_time_s:.2f} s")
-        for a in run.agents:
-            t_goal = "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f} s"
-            print(f"  agent {a.id}: {a.outcome:>13}  goal at {t_goal:>7}  "
-                  f"min distance to other agents {a.min_distance_to_traffic_m:.2f} m")
+        record = execute(RunRequest(scenario=path))
+        print(f"{logical}: wall {record.history.wall_time_s:.2f} s")
+        for a in record.agents:
+            ev = a.evaluation
+            t_goal = "—" if ev.time_to_goal_s is None else f"{ev.time_to_goal_s:.1f} s"
+            print(f"  agent {a.id}: {a.history.outcome:>13}  goal at {t_goal:>7}  "
+                  f"min distance to other agents {ev.min_distance_to_traffic_m:.2f} m")
 
 
 def main() -> None:

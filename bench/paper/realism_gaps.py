@@ -28,18 +28,19 @@ def gaps(root: Path) -> dict[str, dict]:
         reference = group.reference
         if reference is None:
             continue
-        ideal_score = reference.run.agents[0].score
+        ideal_score = reference.run.evaluation.agents[0].score
         for fidelity, entry in group.runs.items():
             if entry is reference:
                 continue
             row = by_fidelity[fidelity]
             row["max_d"] += [c.lateral_displacement.max for c in group.comparisons.get(fidelity, [])]
             agent = entry.run.agents[0]
-            if ideal_score is not None and agent.score is not None:
-                row["score_drop"].append(ideal_score - agent.score)
-            if agent.outcome != Outcome.GOAL_REACHED:
-                event = next((e for e in entry.run.events if e.kind == agent.outcome), None)
-                row["missed"].append({"scenario": group.scenario_id, "outcome": str(agent.outcome),
+            score, outcome = agent.evaluation.score, agent.history.outcome
+            if ideal_score is not None and score is not None:
+                row["score_drop"].append(ideal_score - score)
+            if outcome != Outcome.GOAL_REACHED:
+                event = next((e for e in entry.run.history.events if e.kind == outcome), None)
+                row["missed"].append({"scenario": group.scenario_id, "outcome": str(outcome),
                                       "detail": event.detail if event else ""})
     return dict(by_fidelity)
 

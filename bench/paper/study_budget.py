@@ -37,7 +37,6 @@ def sample_budget(root: Path, n: int) -> dict[str, float]:
     """Planning phases and per-run overhead of ``n`` of the study's jobs, run here again."""
     import simgap.experiment.single_run as single_run
     import simgap.planning.frenet as frenet
-    from simgap.cosim import Run
     from simgap.experiment.job import JobContext
     from simgap.experiment.runner import plan as plan_jobs
     from simgap.experiment.spec import load_spec
@@ -70,11 +69,12 @@ def sample_budget(root: Path, n: int) -> dict[str, float]:
         return result
 
     originals = [(frenet.FrenetPlanner, "plan", plan), (frenet.FrenetPlanner, "__init__", init),
-                 (single_run, "load_scenario", single_run.load_scenario), (Run, "save", Run.save)]
+                 (single_run, "load_scenario", single_run.load_scenario),
+                 (single_run, "write_run", single_run.write_run)]
     frenet.FrenetPlanner.plan = planning
     frenet.FrenetPlanner.__init__ = timed("planner built", init)
     single_run.load_scenario = timed("scenario loaded", single_run.load_scenario)
-    Run.save = timed("run written", Run.save)
+    single_run.write_run = timed("run written", single_run.write_run)
     try:
         with tempfile.TemporaryDirectory() as scratch:
             context = JobContext(Path(scratch), scenarios, experiment.planner_vehicle, validate=True)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simgap.evaluate.compare import compare_runs
+from simgap.evaluate.compare import compare_histories
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario
 from simgap.scenario.files import load_scenario, write_scenario
@@ -52,9 +52,10 @@ def main() -> None:
           f"{'max|dv| [m/s]':>13} {'peak a_y':>8}")
     series = {}
     for name, run in runs.items():
-        comparison = compare_runs(ideal, run, scenario, problems, run.sections or None)[0]
-        agent = run.agents[0]
-        driven, ref = run.driven[aid], ideal.driven[aid]
+        comparison = compare_histories(ideal.history, run.history, scenario, problems,
+                                       run.settings.sections or None)[0]
+        agent = run.history.agents[0]
+        driven, ref = run.history.driven[aid], ideal.history.driven[aid]
         n = min(len(driven.t), len(ref.t))
         dv = np.abs(np.asarray(driven.v[:n]) - np.asarray(ref.v[:n]))
         a_y = np.abs(np.asarray(driven.v) * np.asarray(driven.yaw_rate))
@@ -70,7 +71,7 @@ def main() -> None:
         import matplotlib.pyplot as plt
 
         fig, (ax_d, ax_v) = plt.subplots(1, 2, figsize=(11, 3.6))
-        ax_v.plot(ideal.driven[aid].t, ideal.driven[aid].v, color="black", lw=1.5, label="ideal")
+        ax_v.plot(ideal.history.driven[aid].t, ideal.history.driven[aid].v, color="black", lw=1.5, label="ideal")
         for name, (s, d, t, v) in series.items():
             ax_d.plot(s, d, lw=1.2, label=name)
             ax_v.plot(t, v, lw=1.2, label=name)

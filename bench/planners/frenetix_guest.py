@@ -6,9 +6,9 @@ Every run is `simgap run SCENARIO --backend B --planner P --replan-every 3` (the
 every third step), the guest as ``exec:.venv/bin/python serve.py`` with a planning deadline of
 ``--deadline`` seconds (Frenetix takes 0.2-0.6 s per call on average here, up to 5 s on the
 loaded shared machine); every pair of worlds is
-`simgap compare`. Per planner and world: goals reached, the closed-loop score (run.json
-agents[].score), the largest distance from the route's lane centre (run.json
-metrics.max_lateral_offset_m), planning cycles without a plan and the mean wall time per planning
+`simgap compare`. Per planner and world: goals reached, the closed-loop score (the run record's
+agents' score), the largest distance from the route's lane centre (its metric
+max_lateral_offset_m), planning cycles without a plan and the mean wall time per planning
 call; per planner: max |d| per curve (|d_mujoco - d_ideal| at equal arc length along the lane
 centre, `simgap compare`'s lateral displacement, the paper's metric), its median and maximum over
 the curves, and the grid of it. Writes bench/results/frenetix_guest.json.
@@ -79,7 +79,10 @@ def world(backend: str, latency: str) -> str:
 
 
 def run(scenario: Path, planner: str, backend: str, out: Path, deadline: float, latency: str, fresh: bool) -> dict:
-    """One `simgap run` (reused from ``out`` unless ``fresh``): its run.json, with "reused" added."""
+    """One `simgap run` (reused from ``out`` unless ``fresh``): its record as `simgap run --json` prints
+    it, with its metrics and "reused" added."""
+    from simgap.record import read_run
+
     record = out / "run.json"
     reused = record.exists() and not fresh
     if not reused:
@@ -90,7 +93,8 @@ def run(scenario: Path, planner: str, backend: str, out: Path, deadline: float, 
         done = subprocess.run(command, capture_output=True, text=True, env={"MUJOCO_GL": "egl", **os.environ})
         if done.returncode != 0 or not record.exists():
             return {"failure": f"simgap run exited {done.returncode}: {done.stderr.strip()[-600:]}", "agents": []}
-    return {**json.loads(record.read_text()), "reused": reused}
+    kept = read_run(out)
+    return {**kept.summary(), "metrics": dict(kept.evaluation.metrics), "reused": reused}
 
 
 def compare(ideal: Path, mujoco: Path) -> float | None:

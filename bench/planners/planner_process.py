@@ -18,7 +18,7 @@ segfaults, one that returns garbage (a dict). Every run must be recorded, none l
 and the batch must finish; prints the store's rows (status, outcome, the reason) and the wall time.
 
     MUJOCO_GL=egl .venv/bin/python bench/planners/planner_process.py [--json bench/results/planner_process.json]
-        [--part overhead|hostile|all]
+        [--part overhead|hostile|all] [--workers 2]
 
 On 2 cores, run it with the machine otherwise idle (or pinned: taskset -c 1).
 """
@@ -26,7 +26,6 @@ On 2 cores, run it with the machine otherwise idle (or pinned: taskset -c 1).
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
@@ -43,6 +42,7 @@ from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.registry import load_planner
 from simgap.planning.remote import IsolatedPlannerClass
+from simgap.record import read_run
 from simgap.scenario import build_scenario, load_scenario
 from simgap.scenario.files import write_scenario
 from simgap.sim.registry import make_backend
@@ -80,8 +80,8 @@ def observed_states(xml: Path) -> tuple[list, PlannerSetup]:
     problem = next(iter(problems.planning_problem_dict.values()))
     setup = PlannerSetup(problem.planning_problem_id, sedan, scenario.lanelet_network, problem, float(scenario.dt))
     agents = agents_from_problems(problems, scenario.dt, sedan)
-    run = simulate(scenario, problems, make_backend("ideal"), agents, {setup.agent_id: FrenetPlanner(setup)})
-    return list(run.driven[setup.agent_id])[:-1], setup
+    history = simulate(scenario, problems, make_backend("ideal"), agents, {setup.agent_id: FrenetPlanner(setup)})
+    return list(history.driven[setup.agent_id])[:-1], setup
 
 
 def call_times(planner, states, setup: PlannerSetup) -> np.ndarray:
@@ -124,7 +124,7 @@ def overhead(folder: Path) -> dict:
     return {"calls": rows, "overhead": summary}
 
 
-def hostile(folder: Path) -> dict:
+def hostile(folder: Path, workers: int = 2) -> dict:
     spec = folder / "hostile.yaml"
     spec.write_text(textwrap.dedent(f"""\
         name: hostile-planners
@@ -145,7 +145,7 @@ def hostile(folder: Path) -> dict:
     out = folder / "experiment"
     clock = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                           "--workers", "2", "--no-report"], capture_output=True, text=True)
+                           "--workers", str(workers), "--no-report"], capture_output=True, text=True)
     wall = time.perf_counter() - clock
     rows = sorted(({k: r.get(k) for k in ("key", "planner", "status", "outcome", "failure")}
                    for r in ResultsStore(out).rows()), key=lambda r: (r["planner"], r["key"]))
@@ -153,9 +153,9 @@ def hostile(folder: Path) -> dict:
     run_dirs = [p.parent.relative_to(out / "runs") for p in run_files]
     reasons = {}
     for path, folder in zip(run_files, run_dirs):       # why each agent ended: its last event's detail
-        record = json.loads(path.read_text())
+        history = read_run(path.parent).history
         reasons[(folder.parts[0], folder.name.partition("@")[2])] = next(
-            (e["detail"] for e in reversed(record["events"]) if e["kind"] == record["agents"][0]["outcome"]), "")
+            (e.detail for e in reversed(history.events) if e.kind == history.agents[0].outcome), "")
     print(f"experiment exit code {done.returncode}, wall time {wall:.1f} s, {len(rows)} rows, "
           f"{len(set(r['key'] for r in rows))} distinct keys, {len(run_dirs)} run directories")
     for r in rows:
@@ -170,6 +170,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", type=Path)
     parser.add_argument("--part", choices=("overhead", "hostile", "all"), default="all")
+    parser.add_argument("--workers", type=int, default=2, help="the hostile experiment's workers")
     args = parser.parse_args()
     results_file = BenchmarkResults()
     result = {}
@@ -177,7 +178,7 @@ def main() -> None:
         if args.part in ("overhead", "all"):
             result["overhead"] = overhead(Path(tmp))
         if args.part in ("hostile", "all"):
-            result["hostile"] = hostile(Path(tmp))
+            result["hostile"] = hostile(Path(tmp), args.workers)
     if args.json:
         results_file.write(args.json, result)
 

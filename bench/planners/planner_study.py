@@ -25,16 +25,17 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from simgap.files import BenchmarkResults
-from simgap.cosim import CosimSettings, Run, simulate
+from simgap.cosim import CosimSettings, History, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.closed_loop_score import score_drop
-from simgap.evaluate.compare import compare_runs
-from simgap.evaluate.run_scores import check_run_solution, score_run
+from simgap.evaluate.compare import compare_histories
+from simgap.evaluate.run_evaluation import EvaluationContext, RunEvaluation, evaluate, with_validity
 from simgap.evaluate.validity import SolutionCheckCache
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import load_planner
 from simgap.scenario import build_scenario
-from simgap.sim.registry import make_backend
+from simgap.sim.registry import backend_settings, make_backend
+from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
 
 
@@ -107,21 +108,21 @@ def _run(template: str, params: dict, planner: str, backend: str, replan_every: 
         a.id, sedan, scenario.lanelet_network, problems.planning_problem_dict[a.id], scenario.dt), None))
         for a in agents}
     cosim = CosimSettings(replan_every=replan_every)
-    run = simulate(scenario, problems, make_backend(backend), agents, timed, cosim)
+    settings = backend_settings(backend)
+    history = simulate(scenario, problems, make_backend(backend, settings), agents, timed, cosim)
     seconds = [s for p in timed.values() for s in p.seconds]
-    run.vehicles = {a.id: a.vehicle for a in agents}
-    solution = score_run(run, scenario, problems, cosim, sedan, None)
-    check_run_solution(run, solution, scenario, problems, None, SolutionCheckCache())
-    return built, run, seconds
+    context = EvaluationContext(scenario, problems, cosim, road_friction(settings), sedan, criticality=False)
+    evaluation = with_validity(evaluate(history, context), history, context, SolutionCheckCache())
+    return built, history, evaluation, seconds
 
 
-def _mean_time_to_goal(run: Run) -> float | None:
-    times = [a.time_to_goal_s for a in run.agents if a.time_to_goal_s is not None]
+def _mean_time_to_goal(history: History) -> float | None:
+    times = [a.time_to_goal_s for a in history.agents if a.time_to_goal_s is not None]
     return float(np.mean(times)) if times else None
 
 
-def _outcomes(run: Run) -> str:
-    return ",".join(str(a.outcome.value) for a in run.agents)
+def _outcomes(history: History) -> str:
+    return ",".join(str(a.outcome.value) for a in history.agents)
 
 
 def study(scenarios: list[str], planners: list[str], replan_every: int) -> list[Row]:
@@ -130,16 +131,17 @@ def study(scenarios: list[str], planners: list[str], replan_every: int) -> list[
         template, params = SCENARIOS[name]
         for planner in planners:
             clock = time.perf_counter()
-            runs, seconds, built = {}, [], None
+            runs, evaluations, seconds, built = {}, {}, [], None
             for backend in BACKENDS:
-                built, runs[backend], calls = _run(template, params, planner, backend, replan_every)
+                built, runs[backend], evaluations[backend], calls = _run(template, params, planner, backend,
+                                                                         replan_every)
                 seconds += calls
-            comparisons = compare_runs(runs["ideal"], runs["mujoco"], built.scenario, built.problems,
-                                       {str(k): v for k, v in built.sections.items()})
+            comparisons = compare_histories(runs["ideal"], runs["mujoco"], built.scenario, built.problems,
+                                            built.sections)
             gaps = [c.lateral_displacement for c in comparisons if np.isfinite(c.lateral_displacement.max)]
             ms = 1000.0 * np.asarray(seconds)
             ideal, mujoco = runs["ideal"], runs["mujoco"]
-            scores = _scores(ideal, mujoco)
+            scores = _scores(evaluations["ideal"], evaluations["mujoco"])
             rows.append(Row(
                 name, planner, len(ideal.agents),
                 sum(a.outcome == "goal_reached" for a in ideal.agents),
@@ -153,7 +155,7 @@ def study(scenarios: list[str], planners: list[str], replan_every: int) -> list[
     return rows
 
 
-def _scores(ideal: Run, mujoco: Run) -> dict:
+def _scores(ideal: RunEvaluation, mujoco: RunEvaluation) -> dict:
     """The score columns of a row: per fidelity the mean score, the summed cost and the valid count;
     the mean drop and the component that explains most of it; the solutions that broke."""
     weights = CosimSettings().score.weights

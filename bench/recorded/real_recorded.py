@@ -121,8 +121,8 @@ def run_one(task: tuple[Path, str, str, str, str, Path | None, str | None]) -> l
     try:
         excluded = start_conflicts(xml)
         humans = human_outcomes(xml)
-        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic, **({"latency": latency} if latency else {})),
-                                 planner=parse_planners(planner, planner_config)))
+        record = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic, **({"latency": latency} if latency else {})),
+                                    planner=parse_planners(planner, planner_config)))
     except InputError as exc:
         return [AgentResult(xml.stem, kind, world, None, "refused", str(exc), time.perf_counter() - clock)]
     except Exception as exc:  # noqa: BLE001 - the benchmark reports every crash as an outcome
@@ -130,8 +130,8 @@ def run_one(task: tuple[Path, str, str, str, str, Path | None, str | None]) -> l
                             time.perf_counter() - clock)]
     wall = time.perf_counter() - clock
     results = []
-    for agent in run.agents:
-        events = [e for e in run.events if e.agent_id == agent.id and e.kind == agent.outcome]
+    for agent in record.history.agents:
+        events = [e for e in record.history.events if e.agent_id == agent.id and e.kind == agent.outcome]
         reason = events[-1].detail if events else ""
         if agent.outcome == "collision" and events:
             reason = f"with {events[-1].other_id} at t = {events[-1].t:.1f} s: {reason}"

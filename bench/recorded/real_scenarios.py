@@ -49,14 +49,14 @@ def run_one(xml: Path, world: str, traffic: str) -> tuple[list[tuple[str, str]],
     """(outcome, reason) of every agent of the scenario, and the wall time."""
     clock = time.perf_counter()
     try:
-        run = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic)))
+        history = execute(RunRequest(scenario=xml, backend=world, cosim=CosimSettings(traffic=traffic))).history
     except InputError as exc:
         return [("refused", str(exc))], time.perf_counter() - clock
     except Exception as exc:  # noqa: BLE001 - the benchmark reports every crash as an outcome
         return [("error", f"{type(exc).__name__}: {exc}")], time.perf_counter() - clock
     results = []
-    for agent in run.agents:
-        events = [e for e in run.events if e.agent_id == agent.id and e.kind == agent.outcome]
+    for agent in history.agents:
+        events = [e for e in history.events if e.agent_id == agent.id and e.kind == agent.outcome]
         reason = events[-1].detail if events else ""
         if agent.outcome == "collision" and events:
             reason = f"with {events[-1].other_id} at t = {events[-1].t:.1f} s"

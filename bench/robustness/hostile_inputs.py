@@ -35,7 +35,6 @@ and not the machine's other work.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import resource
 import shutil
@@ -180,10 +179,14 @@ def expect_refusal(p: Proc, *names: str) -> Outcome:
 
 
 def run_record(out: Path) -> dict | None:
+    """The run's record as `simgap run --json` prints it, with its events (None: none that reads)."""
+    from simgap.errors import InputError
+    from simgap.record import read_run
     try:
-        return json.loads((out / "run.json").read_text())
-    except (OSError, ValueError):
+        record = read_run(out)
+    except (InputError, OSError, ValueError):
         return None
+    return record.summary() | {"events": [asdict(e) for e in record.history.events]}
 
 
 def failure_reason(record: dict) -> str | None:

@@ -92,14 +92,16 @@ def recorded_like_highway(folder: Path, cars: int = 24, seed: int = 0) -> Path:
 
 
 def measure(name: str, xml: Path, backend: str, folder: Path) -> dict:
-    run = execute(RunRequest(xml, backend=backend, validate=False), folder / f"{name}-{backend}")
+    record = execute(RunRequest(xml, backend=backend, validate=False), folder / f"{name}-{backend}")
+    history = record.history
     scenario, problems = load_scenario(xml)
     cosim, planner_vehicle = CosimSettings(), load_vehicle("sedan")
+    excursions = {a.id: a.max_road_excursion_m for a in record.evaluation.agents}    # measured with the run
     clock = time.perf_counter()
-    closed_loop_scores(run, scenario, problems, cosim)
+    closed_loop_scores(history, scenario, problems, cosim, excursions)
     score_s = time.perf_counter() - clock
     clock = time.perf_counter()
-    solution = run_solution(run, scenario, vehicle_type_of(planner_vehicle), cost_function_of(xml, cosim.cost_function))
+    solution = run_solution(history, scenario, vehicle_type_of(planner_vehicle), cost_function_of(xml, cosim.cost_function))
     costs = solution_costs(solution, scenario, problems)
     cost_s = time.perf_counter() - clock
     cache = SolutionCheckCache(folder / f"cache-{name}-{backend}")
@@ -110,12 +112,12 @@ def measure(name: str, xml: Path, backend: str, folder: Path) -> dict:
     _, cached = checked_solution(solution, scenario, problems, xml, cache)
     cached_s = time.perf_counter() - clock
     states = sum(len(p.trajectory.state_list) for p in solution.planning_problem_solutions)
-    agent = run.agents[0]
-    return {"scenario": name, "world": backend, "outcome": str(agent.outcome.value), "states": states,
-            "wall_s": run.wall_time_s, "score_s": score_s, "cost_s": cost_s,
-            "share": (score_s + cost_s) / run.wall_time_s, "check_s": check_s,
+    agent = record.agents[0]
+    return {"scenario": name, "world": backend, "outcome": str(agent.history.outcome.value), "states": states,
+            "wall_s": history.wall_time_s, "score_s": score_s, "cost_s": cost_s,
+            "share": (score_s + cost_s) / history.wall_time_s, "check_s": check_s,
             "ms_per_state": 1000 * check_s / max(states, 1), "cached_s": cached_s if cached else math.nan,
-            "score": agent.score, "cost": costs[agent.id].total if agent.id in costs else None,
+            "score": agent.evaluation.score, "cost": costs[agent.id].total if agent.id in costs else None,
             "A": costs[agent.id].partial.get("A").weighted if agent.id in costs and "A" in costs[agent.id].partial else None,
             "valid": checks[agent.id].valid, "reason": checks[agent.id].reason, "obstacles": len(scenario.obstacles)}
 

@@ -12,7 +12,6 @@ recursively — an experiment's ``runs/``, a study's output.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -24,10 +23,11 @@ from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
 
 from simgap.evaluate.feasibility import ks_feasibility
 from simgap.files import BenchmarkResults
+from simgap.record import read_run
 
 
 def _dt(run_dir: Path) -> float:
-    return float(json.loads((run_dir / "run.json").read_text())["dt"])
+    return float(read_run(run_dir).history.dt)
 
 
 def compare(run_dir: Path) -> list[dict]:

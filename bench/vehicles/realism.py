@@ -111,11 +111,12 @@ def track(backend: str, scenario_name: str, params: dict, controller: str, setti
     planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan,
                                                              scenario.lanelet_network)) for a in agents}
     start = time.perf_counter()
-    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings | {"controller": controller})),
-                   agents, planners, CosimSettings(**cosim))
+    history = simulate(scenario, problems,
+                       make_backend(backend, backend_settings(backend, settings | {"controller": controller})),
+                       agents, planners, CosimSettings(**cosim))
     frame = route_centre(scenario.lanelet_network, problems.planning_problem_dict[1])
-    lateral = np.abs(frenet_tracking_errors(run.driven[1], run.plans[1], frame).lateral)
-    return {"outcome": str(run.agents[0].outcome), "rms_m": float(np.sqrt(np.mean(lateral ** 2))),
+    lateral = np.abs(frenet_tracking_errors(history.driven[1], history.plans[1], frame).lateral)
+    return {"outcome": str(history.agents[0].outcome), "rms_m": float(np.sqrt(np.mean(lateral ** 2))),
             "peak_m": float(lateral.max()), "wall_s": time.perf_counter() - start}
 
 

@@ -152,7 +152,7 @@ def test_compare_refuses_runs_of_different_scenarios(two_curves):
 
 def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curves, tmp_path):
     from simgap.cli.outputs import check_run_out
-    from simgap.cosim import Run
+    from simgap.record import read_run
     from simgap.errors import InputError
     from simgap.experiment.single_run import RunRequest
 
@@ -163,14 +163,14 @@ def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curv
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
     assert_clean_error(proc, f"{out}: holds a run of curve_radius-50_angle-30 (backend ideal, vehicle sedan, "
                              "planner frenet); not replaced", "--overwrite")
-    assert Run.load(out).scenario_id == "curve_radius-50_angle-30"         # the first run is kept
+    assert read_run(out).scenario_id == "curve_radius-50_angle-30"         # the first run is kept
     same = RunRequest(scenario=two_curves / "curve_radius-50_angle-30.xml")
     check_run_out(out, same, overwrite=False)                               # the very same run may replace it
     for changed in ({"backend": "dynamic"}, {"vehicles": "suv"}, {"vehicles": {1: "city"}}):
         with pytest.raises(InputError, match="holds a run of"):
             check_run_out(out, RunRequest(scenario=same.scenario, **changed), overwrite=False)
     assert simgap("run", other, "--no-validate", "--replan-every", "3", "--out", str(out), "--overwrite").returncode == 0
-    assert Run.load(out).scenario_id == "curve_radius-50_angle-60"
+    assert read_run(out).scenario_id == "curve_radius-50_angle-60"
 
     notes = tmp_path / "notes"
     notes.mkdir()

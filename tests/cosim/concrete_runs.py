@@ -14,6 +14,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.scenario.ground import ground_of
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.vehicles import load_vehicle
+from evaluated import recorded
 
 
 def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0,
@@ -27,7 +28,8 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
     planners = {a.id: planner_of(FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan,
                                                                         scenario.lanelet_network)))
                 for a in agents}
-    run = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
-                   CosimSettings(**(cosim or {})), seed=seed,
-                   relief=ground_of(concrete.metadata(), scenario.lanelet_network))
-    return run, run_metrics(run, scenario, problems, knob_value("road_friction", settings))
+    loop = CosimSettings(**(cosim or {}))
+    history = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
+                       loop, seed=seed, relief=ground_of(concrete.metadata(), scenario.lanelet_network))
+    return (recorded(history, scenario, problems, loop),
+            run_metrics(history, scenario, problems, knob_value("road_friction", settings)))

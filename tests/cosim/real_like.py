@@ -23,6 +23,7 @@ from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
+from evaluated import recorded
 
 DT = 0.1
 LANE = 3.5
@@ -91,12 +92,14 @@ def recorded_car(oid: int, x: float, lane: int, v: float, steps: int, shape=None
 
 def run_ego(scenario: Scenario, initial: InitialState, goal: GoalRegion, backend=None, settings=None,
             planner_settings=None):
-    """One ego agent (planning problem 1) with the Frenet planner; returns the `Run`."""
+    """One ego agent (planning problem 1) with the Frenet planner; returns its `RunRecord`."""
     problems = PlanningProblemSet([PlanningProblem(1, initial, goal)])
     sedan = load_vehicle("sedan")
     agents = agents_from_problems(problems, DT, sedan)
     planner = FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[1], sedan, scenario.lanelet_network), planner_settings)
-    return simulate(scenario, problems, backend or IdealBackend(), agents, {1: planner}, settings or CosimSettings())
+    settings = settings or CosimSettings()
+    return recorded(simulate(scenario, problems, backend or IdealBackend(), agents, {1: planner}, settings),
+                    scenario, problems, settings)
 
 
 __all__ = ["Circle", "box_goal", "highway", "lane_y", "lanelet_goal", "recorded_car", "run_ego", "start"]

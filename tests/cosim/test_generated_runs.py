@@ -17,6 +17,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
+from evaluated import recorded
 
 
 def run_ideal(concrete, replan_every=1):
@@ -25,23 +26,24 @@ def run_ideal(concrete, replan_every=1):
     agents = agents_from_problems(problems, scenario.dt, sedan)
     planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], sedan, scenario.lanelet_network))
                 for a in agents}
-    return simulate(scenario, problems, IdealBackend(), agents, planners, CosimSettings(replan_every=replan_every))
+    return recorded(simulate(scenario, problems, IdealBackend(), agents, planners,
+                             CosimSettings(replan_every=replan_every)), scenario, problems)
 
 
 @pytest.mark.parametrize("radius, angle", [(10, -180), (10, 180), (100, -180), (100, 180)])
 def test_curve_grid_corners_reach_the_goal(radius, angle):
     run = run_ideal(build_scenario("curve", {"radius": radius, "angle": angle}), replan_every=3)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.events
+    assert agent.outcome == "goal_reached", run.history.events
     assert agent.max_road_excursion_m == 0.0
 
 
 @pytest.mark.parametrize("logical", ["t-junction", "intersection"])
 def test_three_agents_cross_a_junction_without_collision(logical):
     run = run_ideal(build_scenario(logical, {"agents": 3}))
-    assert [a.outcome for a in run.agents] == ["goal_reached"] * 3, run.events
+    assert [a.outcome for a in run.agents] == ["goal_reached"] * 3, run.history.events
     assert min(a.min_distance_to_traffic_m for a in run.agents) > 0.0
-    assert not [e for e in run.events if e.kind == "collision"]
+    assert not [e for e in run.history.events if e.kind == "collision"]
 
 
 def test_recorded_obstacle_is_traffic_the_planner_avoids():
@@ -60,5 +62,5 @@ def test_recorded_obstacle_is_traffic_the_planner_avoids():
     scenario.add_objects(obstacle)
     run = run_ideal(concrete)
     (agent,) = run.agents
-    assert agent.outcome != "collision", run.events
+    assert agent.outcome != "collision", run.history.events
     assert 0.0 < agent.min_distance_to_traffic_m < 10.0   # it met the obstacle, and kept clear of it

@@ -16,7 +16,9 @@ from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 
-from simgap.cosim import CosimSettings, EventKind, Run, simulate
+from evaluated import recorded
+from simgap.cosim import CosimSettings, EventKind, simulate
+from simgap.record import read_run, write_run
 from simgap.cosim.agents import agents_from_problems
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.relief import ElevationProfile, ReliefProfile, RoadRelief
@@ -68,10 +70,11 @@ class StraightLine:
 
 
 def run(problems, planners, settings=None):
+    """The run simulated, evaluated and recorded (`RunRecord`)."""
     scenario = straight_road()
     pps = PlanningProblemSet(problems)
     agents = agents_from_problems(pps, DT, load_vehicle("sedan"))
-    return simulate(scenario, pps, IdealBackend(), agents, planners, settings)
+    return recorded(simulate(scenario, pps, IdealBackend(), agents, planners, settings), scenario, pps, settings)
 
 
 def test_single_agent_reaches_goal_at_the_expected_time():
@@ -87,7 +90,7 @@ def test_head_on_agents_collide():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 190), problem(2, 190, 1.75, math.pi, 10.0, 10)],
                  {1: StraightLine(10.0), 2: StraightLine(10.0)})
     assert [a.outcome for a in result.agents] == ["collision", "collision"]
-    ev = [e for e in result.events if e.kind == "collision"]
+    ev = [e for e in result.history.events if e.kind == "collision"]
     assert {e.other_id for e in ev} == {1, 2}
     assert all(a.min_distance_to_traffic_m == 0.0 for a in result.agents)
 
@@ -98,19 +101,19 @@ def test_planner_failure_triggers_emergency_stop():
     (agent,) = result.agents
     assert agent.outcome == "planner_failure"
     assert agent.planner_failures == 3
-    v = result.driven[1].v
+    v = result.history.driven[1].v
     assert v[-1] < v[5]  # it braked
-    assert any(e.kind == "planner_no_solution" for e in result.events)
+    assert any(e.kind == "planner_no_solution" for e in result.history.events)
 
 
 def test_a_crashing_planner_fails_its_agent_with_the_reason(tmp_path):
     settings = CosimSettings(planner_failure_limit=2)
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=3, crash=True)}, settings)
     assert result.agents[0].outcome == "planner_failure"
-    assert any("RuntimeError: solver exploded" in e.detail for e in result.events)
-    assert [e.kind for e in result.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [EventKind.PLANNER_FAILURE]
-    result.save(tmp_path / "run")
-    assert Run.load(tmp_path / "run").events == result.events       # typed again when read
+    assert any("RuntimeError: solver exploded" in e.detail for e in result.history.events)
+    assert [e.kind for e in result.history.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [EventKind.PLANNER_FAILURE]
+    write_run(result, tmp_path / "run")
+    assert read_run(tmp_path / "run").history.events == result.history.events       # typed again when read
 
 
 def test_leaving_the_road_is_off_road():
@@ -123,13 +126,10 @@ def test_leaving_the_road_is_off_road():
 def test_run_record_reloads_equal(tmp_path):
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0)},
                  CosimSettings(replan_every=3))
-    result.save(tmp_path / "run")
-    again = Run.load(tmp_path / "run")
+    write_run(result, tmp_path / "run")
+    again = read_run(tmp_path / "run")
     assert again.fingerprint == result.fingerprint
-    assert again.driven[1] == result.driven[1]
-    assert len(again.plans[1]) == len(result.plans[1])
-    assert all(a == b for a, b in zip(sorted(again.plans[1], key=lambda p: p.t[0]), result.plans[1]))
-    assert again.agents == result.agents
+    assert again == result            # history (states, plans, observations, call times), evaluation, settings
 
 
 def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal_world_none(tmp_path):
@@ -137,18 +137,20 @@ def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal
                         centre_line([Straight(length=200.0)], start=(0.0, 1.75), max_step=0.2))
     problems = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150)])
     agents = agents_from_problems(problems, DT, load_vehicle("sedan"))
-    ideal = simulate(straight_road(), problems, IdealBackend(), agents, {1: StraightLine(10.0)}, relief=relief)
-    assert ideal.attitudes == {}
-    ideal.save(tmp_path / "ideal")
+    ideal = recorded(simulate(straight_road(), problems, IdealBackend(), agents, {1: StraightLine(10.0)},
+                              relief=relief), straight_road(), problems)
+    assert ideal.history.agents[0].attitudes == ()
+    write_run(ideal, tmp_path / "ideal")
     assert "z" not in pq.read_table(tmp_path / "ideal" / "trajectories.parquet").column_names
-    physical = simulate(straight_road(), problems, make_backend("dynamic"), agents, {1: StraightLine(10.0)}, relief=relief)
-    attitudes, driven = physical.attitudes[1], physical.driven[1]
+    physical = recorded(simulate(straight_road(), problems, make_backend("dynamic"), agents, {1: StraightLine(10.0)},
+                                 relief=relief), straight_road(), problems)
+    attitudes, driven = physical.history.agents[0].attitudes, physical.history.driven[1]
     assert len(attitudes) == len(driven)
     assert np.array([a.pitch for a in attitudes]) == pytest.approx(math.atan(0.05), abs=1e-4)   # (its heading wavers)
     assert np.array([a.z for a in attitudes]) == pytest.approx(0.05 * driven.x + 0.61373 / math.cos(math.atan(0.05)),
                                                                 abs=1e-3)
-    physical.save(tmp_path / "dynamic")
-    assert Run.load(tmp_path / "dynamic").attitudes == physical.attitudes
+    write_run(physical, tmp_path / "dynamic")
+    assert read_run(tmp_path / "dynamic").history.agents[0].attitudes == attitudes
 
 
 def test_replan_every_n_plans_less_often():
@@ -169,7 +171,7 @@ def test_the_goals_time_window_is_the_deadline_not_a_default_cap():
 
 def test_a_timeout_says_why_the_goal_was_missed():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50)], {1: StraightLine(10.0)})
-    (event,) = [e for e in result.events if e.kind == "timeout"]
+    (event,) = [e for e in result.history.events if e.kind == "timeout"]
     assert result.agents[0].outcome == "timeout"
     assert "goal not reached by t = 5.0 s: never inside the goal position" in event.detail
 
@@ -222,9 +224,9 @@ def test_a_plan_the_loop_cannot_execute_fails_its_cycle_with_the_reason(make, re
                  CosimSettings(planner_failure_limit=2))
     (agent,) = result.agents
     assert agent.outcome == "planner_failure" and agent.planner_failures == 2 and agent.planner_exceptions == 0
-    failed = [e for e in result.events if e.kind == "planner_no_solution"]
+    failed = [e for e in result.history.events if e.kind == "planner_no_solution"]
     assert failed[0].t == pytest.approx(0.3) and "invalid plan: " in failed[0].detail and reason in failed[0].detail
-    assert len(result.plans[1]) == 3
+    assert len(result.history.plans[1]) == 3
 
 
 def test_plans_are_cut_to_the_horizon_cap():
@@ -232,7 +234,7 @@ def test_plans_are_cut_to_the_horizon_cap():
 
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=20)],
                  {1: Returns(lambda s, t, dt: line(t, dt, n=1_000_000, x=s.x + 10 * dt * np.arange(1_000_000)))})
-    plans = result.plans[1]
+    plans = result.history.plans[1]
     assert len(plans) == 20 and result.agents[0].planner_failures == 0
     assert {len(p) for p in plans} == {int(MAX_PLAN_HORIZON_S / DT) + 1}
     assert plans[5].t_end == pytest.approx(0.5 + MAX_PLAN_HORIZON_S)
@@ -258,8 +260,8 @@ def test_a_planner_that_exits_or_interrupts_fails_its_cycles_not_the_process(exc
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Exits(exc)}, CosimSettings(planner_failure_limit=2))
     (agent,) = result.agents
     assert agent.outcome == "planner_failure" and agent.planner_exceptions == 2
-    assert f"planner raised {text}" in result.events[0].detail
-    assert result.planner_errors[0].exception == type(exc).__name__
+    assert f"planner raised {text}" in result.history.events[0].detail
+    assert result.history.planner_errors[0].exception == type(exc).__name__
 
 
 class NeverReturns:
@@ -303,15 +305,18 @@ def parked_cars(scenario, rows: int, first_row_y: float = 100.0):
 
 def test_far_away_obstacles_add_no_footprint_checks(monkeypatch):
     import simgap.cosim.loop as loop
+    import simgap.evaluate.closest_approach as closest_approach
 
     built = []
-    monkeypatch.setattr(loop, "footprint", lambda *shape: built.append(shape) or footprint(*shape))
+    for module in (loop, closest_approach):         # the monitors, and the measure of the closest approach
+        monkeypatch.setattr(module, "footprint", lambda *shape: built.append(shape) or footprint(*shape))
     pps = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=30)])
     gaps, footprints = [], []
     for rows in (1, 50):            # 100 and 5000 parked cars
         built.clear()
-        result = simulate(parked_cars(straight_road(), rows), pps, IdealBackend(),
-                          agents_from_problems(pps, DT, load_vehicle("sedan")), {1: StraightLine(10.0)})
+        scenario = parked_cars(straight_road(), rows)
+        result = recorded(simulate(scenario, pps, IdealBackend(), agents_from_problems(pps, DT, load_vehicle("sedan")),
+                                   {1: StraightLine(10.0)}), scenario, pps)
         gaps.append(result.agents[0].min_distance_to_traffic_m)
         footprints.append(len(built))
     assert gaps[0] == gaps[1] == pytest.approx(100 - 0.9 - 1.75 - load_vehicle("sedan").width / 2, abs=1e-3)

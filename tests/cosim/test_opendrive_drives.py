@@ -37,14 +37,14 @@ def test_a_public_opendrive_road_is_driven_to_its_goal(road, backend):
         assert agent.max_road_excursion_m == 0.0
     if backend != "mujoco":
         return
-    attitude = run.attitudes[agent.id]
+    attitude = run.history.agent(agent.id).attitudes
     z = np.array([a.z for a in attitude])
     roll = np.degrees([a.roll for a in attitude])
     surface = network_surface(concrete.opendrive, concrete.scenario.lanelet_network)
     if surface is None:                            # a flat road: the car's height stays (its body rolls in turns)
         assert np.ptp(z) < 0.05
         return
-    driven = run.driven[agent.id]
+    driven = run.history.driven[agent.id]
     ground = surface.surface(driven.x, driven.y)
     # the car's centre of gravity follows the file's ground: it stands its height off the surface,
     # along the normal (h / n_z above the ground below it), within 0.15 m (its suspension's travel:

@@ -30,7 +30,7 @@ def test_an_ngsim_goal_is_met_inside_its_time_velocity_and_orientation_windows()
     agent = _only_outcome(run)
     assert agent.outcome == "goal_reached"
     assert 9.0 <= agent.time_to_goal_s <= 10.0
-    assert run.driven[1].v[-1] <= 3.1
+    assert run.history.driven[1].v[-1] <= 3.1
 
 
 def test_arriving_too_early_slows_down_and_waits():
@@ -48,7 +48,7 @@ def test_an_early_arrival_in_a_long_goal_lanelet_keeps_to_its_velocity_window_un
     run = run_ego(scenario, start(200, 0, 4.8), lanelet_goal(scenario, 11, (146, 147), (-3.24, 9.76)))
     agent = _only_outcome(run)
     assert agent.outcome == "goal_reached" and 14.6 <= agent.time_to_goal_s <= 14.7
-    driven = run.driven[1]
+    driven = run.history.driven[1]
     in_lanelet = driven.x >= 300.0
     assert in_lanelet.any() and driven.v[in_lanelet].max() <= 9.76
 
@@ -62,7 +62,7 @@ def test_an_early_arrival_with_a_velocity_floor_is_up_to_speed_when_the_window_o
                   box_goal(87, 0, (86, 90), (10.6, 16.6), (4.0, 2.0)))
     agent = _only_outcome(run)
     assert agent.outcome == "goal_reached" and 8.6 <= agent.time_to_goal_s <= 9.0
-    driven = run.driven[1]
+    driven = run.history.driven[1]
     assert float(np.interp(8.6, driven.t, driven.v)) >= 10.6
 
 
@@ -71,7 +71,7 @@ def test_a_goal_lanelet_two_lanes_over_is_reached_by_changing_lanes():
     run = run_ego(scenario, start(10, 0, 10.0), lanelet_goal(scenario, 31, (0, 400)))
     agent = _only_outcome(run)
     assert agent.outcome == "goal_reached"
-    assert run.driven[1].y[-1] > 2 * 3.5
+    assert run.history.driven[1].y[-1] > 2 * 3.5
 
 
 def test_a_start_between_two_lanelets_with_a_heading_error_reaches_the_goal():
@@ -114,7 +114,7 @@ def test_recorded_traffic_behind_a_slow_start_reacts_only_with_idm(mode, outcome
     scenario.add_objects(recorded_car(700, -60, 0, 25.0, 300))
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)), settings=CosimSettings(traffic=mode))
     assert _only_outcome(run).outcome in outcomes
-    assert run.settings["cosim"]["traffic"] == mode
+    assert run.settings.cosim.traffic == mode
 
 
 def test_an_ego_run_into_from_behind_drives_away_when_it_can():
@@ -124,7 +124,7 @@ def test_an_ego_run_into_from_behind_drives_away_when_it_can():
     scenario = highway(lanes=1, length=300, segments=1)
     scenario.add_objects(recorded_car(700, -30, 0, 15.0, 300))
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)))
-    assert _only_outcome(run).outcome == "goal_reached", run.events
+    assert _only_outcome(run).outcome == "goal_reached", run.history.events
 
 
 def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():
@@ -142,8 +142,8 @@ def test_a_goal_with_only_a_time_window_waits_where_the_mapped_road_ends():
     goal = GoalRegion([CustomState(time_step=Interval(150, 150))])
     run = run_ego(scenario, start(10, 0, 10.0), goal)
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(15.0), run.events
-    assert run.driven[1].x[-1] < 150.0 - 2.0           # the centre: the front short of the road's end
+    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(15.0), run.history.events
+    assert run.history.driven[1].x[-1] < 150.0 - 2.0           # the centre: the front short of the road's end
 
 
 def test_a_goal_no_lanelet_leads_to_is_refused_naming_the_planning_problem():

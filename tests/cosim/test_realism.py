@@ -55,7 +55,7 @@ def test_delay_compensation_reduces_the_peak_tracking_error(sharp_curve):
 def test_a_plain_physical_run_drives_the_real_car_and_says_so(sharp_curve):
     run, _ = drive(sharp_curve)
     assert run.realism is Realism.REAL and run.fidelity.label == "mujoco/sedan"
-    assert run.settings["cosim"]["sensing"]["profile"] == "rtk_ins" and run.settings["cosim"]["latency"] == "measured"
+    assert run.settings.cosim.sensing.profile == "rtk_ins" and run.settings.cosim.latency == "measured"
     assert run.agents[0].outcome == "goal_reached" and run.agents[0].plan_latency_mean_s > 0
     ideal_car, _ = drive(sharp_curve, settings={"realism": "ideal"})
     assert ideal_car.fidelity.label == "mujoco/sedan/ideal-car" and ideal_car.agents[0].plan_latency_max_s == 0

@@ -26,7 +26,7 @@ def test_the_agents_own_recorded_vehicle_is_not_traffic(tmp_path):
     write_xml(scenario, problems, xml)
     run = execute(RunRequest(scenario=xml))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.events]
+    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
     assert agent.recorded_as == 500
     assert agent.min_distance_to_traffic_m > 1.0          # measured to 501, not to its own recording
 
@@ -52,13 +52,13 @@ def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, wor
     run = execute(RunRequest(scenario=xml, backend=world))
     outcomes = {a.id: a for a in run.agents}
     for aid in (1, 2):
-        assert outcomes[aid].outcome == "goal_reached", [e.detail for e in run.events if e.agent_id == aid]
+        assert outcomes[aid].outcome == "goal_reached", [e.detail for e in run.history.events if e.agent_id == aid]
     assert outcomes[2].recorded_as == 601
-    late_driven = run.driven[2]
+    late_driven = run.history.driven[2]
     assert late_driven.t[0] == pytest.approx(6.0)
     assert (late_driven.x[0], late_driven.y[0]) == pytest.approx((60.0, lane_y(0)), abs=0.02)
     assert late_driven.v[0] == pytest.approx(8.0, abs=0.2)
-    assert not [e for e in run.events if e.agent_id == 2 and e.t < 6.0]
+    assert not [e for e in run.history.events if e.agent_id == 2 and e.t < 6.0]
 
 
 def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):
@@ -83,7 +83,7 @@ def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):
     write_xml(scenario, problems, xml)
     run = execute(RunRequest(scenario=xml), out=tmp_path / "run")
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.events]
+    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
     assert run.metrics                          # the run metrics found the route too
 
 
@@ -94,7 +94,7 @@ def test_a_recorded_vehicle_running_into_the_waiting_ego_says_so():
     scenario.add_objects(recorded_car(700, -40, 0, 15.0, 300))
     run = run_ego(scenario, start(40, 0, 0.0), box_goal(46, 0, (150, 200)))
     (agent,) = run.agents
-    (event,) = [e for e in run.events if e.kind == "collision"]
+    (event,) = [e for e in run.history.events if e.kind == "collision"]
     assert agent.outcome == "collision" and event.other_id == 700
     assert event.detail.startswith("rear-ended by recorded road user 700 (15.0 m/s) while the ego was ")
     assert "replayed traffic does not brake for the ego" in event.detail
@@ -108,5 +108,5 @@ def test_highway_speed_with_a_car_beside_the_lane_change():
     scenario.add_objects(recorded_car(801, 120.0, 0, 33.0, 250))
     run = run_ego(scenario, start(10, 0, 36.0), lanelet_goal(scenario, 20, (0, 250)))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.events]
+    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
     assert agent.planner_failures == 0 and agent.min_distance_to_traffic_m > 0.0

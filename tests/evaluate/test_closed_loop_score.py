@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDZamunda
 
-from simgap.cosim.record import AgentOutcome, Outcome
+from simgap.cosim.history import Outcome
+from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.cosim.score_settings import ComfortBounds, ScoreSettings, ScoreWeights
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
 from simgap.evaluate.closed_loop_score import (collision_multiplier, combine, direction_multiplier,
@@ -218,8 +219,7 @@ def test_a_score_drop_is_ranked_by_what_each_component_would_give_back():
     def agent(**components):
         full = {name: 1.0 for name in ("at_fault_collisions", "drivable_area", "driving_direction", "making_progress",
                                        "progress", "time_to_collision", "speed_limit", "comfort")} | components
-        return AgentOutcome(1, "sedan", Outcome.GOAL_REACHED, 10.0, 100.0, None, score=combine(full, ScoreWeights()),
-                            score_components=full)
+        return AgentEvaluation(1, 10.0, 100.0, None, score=combine(full, ScoreWeights()), score_components=full)
 
     ideal, physical = agent(comfort=0.0), agent(comfort=0.0, time_to_collision=0.0, progress=0.8)
     drop, losses = score_drop(ideal, physical, ScoreWeights())

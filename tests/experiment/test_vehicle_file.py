@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from simgap.cosim import CosimSettings, Run
+from simgap.cosim import CosimSettings
+from simgap.record import read_run
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.search.results import search_results
@@ -46,8 +47,8 @@ def test_run_and_report_with_a_vehicle_file(tmp_path, car_file):
                           "50", "--vehicle", str(car_file), "--replan-every", "3", "--no-validate", "--out", str(tmp_path / "runs" / "dynamic")],
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
-    recorded = Run.load(tmp_path / "runs" / "dynamic")
-    assert recorded.agents[0].vehicle == "my_car" and recorded.vehicle_of(1).length == pytest.approx(4.508)
+    recorded = read_run(tmp_path / "runs" / "dynamic")
+    assert recorded.agents[0].vehicle.name == "my_car" and recorded.agents[0].vehicle.length == pytest.approx(4.508)
     index = build_report(tmp_path / "runs", tmp_path / "report")
     assert "dynamic/my_car" in index.read_text()
 

@@ -22,7 +22,7 @@ from commonroad.scenario.obstacle import ObstacleType, StaticObstacle
 from commonroad.scenario.state import InitialState
 
 from real_like import box_goal, highway, recorded_car, start
-from simgap.cosim import Run
+from simgap.record import RunRecord, read_run
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.export import checks
@@ -53,10 +53,10 @@ def vertices(xosc: Path) -> dict[str, np.ndarray]:
     return out
 
 
-def assert_replays(xosc: Path, run: Run) -> None:
+def assert_replays(xosc: Path, run: RunRecord) -> None:
     """Every agent follows exactly what it drove (independently of the export's own check)."""
     got = vertices(xosc)
-    for aid, driven in run.driven.items():
+    for aid, driven in run.history.driven.items():
         v = got[f"agent_{aid}"]
         assert len(v) == len(driven)
         assert np.allclose(v[:, 0], driven.t, atol=1e-9)
@@ -85,7 +85,7 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
     assert export.method is Method.EXACT and export.largest_deviation_m < 0.05
     assert export.trajectory_error_m < 0.01
     assert ET.parse(xosc).getroot().find(".//RoadCondition").get("frictionScaleFactor") == "0.6"
-    assert_replays(xosc, Run.load(run_dir))
+    assert_replays(xosc, read_run(run_dir))
     # other OpenSCENARIO versions on request, each valid against its own schema
     for version in (OpenScenarioVersion.V1_0, OpenScenarioVersion.V1_1, OpenScenarioVersion.V1_3):
         later = export_run(run_dir, tmp_path / version.value, version).files[1]
@@ -141,7 +141,7 @@ def test_a_roads_relief_becomes_its_elevation_and_superelevation_profiles(tmp_pa
 def test_a_t_junction_with_three_agents_replays_on_its_connecting_roads(tmp_path):
     xml = write_scenario(build_scenario("t-junction", {"agents": 3}), tmp_path / "scenarios", preview=False)
     run_dir = run_of(xml, tmp_path / "run")
-    run = Run.load(run_dir)
+    run = read_run(run_dir)
     export = export_run(run_dir, tmp_path / "out")
     xodr, xosc = export.files
     root = ET.parse(xodr).getroot()
@@ -200,7 +200,7 @@ def test_a_recorded_scenario_with_traffic_is_fitted_and_replays(tmp_path):
     truck = got["obstacle_202"]
     assert len(truck) == 121 and np.allclose(truck[-1, 1:], [20.0 + 16.0 * 12.0, 8.75])
     assert export.trajectory_error_m < 0.01
-    assert_replays(xosc, Run.load(run_dir))
+    assert_replays(xosc, read_run(run_dir))
 
 
 def test_a_scenario_on_a_real_map_is_fitted_within_its_reported_deviation(tmp_path):

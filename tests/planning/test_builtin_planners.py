@@ -19,6 +19,7 @@ from simgap.planning.reactive import ReactivePlanner
 from simgap.scenario.templates import curve
 from simgap.sim.registry import make_backend
 from simgap.trajectory import State, Trajectory
+from evaluated import recorded
 
 PLANNERS = {"reactive": ReactivePlanner, "idm": IdmPlanner}
 # the reactive planner costs ~0.1 s per call in pure Python: it replans every 3 steps here (the
@@ -45,10 +46,10 @@ def test_reaches_the_goal_of_the_paper_curve(name, radius, backend, sedan):
     planners = {a.id: PLANNERS[name](PlannerSetup(a.id, sedan, scenario.lanelet_network,
                                                   problems.planning_problem_dict[a.id], scenario.dt))
                 for a in agents}
-    run = simulate(scenario, problems, make_backend(backend), agents, planners,
-                   CosimSettings(replan_every=REPLAN_EVERY[name]))
+    run = recorded(simulate(scenario, problems, make_backend(backend), agents, planners,
+                            CosimSettings(replan_every=REPLAN_EVERY[name])), scenario, problems)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.events
+    assert agent.outcome == "goal_reached", run.history.events
     assert agent.max_road_excursion_m == 0.0
     assert agent.planner_failures <= 2          # the reactive planner may miss a cycle where MuJoCo drifts
 

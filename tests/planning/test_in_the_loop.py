@@ -10,6 +10,7 @@ from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
+from evaluated import recorded
 
 scenario_package = pytest.importorskip("simgap.scenario")
 
@@ -23,8 +24,8 @@ def test_ideal_run_reaches_the_goal(params):
     agents = agents_from_problems(problems, scenario.dt, vehicle)
     planners = {a.id: FrenetPlanner(PlannerSetup.for_problem(problems.planning_problem_dict[a.id], vehicle, scenario.lanelet_network))
                 for a in agents}
-    run = simulate(scenario, problems, IdealBackend(), agents, planners)
+    run = recorded(simulate(scenario, problems, IdealBackend(), agents, planners), scenario, problems)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.events
+    assert agent.outcome == "goal_reached", run.history.events
     assert agent.planner_failures == 0
     assert agent.max_road_excursion_m == 0.0

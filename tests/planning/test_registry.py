@@ -174,20 +174,21 @@ def test_a_planner_that_raises_fails_its_cycles_and_the_run_goes_on(curve_xml, f
     request = RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{flaky_file}:Flaky"),
                          cosim=CosimSettings(planning_budget_s=10.0))
     execute(request, tmp_path / "run")
-    from simgap.cosim import Run
+    from simgap.record import read_run
 
-    run = Run.load(tmp_path / "run")          # as recorded
+    run = read_run(tmp_path / "run")          # as recorded
     agent = run.agents[0]
     assert agent.outcome == Outcome.GOAL_REACHED          # the loop's fallback, then the planner again
     assert agent.planner_exceptions == 5 and agent.planner_failures == 5
-    assert run.planner_errors[0].exception == "ValueError" and run.planner_errors[0].t == pytest.approx(1.0)
-    assert "in plan" in run.planner_errors[0].traceback and "flaky at t = 1.0" in run.planner_errors[0].traceback
+    errors = run.history.planner_errors
+    assert errors[0].exception == "ValueError" and errors[0].t == pytest.approx(1.0)
+    assert "in plan" in errors[0].traceback and "flaky at t = 1.0" in errors[0].traceback
     # (the mean is no invariant below the p95: with cycles of ~2 ms, one slow first call lifts it above)
     assert agent.planning_calls > 100 and 0 < agent.planning_p95_s <= agent.planning_max_s
     assert 0 < agent.planning_mean_s <= agent.planning_max_s
     assert agent.planning_over_budget == 0
-    assert run.settings["planner"]["name"] == "Flaky"
-    assert run.settings["planner"]["settings"]["speed"]["cruise_m_s"] == 10.0      # the full settings
+    assert run.settings.planner.name == "Flaky"
+    assert run.settings.planner.settings["speed"]["cruise_m_s"] == 10.0      # the full settings
 
 
 def test_a_planner_raising_in_its_constructor_is_a_recorded_failed_run(curve_xml, flaky_file, tmp_path):
@@ -195,7 +196,7 @@ def test_a_planner_raising_in_its_constructor_is_a_recorded_failed_run(curve_xml
                   tmp_path / "run")
     assert run.failure and "RuntimeError in its constructor: no map for this road" in run.failure
     assert run.agents[0].outcome == Outcome.PLANNER_FAILURE
-    assert "raise RuntimeError" in run.planner_errors[0].traceback and run.planner_errors[0].t is None
+    assert "raise RuntimeError" in run.history.planner_errors[0].traceback and run.history.planner_errors[0].t is None
     assert (tmp_path / "run" / "run.json").exists()
 
 
@@ -212,8 +213,8 @@ def test_a_planner_per_agent(tmp_path):
     run = execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap, 3: gap},
                              cosim=CosimSettings(max_time_s=2.0)))
     assert [a.planner for a in run.agents] == ["frenet", "TimeGapPlanner", "TimeGapPlanner"]
-    assert run.settings["planner"]["name"] == "1=frenet,2=TimeGapPlanner,3=TimeGapPlanner"
-    assert run.settings["planner"]["agents"]["2"]["settings"]["time_gap_s"] == 2.0
+    assert run.settings.planner.name == "1=frenet,2=TimeGapPlanner,3=TimeGapPlanner"
+    assert run.settings.planner.agents[2].settings["time_gap_s"] == 2.0
     assert all(a.planning_calls == 20 for a in run.agents)
     with pytest.raises(InputError, match="no planner given for planning problem 3"):
         execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap}))

@@ -210,7 +210,7 @@ def _max_lateral_deviation(scenario: Path, run) -> float:
     network, problems = load_scenario(scenario)
     agent = run.agents[0]
     route, _ = route_centre_line(network.lanelet_network, problems.planning_problem_dict[agent.id])
-    line, driven = LineString(route), run.driven[agent.id]
+    line, driven = LineString(route), run.history.driven[agent.id]
     return max(line.distance(Point(x, y)) for x, y in zip(driven.x, driven.y))
 
 
@@ -221,7 +221,7 @@ def test_simgap_drives_the_curve_to_its_goal_with_the_cpp_planner(lane_keeper, c
                   tmp_path / "run")
     elapsed = time.perf_counter() - started
     agent = run.agents[0]
-    assert agent.outcome == "goal_reached", (run.failure, run.events, run.planner_errors)
+    assert agent.outcome == "goal_reached", (run.failure, run.history.events, run.history.planner_errors)
     assert json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]["outcome"] == "goal_reached"
     assert agent.planner_failures == 0 and agent.planning_calls > 100
     deviation = _max_lateral_deviation(curve, run)

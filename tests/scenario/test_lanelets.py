@@ -42,7 +42,7 @@ def test_two_lanes_per_direction_relations_and_markings():
 
 def test_sections_are_recorded_per_lanelet():
     concrete = build_scenario("curve", {"radius": 10, "angle": 90})
-    kinds = sorted(set(concrete.sections.values()))
+    kinds = sorted(set(concrete.sections.kinds.values()))
     assert kinds == ["curve", "straight"]
 
 
@@ -54,7 +54,7 @@ def test_every_junction_agent_has_a_route(logical, agents):
     for problem in concrete.problems.planning_problem_dict.values():
         routes = RoutePlanner(network, problem, logging_level=logging.ERROR).plan_routes()
         assert routes, f"no route for agent {problem.planning_problem_id}"
-        assert any(concrete.sections[i] == "junction" for i in routes[0].lanelet_ids)
+        assert any(concrete.sections.kind_of(i) == "junction" for i in routes[0].lanelet_ids)
 
 
 def test_xml_round_trip_reloads_equal(tmp_path):

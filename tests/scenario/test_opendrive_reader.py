@@ -131,9 +131,9 @@ def test_a_junction_links_each_incoming_lane_to_every_turn_and_each_turn_onwards
     assert len(turns) == 3
     onwards = {imported.origin.lanelets[network.find_lanelet_by_id(t).successor[0]].road for t in turns}
     assert onwards == {"0", "1", "3"}
-    assert all(imported.sections[t] == "junction" and network.find_lanelet_by_id(t).predecessor == [incoming]
+    assert all(imported.sections.kind_of(t) == "junction" and network.find_lanelet_by_id(t).predecessor == [incoming]
                for t in turns)
-    assert len([s for s in imported.sections.values() if s == "junction"]) == 12
+    assert len([s for s in imported.sections.kinds.values() if s == "junction"]) == 12
 
 
 def test_an_exit_forks_the_lane_and_a_merge_joins_two():

@@ -12,6 +12,7 @@ from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest
 from simgap.files import atomic_write_text
 from simgap.planning.registry import planner_of
+from simgap.record import read_run
 from simgap.vehicles import load_vehicle
 
 OVERWRITE_HELP = "replace what the output folder holds even when this command did not write it"
@@ -35,14 +36,14 @@ def check_run_out(out: Path, request: RunRequest, overwrite: bool) -> None:
         _refuse_foreign(out, "a simgap run")
         return
     try:
-        held = json.loads(meta.read_text())
-        agents = {int(a["id"]): (a["vehicle"], a.get("planner", "")) for a in held["agents"]}
-        there = (f"a run of {held['scenario_id']} (backend {held['backend']}, vehicle "
-                 f"{'+'.join(sorted({v for v, _ in agents.values()}))}, planner "
-                 f"{'+'.join(sorted({p for _, p in agents.values()}))})")
-    except (OSError, ValueError, KeyError, TypeError):
+        held = read_run(out)
+    except InputError:
         refuse(out, "a run.json that cannot be read")
-    if not (_same_scenario(held, request.scenario) and held["backend"] == request.backend
+    agents = {a.id: (a.history.vehicle.name, a.planner) for a in held.agents}
+    there = (f"a run of {held.scenario_id} (backend {held.history.backend}, vehicle "
+             f"{'+'.join(sorted({v for v, _ in agents.values()}))}, planner "
+             f"{'+'.join(sorted({p for _, p in agents.values()}))})")
+    if not (_same_scenario(held.settings.scenario_path, request.scenario) and held.history.backend == request.backend
             and agents == _requested_agents(request, list(agents))):
         refuse(out, there)
 
@@ -55,8 +56,7 @@ def _refuse_foreign(out: Path, what: str) -> None:
         refuse(out, f"{others[0]}{more}, not {what}")
 
 
-def _same_scenario(held: dict, scenario: Path) -> bool:
-    path = held.get("scenario_path")
+def _same_scenario(path: str | None, scenario: Path) -> bool:
     return path is not None and Path(path).resolve() == Path(scenario).resolve()
 
 

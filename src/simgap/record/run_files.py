@@ -81,7 +81,7 @@ def _run_json(record: RunRecord) -> str:
     return json.dumps({"format_version": record.format_version, "fingerprint": record.fingerprint,
                        "settings": _settings_json(record.settings), "history": _history_json(record.history),
                        "evaluation": _evaluation_json(record.evaluation),
-                       "timings": {k: round(v, 4) for k, v in record.timings.items()}},
+                       "timings": dict(record.timings)},
                       indent=2, default=_json_default)
 
 
@@ -105,12 +105,12 @@ def _planner_json(p: PlannerRecord) -> dict[str, Any]:
 
 def _history_json(h: History) -> dict[str, Any]:
     return {"scenario_id": h.scenario_id, "backend": h.backend, "dt": h.dt, "realism": h.realism.value,
-            "wall_time_s": round(h.wall_time_s, 4), "failure": h.failure,
+            "wall_time_s": h.wall_time_s, "failure": h.failure,
             "agents": [{"id": a.id, "vehicle": a.vehicle.model_dump(mode="json"), "outcome": a.outcome.value,
                         "planner_failures": a.planner_failures, "planner_exceptions": a.planner_exceptions,
                         "planning_call_s": list(a.planning_call_s), "plan_latency_s": list(a.plan_latency_s)}
                        for a in h.agents],
-            "events": [asdict(e) for e in h.events], "timings": {k: round(v, 4) for k, v in h.timings.items()},
+            "events": [asdict(e) for e in h.events], "timings": dict(h.timings),
             "planner_errors": [asdict(e) for e in h.planner_errors], "backend_notes": list(h.backend_notes)}
 
 

@@ -76,6 +76,16 @@ class AgentRecord:
     def id(self) -> int:
         return self.history.id
 
+    def __getattr__(self, name: str) -> Any:
+        """The agent's facts by name: what happened (`AgentHistory`: outcome, driven, ...), then
+        what it scored (`AgentEvaluation`: distance_m, score, solution_valid, ...)."""
+        if name.startswith("__"):
+            raise AttributeError(name)
+        for part in (self.history, self.evaluation):
+            if hasattr(part, name):
+                return getattr(part, name)
+        raise AttributeError(name)
+
 
 @dataclass(frozen=True)
 class RunRecord:

@@ -6,7 +6,7 @@ import pytest
 
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.evaluate.compare import compare_runs
+from simgap.evaluate.compare import compare_histories
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
@@ -30,14 +30,11 @@ def test_sharp_curve_is_driven_close_to_the_ideal_run(controller):
     dynamic = run(concrete, make_backend("dynamic", backend_settings("dynamic", {"controller": controller})))
     assert dynamic.agents[0].outcome == "goal_reached"
     assert dynamic.timings["physics"] > 0 and dynamic.timings["control"] > 0
-    (cmp,) = compare_runs(ideal, dynamic, concrete.scenario, concrete.problems, concrete_sections(concrete))
+    (cmp,) = compare_histories(ideal, dynamic, concrete.scenario, concrete.problems, concrete.sections)
     # imperfect tracking shows, but stays well inside the lane (half-width 1.5 m minus half the car)
     assert 0.005 < cmp.lateral_displacement.max < 0.5
     assert "curve" in cmp.by_section
 
-
-def concrete_sections(concrete):
-    return {str(k): v for k, v in concrete.sections.items()}
 
 
 def test_dynamic_runs_are_deterministic():

@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LaneletType, LineMarking
 
-from simgap.scenario.geometry import SectionKind
 from simgap.scenario.opendrive.document import Lane, OpenDriveDocument, Road, RoadMark, read_document
 from simgap.scenario.opendrive.lanes import LaneStrip, Piece, lane_strips, road_pieces
 from simgap.scenario.opendrive.origin import LaneletPlace, OpenDriveOrigin, RoadProfile
 from simgap.scenario.physical_bounds import MIN_LANELET_WIDTH
+from simgap.scenario.sections import RoadSections
 
 FIRST_LANELET_ID = 100          # as simgap's templates: planning problems take ids 1, 2, 3, ...
 DRIVABLE = ("driving", "entry", "exit", "onRamp", "offRamp", "connectingRamp", "mwyEntry", "mwyExit")
@@ -61,7 +61,7 @@ class OpenDriveNetwork:
 
     document: OpenDriveDocument
     lanelets: LaneletNetwork
-    sections: dict[int, SectionKind]
+    sections: RoadSections
     origin: OpenDriveOrigin
     links: LinkTally
 
@@ -250,5 +250,5 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
         profiles={road.id: RoadProfile(elevation=road.elevation, superelevation=road.superelevation)
                   for road in document.roads.values() if road.id in relief})
     return OpenDriveNetwork(document, LaneletNetwork.create_from_lanelet_list(lanelets),
-                            {ids[key]: draft.piece.kind for key, draft in drafts.items()}, origin,
+                            RoadSections({ids[key]: draft.piece.kind for key, draft in drafts.items()}), origin,
                             LinkTally(source, kept))

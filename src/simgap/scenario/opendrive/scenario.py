@@ -27,7 +27,6 @@ from simgap.scenario.problem import planning_problem
 from simgap.scenario.road_frame import PathFrame
 from simgap.scenario.templates import ConcreteScenario, scenario_of
 from simgap.trajectory import DEFAULT_TIME_STEP_S
-from simgap.scenario.sections import RoadSections
 from simgap.vehicles.constants import MAX_SPEED
 
 PLACE_FORMS = "ROAD:LANE:S (road id, lane id, station along the road [m]) or X,Y (a point on a driving lane)"
@@ -166,7 +165,7 @@ def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, 
     name = name or re.sub(r"[^A-Za-z0-9_-]+", "_", path.stem).strip("_") or "opendrive"
     parameters = {"source": path.name, "start": start, "goal": goal, **settings.model_dump()}
     return ConcreteScenario(name, logical, parameters, scenario_of(name, settings.dt, roads.lanelets),
-                            PlanningProblemSet([problem]), RoadSections(roads.sections), dict(UNITS), opendrive=roads.origin)
+                            PlanningProblemSet([problem]), roads.sections, dict(UNITS), opendrive=roads.origin)
 
 
 def opendrive_template(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
