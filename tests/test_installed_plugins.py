@@ -7,7 +7,6 @@ reads to find an entry point (what pip would leave, without a build)."""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -23,6 +22,7 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.errors import InputError
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
+from simgap.record import read_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.sim.registry import BACKENDS, backend_settings, make_backend
 from simgap.vehicles import load_vehicle
@@ -152,5 +152,5 @@ def test_simgap_run_takes_an_installed_backend(site, tmp_path):
     proc = subprocess.run([sys.executable, "-m", "simgap", "run", str(xml), "--backend", "counting", "--no-validate",
                            "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    meta = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert meta["backend"] == "counting" and meta["agents"][0]["outcome"] == "goal_reached"
+    record = read_run(tmp_path / "run")
+    assert record.history.backend == "counting" and record.agents[0].outcome == "goal_reached"

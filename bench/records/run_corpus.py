@@ -1,4 +1,4 @@
-"""Every scenario file of a folder run with `simgap run`'s own code path into run directories
+"""Every scenario file below a folder run with `simgap run`'s own code path into run directories
 (``OUT/<world>/<file>/``), for `compare_studies.py` to compare two versions of simgap on data we
 did not make (the recorded corpus). It uses only what every version of simgap has
 (`RunRequest`, `execute`, `CosimSettings`), so the same command runs the code before a change
@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-validate", action="store_true", help="skip the solutions' validity check")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    files = sorted(args.files.glob("*.xml"))
+    files = sorted(args.files.rglob("*.xml"), key=lambda p: p.stem)
     tasks = [(xml, world, args.latency, args.out, not args.no_validate) for world in args.worlds for xml in files]
     start = time.perf_counter()
     with multiprocessing.get_context("spawn").Pool(args.workers, maxtasksperchild=20) as pool:

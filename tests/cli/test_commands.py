@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from simgap.record import read_run
+
 SIMGAP = [sys.executable, "-m", "simgap"]
 
 
@@ -152,7 +154,6 @@ def test_compare_refuses_runs_of_different_scenarios(two_curves):
 
 def test_outputs_a_command_did_not_write_are_refused_unless_overwritten(two_curves, tmp_path):
     from simgap.cli.outputs import check_run_out
-    from simgap.record import read_run
     from simgap.errors import InputError
     from simgap.experiment.single_run import RunRequest
 
@@ -331,13 +332,12 @@ def test_a_planner_that_calls_sys_exit_fails_its_run_not_the_command(hostile, tm
     proc = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:Exits", "--out", str(tmp_path / "a"))
     assert proc.returncode == 0, proc.stderr
     assert "planner raised SystemExit" in proc.stdout and "Traceback" not in proc.stdout + proc.stderr
-    meta = json.loads((tmp_path / "a" / "run.json").read_text())
-    assert meta["agents"][0]["outcome"] == "planner_failure" and meta["agents"][0]["planner_exceptions"] == 10
+    agent = read_run(tmp_path / "a").agents[0]
+    assert agent.outcome == "planner_failure" and agent.planner_exceptions == 10
     built = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:ExitsWhenBuilt",
                    "--out", str(tmp_path / "b"))
     assert built.returncode == 1, built.stderr
-    meta = json.loads((tmp_path / "b" / "run.json").read_text())
-    assert meta["failure"] == "the planner of agent 1 raised SystemExit in its constructor: 3"
+    assert read_run(tmp_path / "b").failure == "the planner of agent 1 raised SystemExit in its constructor: 3"
 
 
 def test_a_planner_that_never_returns_ends_the_run_at_its_timeout(hostile, tmp_path):
@@ -345,9 +345,9 @@ def test_a_planner_that_never_returns_ends_the_run_at_its_timeout(hostile, tmp_p
     proc = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:NeverReturns", "--run-timeout", "1",
                   "--out", str(tmp_path / "r"))
     assert proc.returncode == 1, proc.stderr
-    meta = json.loads((tmp_path / "r" / "run.json").read_text())
-    assert meta["failure"] == "timeout: still running after 1 s of wall time in agent 1's planning call at t = 0.0 s"
-    assert meta["agents"][0]["outcome"] == "timeout"
+    record = read_run(tmp_path / "r")
+    assert record.failure == "timeout: still running after 1 s of wall time in agent 1's planning call at t = 0.0 s"
+    assert record.agents[0].outcome == "timeout"
 
 
 @pytest.mark.parametrize("args, fragments", [

@@ -8,7 +8,6 @@ reads to find an entry point (what pip would leave, without a build)."""
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -18,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from simgap.scenario import build_scenario, write_scenario
+from simgap.record import read_run
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "time_gap_planner"
 PLANNER_FILE = EXAMPLE / "time_gap_planner" / "planner.py"
@@ -51,8 +51,8 @@ def curve_xml(tmp_path_factory) -> Path:
 
 
 def outcome(run_dir: Path) -> tuple[str, str]:
-    meta = json.loads((run_dir / "run.json").read_text())
-    return meta["agents"][0]["planner"], meta["agents"][0]["outcome"]
+    agent = read_run(run_dir).agents[0]
+    return agent.planner, agent.outcome
 
 
 def test_planners_lists_the_installed_planner_with_its_settings(installed):
@@ -134,9 +134,9 @@ def test_experiment_compares_planners_and_survives_one_that_raises(installed, tm
     rows = (tmp_path / "rows.csv").read_text().splitlines()
     assert rows == ["planner,status,outcome,planner_exceptions", "Broken,failed,planner_failure,1",
                     "gap_file,ok,goal_reached,0", "time_gap,ok,goal_reached,0"]
-    broken = json.loads(next(out.glob("runs/*/*@Broken/run.json")).read_text())
-    assert "raise RuntimeError" in broken["planner_errors"][0]["traceback"]
-    assert broken["settings"]["planner"]["name"] == "Broken"
+    broken = read_run(next(out.glob("runs/*/*@Broken/run.json")).parent)
+    assert "raise RuntimeError" in broken.history.planner_errors[0].traceback
+    assert broken.settings.planner.name == "Broken"
     again = simgap(installed, "experiment", "run", str(spec), "--no-validate", "--out", str(out), "--no-report")
     assert again.returncode == 0 and "3 runs: 0 ran now (0 failed), 3 finished earlier" in again.stdout
 

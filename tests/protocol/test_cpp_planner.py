@@ -5,7 +5,6 @@ in MuJoCo."""
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import shutil
@@ -25,6 +24,7 @@ from simgap.experiment.single_run import RunRequest, execute
 from simgap.planning.reference_path import route_centre_line
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario import build_scenario, load_scenario, write_scenario
+from simgap.record import read_run
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "cpp_lane_keeper"
 PROGRAM = EXAMPLE / "build" / "lane_keeper"
@@ -222,7 +222,7 @@ def test_simgap_drives_the_curve_to_its_goal_with_the_cpp_planner(lane_keeper, c
     elapsed = time.perf_counter() - started
     agent = run.agents[0]
     assert agent.outcome == "goal_reached", (run.failure, run.history.events, run.history.planner_errors)
-    assert json.loads((tmp_path / "run" / "run.json").read_text())["agents"][0]["outcome"] == "goal_reached"
+    assert read_run(tmp_path / "run").agents[0].outcome == "goal_reached"              # as recorded
     assert agent.planner_failures == 0 and agent.planning_calls > 100
     deviation = _max_lateral_deviation(curve, run)
     assert deviation < bound_m
@@ -236,7 +236,7 @@ def test_the_readme_command_runs(lane_keeper, curve, tmp_path):
                            "--out", str(tmp_path / "run"), "--planner", f"exec:{lane_keeper}"],
                           capture_output=True, text=True, timeout=600, env=dict(os.environ, COLUMNS="160"))
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    record = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert (record["agents"][0]["planner"], record["agents"][0]["outcome"]) == ("lane_keeper", "goal_reached")
-    process = record["settings"]["planner"]["process"]              # what its Ready said, and how it went
+    record = read_run(tmp_path / "run")
+    assert (record.agents[0].planner, record.agents[0].outcome) == ("lane_keeper", "goal_reached")
+    process = record.settings.planner.process              # what its Ready said, and how it went
     assert (process["planner"], process["protocol_version"], process["restarts"]) == ("cpp_lane_keeper", "1.0", 0)

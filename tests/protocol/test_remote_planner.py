@@ -40,7 +40,7 @@ def run_with(curve_xml: Path, out: Path, planner: str, backend: str = "ideal", *
 
 
 def reasons(run) -> str:
-    return "\n".join(e.detail for e in run.events)
+    return "\n".join(e.detail for e in run.history.events)
 
 
 @pytest.mark.parametrize("backend", ["ideal", "mujoco"])
@@ -77,7 +77,7 @@ def test_a_misbehaving_planner_fails_its_agent_with_the_reason(curve_xml, tmp_pa
     assert run.failure is None, "the run itself completes"
     assert agent.outcome == "planner_failure"
     assert fragment in reasons(run)
-    assert record["agents"][0]["outcome"] == "planner_failure"
+    assert record["history"]["agents"][0]["outcome"] == "planner_failure"
 
 
 def test_a_process_that_dies_is_restarted_then_given_up(curve_xml, tmp_path):
@@ -90,7 +90,7 @@ def test_a_process_that_dies_is_restarted_then_given_up(curve_xml, tmp_path):
 def test_a_planner_that_raises_is_recorded_with_its_own_traceback(curve_xml, tmp_path):
     run, _ = run_with(curve_xml, tmp_path / "raise", server("raise"))
     assert run.agents[0].outcome == "planner_failure" and run.agents[0].planner_exceptions == 10
-    error = run.planner_errors[0]
+    error = run.history.planner_errors[0]
     assert error.exception == "RemotePlannerError" and "the planner's own bug" in error.message
     assert "servers.py" in error.traceback and "RuntimeError" in error.traceback
 
@@ -110,8 +110,8 @@ def test_one_late_answer_fails_one_cycle_and_the_drive_goes_on(curve_xml, tmp_pa
 def test_a_planner_that_never_gets_ready_is_a_recorded_run_that_did_not_start(curve_xml, tmp_path, behaviour,
                                                                             fragment):
     run, _ = run_with(curve_xml, tmp_path / behaviour, server(behaviour), startup_timeout_s=1.0)
-    assert run.failure is not None and run.planner_errors
-    assert fragment in run.planner_errors[0].message
+    assert run.failure is not None and run.history.planner_errors
+    assert fragment in run.history.planner_errors[0].message
 
 
 def test_a_planner_that_runs_on_its_own_serves_run_after_run(curve_xml, tmp_path):
