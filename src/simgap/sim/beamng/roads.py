@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.scenario.markings import CURB_WIDTH, arc_length, marking_lines
+from simgap.geometry import arc_length
+from simgap.scenario.markings import CURB_WIDTH, marking_lines
 from simgap.sim.beamng.settings import Materials
 
 ROAD_PRIORITY, MARKING_PRIORITY = 10, 9        # BeamNG draws lower render priorities on top

@@ -20,7 +20,8 @@ import shapely
 from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.ops import unary_union
 
-from simgap.scenario.markings import MarkingLine, arc_length, marking_lines, offset_polyline
+from simgap.geometry import arc_length, offset_polyline
+from simgap.scenario.markings import MarkingLine, marking_lines
 
 ROAD_Z = 0.004          # drawn road above the ground plane [m]
 MARKING_Z = 0.008       # drawn markings above the ground plane [m]
