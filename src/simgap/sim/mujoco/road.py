@@ -35,7 +35,7 @@ def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
     xy = line.xy
     if not line.dashed:
         return [xy]
-    s = arc_length(xy)
+    s = arc_length(xy, by_norm=True)
     pieces, start = [], 0.0
     while start < s[-1]:
         end = min(start + line.dash, s[-1])
