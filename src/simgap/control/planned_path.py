@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simgap.geometry import Polyline
+from simgap.polyline import Polyline
 from simgap.trajectory import Trajectory, wrap_angle
 from simgap.vehicles.reference_points import along_heading
 
@@ -36,7 +36,7 @@ class Projection:
 
 class PlannedPath:
     """The polyline drawn by a reference point ``offset`` metres ahead of the centre: a
-    `simgap.geometry.Polyline` (``polyline``: its segments and arc length ``s``), continued
+    `simgap.polyline.Polyline` (``polyline``: its segments and arc length ``s``), continued
     straight beyond its ends along end tangents that follow the plan's heading, and the plan's
     quantities at a fractional plan index."""
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import frenetix
 import numpy as np
 
-from simgap.geometry import Polyline
+from simgap.polyline import Polyline
 from simgap.planning.reference_path import ReferencePath
 from simgap.trajectory import wrap_angle
 

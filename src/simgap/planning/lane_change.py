@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.geometry import Polyline, nearest
+from simgap.polyline import Polyline, nearest
 
 # a route's lane change takes this long at the vehicle's initial speed, and at least so far [s], [m]
 LANE_CHANGE_S = 4.0

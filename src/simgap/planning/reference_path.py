@@ -18,7 +18,7 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.geometry import Polyline
+from simgap.polyline import Polyline
 from simgap.planning.path_smoothing import smooth_centre_line, towards_goal
 from simgap.planning.route import route_centre_line
 
@@ -50,7 +50,7 @@ class ReferencePath:
 
     @cached_property
     def polyline(self) -> Polyline:
-        """The path as a `simgap.geometry.Polyline` (its points ``xy`` and arc length ``s``)."""
+        """The path as a `simgap.polyline.Polyline` (its points ``xy`` and arc length ``s``)."""
         return Polyline(self.xy, self.s)
 
     @property

@@ -21,7 +21,7 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.state import InitialState
 
 from simgap.errors import InputError
-from simgap.geometry import arc_length, nearest, resample, without_duplicates
+from simgap.polyline import arc_length, nearest, resample, without_duplicates
 from simgap.planning.lane_change import (adjacent, changes_from, lane_change_length, lane_change_path,
                                          lane_changes, lanes_beside)
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork, LineMarking
 
-from simgap.geometry import offset_polyline
+from simgap.polyline import offset_polyline
 
 SOLID, DASHED, BROAD_DASHED = (0.0, 0.0), (3.0, 6.0), (3.0, 3.0)   # (dash, gap) [m]; 0: solid
 #: line width [m] and the painted lines as (offset to the left [m], (dash, gap))

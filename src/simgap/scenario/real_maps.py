@@ -35,7 +35,7 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
-from simgap.geometry import arc_length
+from simgap.polyline import arc_length
 
 MAPS_PACKAGE = "commonroad-dataset-converter==2025.1.0"
 _BENCHMARK_NAME = re.compile(r"^[A-Z]{3}_[A-Za-z]+-\d+\.xml$")

@@ -20,12 +20,12 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
-from simgap.geometry import Polyline, without_duplicates
+from simgap.polyline import Polyline, without_duplicates
 from simgap.trajectory import State
 
 
 class PathFrame(Polyline):
-    """The Frenet frame of a polyline (`simgap.geometry.Polyline`, repeated points dropped): its
+    """The Frenet frame of a polyline (`simgap.polyline.Polyline`, repeated points dropped): its
     cumulative arc length ``s``, and the projection of points onto it as (s, d) (`project`)."""
 
     def __init__(self, xy: np.ndarray):

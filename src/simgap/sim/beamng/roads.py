@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.geometry import arc_length
+from simgap.polyline import arc_length
 from simgap.scenario.markings import CURB_WIDTH, marking_lines
 from simgap.sim.beamng.settings import Materials
 

@@ -20,7 +20,7 @@ import shapely
 from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.ops import unary_union
 
-from simgap.geometry import arc_length, offset_polyline
+from simgap.polyline import arc_length, offset_polyline
 from simgap.scenario.markings import MarkingLine, marking_lines
 
 ROAD_Z = 0.004          # drawn road above the ground plane [m]

@@ -7,13 +7,17 @@ Frenet planner's frame on the frenetix core (`planning.frenet_frame`), the road 
 centre line (`scenario.road_frame.PathFrame`), the path a tracking controller follows
 (`control.planned_path`), drawn road markings (`sim.mujoco.road`, `sim.beamng.roads`).
 
-It lives at the bottom of the layering, beside `simgap.trajectory` (numpy only, no simgap import):
-its users sit in `scenario`, `planning`, `control` and `sim`, and `control` does not import
-`scenario` (nor should it, for a polyline, pull in commonroad through `simgap.scenario`'s package).
+It lives at the bottom of the layering, beside `simgap.trajectory` (numpy only, no simgap import;
+in the import contract's layer of `files`, `trajectory` and `registry`): its users sit in `scenario`, `planning`,
+`control` and `sim`, and `control` may import only the base and `vehicles` (docs/concepts/
+architecture.md), so `scenario`, the lowest of the others, could not hold it - nor should a
+polyline pull commonroad in through `simgap.scenario`'s package. (`simgap.scenario.geometry` is
+another thing: a road's exact centre line from straights, arcs and clothoids.)
 
 Each operation is written once and computed the same way everywhere (the arc length as the
 cumulative sum of `np.hypot` of the segments, interpolation by `np.interp`), so that a path's
-numbers do not depend on which class computed them, down to the last bit.
+numbers do not depend on which class computed them, down to the last bit; the drawn roads keep the
+measure they were built with (`arc_length`'s ``by_norm``).
 """
 
 from __future__ import annotations
