@@ -125,7 +125,7 @@ def test_a_route_without_alternatives_is_the_route_planners_own_path(logical, pa
     import commonroad_route_planner.reference_path_planner as planner_module
     from commonroad_route_planner.reference_path_planner import ReferencePathPlanner
 
-    from simgap.planning.reference_path import lanelet_routes, route_centre_line
+    from simgap.planning.route import lanelet_routes, route_centre_line
     from simgap.scenario.logical import build_scenario
 
     built = build_scenario(logical, params)
@@ -173,7 +173,7 @@ def test_a_lane_change_onto_a_short_last_lanelet_starts_on_the_lanelets_before_i
     # the route planner changes lanes on the last lanelet before the goal, 12 m long on this map
     # (AAH-4's ramp): the change starts beside the car, on the lanelet before, and takes its full
     # length (35 m) instead of being squeezed into 12 m
-    from simgap.planning.reference_path import _joined_centre_lines
+    from simgap.planning.route import _joined_centre_lines
 
     network = _parallel_lanes((60.0, 12.0))
     path = _joined_centre_lines(network, (10, 11, 21), np.array([5.0, 1.75]), change_m=35.0)
@@ -187,7 +187,7 @@ def test_a_lane_change_onto_a_short_last_lanelet_starts_on_the_lanelets_before_i
 def test_lane_changes_in_a_row_share_the_stretch_before_the_junction():
     # two changes to the right lane of three within 40 m (Peachtree's right turn from the left lane):
     # each takes half of the stretch beside the car, not the first all of it and the second a jump
-    from simgap.planning.reference_path import _joined_centre_lines
+    from simgap.planning.route import _joined_centre_lines
 
     network = _parallel_lanes((40.0,), lanes=3)
     path = _joined_centre_lines(network, (10, 20, 30), np.array([2.0, 1.75]), change_m=35.0)
@@ -204,7 +204,7 @@ def test_a_map_that_leaves_side_by_side_lanes_unlinked_is_routed_with_them_linke
     # on a copy of the network (the file's network is left as it was)
     from commonroad.scenario.state import InitialState
 
-    from simgap.planning.reference_path import lanelet_routes
+    from simgap.planning.route import lanelet_routes
 
     network = _parallel_lanes((200.0,), linked=False)
     initial = InitialState(position=np.array([10.0, 1.75]), orientation=0.0, velocity=10.0, acceleration=0.0,
@@ -224,7 +224,7 @@ def test_a_recorded_turn_drawn_with_a_few_vertices_is_eased_within_the_kink_tole
     # turning lanelets): smoothed within a hand's breadth only, its curvature ramps over a metre or
     # two, which the steering rate follows at walking pace; eased within KINK_DEVIATION_TOLERANCE_M
     # the ramp is half as steep. A curve whose curvature ramps gently keeps the narrow tolerance.
-    import simgap.planning.reference_path as reference_path
+    import simgap.planning.path_smoothing as path_smoothing
 
     phi = np.linspace(0.0, math.pi / 2, 5)
     turn = np.stack([8.0 * np.sin(phi), -8.0 + 8.0 * np.cos(phi)], 1)
@@ -238,13 +238,13 @@ def test_a_recorded_turn_drawn_with_a_few_vertices_is_eased_within_the_kink_tole
         return (float(np.abs(np.gradient(path.kappa, path.s))[on].max()), path,
                 max(abs(lateral_offset(centre, *p)) for p in path.xy[on]))
 
-    tolerance = reference_path.KINK_DEVIATION_TOLERANCE_M
+    tolerance = path_smoothing.KINK_DEVIATION_TOLERANCE_M
     eased, _, off = ramp_and_offset(line)
     arc = _straight_arc_straight(radius=30.0)
     _, arc_path, _ = ramp_and_offset(arc)
-    monkeypatch.setattr(reference_path, "KINK_DEVIATION_TOLERANCE_M", reference_path.DEVIATION_TOLERANCE_M)
+    monkeypatch.setattr(path_smoothing, "KINK_DEVIATION_TOLERANCE_M", path_smoothing.DEVIATION_TOLERANCE_M)
     narrow, _, _ = ramp_and_offset(line)
     _, arc_narrow, _ = ramp_and_offset(arc)
     assert eased <= 0.6 * narrow
-    assert reference_path.DEVIATION_TOLERANCE_M < off <= tolerance + 0.01
+    assert path_smoothing.DEVIATION_TOLERANCE_M < off <= tolerance + 0.01
     assert np.allclose(arc_path.xy, arc_narrow.xy)

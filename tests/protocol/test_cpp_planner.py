@@ -21,7 +21,7 @@ from shapely.geometry import LineString, Point
 from simgap_planner import simgap_planner_pb2 as pb
 
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.planning.reference_path import route_centre_line
+from simgap.planning.route import route_centre_line
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.record import read_run

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from simgap.polyline import Polyline
 from simgap.trajectory import Trajectory, wrap_angle
 from simgap.vehicles.reference_points import along_heading
 
@@ -34,7 +35,10 @@ class Projection:
 
 
 class PlannedPath:
-    """The polyline drawn by a reference point ``offset`` metres ahead of the centre."""
+    """The polyline drawn by a reference point ``offset`` metres ahead of the centre: a
+    `simgap.polyline.Polyline` (``polyline``: its segments and arc length ``s``), continued
+    straight beyond its ends along end tangents that follow the plan's heading, and the plan's
+    quantities at a fractional plan index."""
 
     def __init__(self, plan: Trajectory, offset: float = 0.0, *, wheelbase: float,
                  rear_axle_to_center: float):
@@ -47,16 +51,17 @@ class PlannedPath:
         self.y = plan.y + offset * np.sin(yaw)
         n = len(plan)
         self.n = n
-        dx, dy = np.diff(self.x), np.diff(self.y)
-        seg_len = np.hypot(dx, dy)
+        self.polyline = Polyline(np.column_stack([self.x, self.y]))
+        dx, dy = self.polyline.seg[:, 0], self.polyline.seg[:, 1]
+        seg_len = self.polyline.seg_len
         moving = seg_len > _MIN_SEGMENT
         mid_yaw = 0.5 * (yaw[:-1] + yaw[1:])
         safe = np.where(moving, seg_len, 1.0)
         self._ux = np.where(moving, dx / safe, np.cos(mid_yaw))
         self._uy = np.where(moving, dy / safe, np.sin(mid_yaw))
         self._seg_len = seg_len
-        self.s = np.concatenate(([0.0], np.cumsum(seg_len)))
-        self.length = float(self.s[-1])
+        self.s = self.polyline.s
+        self.length = self.polyline.length
         # End tangents: chord direction corrected by half the heading change over the chord
         # (exact on a circular arc); the plan's yaw when the end segment is standstill.
         if n >= 2 and moving[0]:

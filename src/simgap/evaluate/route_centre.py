@@ -11,7 +11,7 @@ from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
-from simgap.planning.reference_path import lanelet_routes, preferred_route
+from simgap.planning.route import lanelet_routes, preferred_route
 from simgap.scenario.road_frame import PathFrame
 from simgap.scenario.sections import UNKNOWN, RoadSections
 

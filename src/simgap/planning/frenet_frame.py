@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import frenetix
 import numpy as np
 
+from simgap.polyline import Polyline
 from simgap.planning.reference_path import ReferencePath
 from simgap.trajectory import wrap_angle
 
@@ -91,11 +92,12 @@ class FrenetFrame:
         ref = self.reference
         line = np.asarray(self.core.ref_line)
         pos = np.asarray(self.core.ref_pos)
-        first = int(np.argmin(np.hypot(*(line - local_xy[0]).T)))
+        core_line = Polyline(line, pos)         # the core's arc length along its own polyline
+        first = core_line.nearest(local_xy[0])
         self.s_offset = float(pos[first])
         s_ours = pos - self.s_offset
-        theta = np.interp(s_ours, ref.s, ref.theta) - self.rotation
-        kappa = np.interp(s_ours, ref.s, ref.kappa)
+        theta = ref.polyline.interpolate(ref.theta, s_ours) - self.rotation
+        kappa = ref.polyline.interpolate(ref.kappa, s_ours)
         kappa_d = np.gradient(kappa, pos) if len(pos) > 2 else np.zeros_like(kappa)
         kappa_dd = np.gradient(kappa_d, pos) if len(pos) > 2 else np.zeros_like(kappa)
         self.core.ref_theta = theta
@@ -103,7 +105,7 @@ class FrenetFrame:
         self.core.ref_curv_d = kappa_d
         self.core.ref_curv_dd = kappa_dd
         self._pos, self._theta, self._kappa, self._kappa_d = pos, theta, kappa, kappa_d
-        self._line = line
+        self._core_line = core_line
         self.s_min, self.s_max = float(pos[0]), float(pos[-1])
 
     def reference_tables(self) -> tuple[np.ndarray, np.ndarray]:
@@ -112,14 +114,14 @@ class FrenetFrame:
 
     def reference_at(self, s_core: np.ndarray):
         """Local heading, curvature and its derivative of the reference at core arc lengths."""
-        return (np.interp(s_core, self._pos, self._theta), np.interp(s_core, self._pos, self._kappa),
-                np.interp(s_core, self._pos, self._kappa_d))
+        line = self._core_line
+        return (line.interpolate(self._theta, s_core), line.interpolate(self._kappa, s_core),
+                line.interpolate(self._kappa_d, s_core))
 
     def curvilinear_to_local(self, s_core: np.ndarray, d: np.ndarray):
         """Local (x, y, heading) of points at curvilinear (s, d), heading parallel to the path."""
-        x = np.interp(s_core, self._pos, self._line[:, 0])
-        y = np.interp(s_core, self._pos, self._line[:, 1])
-        theta = np.interp(s_core, self._pos, self._theta)
+        x, y = self._core_line.point_at(s_core)
+        theta = self._core_line.interpolate(self._theta, s_core)
         return x - d * np.sin(theta), y + d * np.cos(theta), theta
 
     def to_reference_s(self, s_core):

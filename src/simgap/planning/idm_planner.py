@@ -169,7 +169,7 @@ class IdmPlanner:
         pts = np.column_stack([pred.x.ravel(), pred.y.ravel()])
         s, d = self._frame.project(pts)
         s, d = s.reshape(-1, m), d.reshape(-1, m)
-        theta = np.interp(s, self.reference_path.s, self.reference_path.theta)
+        theta = self.reference_path.polyline.interpolate(self.reference_path.theta, s)
         rel = pred.yaw - theta
         # half the participant's extent across the path, plus the ego's half width and the margin
         across = (np.abs(np.sin(rel)) * pred.half_length[:, None] + np.abs(np.cos(rel)) * pred.half_width[:, None])
@@ -196,7 +196,7 @@ class IdmPlanner:
     def _trajectory(self, observed: State, d0: float, s: np.ndarray, v: np.ndarray, a: np.ndarray,
                     times: np.ndarray, dt: float) -> Trajectory:
         ref = self.reference_path
-        theta0 = float(np.interp(s[0], ref.s, ref.theta))
+        theta0 = float(ref.polyline.interpolate(ref.theta, s[0]))
         # the direction the centre moves in: the body's yaw plus the sideslip of its steering angle
         course = observed.yaw + float(self._sideslip(math.tan(observed.steer) / self.vehicle.wheelbase))
         slope0 = math.tan(float(np.clip(wrap_angle(course - theta0), -_MAX_HEADING_ERROR, _MAX_HEADING_ERROR)))

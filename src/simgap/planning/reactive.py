@@ -199,7 +199,7 @@ class ReactivePlanner:
             # over values no polynomial continues): once more from the observed pose and speed, with
             # zero acceleration and the reference path's curvature
             s_ref = float(self._upstream.x_0_cl[0][0])
-            kappa = float(np.interp(s_ref, self.reference_path.s, self.reference_path.kappa))
+            kappa = float(self.reference_path.polyline.interpolate(self.reference_path.kappa, s_ref))
             relaxed = self._planner_state(observed.replace(a=0.0), step,
                                           steer=math.atan(self.vehicle.wheelbase * kappa))
             cycle.relaxed = True

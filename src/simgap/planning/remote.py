@@ -68,7 +68,7 @@ from simgap_planner.server import ENDPOINT_VARIABLE
 
 from simgap.errors import InputError
 from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
-from simgap.planning.reference_path import route_centre_line
+from simgap.planning.route import route_centre_line
 from simgap.scenario.files import scenario_xml
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
 

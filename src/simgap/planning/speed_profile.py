@@ -21,7 +21,8 @@ from commonroad.planning.goal import GoalRegion
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.planning.protocol import PlannerSetup
-from simgap.planning.reference_path import ReferencePath, dead_end
+from simgap.planning.reference_path import ReferencePath
+from simgap.planning.route import dead_end
 from simgap.scenario.goal import Goal, Window, area_of
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 

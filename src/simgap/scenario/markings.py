@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork, LineMarking
 
+from simgap.polyline import offset_polyline
+
 SOLID, DASHED, BROAD_DASHED = (0.0, 0.0), (3.0, 6.0), (3.0, 3.0)   # (dash, gap) [m]; 0: solid
 #: line width [m] and the painted lines as (offset to the left [m], (dash, gap))
 MARKING_STYLE: dict[LineMarking, tuple[float, tuple[tuple[float, tuple[float, float]], ...]]] = {
@@ -41,20 +43,6 @@ class MarkingLine:
     @property
     def dashed(self) -> bool:
         return self.dash > 0.0
-
-
-def arc_length(xy: np.ndarray) -> np.ndarray:
-    """Distance along the polyline to each of its points."""
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
-
-
-def offset_polyline(xy: np.ndarray, d: float) -> np.ndarray:
-    """The polyline moved ``d`` to its left."""
-    if d == 0.0:
-        return xy
-    tangent = np.gradient(xy, axis=0)
-    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
-    return xy + d * np.column_stack([-tangent[:, 1], tangent[:, 0]])
 
 
 def marking_lines(network: LaneletNetwork, curbs: bool = False) -> list[MarkingLine]:

@@ -35,6 +35,8 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
+from simgap.polyline import arc_length
+
 MAPS_PACKAGE = "commonroad-dataset-converter==2025.1.0"
 _BENCHMARK_NAME = re.compile(r"^[A-Z]{3}_[A-Za-z]+-\d+\.xml$")
 _CAR = (4.5, 1.8)
@@ -88,7 +90,7 @@ def random_route(network: LaneletNetwork, rng: np.random.Generator, length: floa
         points.append(centre if not points else centre[1:])
         ids.append(lanelet.lanelet_id)
         xy = np.vstack(points)
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        s = arc_length(xy)
         if s[-1] >= length:
             return Route(xy, s, tuple(ids))
         successors = [i for i in lanelet.successor if i not in ids]

@@ -20,46 +20,19 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
+from simgap.polyline import Polyline, without_duplicates
 from simgap.trajectory import State
 
 
-class PathFrame:
-    """The Frenet frame of a polyline: its cumulative arc length, and the projection of points
-    onto it."""
+class PathFrame(Polyline):
+    """The Frenet frame of a polyline (`simgap.polyline.Polyline`, repeated points dropped): its
+    cumulative arc length ``s``, and the projection of points onto it as (s, d) (`project`)."""
 
     def __init__(self, xy: np.ndarray):
-        xy = np.asarray(xy, dtype=float)
-        keep = np.concatenate([[True], np.hypot(*np.diff(xy, axis=0).T) > 1e-9])
-        self.xy = xy[keep]
-        if len(self.xy) < 2:
+        xy = without_duplicates(np.asarray(xy, dtype=float), 1e-9)
+        if len(xy) < 2:
             raise ValueError("a reference path needs at least two distinct points")
-        seg = np.diff(self.xy, axis=0)
-        self._seg = seg
-        self._seg_len = np.hypot(seg[:, 0], seg[:, 1])
-        self.s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
-
-    @property
-    def length(self) -> float:
-        return float(self.s[-1])
-
-    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(s, d) of each point; the nearest segment wins (beyond the ends the path is extended)."""
-        pts = np.atleast_2d(np.asarray(points, dtype=float))
-        a = self.xy[:-1]
-        rel = pts[:, None, :] - a[None, :, :]                      # (n, m, 2)
-        u = np.einsum("nmk,mk->nm", rel, self._seg) / self._seg_len**2
-        u_clamped = np.clip(u, 0.0, 1.0)
-        # let the first and last segments extend beyond the ends of the path
-        u_clamped[:, 0] = np.minimum(u[:, 0], 1.0)
-        u_clamped[:, -1] = np.maximum(u[:, -1], 0.0)
-        foot = a[None, :, :] + u_clamped[..., None] * self._seg[None, :, :]
-        dist2 = np.sum((pts[:, None, :] - foot) ** 2, axis=2)
-        j = np.argmin(dist2, axis=1)
-        idx = np.arange(len(pts))
-        s = self.s[j] + u_clamped[idx, j] * self._seg_len[j]
-        cross = self._seg[j, 0] * rel[idx, j, 1] - self._seg[j, 1] * rel[idx, j, 0]
-        d = np.sign(cross) * np.sqrt(dist2[idx, j])
-        return s, d
+        super().__init__(xy)
 
 
 def footprint(state: State, length: float, width: float) -> Polygon:

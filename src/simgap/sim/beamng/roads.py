@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.scenario.markings import CURB_WIDTH, arc_length, marking_lines
+from simgap.polyline import arc_length
+from simgap.scenario.markings import CURB_WIDTH, marking_lines
 from simgap.sim.beamng.settings import Materials
 
 ROAD_PRIORITY, MARKING_PRIORITY = 10, 9        # BeamNG draws lower render priorities on top
@@ -47,7 +48,7 @@ def node_indices(xy: np.ndarray, width: float, tolerance: float, min_spacing: fl
     n = len(xy)
     if n <= 2:
         return list(range(n))
-    s = arc_length(xy)
+    s = arc_length(xy, by_norm=True)
     floor = max(min_spacing, 0.5 * width)
     keep = [0]
     for i in range(1, n - 1):
@@ -76,7 +77,7 @@ def _deviation(xy: np.ndarray, i: int, j: int) -> float:
 
 def _densify(xy: np.ndarray, step: float) -> np.ndarray:
     """``xy`` resampled every ``step`` metres or closer (keeps its own points' shape)."""
-    s = arc_length(xy)
+    s = arc_length(xy, by_norm=True)
     if s[-1] <= 0:
         return xy
     ss = np.unique(np.concatenate([s, np.linspace(0.0, s[-1], int(math.ceil(s[-1] / step)) + 1)]))
@@ -87,7 +88,7 @@ def _densify(xy: np.ndarray, step: float) -> np.ndarray:
 def _nodes(xy: np.ndarray, widths: np.ndarray, z: float, tolerance: float, spacing: tuple[float, float]
            ) -> tuple[tuple[float, float, float, float], ...]:
     fine = _densify(xy, min(spacing[0], 0.5))
-    fine_w = np.interp(arc_length(fine), arc_length(xy), widths)
+    fine_w = np.interp(arc_length(fine, by_norm=True), arc_length(xy, by_norm=True), widths)
     keep = node_indices(fine, float(np.max(widths)), tolerance, spacing[0], spacing[1])
     return tuple((float(fine[i, 0]), float(fine[i, 1]), z, float(fine_w[i])) for i in keep)
 

@@ -20,7 +20,8 @@ import shapely
 from commonroad.scenario.lanelet import LaneletNetwork
 from shapely.ops import unary_union
 
-from simgap.scenario.markings import MarkingLine, arc_length, marking_lines, offset_polyline
+from simgap.polyline import arc_length, offset_polyline
+from simgap.scenario.markings import MarkingLine, marking_lines
 
 ROAD_Z = 0.004          # drawn road above the ground plane [m]
 MARKING_Z = 0.008       # drawn markings above the ground plane [m]
@@ -34,7 +35,7 @@ def _strip_pieces(line: MarkingLine) -> list[np.ndarray]:
     xy = line.xy
     if not line.dashed:
         return [xy]
-    s = arc_length(xy)
+    s = arc_length(xy, by_norm=True)
     pieces, start = [], 0.0
     while start < s[-1]:
         end = min(start + line.dash, s[-1])
