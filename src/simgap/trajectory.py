@@ -98,6 +98,8 @@ class Trajectory:
         return cls(dt, **{f: [getattr(s, f) for s in states] for f in STATE_FIELDS})
 
     def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("__") or name == "_data":      # (copy and pickle look for these before _data is set)
+            raise AttributeError(name)
         try:
             return self._data[name]
         except KeyError:

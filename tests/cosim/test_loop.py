@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 import time
 
 import numpy as np
@@ -130,6 +131,7 @@ def test_run_record_reloads_equal(tmp_path):
     again = read_run(tmp_path / "run")
     assert again.fingerprint == result.fingerprint
     assert again == result            # history (states, plans, observations, call times), evaluation, settings
+    assert pickle.loads(pickle.dumps(result)) == result      # a record crosses processes (executors, Ray)
 
 
 def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal_world_none(tmp_path):

@@ -13,7 +13,6 @@ import hashlib
 import traceback
 from dataclasses import dataclass, field
 from enum import StrEnum
-from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
@@ -127,8 +126,8 @@ class History:
                                                                       # as they drove (replayed ones: none)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
-        object.__setattr__(self, "traffic", MappingProxyType(dict(self.traffic)))
+        object.__setattr__(self, "timings", dict(self.timings))
+        object.__setattr__(self, "traffic", dict(self.traffic))
 
     def agent(self, agent_id: int) -> AgentHistory:
         return next(a for a in self.agents if a.id == agent_id)

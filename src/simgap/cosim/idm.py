@@ -18,6 +18,7 @@ import numpy as np
 from commonroad.scenario.scenario import Scenario
 from pydantic import Field
 
+from simgap.polyline import arc_length
 from simgap.cosim.traffic import ObstacleReach
 from simgap.planning.car_following import IdmParameters
 from simgap.planning.protocol import TrafficParticipant
@@ -63,8 +64,8 @@ class _PathVehicle:
 def _path_vehicle(obstacle: RecordedObstacle) -> _PathVehicle | None:
     m = obstacle.motion
     xy = np.stack([m.x, m.y], axis=1)
-    steps = np.hypot(*np.diff(xy, axis=0).T) if len(xy) > 1 else np.zeros(0)
-    rec_s = np.concatenate([[0.0], np.cumsum(steps)])
+    rec_s = arc_length(xy)
+    steps = np.diff(rec_s)                 # (a segment's length to within 1e-14 m of its hypot)
     if rec_s[-1] < 1.0:
         return None                    # it hardly moves: replay it
     keep = np.concatenate([[True], steps > 1e-3])

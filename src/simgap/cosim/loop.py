@@ -41,6 +41,7 @@ from commonroad.scenario.scenario import Scenario
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from simgap.polyline import arc_length
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
@@ -163,8 +164,7 @@ def _along(path: Trajectory | None, state: State, travel: np.ndarray):
     xy = np.vstack([[state.x, state.y], xy[k + 1:]])
     if len(xy) < 2:
         return straight
-    steps = np.hypot(*np.diff(xy, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(steps)])
+    s = arc_length(xy)
     yaw = np.unwrap(np.concatenate([[state.yaw], np.arctan2(*np.diff(xy, axis=0).T[::-1])]))
     beyond = np.maximum(travel - s[-1], 0.0)
     x = np.interp(travel, s, xy[:, 0]) + beyond * math.cos(yaw[-1])

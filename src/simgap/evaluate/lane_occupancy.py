@@ -60,7 +60,7 @@ class LaneOccupancy:
         path = self.centre_line(lanelet_id)
         s, _ = path.project(point)
         ahead = np.clip([s[0] - 0.5, s[0] + 0.5], 0.0, path.length)
-        x, y = np.interp(ahead, path.s, path.xy[:, 0]), np.interp(ahead, path.s, path.xy[:, 1])
+        x, y = path.point_at(ahead)
         return math.atan2(y[1] - y[0], x[1] - x[0])
 
     def progress_along_lanes(self, driven: Trajectory, lanes: np.ndarray) -> np.ndarray:

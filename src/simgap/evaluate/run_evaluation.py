@@ -16,7 +16,6 @@ import math
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
-from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
@@ -100,7 +99,7 @@ class RunEvaluation:
     solution_check: SolutionCheckSource | None = None            # None: validity not checked
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "metrics", MappingProxyType(dict(self.metrics)))
+        object.__setattr__(self, "metrics", dict(self.metrics))
 
     def agent(self, agent_id: int) -> AgentEvaluation:
         return next(a for a in self.agents if a.id == agent_id)

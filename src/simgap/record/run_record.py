@@ -6,7 +6,6 @@ written in. Written and read by `simgap.record.run_files` only.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
-from types import MappingProxyType
 from typing import Any, Iterator, Mapping
 
 from simgap.cosim.fidelity import Fidelity
@@ -56,7 +55,7 @@ class RunSettings:
 
     def __post_init__(self) -> None:
         for name in ("parameters", "parameter_units", "backend", "recorded_as", "versions"):
-            object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+            object.__setattr__(self, name, dict(getattr(self, name)))
 
     @property
     def controller(self) -> str | None:
@@ -99,7 +98,7 @@ class RunRecord:
     format_version: int = FORMAT_VERSION
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "timings", MappingProxyType(dict(self.timings)))
+        object.__setattr__(self, "timings", dict(self.timings))
 
     # what readers ask of a run
     @property

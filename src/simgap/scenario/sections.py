@@ -6,7 +6,6 @@ report shades its plots by and the comparison splits its gaps by. A scenario's s
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any, Mapping
 
 from simgap.scenario.geometry import SectionKind
@@ -21,7 +20,7 @@ class RoadSections:
     kinds: Mapping[int, SectionKind] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "kinds", MappingProxyType({int(k): v for k, v in sorted(self.kinds.items())}))
+        object.__setattr__(self, "kinds", {int(k): v for k, v in sorted(self.kinds.items())})
 
     def __bool__(self) -> bool:
         return bool(self.kinds)
