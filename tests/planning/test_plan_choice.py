@@ -178,3 +178,10 @@ def test_struck_from_behind_takes_the_plan_met_latest_and_the_cheapest_of_equals
 def test_a_plan_never_met_ends_the_second_look():
     never = Encounters(np.array([True, True]), np.array([4.0, math.inf]))
     assert latest_met(chunks(never)) == (Pick(0, 1), math.inf)
+
+
+def test_without_traffic_holding_it_back_a_faster_plan_does_not_beat_the_cheapest():
+    # the goal in reach keeps the search going past the cheapest, for a plan that reaches it only
+    first = chunk([True, True], speed=[SLOW, 30.0], reaches=[False, False], traffic=0)
+    assert choose_plan([first, chunk([True], speed=[30.0], reaches=[False])], GOAL) == \
+        Choice(Pick(0, 0), ChoiceKind.CHEAPEST, "no plan reaches the goal")

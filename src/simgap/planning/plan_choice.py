@@ -130,32 +130,35 @@ def step(state: ChoiceState, chunk: CheckedChunk, rules: ChoiceRules) -> ChoiceS
     """``state`` after the next ``chunk`` (in cost order). While `only_reaching`, the chunk's samples
     that do not reach the goal are not looked at."""
     k = state.chunks
-    state = replace(state, chunks=k + 1)
+    cheapest, speed, blocked, beyond_bound = state.cheapest, state.cheapest_speed, state.blocked, state.beyond_bound
     reaching_only = only_reaching(state)
-    considered = chunk.reaches_goal if reaching_only else True
     if reaching_only and not chunk.reaches_goal.any():
-        return replace(state, beyond_cheapest=state.beyond_cheapest + chunk.taken)
+        return replace(state, chunks=k + 1, beyond_cheapest=state.beyond_cheapest + chunk.taken)
+    considered = chunk.reaches_goal if reaching_only else True
     beyond = chunk.passing & ~chunk.within_bound & considered
-    if state.beyond_bound is None and beyond.any():
-        state = replace(state, beyond_bound=Pick(k, int(np.flatnonzero(beyond)[0])))
+    if beyond_bound is None and beyond.any():
+        beyond_bound = Pick(k, int(np.flatnonzero(beyond)[0]))
     within = np.flatnonzero(chunk.passing & chunk.within_bound & considered)
+    decided = None
     if rules.goal_in_reach and len(within):
         reaching = within[chunk.reaches_goal[within]]
         if len(reaching):
-            return replace(state, decided=Choice(Pick(k, int(reaching[0])), ChoiceKind.REACHES_GOAL))
-    for i in within:
-        if state.cheapest is None:
-            speed = chunk.end_speed[i]
-            blocked = (rules.may_overtake and chunk.rejected_for_traffic > 0
-                       and speed < rules.blocked_speed_share * rules.desired_speed)
-            state = replace(state, cheapest=Pick(k, int(i)), cheapest_speed=speed, blocked=blocked)
-            if not (blocked or rules.goal_in_reach):
-                return replace(state, decided=Choice(state.cheapest, ChoiceKind.CHEAPEST))
-        elif state.blocked and chunk.end_speed[i] >= state.cheapest_speed + BLOCKED_SPEED_GAIN * rules.desired_speed:
-            return replace(state, decided=Choice(Pick(k, int(i)), ChoiceKind.FASTER_WHEN_BLOCKED))
-    if state.cheapest is not None:
-        state = replace(state, beyond_cheapest=state.beyond_cheapest + chunk.taken)
-    return state
+            decided = Choice(Pick(k, int(reaching[0])), ChoiceKind.REACHES_GOAL)
+    if decided is None:
+        for i in within:
+            if cheapest is None:
+                cheapest, speed = Pick(k, int(i)), chunk.end_speed[i]
+                blocked = (rules.may_overtake and chunk.rejected_for_traffic > 0
+                           and speed < rules.blocked_speed_share * rules.desired_speed)
+                if not (blocked or rules.goal_in_reach):
+                    decided = Choice(cheapest, ChoiceKind.CHEAPEST)
+                    break
+            elif blocked and chunk.end_speed[i] >= speed + BLOCKED_SPEED_GAIN * rules.desired_speed:
+                decided = Choice(Pick(k, int(i)), ChoiceKind.FASTER_WHEN_BLOCKED)
+                break
+    taken = state.beyond_cheapest + chunk.taken if decided is None and cheapest is not None \
+        else state.beyond_cheapest
+    return ChoiceState(k + 1, cheapest, speed, blocked, beyond_bound, taken, decided)
 
 
 def final(state: ChoiceState) -> Choice:
