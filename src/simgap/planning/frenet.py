@@ -29,7 +29,7 @@ Beyond the core:
 * A physical car tracks its plan with centimetre errors: while it is within
   ``continue_plan_within_m`` of the last plan, the next one starts from that plan's state (the
   controller corrects the error); a car near the road's edge but on the road is never planned
-  further out (`_RoadLeeway`); the desired speed leaves part of the steering rate unused
+  further out (`frenet_checks.RoadLeeway`); the desired speed leaves part of the steering rate unused
   (`STEER_RATE_SHARE`), and plans beyond the steering rate are a last resort.
 
 A cycle is a sequence of stages, each with typed inputs and outputs:
