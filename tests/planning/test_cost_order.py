@@ -11,7 +11,7 @@ import pytest
 import simgap.planning.frenet as frenet
 from planner_roads import drive, start_state
 from simgap.planning.cost_order import CostOrder, cost_floor
-from simgap.planning.frenet import FrenetPlanner, PlanningCycle
+from simgap.planning.frenet import CycleMemory, FrenetPlanner, PlanningCycle
 from simgap.planning.protocol import PlannerSetup, TrafficParticipant, World
 from simgap.planning.sampling import end_speeds, end_times, lateral_offsets, sampling_matrix, steps_in_horizon
 from simgap.trajectory import State, Trajectory
@@ -25,7 +25,7 @@ def _states(planner, road, steps=90):
 
 
 def _cycle_matrix(planner, state, dt=DT):
-    start = planner._start(state, state.t, dt, PlanningCycle())
+    start = planner.project(state, state.t, dt, PlanningCycle())
     s = planner.settings
     matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(s.sampling, dt),
                              end_speeds(s.sampling, start.v, start.desired, planner.vehicle.limits.max_speed),
@@ -35,7 +35,7 @@ def _cycle_matrix(planner, state, dt=DT):
 
 def _core_order(planner, start, matrix, dt=DT):
     """The core's feasible samples, every one evaluated, sorted: (cost, row)."""
-    order = planner._cost_order(start, PlanningCycle())
+    order = planner.cost_order(start, PlanningCycle())
     rows = np.arange(len(matrix))
     return sorted((cost, row) for cost, row, _ in order._evaluate(rows))
 
@@ -44,8 +44,8 @@ def _core_order(planner, start, matrix, dt=DT):
 def test_the_floor_is_below_and_close_to_the_core_cost_of_every_feasible_sample(curve_planner, curve_road, step):
     state = _states(curve_planner, curve_road)[step]
     start, matrix = _cycle_matrix(curve_planner, state)
-    # _cost_order builds the same matrix (no manoeuvre to continue: the planner's memory is reset)
-    curve_planner._previous = None
+    # cost_order builds the same matrix (no manoeuvre to continue: none is passed, and the memory is reset)
+    curve_planner.memory = CycleMemory()
     costs = _core_order(curve_planner, start, matrix)
     assert len(costs) > 50
     points = steps_in_horizon(curve_planner.settings.sampling, DT) + 1
@@ -59,10 +59,10 @@ def test_the_floor_is_below_and_close_to_the_core_cost_of_every_feasible_sample(
 @pytest.mark.parametrize("step", [0, 12, 60])
 def test_samples_come_in_the_core_order(curve_planner, curve_road, step):
     state = _states(curve_planner, curve_road)[step]
-    curve_planner._previous = None
+    curve_planner.memory = CycleMemory()
     start, matrix = _cycle_matrix(curve_planner, state)
     everything = [row for _, row in _core_order(curve_planner, start, matrix)]
-    order = curve_planner._cost_order(start, PlanningCycle())
+    order = curve_planner.cost_order(start, PlanningCycle())
     handed = []
     while batch := order.take(7):
         handed += [int(start_row) for start_row in _rows_of(batch, matrix)]

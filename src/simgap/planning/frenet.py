@@ -29,8 +29,25 @@ Beyond the core:
 * A physical car tracks its plan with centimetre errors: while it is within
   ``continue_plan_within_m`` of the last plan, the next one starts from that plan's state (the
   controller corrects the error); a car near the road's edge but on the road is never planned
-  further out (`_RoadLeeway`); the desired speed leaves part of the steering rate unused
+  further out (`frenet_checks.RoadLeeway`); the desired speed leaves part of the steering rate unused
   (`STEER_RATE_SHARE`), and plans beyond the steering rate are a last resort.
+
+A cycle is a sequence of stages, each with typed inputs and outputs:
+
+1. **project** (`FrenetPlanner.project`): the observed state into the Frenet frame, and the speed
+   to aim at → `Start`;
+2. **sample** (`sample`): end time x end speed x lateral offset, and the last cycle's manoeuvre
+   continued (`CycleMemory`) → the sampling matrix;
+3. **evaluate** (`FrenetPlanner.cost_order`): the core's coordinates, kinematic feasibility and
+   costs, lazily in its cost order → `CostOrder`;
+4. **check** (`FrenetPlanner.check`): the vehicle's limits from exact values, traffic, the road
+   and the lateral-acceleration bound (`frenet_checks`), chunk by chunk → `CheckedChunk`;
+5. **choose** (`plan_choice.step` and `plan_choice.final`, pure): which checked sample wins →
+   `Choice`; when none, a **second look** (`FrenetPlanner.second_look`) at the same samples
+   from the road's edge or with traffic that runs into the ego from behind;
+6. **convert** (`to_trajectory`): the chosen plan in simgap's convention → `Trajectory`.
+
+What one cycle leaves the next is `CycleMemory` (the manoeuvre chosen, when, and the plan).
 """
 
 from __future__ import annotations
@@ -45,19 +62,25 @@ import frenetix.trajectory_functions.cost_functions as cost_functions
 import frenetix.trajectory_functions.feasability_functions as feasibility_functions
 import numpy as np
 
+from simgap.planning.collision import DrivableAreaGrid, RoadBand, TrafficPrediction, predict_traffic
 from simgap.planning.cost_order import CoreReference, CostOrder, cost_floor
-from simgap.planning.collision import (
-    DrivableAreaGrid,
-    RoadBand,
-    TrafficPrediction,
-    footprint_outline,
-    footprints_on_road,
-    predict_traffic,
-    struck_from_behind,
-    traffic_collisions,
-    traffic_overlaps,
-)
+from simgap.planning.frenet_checks import ROAD_EDGE_M, PlanChecks, RoadLeeway, within_limits
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
+from simgap.planning.plan_choice import (
+    BLOCKED_SEARCH_SAMPLES,
+    BLOCKED_SPEED_GAIN,
+    CheckedChunk,
+    Choice,
+    ChoiceKind,
+    ChoiceRules,
+    ChoiceState,
+    final,
+    first_passing,
+    latest_met,
+    only_reaching,
+    searching,
+    step,
+)
 from simgap.planning.protocol import PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
@@ -71,35 +94,32 @@ from simgap.planning.sampling import (
     sampling_matrix,
     steps_in_horizon,
 )
-from simgap.planning.settings import FrenetSettings
+from simgap.planning.settings import FrenetSettings, SamplingSettings
 from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed, goal_approach
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
-__all__ = ["FrenetPlanner", "FrenetSettings", "PlanningCycle"]
+__all__ = ["BLOCKED_SEARCH_SAMPLES", "BLOCKED_SPEED_GAIN", "ROAD_EDGE_M", "CycleMemory", "FrenetPlanner",
+           "FrenetSettings", "Manoeuvre", "PlanningCycle", "Start", "sample", "to_trajectory"]
 
 PHASES = ("projection", "sampling", "evaluation", "collision", "conversion")
 
 # plans are checked in cost order in chunks growing from FIRST_CHUNK to MAX_CHUNK
 FIRST_CHUNK, MAX_CHUNK = 4, 64
-# when traffic blocks the cheapest plan (settings.speed.blocked_speed_share), a plan faster by
-# BLOCKED_SPEED_GAIN x the desired speed is looked for among this many more samples
-BLOCKED_SPEED_GAIN = 0.2
-BLOCKED_SEARCH_SAMPLES = 256
-# ... except within this distance of the goal (or the speed lookahead, when longer) [m]
+# no overtaking within this distance of the goal (or the speed lookahead, when longer) [m]
 NO_OVERTAKING_BEFORE_GOAL_M = 15.0
-# a vehicle whose footprint grown by this much leaves the road is at the road's edge [m]
-ROAD_EDGE_M = 0.3
 # the desired speed asks for at most this share of the vehicle's steering rate where the curvature
 # changes: a physical car needs the rest to correct its tracking errors
 STEER_RATE_SHARE = 0.85
 # the next plan continues the last one when the vehicle is this close to it (and within
 # settings.continue_plan_within_m) [rad], [m/s]
 CONTINUE_PLAN_HEADING, CONTINUE_PLAN_SPEED = 0.1, 1.0
+# the last manoeuvre is continued when the last cycle was at most this many steps ago
+CONTINUE_MANOEUVRE_STEPS = 10
 
 
 @dataclass(frozen=True)
-class _Start:
+class Start:
     """Where a planning cycle starts: the observed state in the Frenet frame (core layout:
     ``x0_lon`` = s, s_dot, s_ddot; ``x0_lat`` = d, d_dot, d_ddot), the rear axle in the local
     frame, and the speed the cycle aims at."""
@@ -120,14 +140,22 @@ class _Start:
 
 
 @dataclass(frozen=True)
-class _RoadLeeway:
-    """How a plan may use the road's edge when the vehicle is not safely on the road now: for
-    ``steps`` after the present it may leave the safe cells but must keep within ``band`` (the
-    band the vehicle is in now; None when it is off the road already: anywhere). After them
-    every plan is on the safe cells."""
+class Manoeuvre:
+    """A chosen sample's end conditions: absolute end time [s], end speed [m/s], lateral end offset [m]."""
 
-    steps: int = 0
-    band: RoadBand | None = RoadBand.SAFE
+    t_end: float
+    v_end: float
+    d_end: float
+
+
+@dataclass(frozen=True)
+class CycleMemory:
+    """What a cycle leaves the next: the manoeuvre it chose (None: none, or none to continue),
+    when it ran (None: never), and its plan (None: none, or the vehicle left it)."""
+
+    manoeuvre: Manoeuvre | None = None
+    t: float | None = None
+    last_plan: Trajectory | None = None
 
 
 @dataclass
@@ -148,7 +176,109 @@ class PlanningCycle:
     relaxed: bool = False
     desired_speed: float = 0.0
     outcome: PlanOutcome | None = None     # None until the cycle ends
+    choice: ChoiceKind | None = None       # why the plan won (None: no plan, or a second look's)
     timings: dict[str, float] = field(default_factory=lambda: {p: 0.0 for p in PHASES})
+
+
+@dataclass
+class _StepSetUp:
+    """What depends on the time step and is built at the first cycle: the goal's windows (time in
+    seconds, steps of ``dt``), the goal approach, and the core's handlers (one per batch of a
+    cycle, so that the samples of earlier batches stay valid until the next cycle)."""
+
+    dt: float
+    goal: Goal
+    approach: GoalApproach
+    handlers: list[frenetix.TrajectoryHandler] = field(default_factory=list)
+
+
+# -- stage 2: sample ---------------------------------------------------------------------------
+def sample(start: Start, settings: SamplingSettings, max_speed: float, manoeuvre: Manoeuvre | None) -> np.ndarray:
+    """The cycle's sampling matrix: end time x end speed x lateral offset from ``start``, and the
+    last cycle's ``manoeuvre`` continued (`continued_manoeuvre`) as its last row."""
+    speeds = end_speeds(settings, start.v, start.desired, max_speed)
+    matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(settings, start.dt), speeds,
+                             lateral_offsets(settings))
+    continued = continued_manoeuvre(start, manoeuvre, settings.horizon_s)
+    if continued is not None:
+        matrix = np.vstack([matrix, continued])
+    return matrix
+
+
+def continued_manoeuvre(start: Start, manoeuvre: Manoeuvre | None, horizon_s: float) -> np.ndarray | None:
+    """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
+    the same end conditions are its remainder (so a plan once found stays available)."""
+    if manoeuvre is None:
+        return None
+    remaining = manoeuvre.t_end - start.t
+    if not start.dt <= remaining <= horizon_s + TIME_NUDGE:
+        return None
+    return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
+                           np.array([manoeuvre.v_end]), np.array([manoeuvre.d_end]))
+
+
+def _new_handler(dt: float, vehicle, settings: FrenetSettings) -> frenetix.TrajectoryHandler:
+    """A core handler with the vehicle's kinematic feasibility checks and the cost functions of
+    ``settings`` (those with a positive weight)."""
+    limits, wheelbase = vehicle.limits, vehicle.wheelbase
+    whole = settings.check_whole_trajectory
+    handler = frenetix.TrajectoryHandler(dt=dt)
+    ff = feasibility_functions
+    handler.add_feasability_function(ff.CheckYawRateConstraint(
+        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
+    handler.add_feasability_function(ff.CheckAccelerationConstraint(
+        switchingVelocity=limits.v_switch, maxAcceleration=limits.max_accel, wholeTrajectory=whole))
+    handler.add_feasability_function(ff.CheckCurvatureConstraint(
+        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
+    handler.add_feasability_function(ff.CheckCurvatureRateConstraint(
+        wheelbase=wheelbase, velocityDeltaMax=limits.max_steer_rate, wholeTrajectory=whole))
+    w = settings.costs
+    cf = cost_functions
+    for name, weight, cls in (("lateral_jerk", w.lateral_jerk, cf.CalculateLateralJerkCost),
+                              ("longitudinal_jerk", w.longitudinal_jerk, cf.CalculateLongitudinalJerkCost),
+                              ("distance_to_reference_path", w.distance_to_reference_path,
+                               cf.CalculateDistanceToReferencePathCost),
+                              ("orientation_offset", w.orientation_offset, cf.CalculateOrientationOffsetCost),
+                              ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
+        if weight > 0:
+            handler.add_cost_function(cls(name, weight))
+    return handler
+
+
+# -- stage 6: convert --------------------------------------------------------------------------
+def to_trajectory(plan: CartesianBatch, observed: State, times: np.ndarray, dt: float, frame: FrenetFrame,
+                  vehicle) -> Trajectory:
+    """The single plan of ``plan`` (local frame, rear axle) as a `Trajectory` at ``times``
+    (vehicle centre, world frame), starting exactly at ``observed``."""
+    n = len(times)
+    x, y = frame.xy_to_world(plan.x[0, :n], plan.y[0, :n])
+    yaw_local = plan.yaw[0, :n]
+    # continuous heading starting exactly at the observed one
+    yaw = observed.yaw + np.concatenate([[0.0], np.cumsum(wrap_angle(np.diff(yaw_local)))])
+    yaw = yaw + (wrap_angle(yaw_local[0] + frame.rotation - observed.yaw))
+    cx, cy = vehicle.centre_of(x, y, yaw)
+    kappa = plan.kappa[0, :n]
+    v = np.maximum(plan.v[0, :n], 0.0)
+    steer = np.arctan(vehicle.wheelbase * kappa)
+    cx[0], cy[0], yaw[0], v[0] = observed.x, observed.y, observed.yaw, max(observed.v, 0.0)
+    return Trajectory(dt, t=times, x=cx, y=cy, yaw=yaw, v=v, a=plan.a[0, :n], yaw_rate=v * kappa,
+                      steer=steer)
+
+
+def on_last_plan(plan: Trajectory | None, observed: State, t: float, within: float | None) -> State | None:
+    """The last ``plan``'s state at ``t`` when the vehicle is close to it (``within`` [m],
+    `CONTINUE_PLAN_HEADING` and `CONTINUE_PLAN_SPEED`): the next plan starts there, so that the
+    tracking error stays the controller's to correct instead of becoming the plan's. Replanned
+    from where the vehicle is, a car that runs a centimetre wide each cycle drifts a little
+    further every cycle and swings out of curves."""
+    if plan is None or within is None or not plan.t[0] < t <= plan.t_end:
+        return None
+    on_plan = plan.at(t)
+    if (math.hypot(observed.x - on_plan.x, observed.y - on_plan.y) > within
+            or abs(wrap_angle(observed.yaw - on_plan.yaw)) > CONTINUE_PLAN_HEADING
+            or abs(observed.v - on_plan.v) > CONTINUE_PLAN_SPEED):
+        return None
+    return on_plan
 
 
 class FrenetPlanner:
@@ -194,65 +324,30 @@ class FrenetPlanner:
             corridor_margin=s.sampling.lateral_range_m + vehicle.length + 5.0,
             resolution=s.collision.road_grid_resolution_m, margin=s.collision.road_margin_m,
             max_cells=s.collision.road_grid_max_cells)
-        self._outline = footprint_outline(vehicle.length, vehicle.width, s.collision.footprint_point_spacing_m)
-        self._edge_outline = footprint_outline(vehicle.length + 2 * ROAD_EDGE_M, vehicle.width + 2 * ROAD_EDGE_M,
-                                               s.collision.footprint_point_spacing_m)
+        self.checks = PlanChecks(vehicle, s, self.frame, self.drivable_area)
         self._core_reference = CoreReference(*self.frame.reference_tables())
-        self._handlers: list[frenetix.TrajectoryHandler] = []
-        self._dt: float | None = None
-        self._approach: GoalApproach | None = None
-        self._goal: Goal | None = None         # the goal's windows, time in seconds (steps of dt)
-        # the manoeuvre chosen last: (absolute end time, end speed, lateral end offset)
-        self._previous: tuple[float, float, float] | None = None
-        self._previous_t: float | None = None
-        self._last_plan: Trajectory | None = None
+        self._step_set_up: _StepSetUp | None = None
+        self.memory = CycleMemory()
         self.last_cycle = PlanningCycle()
 
-    # -- set-up of the core ------------------------------------------------------------------
+    def _set_up_for(self, dt: float) -> _StepSetUp:
+        """The set-up for time step ``dt`` (built anew when it changes)."""
+        if self._step_set_up is None or self._step_set_up.dt != dt:
+            goal = Goal.of(self.goal, dt)
+            approach = goal_approach(self.reference_path, goal, self.speed_profile,
+                                     self.settings.speed.comfortable_deceleration, self.vehicle, self._network,
+                                     self.vehicle.rear_axle_to_center)
+            self._step_set_up = _StepSetUp(dt, goal, approach)
+        return self._step_set_up
+
     def _handler_for(self, dt: float, batch: int) -> frenetix.TrajectoryHandler:
-        """The core's handler of the ``batch``-th batch of a cycle: one per batch, so that the
-        samples of earlier batches stay valid until the next cycle."""
-        if self._dt != dt:
-            self._handlers, self._dt = [], dt
-        while len(self._handlers) <= batch:
-            self._handlers.append(self._new_handler(dt))
-        return self._handlers[batch]
+        """The core's handler of the ``batch``-th batch of a cycle."""
+        handlers = self._set_up_for(dt).handlers
+        while len(handlers) <= batch:
+            handlers.append(_new_handler(dt, self.vehicle, self.settings))
+        return handlers[batch]
 
-    def _new_handler(self, dt: float) -> frenetix.TrajectoryHandler:
-        limits, wheelbase = self.vehicle.limits, self.vehicle.wheelbase
-        whole = self.settings.check_whole_trajectory
-        handler = frenetix.TrajectoryHandler(dt=dt)
-        ff = feasibility_functions
-        handler.add_feasability_function(ff.CheckYawRateConstraint(
-            deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-        handler.add_feasability_function(ff.CheckAccelerationConstraint(
-            switchingVelocity=limits.v_switch, maxAcceleration=limits.max_accel, wholeTrajectory=whole))
-        handler.add_feasability_function(ff.CheckCurvatureConstraint(
-            deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-        handler.add_feasability_function(ff.CheckCurvatureRateConstraint(
-            wheelbase=wheelbase, velocityDeltaMax=limits.max_steer_rate, wholeTrajectory=whole))
-        w = self.settings.costs
-        cf = cost_functions
-        for name, weight, cls in (("lateral_jerk", w.lateral_jerk, cf.CalculateLateralJerkCost),
-                                  ("longitudinal_jerk", w.longitudinal_jerk, cf.CalculateLongitudinalJerkCost),
-                                  ("distance_to_reference_path", w.distance_to_reference_path,
-                                   cf.CalculateDistanceToReferencePathCost),
-                                  ("orientation_offset", w.orientation_offset, cf.CalculateOrientationOffsetCost),
-                                  ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
-            if weight > 0:
-                handler.add_cost_function(cls(name, weight))
-        return handler
-
-    def _approach_for(self, dt: float) -> GoalApproach:
-        """The goal approach (its time window is in steps of ``dt``), built at the first cycle."""
-        if self._approach is None or self._dt != dt:
-            self._goal = Goal.of(self.goal, dt)
-            self._approach = goal_approach(self.reference_path, self._goal, self.speed_profile,
-                                           self.settings.speed.comfortable_deceleration, self.vehicle, self._network,
-                                           self.vehicle.rear_axle_to_center)
-        return self._approach
-
-    def _goal_in_reach(self, observed: State, t: float, speed: float) -> bool:
+    def _goal_in_reach(self, goal: Goal, observed: State, t: float, speed: float) -> bool:
         """Might a plan from ``observed`` at ``t`` reach a goal state within the horizon: its time
         window overlaps the horizon and its position lies within the distance driven at ``speed``
         (and a car's length) of the vehicle's centre?"""
@@ -260,27 +355,28 @@ class FrenetPlanner:
         reach = speed * horizon + self.vehicle.length
         return any((gs.time is None or (gs.time.lo <= t + horizon and gs.time.hi >= t))
                    and gs.distance_from_position(observed.x, observed.y) <= reach
-                   for gs in self._goal.states)
+                   for gs in goal.states)
 
-    # -- planning ----------------------------------------------------------------------------
+    # -- the cycle ---------------------------------------------------------------------------
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
         cycle = PlanningCycle(t=t)
         self.last_cycle = cycle
         dt = float(world.dt)
         times = t + dt * np.arange(steps_in_horizon(self.settings.sampling, dt) + 1)
         clock = time.perf_counter()
-        origin = self._on_last_plan(observed, t) or observed
-        self._last_plan = None
-        start = self._start(origin, t, dt, cycle)
+        memory = self.memory
+        origin = on_last_plan(memory.last_plan, observed, t, self.settings.continue_plan_within_m) or observed
+        memory = self.memory = replace(memory, last_plan=None)
+        start = self.project(origin, t, dt, cycle)
         cycle.timings["projection"] += time.perf_counter() - clock
         if start is None:
             cycle.outcome = PlanOutcome.PROJECTION_FAILED
             return None
         traffic = predict_traffic(world.traffic, times, self.frame.xy_to_local, self.frame.rotation,
                                   self.settings.collision.traffic_margin_m)
-        if self._previous_t is None or not (self._previous_t < t <= self._previous_t + 10 * dt):
-            self._previous = None          # a new run, or a long gap: nothing to continue
-        chosen = self._search(start, traffic, cycle)
+        if memory.t is None or not (memory.t < t <= memory.t + CONTINUE_MANOEUVRE_STEPS * dt):
+            memory = self.memory = replace(memory, manoeuvre=None)   # a new run, or a long gap: nothing to continue
+        chosen = self._search(start, traffic, cycle, memory.manoeuvre)
         if chosen is None and cycle.feasible == cycle.rejected_infeasible and self.settings.relax_initial_state:
             # nothing feasible from the observed acceleration and steering (physics may hand us
             # values no polynomial can continue): retry from the observed pose and speed alone
@@ -289,38 +385,21 @@ class FrenetPlanner:
             cycle.timings["projection"] += time.perf_counter() - clock
             if start is not None:
                 cycle.relaxed = True
-                chosen = self._search(start, traffic, cycle)
-        self._previous_t = t
+                chosen = self._search(start, traffic, cycle, memory.manoeuvre)
         if chosen is None:
-            self._previous = None
+            self.memory = CycleMemory(None, t, None)
             if not cycle.outcome:
                 cycle.outcome = (PlanOutcome.NO_FEASIBLE_SAMPLE if cycle.feasible == cycle.rejected_infeasible
                                  else PlanOutcome.ALL_COLLIDING)
             return None
         p = chosen.parameters[0]
-        self._previous = (t + float(p[END_TIME]), float(p[END_SPEED]), float(p[END_OFFSET]))
+        self.memory = CycleMemory(Manoeuvre(t + float(p[END_TIME]), float(p[END_SPEED]), float(p[END_OFFSET])), t)
         clock = time.perf_counter()
-        plan = self._to_trajectory(chosen, origin, times, dt)
+        plan = to_trajectory(chosen, origin, times, dt, self.frame, self.vehicle)
         cycle.timings["conversion"] += time.perf_counter() - clock
         cycle.outcome = cycle.outcome or PlanOutcome.PLANNED
-        self._last_plan = plan
+        self.memory = replace(self.memory, last_plan=plan)
         return plan
-
-    def _on_last_plan(self, observed: State, t: float) -> State | None:
-        """The last plan's state at ``t`` when the vehicle is close to it (`continue_plan_within_m`,
-        `CONTINUE_PLAN_HEADING` and `CONTINUE_PLAN_SPEED`): the next plan starts there, so that the
-        tracking error stays the controller's to correct instead of becoming the plan's. Replanned
-        from where the vehicle is, a car that runs a centimetre wide each cycle drifts a little
-        further every cycle and swings out of curves."""
-        plan, within = self._last_plan, self.settings.continue_plan_within_m
-        if plan is None or within is None or not plan.t[0] < t <= plan.t_end:
-            return None
-        on_plan = plan.at(t)
-        if (math.hypot(observed.x - on_plan.x, observed.y - on_plan.y) > within
-                or abs(wrap_angle(observed.yaw - on_plan.yaw)) > CONTINUE_PLAN_HEADING
-                or abs(observed.v - on_plan.v) > CONTINUE_PLAN_SPEED):
-            return None
-        return on_plan
 
     @property
     def failure_reason(self) -> str:
@@ -334,8 +413,10 @@ class FrenetPlanner:
                 f"rejected {c.rejected_traffic} for traffic, {c.rejected_road} for the road edge, "
                 f"{c.rejected_infeasible} for the vehicle's limits")
 
-    def _start(self, observed: State, t: float, dt: float, cycle: PlanningCycle) -> _Start | None:
-        """The observed state projected into the Frenet frame, and the speed to aim at."""
+    # -- stage 1: project ----------------------------------------------------------------------
+    def project(self, observed: State, t: float, dt: float, cycle: PlanningCycle) -> Start | None:
+        """The observed state projected into the Frenet frame, and the speed to aim at (None: it
+        cannot be projected)."""
         v = max(float(observed.v), 0.0)
         low_velocity = v < self.settings.sampling.low_velocity_threshold_m_s
         cycle.low_velocity = low_velocity
@@ -351,18 +432,19 @@ class FrenetPlanner:
             return None
         s_ref = float(self.frame.to_reference_s(x0_lon[0]))
         lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
-        approach = self._approach_for(dt)
+        set_up = self._set_up_for(dt)
+        approach = set_up.approach
         aim = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
         desired = aim.speed
         cycle.desired_speed = desired
         may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
         speed = self.settings.speed
         bound = speed.late_lateral_acceleration if aim.late else speed.max_lateral_acceleration
-        in_reach = self._goal_in_reach(observed, t, max(v, desired))
-        return _Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
-                      may_overtake, bound, in_reach)
+        in_reach = self._goal_in_reach(set_up.goal, observed, t, max(v, desired))
+        return Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
+                     may_overtake, bound, in_reach)
 
-    def _relaxed(self, start: _Start) -> _Start | None:
+    def _relaxed(self, start: Start) -> Start | None:
         """``start`` with zero acceleration and the reference path's curvature."""
         _, kappa_ref, _ = self.frame.reference_at(np.array([start.x0_lon[0]]))
         steer_ref = math.atan(self.vehicle.wheelbase * float(kappa_ref[0]))
@@ -373,29 +455,26 @@ class FrenetPlanner:
             return None
         return replace(start, x0_lon=x0_lon, x0_lat=x0_lat)
 
-    def _search(self, start: _Start, traffic: TrafficPrediction, cycle: PlanningCycle) -> CartesianBatch | None:
-        """Sample, and return the cheapest plan that passes our checks, the core evaluating
-        samples in its cost order as they are looked at."""
-        order = self._cost_order(start, cycle)
+    def _search(self, start: Start, traffic: TrafficPrediction, cycle: PlanningCycle,
+                manoeuvre: Manoeuvre | None) -> CartesianBatch | None:
+        """Sample, and return the chosen plan, the core evaluating samples in its cost order as
+        they are looked at."""
+        order = self.cost_order(start, cycle, manoeuvre)
         clock, evaluation = time.perf_counter(), cycle.timings["evaluation"]
-        chosen = self._first_passing(order, start, traffic, cycle)
+        chosen = self._choose(order, start, traffic, cycle)
         cycle.timings["collision"] += time.perf_counter() - clock - (cycle.timings["evaluation"] - evaluation)
         cycle.feasible += order.feasible
         cycle.evaluated += order.evaluated
         cycle.floor_misses += order.floor_misses
         return chosen
 
-    def _cost_order(self, start: _Start, cycle: PlanningCycle) -> CostOrder:
-        """The cycle's samples (with the last manoeuvre continued), to be evaluated by the core in
-        its cost order (`cost_order`)."""
+    # -- stages 2 and 3: sample, evaluate ------------------------------------------------------
+    def cost_order(self, start: Start, cycle: PlanningCycle, manoeuvre: Manoeuvre | None = None) -> CostOrder:
+        """The cycle's samples (with ``manoeuvre`` continued), to be evaluated by the core in its
+        cost order (`cost_order`): coordinates, the kinematic feasibility checks and the costs."""
         s, dt = self.settings, start.dt
         clock = time.perf_counter()
-        speeds = end_speeds(s.sampling, start.v, start.desired, self.vehicle.limits.max_speed)
-        matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(s.sampling, dt), speeds,
-                                 lateral_offsets(s.sampling))
-        continued = self._continued_manoeuvre(start)
-        if continued is not None:
-            matrix = np.vstack([matrix, continued])
+        matrix = sample(start, s.sampling, self.vehicle.limits.max_speed, manoeuvre)
         cycle.samples += len(matrix)
         points = steps_in_horizon(s.sampling, dt) + 1
         floor = cost_floor(matrix, dt, points, start.low_velocity, start.desired, s.costs, self._core_reference)
@@ -429,242 +508,102 @@ class FrenetPlanner:
 
         return CostOrder(floor, evaluate)
 
-    def _continued_manoeuvre(self, start: _Start) -> np.ndarray | None:
-        """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
-        the same end conditions are its remainder (so a plan once found stays available)."""
-        if self._previous is None:
-            return None
-        t_end, v_end, d_end = self._previous
-        remaining = t_end - start.t
-        if not start.dt <= remaining <= self.settings.sampling.horizon_s + TIME_NUDGE:
-            return None
-        return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
-                               np.array([v_end]), np.array([d_end]))
+    # -- stage 4: check ------------------------------------------------------------------------
+    def check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: RoadLeeway, start: Start,
+              cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
+        """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
+        acceleration bound? Counts the rejections in ``cycle``."""
+        feasible_ok = within_limits(batch, self.vehicle.limits, self.vehicle.wheelbase)
+        verdicts = self.checks.check(batch, traffic, leeway, start.dt, start.lateral_bound)
+        hit, on_road = verdicts.hit, verdicts.on_road
+        cycle.checked += len(feasible_ok)
+        cycle.rejected_infeasible += int((~feasible_ok).sum())
+        cycle.rejected_traffic += int((feasible_ok & hit).sum())
+        cycle.rejected_road += int((feasible_ok & ~hit & ~on_road).sum())
+        return feasible_ok & ~hit & on_road, verdicts.lateral_ok
 
-    def _leeway(self, start: _Start) -> _RoadLeeway:
-        """The plans' leeway at the road's edge: none when the vehicle is safely on the road;
-        ``recovery_s`` to get back when it is not, without going further out than it is now (a
-        tracking error of centimetres at the edge is no licence to leave the road); anywhere
-        when it is off the road already."""
-        cx, cy = self.vehicle.centre_of(start.x_rear, start.y_rear, start.yaw_local)
-        centre = (np.array([cx]), np.array([cy]), np.array([start.yaw_local]))
-        band = next((b for b in RoadBand if footprints_on_road(self.drivable_area, self._outline, *centre, b)[0]),
-                    None)
-        if band is RoadBand.SAFE:
-            return _RoadLeeway()
-        return _RoadLeeway(self._recovery_steps(start.dt), band)
+    def _checked_chunk(self, batch: CartesianBatch, taken: int, reaching: bool, traffic: TrafficPrediction,
+                       leeway: RoadLeeway, start: Start, cycle: PlanningCycle) -> CheckedChunk:
+        """``batch`` (of ``taken`` samples; all of it reaching the goal when ``reaching``) checked,
+        as the choice sees it."""
+        passing, lateral_ok = self.check(batch, traffic, leeway, start, cycle)
+        within_bound = lateral_ok | (not self.settings.speed.enforce_lateral_acceleration)
+        cycle.rejected_lateral_acceleration += int((passing & ~within_bound).sum())
+        if reaching:
+            reaches = np.ones(len(passing), dtype=bool)
+        else:
+            reaches = np.zeros(len(passing), dtype=bool)
+            candidates = np.flatnonzero(passing & within_bound)
+            if start.goal_in_reach and len(candidates):       # only these are looked at
+                reaches[candidates] = self._reaches_goal(batch, candidates, start)
+        return CheckedChunk(taken, passing, within_bound, batch.v[:, -1], reaches, cycle.rejected_traffic)
 
-    def _recovery_steps(self, dt: float) -> int:
-        return int(round(self.settings.collision.recovery_s / dt))
-
-    def _first_passing(self, order: CostOrder, start: _Start, traffic: TrafficPrediction,
-                       cycle: PlanningCycle) -> CartesianBatch | None:
-        """In cost order, a few at a time: the first plan within the limits, clear of traffic and on
-        the road (and within the lateral-acceleration bound if any is). When traffic holds the
-        cheapest such plan well below the desired speed (``blocked_speed_share``), a faster one among
-        the next `BLOCKED_SEARCH_SAMPLES` (a lane change, an overtaking) is taken instead. With the
-        goal in reach (``start.goal_in_reach``) the cheapest passing plan that reaches the goal is
-        taken, looked for among as many more (only those that reach it are checked). When every
-        plan leaves the road from a vehicle at the road's edge (within `ROAD_EDGE_M`), they are
-        checked again with the recovery time to get back onto the safe cells."""
-        leeway = self._leeway(start)
-        chosen: CartesianBatch | None = None
-        blocked = False
-        fallback: CartesianBatch | None = None
-        checked: list[CartesianBatch] = []
-        chunk, beyond_chosen = FIRST_CHUNK, 0
-        while beyond_chosen < BLOCKED_SEARCH_SAMPLES:
+    # -- stage 5: choose -----------------------------------------------------------------------
+    def _choose(self, order: CostOrder, start: Start, traffic: TrafficPrediction,
+                cycle: PlanningCycle) -> CartesianBatch | None:
+        """In cost order, a few at a time: check the samples and choose (`plan_choice`): the
+        first within the limits, clear of traffic and on the road (and within the lateral-
+        acceleration bound if any is), unless traffic blocks it or the goal is in reach. With
+        none, a `second_look`."""
+        leeway = self.checks.leeway(start.x_rear, start.y_rear, start.yaw_local, start.dt)
+        rules = ChoiceRules(start.desired, self.settings.speed.blocked_speed_share, start.may_overtake,
+                            start.goal_in_reach)
+        state = ChoiceState()
+        batches: list[CartesianBatch | None] = []        # per chunk (None: none of it checked)
+        chunk = FIRST_CHUNK
+        while searching(state):
             samples = order.take(chunk)
             if not samples:
                 break
             chunk = min(chunk * 2, MAX_CHUNK)
             batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
-            only_reaching = chosen is not None and not blocked      # only a plan that reaches the goal would do now
-            if only_reaching:
-                reaching = np.flatnonzero(self._reaches_goal(batch, np.arange(len(samples)), start))
-                if not len(reaching):
-                    beyond_chosen += len(samples)
+            reaching = only_reaching(state)      # only a plan that reaches the goal would do now
+            if reaching:
+                rows = np.flatnonzero(self._reaches_goal(batch, np.arange(len(samples)), start))
+                if not len(rows):
+                    batches.append(None)
+                    state = step(state, CheckedChunk.of([], [], [], taken=len(samples)), rules)
                     continue
-                batch = _rows(batch, reaching)
-            checked.append(batch)
-            passing, lateral_ok = self._verdicts(batch, traffic, leeway, start, cycle)
-            within = passing & (lateral_ok | (not self.settings.speed.enforce_lateral_acceleration))
-            cycle.rejected_lateral_acceleration += int((passing & ~within).sum())
-            if fallback is None and (passing & ~within).any():
-                fallback = _row(batch, int(np.flatnonzero(passing & ~within)[0]))
-            if start.goal_in_reach and within.any():
-                reaching = np.flatnonzero(within)
-                if not only_reaching:
-                    reaching = reaching[self._reaches_goal(batch, reaching, start)]
-                if len(reaching):               # the cheapest plan that reaches the goal
-                    return _row(batch, int(reaching[0]))
-            for i in np.flatnonzero(within):
-                if chosen is None:
-                    chosen = _row(batch, i)
-                    blocked = self._blocked(chosen, start, cycle)
-                    if not (blocked or start.goal_in_reach):
-                        return chosen
-                elif blocked and batch.v[i, -1] >= chosen.v[0, -1] + BLOCKED_SPEED_GAIN * start.desired:
-                    return _row(batch, i)
-            if chosen is not None:
-                beyond_chosen += len(samples)
-        if chosen is None and fallback is None and leeway.steps == 0 and cycle.rejected_road \
-                and self._at_road_edge(start):
-            chosen = self._first_recovering(checked, start, traffic)
-        if chosen is None and fallback is None and cycle.rejected_traffic:
-            chosen = self._struck_from_behind(checked, start, traffic, leeway, cycle)
-        return chosen or fallback
+                batch = _rows(batch, rows)
+            batches.append(batch)
+            state = step(state, self._checked_chunk(batch, len(samples), reaching, traffic, leeway, start, cycle),
+                         rules)
+        choice: Choice = final(state)
+        if choice.pick is not None:
+            cycle.choice = choice.kind
+            return _row(batches[choice.pick.chunk], choice.pick.row)
+        return self.second_look([b for b in batches if b is not None], start, traffic, leeway, cycle)
 
-    def _struck_from_behind(self, checked: list[CartesianBatch], start: _Start, traffic: TrafficPrediction,
-                            leeway: _RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
-        """When every plan within the limits and on the road meets traffic: of the plans whose every
-        encounter within the horizon is another road user running into the ego from behind
-        (replayed traffic does not brake for it, and braking would only bring it sooner; what the
-        stopping distance beyond the horizon would meet is not counted here), the one met latest
-        (driving away from it; the cheapest of equals), ``cycle.outcome`` saying so; None when every
-        plan runs into someone (the planner fails, and says so)."""
-        veh = self.vehicle
-        hl, hw = veh.length / 2, veh.width / 2
-        no_traffic = TrafficPrediction(*(np.zeros((0, 1)),) * 3, np.zeros(0), np.zeros(0), np.zeros(0))
-        best: tuple[float, CartesianBatch, int] | None = None
-        for batch in checked:
-            cx, cy = veh.centre_of(batch.x, batch.y, batch.yaw)
-            overlaps = traffic_overlaps(cx, cy, batch.yaw, hl, hw, traffic)
-            if overlaps is None:      # met only beyond the horizon (braking to a stop): nobody the ego hits
-                at_fault = np.zeros(len(cx), dtype=bool)
-                met_at = np.full(len(cx), np.inf)
-            else:        # judged where each participant is met first (replayed, it drives on through the ego)
-                met, struck = overlaps[:, 1:], struck_from_behind(cx, cy, batch.yaw, hl, traffic)[:, 1:]
-                first = met.argmax(axis=1)                                  # (plans, participants)
-                struck_first = np.take_along_axis(struck, first[:, None, :], axis=1)[:, 0, :]
-                at_fault = (met.any(axis=1) & ~struck_first).any(axis=1)
-                touched = met.any(axis=2)                                   # (plans, steps)
-                met_at = np.where(touched.any(axis=1), touched.argmax(axis=1), np.inf)
-            _, on_road, _ = self._check(batch, no_traffic, leeway, start.dt, start.lateral_bound)
-            innocent = np.flatnonzero(self._feasible(batch) & on_road & ~at_fault)
-            if len(innocent):
-                i = int(innocent[np.argmax(met_at[innocent])])              # the first of the latest met
-                if best is None or met_at[i] > best[0]:
-                    best = (float(met_at[i]), batch, i)
-                if math.isinf(best[0]):
-                    break
-        if best is None:
-            return None
-        cycle.outcome = PlanOutcome.STRUCK_FROM_BEHIND
-        return _row(best[1], best[2])
+    def second_look(self, checked: list[CartesianBatch], start: Start, traffic: TrafficPrediction,
+                    leeway: RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
+        """When no plan passes: from a vehicle at the road's edge (within `ROAD_EDGE_M`) whose
+        plans all leave the road, the cheapest that gets back onto the safe cells within the
+        recovery time (`first_passing`, the rejections of this second look not counted); when
+        traffic rejected plans, the one that traffic meets latest of those whose every encounter
+        is another road user running into the ego from behind (`latest_met`), ``cycle.outcome``
+        saying so. None: every plan runs into someone (the planner fails, and says so)."""
+        if leeway.steps == 0 and cycle.rejected_road and self.checks.at_road_edge(start.x_rear, start.y_rear,
+                                                                                  start.yaw_local):
+            recovery = RoadLeeway(self.checks.recovery_steps(start.dt), RoadBand.ROAD)
+            pick = first_passing(self.check(batch, traffic, recovery, start, PlanningCycle())[0] for batch in checked)
+            if pick is not None:
+                return _row(checked[pick.chunk], pick.row)
+        if cycle.rejected_traffic:
+            found = latest_met(self.checks.encounters(batch, leeway, start.dt, start.lateral_bound, traffic)
+                               for batch in checked)
+            if found is not None:
+                cycle.outcome = PlanOutcome.STRUCK_FROM_BEHIND
+                return _row(checked[found[0].chunk], found[0].row)
+        return None
 
-    def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: _Start) -> np.ndarray:
+    def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: Start) -> np.ndarray:
         """Per plan ``rows`` of ``batch``: does it reach the goal (every window of a goal state,
         judged at the vehicle's centre) at one of its states?"""
         yaw = batch.yaw[rows]
         x, y = self.frame.xy_to_world(*self.vehicle.centre_of(batch.x[rows], batch.y[rows], yaw))
         t = np.broadcast_to(start.t + start.dt * np.arange(yaw.shape[1]), yaw.shape)
-        return self._goal.reached_at(t, x, y, yaw + self.frame.rotation, batch.v[rows]).any(axis=1)
-
-    def _at_road_edge(self, start: _Start) -> bool:
-        """The footprint grown by `ROAD_EDGE_M` on every side leaves the road."""
-        cx0, cy0 = self.vehicle.centre_of(start.x_rear, start.y_rear, start.yaw_local)
-        return not footprints_on_road(self.drivable_area, self._edge_outline, np.array([cx0]), np.array([cy0]),
-                                      np.array([start.yaw_local]))[0]
-
-    def _first_recovering(self, checked: list[CartesianBatch], start: _Start,
-                          traffic: TrafficPrediction) -> CartesianBatch | None:
-        """The cheapest of the ``checked`` plans that passes when it may leave the safe cells (not
-        the road) for the recovery time (the rejections of this second look are not counted)."""
-        leeway = _RoadLeeway(self._recovery_steps(start.dt), RoadBand.ROAD)
-        for batch in checked:
-            passing, _ = self._verdicts(batch, traffic, leeway, start, PlanningCycle())
-            if passing.any():
-                return _row(batch, int(np.flatnonzero(passing)[0]))
-        return None
-
-    def _blocked(self, plan: CartesianBatch, start: _Start, cycle: PlanningCycle) -> bool:
-        """Traffic holds ``plan`` well below the desired speed."""
-        return (start.may_overtake and cycle.rejected_traffic > 0
-                and plan.v[0, -1] < self.settings.speed.blocked_speed_share * start.desired)
-
-    def _verdicts(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, start: _Start,
-                  cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
-        """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
-        acceleration bound? Counts the rejections in ``cycle``."""
-        feasible_ok = self._feasible(batch)
-        hit, on_road, lateral_ok = self._check(batch, traffic, leeway, start.dt, start.lateral_bound)
-        cycle.checked += len(feasible_ok)
-        cycle.rejected_infeasible += int((~feasible_ok).sum())
-        cycle.rejected_traffic += int((feasible_ok & hit).sum())
-        cycle.rejected_road += int((feasible_ok & ~hit & ~on_road).sum())
-        return feasible_ok & ~hit & on_road, lateral_ok
-
-    def _feasible(self, batch: CartesianBatch) -> np.ndarray:
-        """Acceleration and curvature within the vehicle's limits, from the exact values (the
-        core's own checks see halved second derivatives, see `frenet_frame`)."""
-        limits, wheelbase = self.vehicle.limits, self.vehicle.wheelbase
-        v, a, kappa = batch.v[:, 1:], batch.a[:, 1:], batch.kappa[:, 1:]
-        a_max = np.where(v > limits.v_switch, limits.max_accel * limits.v_switch / np.maximum(v, 1e-9),
-                         limits.max_accel)
-        tol = 1e-6
-        ok_a = ((a <= a_max + tol) & (a >= -limits.max_accel - tol)).all(axis=1)
-        ok_k = (np.abs(kappa) <= math.tan(limits.max_steer) / wheelbase + tol).all(axis=1)
-        return ok_a & ok_k
-
-    def _check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: _RoadLeeway, dt: float,
-               lateral_bound: float):
-        """Per plan of ``batch``: hits traffic?, stays on the road?, within ``lateral_bound`` and the
-        steering rate?"""
-        veh, s = self.vehicle, self.settings
-        hl, hw = veh.length / 2, veh.width / 2
-        n = len(batch.x)
-        cx, cy = veh.centre_of(batch.x, batch.y, batch.yaw)
-        if traffic.empty:
-            hit = np.zeros(n, dtype=bool)
-        else:
-            # the present (step 0) is not checked: what overlaps now cannot be planned away
-            hit = traffic_collisions(cx, cy, batch.yaw, hl, hw, traffic)[:, 1:].any(axis=1)
-            b = s.collision.stopping_deceleration
-            if b is not None and not hit.all():
-                # braking beyond the horizon along the path must stop clear of traffic braking
-                # from where it is at the horizon's end
-                v_end = np.maximum(batch.v[:, -1], 0.0)
-                steps = int(math.ceil(float(v_end.max()) / b / dt))
-                if steps > 0:
-                    tau = dt * np.arange(1, steps + 1)
-                    t_stop = (v_end / b)[:, None]
-                    tt = np.minimum(tau[None, :], t_stop)
-                    travel = v_end[:, None] * tt - 0.5 * b * tt**2
-                    ex, ey, eyaw = self.frame.curvilinear_to_local(batch.s[:, -1:] + travel, batch.d[:, -1:])
-                    ex, ey = veh.centre_of(ex, ey, eyaw)
-                    last = traffic.braking_from_end(steps, dt, s.collision.traffic_deceleration)
-                    hit |= traffic_collisions(ex, ey, eyaw, hl, hw, last).any(axis=1)
-        # the road only for plans clear of traffic (the road test costs most: many points)
-        on_road = np.ones(n, dtype=bool)
-        safe_from = min(1 + leeway.steps, cx.shape[1])
-        rows = np.flatnonzero(~hit)
-        if safe_from < cx.shape[1] and len(rows):
-            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, safe_from:],
-                                               cy[rows, safe_from:], batch.yaw[rows, safe_from:]).all(axis=1)
-        rows = rows[on_road[rows]]
-        if safe_from > 1 and leeway.band is not None and len(rows):
-            on_road[rows] = footprints_on_road(self.drivable_area, self._outline, cx[rows, 1:safe_from],
-                                               cy[rows, 1:safe_from], batch.yaw[rows, 1:safe_from],
-                                               leeway.band).all(axis=1)
-        a_lat = (batch.v[:, 1:] ** 2 * np.abs(batch.kappa[:, 1:])).max(axis=1)
-        steer_rate = np.abs(np.diff(np.arctan(veh.wheelbase * batch.kappa), axis=1)).max(axis=1) / dt
-        return hit, on_road, (a_lat <= lateral_bound) & (steer_rate <= veh.limits.max_steer_rate)
-
-    def _to_trajectory(self, plan: CartesianBatch, observed: State, times: np.ndarray, dt: float) -> Trajectory:
-        n = len(times)
-        x, y = self.frame.xy_to_world(plan.x[0, :n], plan.y[0, :n])
-        yaw_local = plan.yaw[0, :n]
-        # continuous heading starting exactly at the observed one
-        yaw = observed.yaw + np.concatenate([[0.0], np.cumsum(wrap_angle(np.diff(yaw_local)))])
-        yaw = yaw + (wrap_angle(yaw_local[0] + self.frame.rotation - observed.yaw))
-        cx, cy = self.vehicle.centre_of(x, y, yaw)
-        kappa = plan.kappa[0, :n]
-        v = np.maximum(plan.v[0, :n], 0.0)
-        steer = np.arctan(self.vehicle.wheelbase * kappa)
-        cx[0], cy[0], yaw[0], v[0] = observed.x, observed.y, observed.yaw, max(observed.v, 0.0)
-        return Trajectory(dt, t=times, x=cx, y=cy, yaw=yaw, v=v, a=plan.a[0, :n], yaw_rate=v * kappa,
-                          steer=steer)
+        return self._set_up_for(start.dt).goal.reached_at(t, x, y, yaw + self.frame.rotation,
+                                                          batch.v[rows]).any(axis=1)
 
 
 def _row(batch: CartesianBatch, i: int) -> CartesianBatch:

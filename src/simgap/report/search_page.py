@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from simgap.experiment.search.results import HighRun, SearchResults  # noqa: E402
+from simgap.experiment.search.spec import DimensionKind  # noqa: E402
 from simgap.planning.registry import DEFAULT_PLANNER  # noqa: E402
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.report.site import SCRIPT, STYLE, Raw, figure, page, table  # noqa: E402
@@ -29,7 +30,8 @@ def _violations(per_strategy: dict[str, list[HighRun]], dims, limit: int = 15) -
             entry = {"strategy": name, "run": Raw(f"<a href='../{html.escape(name)}/{html.escape(r.run.run_dir or '')}"
                                                  f"/run.json'>c{r.candidate:05d}</a>"), "vehicle": r.run.id.fidelity.vehicle,
                      "planner": r.run.id.planner or DEFAULT_PLANNER}
-            entry |= {n: (r.run.parameters if k == "param" else r.knobs).get(n, math.nan) for k, n, _, _ in dims}
+            entry |= {d.name: (r.run.parameters if d.kind is DimensionKind.PARAMETER else r.knobs).get(d.name, math.nan)
+                      for d in dims}
             entry["why"] = r.failure_reason
             out.append(entry)
     return out
@@ -87,7 +89,8 @@ def _plot_map(per_strategy: dict[str, list[HighRun]], dims, path: Path) -> Path:
     a, b = _map_axes(every, dims)
     n = len(per_strategy)
     fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.4), dpi=110, squeeze=False, sharey=True)
-    (_, na, loa, hia), (_, nb, lob, hib) = dims[a], dims[b]
+    na, loa, hia = dims[a].name, dims[a].low, dims[a].high
+    nb, lob, hib = dims[b].name, dims[b].low, dims[b].high
     for ax, (name, rows) in zip(axes[0], per_strategy.items()):
         for group, style in ((lambda h: not h.row.failed, dict(c="#bbbbbb", marker="o", s=10, label="passes")),
                              (lambda h: h.row.failed and not h.violation, dict(c=COLOURS[1], marker="x", s=18, label="fails (ideal unchecked or fails too)")),
@@ -133,7 +136,7 @@ def build_search_report(found: SearchResults) -> Path:
             "CPU hours": res.cpu_s / 3600.0, "distinct per CPU hour": res.per_cpu_hour,
             "ideal passes failing high [%]": 100.0 * res.violations / ideal_passes if ideal_passes else math.nan,
             "run errors": res.errors})
-    dims = [(k, n, lo, hi) for k, n, lo, hi in spec.dimensions]
+    dims = spec.dimensions
     planners = ", ".join(html.escape(c.name) for c in spec.planners) if not spec.planner else DEFAULT_PLANNER
     body = [f"<p>Search <b>{spec.name}</b> on <code>{spec.logical}</code> with the planner{'s' if ',' in planners else ''} "
             f"{planners}: ladder "
@@ -162,7 +165,8 @@ def build_search_report(found: SearchResults) -> Path:
     body.append(table(_modes(results), "failure modes (the representative's link opens its high-fidelity run)"))
     body.append(table(_violations(per_strategy, spec.dimensions),
                       "violated assumptions (the first 15 of each strategy; the run links open its record)"))
-    body.append(table([{"dimension": n, "kind": k, "low": lo, "high": hi} for k, n, lo, hi in spec.dimensions],
+    body.append(table([{"dimension": d.name, "kind": d.kind.value, "low": d.low, "high": d.high}
+                       for d in spec.dimensions],
                       "the search space"))
     return page(out / "index.html", f"search: {spec.name}", body, "")
 

@@ -28,6 +28,7 @@ from pydantic import BaseModel
 
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search.rows import SearchRow
+from simgap.experiment.search.spec import DimensionKind
 from simgap.experiment.store import ResultsStore
 from simgap.files import atomic_write_text
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -37,10 +38,10 @@ PLAN = "plan.json"             # ... and their plan in it
 AT_NOMINAL = 1e-6              # a dimension this close to nominal (normalised) is not off it
 
 
-class Dimension(BaseModel):
-    """A continuous dimension of the search and its nominal value."""
+class ProbeDimension(BaseModel):
+    """A continuous dimension of the search (`Dimension`'s fields) and its nominal value."""
 
-    kind: str                  # param or knob
+    kind: DimensionKind        # written as its value: param or knob
     name: str
     low: float
     high: float
@@ -54,7 +55,7 @@ class Dimension(BaseModel):
 class ProbePlan(BaseModel):
     """The dimensions a strategy's violations are probed in (``probes/plan.json``)."""
 
-    dims: list[Dimension]
+    dims: list[ProbeDimension]
 
     def departure(self, unit: tuple[float, ...]) -> np.ndarray:
         """How far the point ``unit`` lies from nominal in each dimension (normalised)."""
@@ -139,7 +140,7 @@ class FailureMode(BaseModel):
 
 def values_of(row: SearchRow, plan: ProbePlan) -> dict[str, float]:
     """A violation's value in each dimension of ``plan``."""
-    return {d.name: float((row.run.parameters if d.kind == "param" else row.knobs).get(d.name, d.nominal))
+    return {d.name: float((row.run.parameters if d.kind is DimensionKind.PARAMETER else row.knobs).get(d.name, d.nominal))
             for d in plan.dims}
 
 
@@ -164,7 +165,7 @@ def group_modes(violations: list[SearchRow], probes: list[ProbeRow], plan: Probe
         key = (row.run.id.fidelity.vehicle, row.run.id.planner or DEFAULT_PLANNER, what_broke(row.failure_reason),
                needs is not None, tuple(needs or ()))
         groups.setdefault(key, []).append(row)
-    knob_dims = [i for i, d in enumerate(plan.dims) if d.kind == "knob"]
+    knob_dims = [i for i, d in enumerate(plan.dims) if d.kind is DimensionKind.KNOB]
     modes = []
     for (vehicle, planner, broke, probed, needs), rows in groups.items():
         def departure(r: SearchRow) -> tuple[float, float, int]:

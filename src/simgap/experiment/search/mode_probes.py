@@ -18,12 +18,12 @@ from simgap.experiment.job import Job
 from simgap.experiment.knobs import KNOBS
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
-from simgap.experiment.search.failure_modes import PROBES, Dimension, ProbePlan, ProbeRow, what_broke
+from simgap.experiment.search.failure_modes import PROBES, ProbeDimension, ProbePlan, ProbeRow, what_broke
 from simgap.experiment.search.ladder import Ladder, scenario_name
 from simgap.experiment.search.ledger import score_drop
 from simgap.experiment.search.rows import SearchRow
 from simgap.experiment.search.space import SearchSpace
-from simgap.experiment.search.spec import SCORE_DROP, Search
+from simgap.experiment.search.spec import SCORE_DROP, DimensionKind, Search
 from simgap.experiment.store import ResultsStore
 from simgap.planning.registry import DEFAULT_PLANNER
 
@@ -31,9 +31,11 @@ from simgap.planning.registry import DEFAULT_PLANNER
 def probe_plan(search: Search) -> ProbePlan:
     """The dimensions of ``search`` and their nominal values: a knob's default, a parameter's."""
     dims = []
-    for kind, name, low, high in search.spec.dimensions:
-        default = KNOBS[name].nominal if kind == "knob" else float(search.logical.parameters[name].default)
-        dims.append(Dimension(kind=kind, name=name, low=low, high=high, nominal=min(max(default, low), high)))
+    for d in search.spec.dimensions:
+        default = (KNOBS[d.name].nominal if d.kind is DimensionKind.KNOB
+                   else float(search.logical.parameters[d.name].default))
+        dims.append(ProbeDimension(kind=d.kind, name=d.name, low=d.low, high=d.high,
+                                   nominal=min(max(default, d.low), d.high)))
     return ProbePlan(dims=dims)
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search.space import Candidate, SearchSpace, Strategy, uniform_candidate
+from simgap.experiment.search.spec import DimensionKind
 
 EXPLORE_EVERY = 10          # one candidate in this many is promoted whatever its risk
 # --- multi_fidelity's numbers ---------------------------------------------------------------
@@ -210,8 +211,8 @@ class MultiFidelityStrategy(Strategy):
                  distinct_radius: float, scenario_spread: float = 1.0):
         super().__init__(space, seed)
         self.objective, self.risk_scale, self.radius = objective, risk_scale, distinct_radius
-        self.knob_dims = [i for i, d in enumerate(space.dims) if d[0] == "knob"]
-        self.scenario_dims = [i for i, d in enumerate(space.dims) if d[0] != "knob"]
+        self.knob_dims = [i for i, d in enumerate(space.dims) if d.kind is DimensionKind.KNOB]
+        self.scenario_dims = [i for i, d in enumerate(space.dims) if d.kind is not DimensionKind.KNOB]
         self.threshold = PromotionThreshold()
         self.map = FailureMap(distinct_radius, self.scenario_dims)
         self.allocation = MoveAllocation(scenario_spread)

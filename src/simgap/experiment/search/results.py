@@ -15,7 +15,7 @@ from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
-from simgap.experiment.search.spec import STRATEGIES, SearchSpec
+from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory
@@ -60,10 +60,11 @@ class Violation:
                     "metrics": {k: _plain(r.metrics[k] if k in r.metrics else getattr(r, k))
                                 for k in dict.fromkeys(watched) if k in r.metrics or hasattr(r, k)}}
 
-        values = {"param": self.row.run.parameters, "knob": self.row.knobs}
+        values = {DimensionKind.PARAMETER: self.row.run.parameters, DimensionKind.KNOB: self.row.knobs}
         return {"search": spec.name, "logical": spec.logical, "strategy": self.strategy, "candidate": self.candidate,
-                "dimensions": [{"kind": kind, "name": name, "value": values[kind][name], "range": [low, high]}
-                               for kind, name, low, high in spec.dimensions if name in values[kind]],
+                "dimensions": [{"kind": d.kind.value, "name": d.name, "value": values[d.kind][d.name],
+                                "range": [d.low, d.high]}
+                               for d in spec.dimensions if d.name in values[d.kind]],
                 "vehicle": self.vehicle, "planner": self.planner, "failure": self.row.failure_reason,
                 "high_fidelity": run(self.row), "ideal": run(self.ideal_row)}
 

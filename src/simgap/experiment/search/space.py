@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search.spec import SearchSpec
+from simgap.experiment.search.spec import DimensionKind, SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.scenario.logical import LogicalScenario
 
@@ -60,12 +60,12 @@ class SearchSpace:
         unit = tuple(float(min(max(u, 0.0), 1.0)) for u in unit)
         params = {n: p.coerce(p.default) for n, p in self.logical.parameters.items()}
         knobs = {}
-        for (kind, name, lo, hi), u in zip(self.dims, unit):
-            value = round(lo + u * (hi - lo), 6)
-            if kind == "param":
-                params[name] = self.logical.parameters[name].coerce(value)
+        for d, u in zip(self.dims, unit):
+            value = round(d.low + u * (d.high - d.low), 6)
+            if d.kind is DimensionKind.PARAMETER:
+                params[d.name] = self.logical.parameters[d.name].coerce(value)
             else:
-                knobs[name] = value
+                knobs[d.name] = value
         return Candidate(index, unit, vehicle, params, knobs, trial, planner=planner or self.planners[0])
 
     def distributions(self) -> dict[str, Any]:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -70,6 +71,24 @@ STRATEGIES = ("grid", "random", "lhs", "bo", "multi_fidelity")
 METRICS = tuple(RUN_METRICS) + ("max_road_excursion_m", "peak_lateral_acceleration", "peak_jerk",
                                 "min_distance_m", "planner_failures", "score", SCORE_DROP, "solution_cost") \
     + tuple(f"score_{name}" for name in COMPONENTS)
+
+
+class DimensionKind(StrEnum):
+    """What a search dimension moves; the values are the words written to disk (probe plans,
+    violation records)."""
+
+    PARAMETER = "param"        # a parameter of the logical scenario
+    KNOB = "knob"              # a reality knob of the high fidelity (`simgap.experiment.knobs`)
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """A continuous dimension of the search space: ``kind``, ``name`` and its range [low, high]."""
+
+    kind: DimensionKind
+    name: str
+    low: float
+    high: float
 
 
 class Range(BaseModel):
@@ -163,10 +182,11 @@ class SearchSpec(BatchSpec):
         return SCORE_DROP in (self.objective, *self.failure.above, *self.failure.below)
 
     @property
-    def dimensions(self) -> list[tuple[str, str, float, float]]:
-        """(kind, name, low, high) of every continuous dimension, in a fixed order."""
-        return ([("param", n, r.min, r.max) for n, r in self.parameters.items()]
-                + [("knob", n, r.min, r.max) for n, r in self.knobs.items()])
+    def dimensions(self) -> list[Dimension]:
+        """Every continuous dimension, in a fixed order: the scenario parameters, then the knobs."""
+        return ([Dimension(DimensionKind.PARAMETER, n, r.min, r.max) for n, r in self.parameters.items()]
+                + [Dimension(DimensionKind.KNOB, n, r.min, r.max) for n, r in self.knobs.items()])
+
 
 
 def _builtin_dir() -> Path:
