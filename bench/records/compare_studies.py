@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from simgap.experiment.store import ResultsStore
+from simgap.files import BenchmarkResults
 from simgap.record import read_run
 
 MACHINE = ("time_", "version_", "job_time_s", "wall_time_s", "planning_mean_s", "planning_p95_s", "planning_max_s",
@@ -125,6 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("after", type=Path)
     parser.add_argument("--json", type=Path, help="write the comparison here")
     args = parser.parse_args(argv)
+    results_file = BenchmarkResults(argv)
     result = compare(args.before, args.after)
     print(f"{result['runs']} runs in both; only before {len(result['only_before'])}, only after "
           f"{len(result['only_after'])}")
@@ -137,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     for example in result["examples"]:
         print("  differs:", json.dumps(example, default=str))
     if args.json:
-        args.json.write_text(json.dumps(result, indent=2, default=str))
+        results_file.write(args.json, json.loads(json.dumps(result, default=str)))
     return 1 if result["differ"] or result["only_before"] or result["only_after"] else 0
 
 

@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 import simgap
+from simgap.record import read_run
 from simgap.errors import InputError
 from simgap.experiment.ray_cluster import NodeSoftware, check_nodes, connection_error, disconnect
 from simgap.experiment.runner import experiment_status, run_experiment
@@ -163,9 +164,9 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     assert sorted(rows) == sorted(local)
     assert {k: r["fingerprint"] for k, r in rows.items()} == {k: r["fingerprint"] for k, r in local.items()}
     for key, row in rows.items():                       # the run directories came back to the driver
-        meta = yaml.safe_load((out / row["run_dir"] / "run.json").read_text())
-        assert meta["fingerprint"] == row["fingerprint"]
-        assert Path(meta["scenario_path"]).parent == out / "scenarios"
+        record = read_run(out / row["run_dir"])
+        assert record.fingerprint == row["fingerprint"]
+        assert Path(record.settings.scenario_path).parent == out / "scenarios"
         assert (out / row["run_dir"] / "trajectories.parquet").stat().st_size > 1000
     assert not [p for p in (out / "runs").rglob(".*")]                                 # nothing half-written
 

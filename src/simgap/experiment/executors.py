@@ -18,7 +18,6 @@ no job is in flight.
 from __future__ import annotations
 
 import dataclasses
-import json
 import multiprocessing as mp
 import os
 import tempfile
@@ -32,6 +31,7 @@ from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import WORKER_DIED
 from simgap.files import replace_directory
+from simgap.record import read_run, rewrite_record
 
 OnResult = Callable[[Job, RunRow], None]
 JobSource = Callable[[], "Job | None"]
@@ -192,9 +192,10 @@ def _receive_run(root: Path, job: Job, files: dict[str, bytes], scenario_path: s
         for name, data in files.items():
             (tmp / name).parent.mkdir(parents=True, exist_ok=True)
             (tmp / name).write_bytes(data)
-        meta = tmp / "run.json"
-        if meta.exists():
-            meta.write_text(json.dumps(json.loads(meta.read_text()) | {"scenario_path": scenario_path}, indent=2))
+        if (tmp / "run.json").exists():
+            record = read_run(tmp)
+            rewrite_record(dataclasses.replace(record, settings=dataclasses.replace(record.settings,
+                                                                                scenario_path=scenario_path)), tmp)
 
     replace_directory(run_dir_of(root, job), write)
 
