@@ -12,6 +12,6 @@ from simgap.vehicles import load_vehicle
 
 def recorded(history: History, scenario, problems, cosim: CosimSettings | None = None) -> RunRecord:
     cosim = cosim or CosimSettings()
-    context = EvaluationContext(scenario, problems, cosim, DRY_ROAD_FRICTION, load_vehicle("sedan"), criticality=False)
+    context = EvaluationContext(scenario, problems, cosim, DRY_ROAD_FRICTION, load_vehicle("sedan"))
     return RunRecord(history, evaluate(history, context),
                      RunSettings(history.scenario_id, cosim, PlannerRecord("test")))

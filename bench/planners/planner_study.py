@@ -111,7 +111,7 @@ def _run(template: str, params: dict, planner: str, backend: str, replan_every: 
     settings = backend_settings(backend)
     history = simulate(scenario, problems, make_backend(backend, settings), agents, timed, cosim)
     seconds = [s for p in timed.values() for s in p.seconds]
-    context = EvaluationContext(scenario, problems, cosim, road_friction(settings), sedan, criticality=False)
+    context = EvaluationContext(scenario, problems, cosim, road_friction(settings), sedan)
     evaluation = with_validity(evaluate(history, context), history, context, SolutionCheckCache())
     return built, history, evaluation, seconds
 

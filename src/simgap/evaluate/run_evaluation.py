@@ -6,7 +6,8 @@ how far beyond the road (`simgap.evaluate.closest_approach`), the wall time of i
 and the latency of its plans, how well the car tracked its plans (`AgentTracking`), its
 closed-loop score, its solution's cost and — after the run is saved, slow and cached — whether its
 solution is valid (`with_validity`). Per run: the scalars a search looks at
-(`simgap.evaluate.run_metrics`) and, with several agents, the criticality of every pair. The
+(`simgap.evaluate.run_metrics`) and, with several agents, the criticality of every pair
+(`with_criticality`: commonroad-crime, slow). The
 comparison of two runs of one scenario is `simgap.evaluate.compare.compare_histories`.
 """
 
@@ -118,7 +119,6 @@ class EvaluationContext:
     planner_vehicle: Vehicle
     relief: Surface | None = None
     scenario_file: Path | None = None
-    criticality: bool = True            # evaluate the criticality of agent pairs (commonroad-crime: ~1 s a run)
 
 
 def planning_times(call_s: tuple[float, ...], budget_s: float | None) -> dict[str, float | int | None]:
@@ -180,8 +180,13 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
                                         "solution_cost_error": cost.error})))
     return RunEvaluation(tuple(agents),
                          run_metrics(history, context.scenario, context.problems, context.road_friction,
-                                     context.relief),
-                         run_criticality(history, context.scenario) if context.criticality else ())
+                                     context.relief))
+
+
+def with_criticality(evaluation: RunEvaluation, history: History, context: EvaluationContext) -> RunEvaluation:
+    """``evaluation`` with the criticality of every pair of agents (commonroad-crime: TTC, THW, BTN,
+    STN; none for one agent; about a second per pair and minute of a run, and the library's import)."""
+    return replace(evaluation, criticality=run_criticality(history, context.scenario))
 
 
 def with_validity(evaluation: RunEvaluation, history: History, context: EvaluationContext,

@@ -22,7 +22,7 @@ from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
 from simgap.cosim.sensing import localisation_accuracy
 from simgap.errors import InputError
-from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_validity
+from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_criticality, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
 from simgap.files import read_yaml_mapping
@@ -200,10 +200,14 @@ def execute(request: RunRequest, out: Path | None = None,
         planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
         versions=software_versions())
     context = EvaluationContext(scenario, problems, request.cosim, road_friction(request.backend_settings),
-                                planner_vehicle, relief, Path(request.scenario), request.criticality)
+                                planner_vehicle, relief, Path(request.scenario))
     clock = time.perf_counter()
     evaluation = evaluate(history, context)
     timings = {"scoring": time.perf_counter() - clock}
+    if request.criticality and len(history.agents) > 1:
+        clock = time.perf_counter()
+        evaluation = with_criticality(evaluation, history, context)
+        timings["criticality"] = time.perf_counter() - clock
     if out is not None:
         t0 = time.perf_counter()
         xml = scenario_xml(driven_scenario(scenario, history), problems)

@@ -51,7 +51,7 @@ from simgap.vehicles import Vehicle, load_vehicle
 
 RUN_FILE = "run.json"
 TRAJECTORIES_FILE = "trajectories.parquet"
-RECORD_TIMINGS = ("scoring", "io", "validation")      # phases outside the loop, timed by the record's writer
+RECORD_TIMINGS = ("scoring", "criticality", "io", "validation")      # phases outside the loop, timed by the writer
 
 
 # ------------------------------------------------------------------------------ writing

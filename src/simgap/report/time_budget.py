@@ -1,8 +1,8 @@
 """Where an experiment's time went: the seconds its runs spent in each phase, from its store.
 
 Per fidelity (low: the ideal world; high: the physical ones): planning, physics, tyres, control,
-the rest of the backend's step, monitoring, the loop's own bookkeeping, scoring, validity, writing
-the driven scenario, and the per-run overhead outside the loop (the scenario loaded, agents and
+the rest of the backend's step, monitoring, the loop's own bookkeeping, scoring, the criticality of
+agent pairs, validity, writing the driven scenario, and the per-run overhead outside the loop (the scenario loaded, agents and
 planners built, metrics, the run directory written) — a job's time in its worker less all of
 these.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 from simgap.experiment.store import ResultsStore
 
 LOOP_PHASES = ("planning", "physics", "tyres", "control", "backend other", "monitoring", "loop other")
-AFTER_LOOP = ("scoring", "validation", "io")
+AFTER_LOOP = ("scoring", "criticality", "validation", "io")
 PHASES = (*LOOP_PHASES, *AFTER_LOOP, "per-run overhead")
 
 
@@ -37,18 +37,24 @@ class TimeBudget:
 def store_budget(root: Path) -> dict[str, TimeBudget]:
     """The budget of the finished runs in the store of ``root``, per fidelity ('low', 'high') and
     for 'all'."""
-    _, rows = ResultsStore(root).query(
+    store = ResultsStore(root)
+    columns, _ = store.query("SELECT * FROM runs LIMIT 0")
+
+    def total(column: str) -> str:        # a phase no run of the store had has no column
+        return f"sum(coalesce({column}, 0))" if column in columns else "0"
+
+    _, rows = store.query(
         "SELECT CASE WHEN backend = 'ideal' THEN 'low' ELSE 'high' END, count(*), sum(job_time_s), "
-        "sum(wall_time_s), sum(time_planning_s), sum(coalesce(time_physics_s, 0)), "
-        "sum(coalesce(time_tyres_s, 0)), sum(coalesce(time_control_s, 0)), sum(time_execution_s), "
-        "sum(time_monitoring_s), sum(coalesce(time_scoring_s, 0)), sum(coalesce(time_validation_s, 0)), "
-        "sum(coalesce(time_io_s, 0)) FROM runs WHERE status = 'ok' GROUP BY 1 ORDER BY 1 DESC")
+        f"sum(wall_time_s), sum(time_planning_s), {total('time_physics_s')}, {total('time_tyres_s')}, "
+        f"{total('time_control_s')}, sum(time_execution_s), sum(time_monitoring_s), {total('time_scoring_s')}, "
+        f"{total('time_criticality_s')}, {total('time_validation_s')}, {total('time_io_s')} "
+        "FROM runs WHERE status = 'ok' GROUP BY 1 ORDER BY 1 DESC")
     budgets = {}
-    for fid, n, job, wall, plan, phys, tyres, ctrl, execution, monitor, score, valid, io in rows:
+    for fid, n, job, wall, plan, phys, tyres, ctrl, execution, monitor, score, crit, valid, io in rows:
         phases = {"planning": plan, "physics": phys, "tyres": tyres, "control": ctrl,
                   "backend other": execution - phys - tyres - ctrl, "monitoring": monitor,
-                  "loop other": wall - plan - execution - monitor, "scoring": score, "validation": valid,
-                  "io": io, "per-run overhead": job - wall - score - valid - io}
+                  "loop other": wall - plan - execution - monitor, "scoring": score, "criticality": crit,
+                  "validation": valid, "io": io, "per-run overhead": job - wall - score - crit - valid - io}
         budgets[fid] = TimeBudget(int(n), float(job), {k: float(v) for k, v in phases.items()})
     budgets["all"] = TimeBudget(sum(b.runs for b in budgets.values()), sum(b.job_s for b in budgets.values()),
                                 {p: sum(b.phases[p] for b in budgets.values()) for p in PHASES})
