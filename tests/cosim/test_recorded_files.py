@@ -84,7 +84,7 @@ def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):
     run = execute(RunRequest(scenario=xml), out=tmp_path / "run")
     (agent,) = run.agents
     assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
-    assert run.metrics                          # the run metrics found the route too
+    assert run.evaluation.metrics                          # the run metrics found the route too
 
 
 def test_a_recorded_vehicle_running_into_the_waiting_ego_says_so():

@@ -6,6 +6,7 @@ trajectory is CostFunctionEvaluator's own for the same solution file; an invalid
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -233,11 +234,11 @@ def test_a_footprint_at_the_road_edge_is_left_to_the_library_and_overlapping_lan
     inside = run_solution(straight_run(scenario), scenario, VehicleType.BMW_320i, CostFunctionId.SM1)
     pps = inside.planning_problem_solutions[0]
     assert solution_check._well_inside_the_road(scenario, problems, pps)
-    off = straight_run(scenario)
-    d = off.driven[1]
+    straight = straight_run(scenario)
+    d = straight.driven[1]
     edge = np.where((np.arange(len(d.t)) >= 5) & (np.arange(len(d.t)) < 20), 1.5, 0.0)   # half the car beyond the edge
-    off.driven[1] = Trajectory(DT, t=d.t, x=d.x, y=d.y + edge, yaw=d.yaw, v=d.v, a=d.a, yaw_rate=d.yaw_rate,
-                               steer=d.steer)
+    over = Trajectory(DT, t=d.t, x=d.x, y=d.y + edge, yaw=d.yaw, v=d.v, a=d.a, yaw_rate=d.yaw_rate, steer=d.steer)
+    off = replace(straight, agents=(replace(straight.agents[0], driven=over),))
     check = verdict(scenario, problems, off)
     assert check.valid is False and check.reason.startswith("leaves the road boundary"), check.reason
     junction = build_scenario("intersection", {}).scenario               # its lanelets overlap where they cross

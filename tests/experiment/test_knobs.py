@@ -71,7 +71,7 @@ def test_pedal_delay_makes_the_car_late_on_its_speed_plan(sharp_curve):
 
     prompt, _ = drive(sharp_curve, "dynamic")
     late, _ = drive(sharp_curve, "dynamic", {"pedal_delay": 0.3})
-    gap = [abs(tracking_errors(r.driven[1], r.plans[1]).velocity).max() for r in (prompt, late)]
+    gap = [abs(tracking_errors(r.history.driven[1], r.history.plans[1]).velocity).max() for r in (prompt, late)]
     assert gap[1] > gap[0] + 0.1
 
 
@@ -92,7 +92,7 @@ def test_bank_pushes_the_car_downhill_and_grade_slows_it():
     from simgap.evaluate.route_centre import route_centre
 
     frame = route_centre(straight.scenario.lanelet_network, straight.problems.planning_problem_dict[1])
-    _, d = lateral_profile(banked_run.driven[1], frame)
+    _, d = lateral_profile(banked_run.history.driven[1], frame)
     assert d.min() < -0.01 and -d.min() > 5 * max(d.max(), 0.0)    # it falls to the right: the car drifts right
     uphill_run, _ = drive(straight, "mujoco", {"road_grade": 8})
     assert uphill_run.agents[0].time_to_goal_s > flat_run.agents[0].time_to_goal_s

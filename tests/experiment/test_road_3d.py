@@ -24,15 +24,15 @@ def crest(tmp_path_factory):
 def test_mujoco_drives_over_the_crest_while_the_ideal_world_stays_flat(crest):
     xml, ideal, mujoco = crest
     assert ideal.agents[0].outcome == "goal_reached" and mujoco.agents[0].outcome == "goal_reached"
-    assert not ideal.attitudes                               # the planner's flat world has no height
-    z = np.array([a.z for a in mujoco.attitudes[1]])
-    pitch = np.array([a.pitch for a in mujoco.attitudes[1]])
+    assert not ideal.agents[0].attitudes                     # the planner's flat world has no height
+    z = np.array([a.z for a in mujoco.agents[0].attitudes])
+    pitch = np.array([a.pitch for a in mujoco.agents[0].attitudes])
     top = int(np.argmax(z))
     assert z[top] - z[0] > 5.0 and z[top] - z[-1] > 5.0     # up 8 %, over the crest, down 8 %
     assert 0 < top < len(z) - 1
     # the surface's height under the car where it is, and nose up before the top, nose down after
     relief = ground_of(read_metadata(xml))
-    driven = mujoco.driven[1]
+    driven = mujoco.history.driven[1]
     ground = relief.surface(driven.x, driven.y).z
     assert np.max(np.abs(z - ground)) < 1.0
     assert np.median(pitch[:top]) > 0.03 and np.median(pitch[top:]) < -0.03
@@ -40,9 +40,9 @@ def test_mujoco_drives_over_the_crest_while_the_ideal_world_stays_flat(crest):
 
 def test_the_flat_plan_asks_more_grip_of_the_crest_than_of_a_plane(crest):
     _, ideal, mujoco = crest
-    assert ideal.metrics["peak_grip_use_3d"] != ideal.metrics["peak_grip_use"]
+    assert ideal.evaluation.metrics["peak_grip_use_3d"] != ideal.evaluation.metrics["peak_grip_use"]
     for run in (ideal, mujoco):
-        assert np.isfinite(run.metrics["peak_grip_use_3d"]) and run.metrics["peak_grip_use_3d"] > 0
+        assert np.isfinite(run.evaluation.metrics["peak_grip_use_3d"]) and run.evaluation.metrics["peak_grip_use_3d"] > 0
 
 
 def test_the_road_3d_search_spec_loads():

@@ -19,6 +19,7 @@ from commonroad.scenario.lanelet import LineMarking
 from shapely.geometry import LineString, Point
 
 from fake_server import REF_OFFSET, FakeServer
+from evaluated import recorded
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.errors import InputError
@@ -214,7 +215,8 @@ def _run(concrete, servers, **settings):
         return servers[-1]
 
     backend = BeamngBackend(load_settings(settings), session_factory=connect)
-    return simulate(scenario, problems, backend, agents, planners, CosimSettings(replan_every=3)), agents
+    cosim = CosimSettings(replan_every=3)
+    return recorded(simulate(scenario, problems, backend, agents, planners, cosim), scenario, problems, cosim), agents
 
 
 def test_controller_drives_the_sharp_curve_in_the_fake_server():
@@ -233,7 +235,7 @@ def test_controller_drives_the_sharp_curve_in_the_fake_server():
     assert server.steps == 6 * loop_steps
     assert server.calls["control"] == 6 * loop_steps
     assert {r.kind for r in server.roads} == {"lanelet", "marking"}
-    assert run.settings["backend_notes"][0].startswith("15 decal roads on level smallgrid; agent 1: sedan as etk800")
+    assert run.history.backend_notes[0].startswith("15 decal roads on level smallgrid; agent 1: sedan as etk800")
 
 
 def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
@@ -245,11 +247,11 @@ def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
     server = servers[0]
     assert run.agents[0].outcome == "goal_reached", run.history.events
     assert "control" not in server.calls
-    assert len(server.scripts) == len(run.plans[1])           # one script per replanned plan
+    assert len(server.scripts) == len(run.history.plans[1])           # one script per replanned plan
     vid, script = server.scripts[5]
     assert script[0]["t"] == pytest.approx(0.0) and all(b["t"] > a["t"] for a, b in zip(script, script[1:]))
     # waypoints are reference-node positions: ahead of the plan's centre positions
-    plan = run.plans[1][5]
+    plan = run.history.plans[1][5]
     x0, y0 = plan.x[0], plan.y[0]
     assert math.hypot(script[0]["x"] - x0, script[0]["y"] - y0) == pytest.approx(
         math.hypot(REF_OFFSET[0], REF_OFFSET[1]), abs=1e-6)
@@ -258,7 +260,7 @@ def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
 def test_a_plan_reaches_the_script_ai_after_its_latency():
     servers = []
     run, _ = _run(build_scenario("curve", {"radius": 30, "angle": 90}), servers, driver="script_ai")
-    scripts, plans = servers[0].scripts, run.plans[1]
+    scripts, plans = servers[0].scripts, run.history.plans[1]
     assert run.agents[0].outcome == "goal_reached", run.history.events
     # the first plan drives at once; each later one from the step after it was made (measured latency: one cycle)
     assert run.agents[0].plan_latency_max_s == pytest.approx(0.1)
@@ -274,7 +276,7 @@ def test_moving_start_is_approached_and_recorded():
     first = run.history.driven[1][0]
     assert first.v == pytest.approx(8.0, abs=0.05)
     assert (first.x, first.y) == pytest.approx((agents[0].initial_state.x, agents[0].initial_state.y), abs=1e-6)
-    note = next(n for n in run.settings["backend_notes"] if "moving start" in n)
+    note = next(n for n in run.history.backend_notes if "moving start" in n)
     assert "8.00 m/s" in note and "run-up" in note and servers[0].calls["set_velocity"] == 1
 
 

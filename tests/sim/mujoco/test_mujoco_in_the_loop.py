@@ -158,7 +158,7 @@ def test_a_30_hz_recording_runs_at_fitted_controller_and_physics_rates(tmp_path)
     path = write_scenario(concrete, tmp_path, preview=False)
     run = execute(RunRequest(scenario=path, backend="mujoco", vehicles="sedan"), tmp_path / "run")
     assert run.agents[0].outcome == "goal_reached", run.history.events
-    notes = " ".join(run.settings["backend_notes"])
+    notes = " ".join(run.history.backend_notes)
     assert "controller at 90 Hz" in notes and "physics at 540 Hz" in notes
     backend = MujocoBackend(mujoco_settings({"controller_hz": 100}))
     with pytest.raises(InputError, match="controller_hz"):
