@@ -1,3 +1,4 @@
-"""Evaluation: alignment of trajectories across fidelities, error metrics, outcomes, criticality,
-and scores in the field's terms (CommonRoad solutions, their validity and cost; a closed-loop score
-built like nuPlan's)."""
+"""Evaluation: every metric of a run, computed from its history (`run_evaluation.evaluate`) —
+outcomes, the closest approach, tracking, criticality, and scores in the field's terms (CommonRoad
+solutions, their validity and cost; a closed-loop score built like nuPlan's) — and the comparison
+of two runs across fidelities (`compare`)."""
