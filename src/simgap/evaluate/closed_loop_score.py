@@ -294,7 +294,7 @@ def closed_loop_scores(history: History, scenario: Scenario, problems: PlanningP
     before), given each agent's largest road excursion (`simgap.evaluate.closest_approach`;
     measured here when not given)."""
     if road_excursions_m is None:
-        road_excursions_m = {aid: a.max_road_excursion_m
+        road_excursions_m = {aid: round(a.max_road_excursion_m, 3)      # to the mm, as a run's evaluation keeps it
                              for aid, a in closest_approaches(history, scenario, cosim.offroad_tolerance).items()}
     lanes = LaneOccupancy(scenario.lanelet_network)
     users = road_users(history, scenario)

@@ -156,7 +156,7 @@ def solution_of(history: History, context: EvaluationContext) -> Solution:
 def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
     """Every metric and score of the run ``history`` records, but its solution's validity."""
     approaches = closest_approaches(history, context.scenario, context.cosim.offroad_tolerance)
-    excursions = {aid: a.max_road_excursion_m for aid, a in approaches.items()}
+    excursions = {aid: round(a.max_road_excursion_m, 3) for aid, a in approaches.items()}   # as recorded
     scores = closed_loop_scores(history, context.scenario, context.problems, context.cosim, excursions)
     costs = solution_costs(solution_of(history, context), context.scenario, context.problems)
     agents = []
