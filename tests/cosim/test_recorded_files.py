@@ -5,13 +5,17 @@ road, later than the scenario."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.state import InitialState
 
 from real_like import box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
+from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.record import read_run
 from simgap.scenario.files import write_xml
 
 
@@ -31,11 +35,10 @@ def test_the_agents_own_recorded_vehicle_is_not_traffic(tmp_path):
     assert agent.min_distance_to_traffic_m > 1.0          # measured to 501, not to its own recording
 
 
-@pytest.mark.parametrize("world", ["ideal", "mujoco"])
-def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, world):
-    # agent 2 starts at 6 s at x = 60 m, where a recorded car (600) passes at 2-3 s: present from the
-    # start, it would be hit there; its own recording (601) enters the road with it and is not traffic;
-    # agent 1 drives from the start in the next lane
+def late_entry(tmp_path):
+    """Agent 2 starts at 6 s at x = 60 m, where a recorded car (600) passes at 2-3 s: present from the
+    start, it would be hit there; its own recording (601) enters the road with it and is not traffic;
+    agent 1 drives from the start in the next lane."""
     scenario = highway(lanes=2, length=400, segments=1)
     scenario.add_objects(recorded_car(600, 30.0, 0, 12.0, 250))
     late = InitialState(position=np.array([60.0, lane_y(0)]), orientation=0.0, velocity=8.0, acceleration=0.0,
@@ -49,7 +52,12 @@ def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, wor
                                    PlanningProblem(2, late, box_goal(200, 0, (60, 400)))])
     xml = tmp_path / "late.xml"
     write_xml(scenario, problems, xml)
-    run = execute(RunRequest(scenario=xml, backend=world))
+    return xml
+
+
+@pytest.mark.parametrize("world", ["ideal", "mujoco"])
+def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, world):
+    run = execute(RunRequest(scenario=late_entry(tmp_path), backend=world))
     outcomes = {a.id: a for a in run.agents}
     for aid in (1, 2):
         assert outcomes[aid].outcome == "goal_reached", [e.detail for e in run.history.events if e.agent_id == aid]
@@ -59,6 +67,20 @@ def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, wor
     assert (late_driven.x[0], late_driven.y[0]) == pytest.approx((60.0, lane_y(0)), abs=0.02)
     assert late_driven.v[0] == pytest.approx(8.0, abs=0.2)
     assert not [e for e in run.history.events if e.agent_id == 2 and e.t < 6.0]
+
+
+def test_a_run_that_ends_before_an_agent_enters_records_it_where_it_would_start(tmp_path):
+    # (as two files of the recorded corpus do: agents that enter after the run's end)
+    run = execute(RunRequest(scenario=late_entry(tmp_path), cosim=CosimSettings(max_time_s=3.0)), tmp_path / "run")
+    waiting = run.history.agent(2)
+    assert waiting.outcome == "timeout" and waiting.observed is None and waiting.plans == ()
+    assert len(waiting.driven) == 1 and waiting.driven.t[0] == pytest.approx(6.0)
+    again = read_run(tmp_path / "run")
+    assert again.history == run.history and again.settings == run.settings
+    # (its tracking and lateral offsets are NaN: no route from where it never started; NaN is no equal of NaN)
+    assert json.dumps(again.summary()) == json.dumps(run.summary())
+    skipped = [c for c in run.evaluation.criticality if c.ego_id == 2]      # it never moved: nothing to measure
+    assert skipped and all(c.at_t is None and c.skipped_steps > 0 for c in skipped)
 
 
 def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):

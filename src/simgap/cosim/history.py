@@ -84,7 +84,8 @@ class AgentHistory:
     driven: Trajectory                          # its states until its outcome (the first: where it started)
     plans: tuple[Trajectory, ...] = ()          # every plan its planner made, in order
     observed: Trajectory | None = None          # the state its planner observed at each planning call
-                                                # (None: a run recorded before observations were kept)
+                                                # (None: it never planned - it had not entered the world
+                                                # when the run ended - or a run of format 1)
     attitudes: tuple[Attitude, ...] = ()        # beside each driven state, where the world is 3D
     standing: Trajectory | None = None          # its states after its outcome while it stayed in the world
                                                 # (other agents still driving; None: none)

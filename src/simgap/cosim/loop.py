@@ -488,7 +488,8 @@ class _CoSimulation:
             driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
             agents.append(AgentHistory(
                 id=aid, vehicle=p.agent.vehicle, outcome=p.outcome or Outcome.TIMEOUT, driven=driven,
-                plans=tuple(p.plans), observed=Trajectory.from_states(p.observed, dt),
+                plans=tuple(p.plans),
+                observed=Trajectory.from_states(p.observed, dt) if p.observed else None,
                 attitudes=tuple(p.attitudes) if p.attitudes and len(p.attitudes) == len(p.driven) else (),
                 standing=Trajectory.from_states(p.standing, dt) if p.standing else None,
                 planning_call_s=tuple(p.call_times), plan_latency_s=tuple(p.latencies),

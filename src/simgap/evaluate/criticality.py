@@ -80,11 +80,15 @@ def _pairs(driven, obstacle_ids, every, measures, crime_measures, CriMeConfigura
         last = min(_last_step(ego_obs), _last_step(other_obs))
         for name in measures:
             cls_name, smaller_is_worse = MEASURES[name]
+            worst, at, skipped = (math.inf if smaller_is_worse else 0.0), None, 0
+            steps = range(0, last + 1, every)
+            if ego_obs.prediction is None:          # an agent that never moved (it had not entered the road)
+                out.append(PairCriticality(ego, other, name, worst, at, len(steps)))
+                continue
             config = CriMeConfiguration()
             config.update(ego_id=obstacle_ids[ego], sce=driven)
             measure = getattr(crime_measures, cls_name)(config)
-            worst, at, skipped = (math.inf if smaller_is_worse else 0.0), None, 0
-            for k in range(0, last + 1, every):
+            for k in steps:
                 try:
                     value = float(measure.compute(obstacle_ids[other], k, verbose=False))
                 except Exception:  # CriMe raises assorted errors where a measure is undefined
