@@ -6,7 +6,8 @@ AFTER are matched by their store key (folders of run directories without a store
 
 - row by row: every column of the results store but those that measure the machine (wall and
   phase times, the planner's call times, versions, where the run was written);
-- agent by agent, from the run records: the outcome, the time to the goal, the distance, the
+- from the run records: the fingerprint (every driven state, bit for bit), the failure, every event
+  (time, place, kind, detail); agent by agent the outcome, the time to the goal, the distance, the
   closest approach, the road excursion, the plan latencies, the score with its components and
   measures, the solution's cost with its terms, validity and reason; the run's metrics; and the
   criticality of its agent pairs where both have it (a study of format 1 has it where its report
@@ -90,6 +91,12 @@ def compare(before: Path, after: Path) -> dict[str, Any]:
         if not (a.get("run_dir") and b.get("run_dir")):
             continue
         ra, rb = read_run(before / a["run_dir"]), read_run(after / b["run_dir"])
+        for what, va, vb in (("fingerprint", ra.fingerprint, rb.fingerprint), ("failure", ra.failure, rb.failure),
+                             ("events", [_plain(e) for e in ra.history.events], [_plain(e) for e in rb.history.events])):
+            ok = va == vb
+            (equal if ok else differ)[what] += 1
+            if not ok and len(examples) < 20:
+                examples.append({"key": key, "what": what, "before": va, "after": vb})
         for name in sorted(set(ra.evaluation.metrics) | set(rb.evaluation.metrics)):
             va, vb = ra.evaluation.metrics.get(name), rb.evaluation.metrics.get(name)
             ok = va is not None and vb is not None and same(float(va), float(vb))
