@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from collections import Counter
 from pathlib import Path
@@ -35,6 +34,7 @@ from typing import Any
 from simgap.experiment.store import ResultsStore
 from simgap.files import BenchmarkResults
 from simgap.record import read_run
+from simgap.record.values import plain, same
 
 MACHINE = ("time_", "version_", "job_time_s", "wall_time_s", "planning_mean_s", "planning_p95_s", "planning_max_s",
            "run_dir", "format_version")
@@ -42,24 +42,6 @@ AGENT_FIELDS = ("outcome", "time_to_goal_s", "distance_m", "min_distance_to_traf
                 "planner_failures", "planner_exceptions", "planning_calls", "plan_latency_mean_s",
                 "plan_latency_max_s", "score", "score_components", "score_measures", "solution_benchmark",
                 "solution_cost", "solution_partial_costs", "solution_cost_error", "solution_valid", "solution_reason")
-
-
-def same(a: Any, b: Any) -> bool:
-    if isinstance(a, float) and isinstance(b, float):
-        return (math.isnan(a) and math.isnan(b)) or a == b or math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
-    if hasattr(a, "__dataclass_fields__") and type(a) is type(b):
-        return all(same(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
-    return a == b
-
-
-def _plain(value: Any) -> Any:
-    if hasattr(value, "items"):
-        return {k: _plain(v) for k, v in value.items()}
-    if hasattr(value, "__dataclass_fields__"):
-        return {f: _plain(getattr(value, f)) for f in value.__dataclass_fields__}
-    return value
 
 
 def _rows(root: Path) -> dict[str, dict[str, Any]]:
@@ -92,7 +74,7 @@ def compare(before: Path, after: Path) -> dict[str, Any]:
             continue
         ra, rb = read_run(before / a["run_dir"]), read_run(after / b["run_dir"])
         for what, va, vb in (("fingerprint", ra.fingerprint, rb.fingerprint), ("failure", ra.failure, rb.failure),
-                             ("events", [_plain(e) for e in ra.history.events], [_plain(e) for e in rb.history.events])):
+                             ("events", [plain(e) for e in ra.history.events], [plain(e) for e in rb.history.events])):
             ok = va == vb
             (equal if ok else differ)[what] += 1
             if not ok and len(examples) < 20:
@@ -102,19 +84,19 @@ def compare(before: Path, after: Path) -> dict[str, Any]:
             ok = va is not None and vb is not None and same(float(va), float(vb))
             (equal if ok else differ)[f"metrics.{name}"] += 1
         if ra.evaluation.criticality and rb.evaluation.criticality:     # (a run of format 1: as its report cached it)
-            ok = same(_plain({i: c for i, c in enumerate(ra.evaluation.criticality)}),
-                      _plain({i: c for i, c in enumerate(rb.evaluation.criticality)}))
+            ok = same(plain({i: c for i, c in enumerate(ra.evaluation.criticality)}),
+                      plain({i: c for i, c in enumerate(rb.evaluation.criticality)}))
             (equal if ok else differ)["criticality"] += 1
             if not ok and len(examples) < 20:
-                examples.append({"key": key, "what": "criticality", "before": _plain(list(ra.evaluation.criticality)),
-                                 "after": _plain(list(rb.evaluation.criticality))})
+                examples.append({"key": key, "what": "criticality", "before": plain(list(ra.evaluation.criticality)),
+                                 "after": plain(list(rb.evaluation.criticality))})
         for agent_a, agent_b in zip(ra.agents, rb.agents, strict=True):
             for side, agent in (("before", agent_a), ("after", agent_b)):
                 if agent.planning_calls and agent.planning_mean_s is not None:
                     planning[side][0] += agent.planning_calls
                     planning[side][1] += agent.planning_calls * agent.planning_mean_s
             for name in AGENT_FIELDS:
-                va, vb = _plain(getattr(agent_a, name)), _plain(getattr(agent_b, name))
+                va, vb = plain(getattr(agent_a, name)), plain(getattr(agent_b, name))
                 ok = same(va, vb)
                 (equal if ok else differ)[f"agent.{name}"] += 1
                 if not ok and len(examples) < 20:

@@ -100,3 +100,13 @@ def test_a_newer_format_is_refused_naming_the_file_and_the_field(study):
     message = str(refused.value)
     assert "run.json" in message and "format_version" in message and "update simgap" in message
     assert migrate(record)["format_version"] == FORMAT_VERSION
+
+
+def test_values_compare_as_plain_data_to_a_relative_tolerance_nan_equal_to_nan():
+    from simgap.evaluate.solution import PartialCost
+    from simgap.record.values import plain, same
+
+    assert same(float("nan"), float("nan")) and same(1.0, 1.0 + 1e-12) and not same(1.0, 1.0 + 1e-6)
+    assert same({"a": [1.0, PartialCost(2.0, 3.0)]}, {"a": (1.0, PartialCost(2.0, 3.0 + 1e-12))})
+    assert not same({"a": 1.0}, {"a": 1.0, "b": 2.0}) and not same([1.0], [1.0, 2.0])
+    assert plain(PartialCost(2.0, 3.0)) == {"cost": 2.0, "weight": 3.0}

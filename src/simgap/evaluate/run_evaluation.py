@@ -13,7 +13,6 @@ comparison of two runs of one scenario is `simgap.evaluate.compare.compare_histo
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
@@ -29,9 +28,8 @@ from simgap.cosim.loop import CosimSettings
 from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.criticality import PairCriticality, run_criticality
-from simgap.evaluate.errors import Aggregate, Comfort, comfort, frenet_tracking_errors, tracking_errors
-from simgap.evaluate.route_centre import route_centre
-from simgap.evaluate.run_metrics import lane_excursion, run_metrics
+from simgap.evaluate.errors import Aggregate, Comfort, comfort, tracking_errors
+from simgap.evaluate.run_metrics import RouteMeasures, route_measures, run_metrics
 from simgap.evaluate.solution import PartialCost, cost_function_of, run_solution, solution_costs, vehicle_type_of
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.scenario.relief import Surface
@@ -132,19 +130,13 @@ def planning_times(call_s: tuple[float, ...], budget_s: float | None) -> dict[st
             "planning_over_budget": 0 if budget_s is None else int(sum(t > budget_s for t in call_s))}
 
 
-def tracking_of(agent: AgentHistory, context: EvaluationContext) -> AgentTracking:
-    """How well ``agent``'s car followed its plans."""
-    driven, plans = agent.driven, list(agent.plans)
-    errs = tracking_errors(driven, plans)
-    problem = context.problems.planning_problem_dict.get(agent.id)
-    frame = route_centre(context.scenario.lanelet_network, problem) if problem is not None else None
-    frenet = frenet_tracking_errors(driven, plans, frame) if frame is not None else None
+def tracking_of(agent: AgentHistory, route: RouteMeasures) -> AgentTracking:
+    """How well ``agent``'s car followed its plans (``route``: its measures in its route's frame)."""
+    errs = tracking_errors(agent.driven, list(agent.plans))
+    frenet = route.tracking
     return AgentTracking(Aggregate.of(errs.position), Aggregate.of(errs.orientation), Aggregate.of(errs.velocity),
-                         Aggregate.of(frenet.lateral) if frenet else Aggregate.of([]),
-                         Aggregate.of(frenet.longitudinal) if frenet else Aggregate.of([]),
-                         comfort(driven),
-                         lane_excursion(driven, agent.vehicle, context.scenario, problem)
-                         if problem is not None else math.nan)
+                         Aggregate.of(frenet.lateral if frenet else []), Aggregate.of(frenet.longitudinal if frenet else []),
+                         comfort(agent.driven), route.lane_excursion_m)
 
 
 def solution_of(history: History, context: EvaluationContext) -> Solution:
@@ -156,6 +148,8 @@ def solution_of(history: History, context: EvaluationContext) -> Solution:
 def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
     """Every metric and score of the run ``history`` records, but its solution's validity."""
     approaches = closest_approaches(history, context.scenario, context.cosim.offroad_tolerance)
+    routes = {a.id: route_measures(a, context.scenario, context.problems.planning_problem_dict.get(a.id))
+              for a in history.agents}
     excursions = {aid: round(a.max_road_excursion_m, 3) for aid, a in approaches.items()}   # as recorded
     scores = closed_loop_scores(history, context.scenario, context.problems, context.cosim, excursions)
     costs = solution_costs(solution_of(history, context), context.scenario, context.problems)
@@ -172,7 +166,7 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
             **planning_times(a.planning_call_s, context.cosim.planning_budget_s),
             plan_latency_mean_s=round(float(np.mean(latencies)), 6) if latencies else None,
             plan_latency_max_s=round(max(latencies), 6) if latencies else None,
-            tracking=tracking_of(a, context),
+            tracking=tracking_of(a, routes[a.id]),
             **({} if score is None else {"score": score.score, "score_components": score.components,
                                          "score_measures": score.measures}),
             **({} if cost is None else {"solution_benchmark": cost.benchmark_id, "solution_cost": cost.total,
@@ -180,7 +174,7 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
                                         "solution_cost_error": cost.error})))
     return RunEvaluation(tuple(agents),
                          run_metrics(history, context.scenario, context.problems, context.road_friction,
-                                     context.relief))
+                                     context.relief, routes))
 
 
 def with_criticality(evaluation: RunEvaluation, history: History, context: EvaluationContext) -> RunEvaluation:

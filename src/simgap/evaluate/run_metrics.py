@@ -9,16 +9,18 @@ frame of `simgap.evaluate.route_centre`.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.history import History
-from simgap.evaluate.errors import frenet_tracking_errors, lateral_profile
+from simgap.cosim.history import AgentHistory, History
+from simgap.evaluate.errors import FrenetTrackingErrors, frenet_tracking_errors, lateral_profile
 from simgap.evaluate.route_centre import route_centre, route_lanelets
 from simgap.evaluate.surface_grip import grip_use_on_surface
-from simgap.scenario.road_frame import DrivableArea, footprint
+from simgap.scenario.road_frame import DrivableArea, PathFrame, footprint
 from simgap.vehicles import Vehicle
 from simgap.vehicles.constants import GRAVITY
 
@@ -43,23 +45,43 @@ def lane_excursion(driven, vehicle: Vehicle, scenario: Scenario, problem) -> flo
     return max((area.excursion(footprint(st, vehicle.length, vehicle.width)) for st in driven), default=0.0)
 
 
+@dataclass(frozen=True)
+class RouteMeasures:
+    """What an agent's metrics and tracking measure in its route's frame, measured once: the
+    frame (None: no route to its goal), the tracking errors in it (None without a route) and how
+    far the footprint reached beyond the route's lanes (NaN without a route)."""
+
+    frame: PathFrame | None
+    tracking: FrenetTrackingErrors | None
+    lane_excursion_m: float
+
+
+def route_measures(agent: AgentHistory, scenario: Scenario, problem) -> RouteMeasures:
+    frame = route_centre(scenario.lanelet_network, problem) if problem is not None else None
+    if frame is None or not len(agent.driven):
+        return RouteMeasures(frame, None, math.nan)
+    return RouteMeasures(frame, frenet_tracking_errors(agent.driven, list(agent.plans), frame),
+                         lane_excursion(agent.driven, agent.vehicle, scenario, problem))
+
+
 def run_metrics(history: History, scenario: Scenario, problems: PlanningProblemSet, road_friction: float,
-                relief=None) -> dict[str, float]:
+                relief=None, measured: Mapping[int, RouteMeasures] | None = None) -> dict[str, float]:
     """`RUN_METRICS` of ``history`` on a road of friction ``road_friction`` and surface ``relief`` (the
-    scenario's surface, `simgap.scenario.ground.ground_of`; None: flat) (NaN where an agent has no route to its goal)."""
+    scenario's surface, `simgap.scenario.ground.ground_of`; None: flat) (NaN where an agent has no
+    route to its goal); ``measured``: each agent's `RouteMeasures` where already measured."""
     worst = {name: -math.inf for name in RUN_METRICS}
     grip = road_friction * GRAVITY
     for agent in history.agents:
         driven = agent.driven
-        problem = problems.planning_problem_dict.get(agent.id)
-        frame = route_centre(scenario.lanelet_network, problem) if problem is not None else None
+        route = (measured or {}).get(agent.id) or \
+            route_measures(agent, scenario, problems.planning_problem_dict.get(agent.id))
         values = {name: math.nan for name in RUN_METRICS}
-        if frame is not None and len(driven):
-            _, d = lateral_profile(driven, frame)
+        if route.frame is not None and len(driven):
+            _, d = lateral_profile(driven, route.frame)
             values["max_lateral_offset_m"] = float(np.max(np.abs(d)))
-            lateral = frenet_tracking_errors(driven, list(agent.plans), frame).lateral
+            lateral = route.tracking.lateral
             values["max_tracking_lateral_m"] = float(np.max(np.abs(lateral))) if len(lateral) else 0.0
-            values["max_lane_excursion_m"] = lane_excursion(driven, agent.vehicle, scenario, problem)
+            values["max_lane_excursion_m"] = route.lane_excursion_m
         if len(driven):
             combined = np.hypot(driven.a, driven.v * driven.yaw_rate)
             values["peak_grip_use"] = float(combined.max() / grip)
