@@ -99,14 +99,6 @@ class AgentHistory:
         """When it reached its goal (None: it did not)."""
         return float(self.driven.t[-1]) if self.outcome == Outcome.GOAL_REACHED and len(self.driven) else None
 
-    @property
-    def in_the_world(self) -> Trajectory:
-        """Every state it was in the world at: driven, then standing."""
-        if self.standing is None or not len(self.standing):
-            return self.driven
-        return Trajectory(self.driven.dt, **{f: np.concatenate([getattr(self.driven, f), getattr(self.standing, f)])
-                                             for f in STATE_FIELDS})
-
 
 @dataclass(frozen=True)
 class History:
