@@ -40,7 +40,7 @@ def test_a_run_directory_of_format_1_reads_through_migrate_as_it_was_written(stu
         assert "format_version" not in old
         record = read_run(run_dir)
         assert record.format_version == FORMAT_VERSION
-        assert record.fingerprint == old["fingerprint"]            # the same driven states, bit for bit
+        assert record.machine_fingerprint == old["fingerprint"]    # the same driven states, bit for bit
         assert record.scenario_id == old["scenario_id"] and record.history.backend == old["backend"]
         for agent, was in zip(record.agents, old["agents"], strict=True):
             assert agent.id == was["id"] and agent.outcome == Outcome(was["outcome"])
@@ -72,7 +72,8 @@ def test_the_store_of_format_1_reads_typed_and_a_report_is_made_of_the_study(stu
     assert "stage" in stored["ideal"] and "format_version" not in stored["ideal"]
     for row in rows:
         assert row.id.stage is None and "format_version" not in row.extra
-        assert row.fingerprint == read_run(study / row.run_dir).fingerprint
+        assert row.fingerprint is None                             # format 1 hashed raw bits: that is its
+        assert row.machine_fingerprint == read_run(study / row.run_dir).machine_fingerprint   # machine's
         was = stored[row.id.fidelity.label]
         assert row.outcome == was["outcome"] and row.score == was["score"] and row.min_distance_m == was["min_distance_m"]
     before = files_under(study / "runs")

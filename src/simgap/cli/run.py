@@ -87,6 +87,8 @@ def run(
                    "(default SM1)"),
     score_config: Optional[Path] = typer.Option(None, help="YAML file of the closed-loop score's thresholds and "
                                                 "weights (cosim.score; defaults: nuPlan's)"),
+    seed: int = typer.Option(0, min=0, help="seed of everything random in the run (the localisations' errors); "
+                             "the same seed, scenario and settings drive the same run"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
                                      "part of scoring: feasibility state by state) for quick loops"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
@@ -122,7 +124,7 @@ def run(
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
-                         validate=not no_validate, run_timeout_s=run_timeout)
+                         seed=seed, validate=not no_validate, run_timeout_s=run_timeout)
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
     _execute(request, out, as_json)

@@ -191,13 +191,16 @@ def simulate(
     seed: int = 0,
     wall_time_limit_s: float | None = None,
     relief: Surface | None = None,
+    replayed_latencies: Mapping[int, tuple[float, ...]] | None = None,
 ) -> History:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend`` on the road's
     ``relief`` (None: flat); ``seed`` seeds the localisations' errors. A run still going after
     ``wall_time_limit_s`` (even in a planning call that does not return) is stopped and recorded as
-    failed."""
+    failed. ``replayed_latencies`` (agent id -> the latency of each of its plans, in order, as a
+    record keeps them) replace the ``measured`` latencies, so a run made on a loaded machine
+    replays exactly on an idle one."""
     return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed,
-                         wall_time_limit_s, relief).run(progress)
+                         wall_time_limit_s, relief, replayed_latencies or {}).run(progress)
 
 
 class _CoSimulation:
@@ -205,8 +208,9 @@ class _CoSimulation:
 
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
                  planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None,
-                 relief: Surface | None):
+                 relief: Surface | None, replayed_latencies: Mapping[int, tuple[float, ...]]):
         self.scenario, self.backend, self.settings, self.relief = scenario, backend, settings, relief
+        self.replayed_latencies = replayed_latencies
         self.realism = backend.realism
         self.wall_time_limit_s = wall_time_limit_s
         self.planning_agent: int | None = None      # whose planner is running
@@ -365,8 +369,13 @@ class _CoSimulation:
 
     def _send(self, p: _AgentProgress, plan: Trajectory, t: float, compute_s: float) -> None:
         """``plan`` (made at ``t``) sets off for the car; it arrives after its latency."""
-        latency = 0.0 if self.realism is Realism.IDEAL else \
-            plan_latency(self.settings.latency, compute_s, self.dt)
+        replayed = self.replayed_latencies.get(p.agent.id, ())
+        if self.realism is Realism.IDEAL:
+            latency = 0.0
+        elif self.settings.latency == MEASURED and len(p.latencies) < len(replayed):
+            latency = replayed[len(p.latencies)]
+        else:
+            latency = plan_latency(self.settings.latency, compute_s, self.dt)
         p.latencies.append(latency)
         if latency <= 0.0 or p.in_force is None:
             p.in_force, p.arriving = plan, []

@@ -55,7 +55,8 @@ class RunRow:
     peak_lateral_acceleration: float | None = None
     peak_jerk: float | None = None
     wall_time_s: float | None = None
-    fingerprint: str | None = None
+    fingerprint: str | None = None               # the run's identity on any machine (History.fingerprint)
+    machine_fingerprint: str | None = None       # ... bit for bit, on the machine that ran it
     run_dir: str | None = None                   # relative to the experiment directory
     job_time_s: float | None = None              # the worker's time for the whole job
     score: float | None = None                   # the worst agent's closed-loop score
@@ -94,7 +95,8 @@ class RunRow:
             min_distance_m=min(gaps) if gaps else math.nan,
             peak_lateral_acceleration=max((p.peak_lateral_acceleration for p in peaks), default=math.nan),
             peak_jerk=max((p.peak_jerk for p in peaks), default=math.nan),
-            wall_time_s=history.wall_time_s, fingerprint=record.fingerprint, run_dir=run_dir,
+            wall_time_s=history.wall_time_s, fingerprint=record.fingerprint,
+            machine_fingerprint=record.machine_fingerprint, run_dir=run_dir,
             job_time_s=job_time_s, metrics=dict(evaluation.metrics), timings=record.all_timings,
             versions=dict(record.settings.versions), **asdict(worst_scores(evaluation)))
 

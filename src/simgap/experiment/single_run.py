@@ -37,7 +37,7 @@ from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
-from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
+from simgap.vehicles import DEFAULT_VEHICLE, Vehicle, load_vehicle
 
 VERSIONED_PACKAGES = ("simgap", "frenetix", "commonroad-io", "mujoco", "numpy")
 
@@ -52,7 +52,7 @@ class RunRequest:
 
     scenario: Path
     backend: str = REFERENCE
-    vehicles: str | Mapping[int, str] = DEFAULT_VEHICLE
+    vehicles: str | Vehicle | Mapping[int, str | Vehicle] = DEFAULT_VEHICLE     # names, files or models
     planner_vehicle: str = DEFAULT_VEHICLE      # the vehicle the planner assumes it drives
     backend_settings: BaseModel | Mapping[str, Any] | None = None
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
@@ -63,6 +63,8 @@ class RunRequest:
     check_cache: Path | None = None            # where validity verdicts are cached (None: the user's cache)
     run_timeout_s: float | None = None         # wall time the co-simulation may take (None: no limit)
     criticality: bool = True                   # evaluate the criticality of agent pairs (commonroad-crime; slow)
+    replayed_latencies: Mapping[int, tuple[float, ...]] | None = None   # a record's plan latencies, which
+                                               # replace the measured ones (`simgap.experiment.replay`)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -154,10 +156,10 @@ def execute(request: RunRequest, out: Path | None = None,
     _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
     scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
-    if isinstance(request.vehicles, str):
-        vehicles: Any = load_vehicle(request.vehicles)
+    if isinstance(request.vehicles, (str, Vehicle)):
+        vehicles: Any = _vehicle(request.vehicles)
     else:
-        vehicles = {pid: load_vehicle(name) for pid, name in request.vehicles.items()}
+        vehicles = {pid: _vehicle(v) for pid, v in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     meta = read_metadata(request.scenario)
@@ -187,7 +189,8 @@ def execute(request: RunRequest, out: Path | None = None,
         else:
             backend = make_backend(request.backend, request.backend_settings)
             history = simulate(scenario, problems, backend, agents, planners, request.cosim, progress,
-                               seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=relief)
+                               seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=relief,
+                               replayed_latencies=request.replayed_latencies)
         for aid, planner in planners.items():
             if callable(getattr(planner, "record", None)):
                 planner_records[aid] = replace(planner_records[aid], process=planner.record())
@@ -222,6 +225,10 @@ def execute(request: RunRequest, out: Path | None = None,
     if out is not None and request.validate:
         rewrite_record(record, out)
     return record
+
+
+def _vehicle(vehicle: str | Vehicle) -> Vehicle:
+    return vehicle if isinstance(vehicle, Vehicle) else load_vehicle(vehicle)
 
 
 def _planner_record(planners: PlannerAssignment, planner_records: dict[int, PlannerRecord]) -> PlannerRecord:

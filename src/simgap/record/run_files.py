@@ -6,7 +6,9 @@ A run directory holds:
 - ``run.json``            the record but its trajectories: ``format_version``, ``settings``,
                           ``history`` (agents, events, planning-call times, plan latencies, timings),
                           ``evaluation`` (metrics, scores, solution cost and validity, criticality),
-                          ``timings`` (scoring, io, validation) and the run's ``fingerprint``
+                          ``timings`` (scoring, io, validation), the run's ``fingerprint`` (over its
+                          driven states quantised: the same on any machine) and ``machine_fingerprint``
+                          (over their raw bits: this machine's)
 - ``trajectories.parquet`` the states, one row each, by ``kind``: ``driven`` (with ``z``, ``pitch``,
                           ``roll`` from a 3D world), ``planned`` (by the plan's start ``plan_t``),
                           ``observed`` (what the planner saw at each call), ``standing`` (an agent
@@ -79,6 +81,7 @@ def rewrite_record(record: RunRecord, run_dir: str | Path) -> Path:
 
 def _run_json(record: RunRecord) -> str:
     return json.dumps({"format_version": record.format_version, "fingerprint": record.fingerprint,
+                       "machine_fingerprint": record.machine_fingerprint,
                        "settings": _settings_json(record.settings), "history": _history_json(record.history),
                        "evaluation": _evaluation_json(record.evaluation),
                        "timings": dict(record.timings)},
@@ -291,6 +294,8 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
                          allowed=f"formats 1 to {FORMAT_VERSION}: update simgap")
     if version == FORMAT_VERSION:
         return dict(meta)
+    if version == 2:                # its fingerprint hashed raw float bits; both are computed from the states
+        return dict(meta) | {"format_version": FORMAT_VERSION}
     settings = dict(meta.get("settings") or {})
     vehicles = meta.get("vehicles") or {}
     timings = meta.get("timings") or {}
@@ -331,12 +336,17 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
 
 def migrate_row(columns: Mapping[str, Any]) -> dict[str, Any]:
     """A results-store row of any format as one of the current format: rows written before the
-    ``stage`` column name their stage (and a repeat 0) in their key only."""
+    ``stage`` column name their stage (and a repeat 0) in their key only; rows of formats 1 and 2
+    kept the hash of raw float bits as their ``fingerprint``, which is their ``machine_fingerprint``
+    (the portable one is their run directory's: `read_run`)."""
     cols = dict(columns)
-    if cols.get("format_version") is None:
-        if cols.get("stage") is None:
-            key, fidelity = str(cols["key"]), str(cols.get("fidelity") or "")
-            named = key.split("/")[1] if key.count("/") else ""
-            cols["stage"] = named if named and named != fidelity else ""
-        cols["format_version"] = FORMAT_VERSION
+    version = cols.get("format_version")
+    if version is None and cols.get("stage") is None:
+        key, fidelity = str(cols["key"]), str(cols.get("fidelity") or "")
+        named = key.split("/")[1] if key.count("/") else ""
+        cols["stage"] = named if named and named != fidelity else ""
+    if version is None or int(version) < 3:
+        cols["machine_fingerprint"] = cols.get("fingerprint")
+        cols["fingerprint"] = None
+    cols["format_version"] = FORMAT_VERSION
     return cols

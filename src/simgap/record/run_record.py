@@ -16,7 +16,8 @@ from simgap.evaluate.run_evaluation import AgentEvaluation, RunEvaluation
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
 
-FORMAT_VERSION = 2      # 1: run.json without a format_version (simgap before the run record, 2026-11-27)
+FORMAT_VERSION = 3      # 1: run.json without a format_version (simgap before the run record, 2026-11-27);
+                        # 2: a fingerprint over raw float bits (until 2026-12-02); 3: over quantised states
 
 
 @dataclass(frozen=True)
@@ -111,7 +112,13 @@ class RunRecord:
 
     @property
     def fingerprint(self) -> str:
+        """The run's identity on any machine (`History.fingerprint`)."""
         return self.history.fingerprint
+
+    @property
+    def machine_fingerprint(self) -> str:
+        """The run's identity bit for bit, on this machine (`History.machine_fingerprint`)."""
+        return self.history.machine_fingerprint
 
     @property
     def realism(self) -> Realism:
@@ -154,7 +161,7 @@ class RunRecord:
                            "planner_exceptions": a.history.planner_exceptions} | evaluation)
         return {"scenario_id": self.scenario_id, "backend": self.history.backend, "fidelity": self.fidelity.label,
                 "wall_time_s": round(self.history.wall_time_s, 4), "fingerprint": self.fingerprint,
-                "failure": self.failure, "agents": agents,
+                "machine_fingerprint": self.machine_fingerprint, "seed": self.settings.seed, "failure": self.failure, "agents": agents,
                 "timings": {k: round(v, 4) for k, v in self.all_timings.items()}}
 
     def _agent_records(self) -> Iterator[AgentRecord]:
