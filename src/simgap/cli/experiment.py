@@ -15,6 +15,7 @@ from rich.table import Table
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
+from simgap.evaluate.odds import Odds
 from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
 
@@ -70,10 +71,26 @@ def run_cmd(
                       f"simgap experiment run {escape(spec)} --out {escape(str(out))} --retry-failed")
     for key, reason in result.failures[:20]:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
+    print_odds(console, result.odds)
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
                   f"(simgap experiment query {out} \"SELECT ...\")")
     if report:
         console.print(f"report: [bold]{report}[/bold]")
+
+
+def print_odds(console: Console, odds: list[Odds]) -> None:
+    """The odds of every scenario run more than once (over its repeats' seeds), as a table."""
+    repeated = [o for o in odds if o.runs > 1]
+    if not repeated:
+        return
+    table = Table(title="over the repeats' seeds: rates with Wilson 95 % intervals, max |d| [m] with bootstrap 95 % "
+                  "intervals")
+    for column in ("scenario", "fidelity", "planner", "runs", "goal", "failure", "max |d| median", "max |d| p90"):
+        table.add_column(column, justify="left" if column in ("scenario", "fidelity", "planner") else "right")
+    for o in repeated:
+        table.add_row(escape(o.scenario), escape(o.fidelity), escape(o.planner), str(o.runs), str(o.goal),
+                      str(o.failure), str(o.max_d_median), str(o.max_d_p90))
+    console.print(table)
 
 
 def _say_unusable_rows(console: Console, unusable_rows: dict[Path, str], then: str) -> None:

@@ -58,6 +58,7 @@ class RunRow:
     fingerprint: str | None = None               # the run's identity on any machine (History.fingerprint)
     machine_fingerprint: str | None = None       # ... bit for bit, on the machine that ran it
     run_dir: str | None = None                   # relative to the experiment directory
+    reproduce: str | None = None                 # the command that runs it again (`simgap replay ...`)
     job_time_s: float | None = None              # the worker's time for the whole job
     score: float | None = None                   # the worst agent's closed-loop score
     solution_valid: bool | None = None           # every agent's solution valid (None: not checked)

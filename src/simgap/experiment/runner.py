@@ -12,8 +12,10 @@ from pathlib import Path
 from typing import Callable
 
 from simgap.errors import InputError
+from simgap.evaluate.odds import Odds
 from simgap.experiment.executors import make_executor
 from simgap.experiment.job import Job, JobContext
+from simgap.experiment.repeats import odds_over_repeats, write_odds
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
@@ -50,6 +52,7 @@ class ExperimentResult:
     wall_time_s: float
     failures: list[tuple[str, str]]
     unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs ran again
+    odds: list[Odds] = field(default_factory=list)    # per scenario, fidelity and planner, over its repeats
 
 
 def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
@@ -166,9 +169,11 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
         if todo:
             runner.run(todo, context, on_result)
         store.consolidate()
+        odds = odds_over_repeats(store.run_rows())
+        write_odds(root / "store", odds)
         return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
                                 progress.skipped, skipped_failed, time.perf_counter() - start, failures,
-                                unusable_rows)
+                                unusable_rows, odds)
 
 
 @dataclass

@@ -4,9 +4,11 @@ and the store row its record becomes (`RunRow.of`)."""
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from simgap.experiment.job import Job, JobContext
+from simgap.experiment.replay import reproduce_command
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import RunRequest, execute
 
@@ -25,4 +27,5 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
                          planner=job.planner, cosim=job.cosim, seed=job.seed, validate=context.validate,
                          criticality=context.criticality)
     record = execute(request, run_dir)
-    return RunRow.of(job, record, str(run_dir.relative_to(context.root)), time.perf_counter() - started)
+    row = RunRow.of(job, record, str(run_dir.relative_to(context.root)), time.perf_counter() - started)
+    return replace(row, reproduce=reproduce_command(run_dir.resolve()))
