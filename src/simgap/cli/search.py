@@ -8,6 +8,7 @@ from typing import Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -67,6 +68,7 @@ def search_cmd(
         if bar.live.is_started:
             bar.stop()
     _print(console, results)
+    _print_findings(console, results)
     if not no_report:
         console.print(f"report: [bold]{build_search_report(search_results(out))}[/bold]")
 
@@ -80,6 +82,29 @@ def _print(console: Console, results) -> None:
         t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
                   str(r.violations), str(r.distinct), str(r.scenarios), _modes(r), f"{r.per_cpu_hour:.1f}")
     console.print(t)
+
+
+FINDINGS_SHOWN = 10
+
+
+def _print_findings(console: Console, results) -> None:
+    """The distinct violations, worst first (by the objective's value in the high-fidelity run),
+    each with the command that reproduces it."""
+    found = [v for r in results for v in r.found]
+    if not found:
+        return
+    worst = sorted(found, key=lambda v: -_objective(v))
+    console.print(f"{len(found)} distinct violations; worst first, each with the command that reproduces it"
+                  + (f" (the first {FINDINGS_SHOWN}; all in the report and simgap export --violations)"
+                     if len(found) > FINDINGS_SHOWN else "") + ":")
+    for v in worst[:FINDINGS_SHOWN]:
+        console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): {escape(v.row.failure_reason)}")
+        console.print(f"    {escape(v.reproduce)}", soft_wrap=True)
+
+
+def _objective(v) -> float:
+    value = v.row.run.metrics.get("max_lateral_offset_m", float("nan"))
+    return value if value == value else float("-inf")
 
 
 def _modes(r) -> str:

@@ -13,6 +13,7 @@ from typing import Any
 
 from simgap.errors import InputError
 from simgap.evaluate.run_metrics import RUN_METRICS
+from simgap.experiment.replay import reproduce_command
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
@@ -48,6 +49,11 @@ class Violation:
     def planner(self) -> str:
         return self.row.run.id.planner or DEFAULT_PLANNER
 
+    @property
+    def reproduce(self) -> str:
+        """The command that runs its high-fidelity run again, bit for bit (`simgap replay`)."""
+        return reproduce_command(self.run_dir.resolve())
+
     def facts(self, spec: SearchSpec) -> dict[str, Any]:
         """What made it a violation, as plain data: the search dimensions (value and range), the
         driver, why the high-fidelity run failed, and both runs' outcome and metrics."""
@@ -66,7 +72,7 @@ class Violation:
                                 "range": [d.low, d.high]}
                                for d in spec.dimensions if d.name in values[d.kind]],
                 "vehicle": self.vehicle, "planner": self.planner, "failure": self.row.failure_reason,
-                "high_fidelity": run(self.row), "ideal": run(self.ideal_row)}
+                "high_fidelity": run(self.row), "ideal": run(self.ideal_row), "reproduce": self.reproduce}
 
 
 def _plain(value: Any) -> Any:
