@@ -63,10 +63,11 @@ planner-toolchain:
 
 # the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
 # then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
+# (tests/conftest.py groups by file), the tutorial pages each on whichever worker is free
 test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
 	$(BIN)/ruff check .
 	PYTHONPATH=src $(BIN)/lint-imports
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --durations=15
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadgroup --durations=15
 
 lock:
 	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng,docs]' \

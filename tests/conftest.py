@@ -18,3 +18,13 @@ def _solution_check_cache(tmp_path_factory):
         os.environ.pop("SIMGAP_CACHE_DIR", None)
     else:
         os.environ["SIMGAP_CACHE_DIR"] = before
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Under ``--dist loadgroup`` (`make test`) a test file's tests run on one worker, so that its
+    module fixtures are built once, as ``--dist loadfile`` would; a test marked with a group of its
+    own (``xdist_group``: the tutorial pages) goes to whichever worker is free."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))

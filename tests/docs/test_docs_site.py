@@ -152,9 +152,14 @@ def test_every_tutorial_runs_commands():
         assert "<!-- run -->" in (ROOT / "docs" / page).read_text(), f"{page} has no executed block"
 
 
-def test_the_tutorials_print_what_the_page_shows():
+TUTORIAL_PAGES = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py").PAGES
+
+
+@pytest.mark.parametrize("page", [pytest.param(p, marks=pytest.mark.xdist_group(f"tutorial {p}"))
+                                  for p in TUTORIAL_PAGES])
+def test_the_tutorials_print_what_the_page_shows(page):
     blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
-    assert blocks.main([]) == 0
+    assert blocks.main([page]) == 0
 
 
 def test_no_page_fetches_anything_from_the_web_and_search_has_every_page(site):

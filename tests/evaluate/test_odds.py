@@ -49,7 +49,7 @@ def test_an_experiment_with_repeats_reports_odds_in_the_cli_and_the_store(tmp_pa
                                     "fidelities": [{"backend": "mujoco"}], "cosim": {"max_time_s": 4}}))
     out = tmp_path / "exp"
     proc = subprocess.run([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                           "--workers", "2", "--no-report", "--no-validate"], capture_output=True, text=True,
+                           "--workers", "2", "--no-validate"], capture_output=True, text=True,
                           env={**__import__("os").environ, "COLUMNS": "200"}, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "Wilson 95 %" in proc.stdout and "0/5" in proc.stdout      # 4 s is too short for the goal: 0 of 5
@@ -60,3 +60,5 @@ def test_an_experiment_with_repeats_reports_odds_in_the_cli_and_the_store(tmp_pa
     assert {r["seed"] for r in rows} == {0, 1, 2, 3, 4}                    # five seeds, five runs
     assert all(r["reproduce"] == f"simgap replay {(out / r['run_dir']).resolve()}" for r in rows)
     assert len({r["fingerprint"] for r in rows}) == 5                       # the sensing noise differs per seed
+    index = (out / "report" / "index.html").read_text()
+    assert "Odds over repeats" in index and "0/5 (0-43 %)" in index and "5/5 (57-100 %)" in index

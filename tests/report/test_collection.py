@@ -38,11 +38,33 @@ def test_runs_are_labelled_compared_and_a_lane_departure_is_measured(runs):
     assert group.largest_gap() == (comparison.lateral_displacement.max, "mujoco/suv/stanley")
 
 
-def test_two_runs_of_one_scenario_and_fidelity_are_refused(runs, tmp_path):
+def test_runs_that_differ_in_nothing_are_refused_all_at_once(runs, tmp_path):
     shutil.copytree(runs, tmp_path / "runs")
     shutil.copytree(runs / "ideal", tmp_path / "runs" / "ideal-again")
-    with pytest.raises(InputError, match="two runs of scenario"):
+    shutil.copytree(runs / "suv", tmp_path / "runs" / "suv-again")
+    with pytest.raises(InputError, match="2 pairs of runs differ in nothing") as refused:
         collect(tmp_path / "runs")
+    assert "ideal-again" in str(refused.value) and "suv-again" in str(refused.value)
+
+
+def test_variants_of_one_fidelity_sit_side_by_side_labelled_by_what_differs(runs, tmp_path):
+    from simgap.cosim import CosimSettings
+    from simgap.report.site import build_report
+
+    shutil.copytree(runs, tmp_path / "runs")
+    xml = next((runs.parent / "scenarios").glob("*.xml"))
+    suv = {"controller": "stanley", "road_friction": 0.3}
+    execute(RunRequest(scenario=xml, backend="mujoco", vehicles="suv", backend_settings=suv,
+                       cosim=CosimSettings(latency=0.0)), tmp_path / "runs" / "suv-no-latency")
+    execute(RunRequest(scenario=xml, backend="ideal", seed=3), tmp_path / "runs" / "ideal-seed-3")
+    (group,) = collect(tmp_path / "runs")
+    assert sorted(group.runs) == ["ideal", "ideal seed=3", "mujoco/suv/stanley latency=0.0",
+                                  "mujoco/suv/stanley latency=measured"]
+    assert group.reference.run_dir.name == "ideal"
+    assert sorted(group.comparisons) == ["ideal seed=3", "mujoco/suv/stanley latency=0.0",
+                                         "mujoco/suv/stanley latency=measured"]
+    page = next((build_report(tmp_path / "runs", tmp_path / "report").parent / "scenarios").glob("*.html")).read_text()
+    assert "mujoco/suv/stanley latency=0.0" in page and "mujoco/suv/stanley latency=measured" in page
 
 
 def test_runs_of_other_planners_are_compared_within_their_planner(runs, tmp_path):

@@ -81,23 +81,30 @@ def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet]:
 
 def collect(root: Path) -> list[ScenarioGroup]:
     """Every run below ``root``, grouped by scenario and planner, each physics run compared with its
-    scenario's reference run (`simgap.evaluate.compare`)."""
-    groups: dict[tuple[str, str], ScenarioGroup] = {}
+    scenario's reference run (`simgap.evaluate.compare`). Runs of one scenario, planner and fidelity
+    that differ in their settings (a knob, the latency, the seed of a repeat) sit side by side, each
+    labelled with what differs (`variant_labels`); runs that differ in nothing are refused, all at once."""
+    by_group: dict[tuple[str, str], list[RunEntry]] = {}
     for run_dir in find_run_dirs(root):
         run = read_run(run_dir)
-        entry = RunEntry(run_dir, run, run.fidelity.label)
-        planner = run.planner
-        group = groups.get((run.scenario_id, planner))
-        if group is None:
-            scenario, problems = _scenario_of(entry)
-            group = groups[run.scenario_id, planner] = ScenarioGroup(
-                run.scenario_id, dict(run.settings.parameters), scenario, problems, run.settings.sections, {},
-                planner=planner)
-        if entry.fidelity in group.runs:
-            raise InputError(f"two runs of scenario '{run.scenario_id}' with fidelity '{entry.fidelity}' and planner "
-                             f"'{planner}' (the other: {group.runs[entry.fidelity].run_dir})", file=run_dir,
-                             field="fidelity", allowed="one run per scenario, fidelity and planner")
-        group.runs[entry.fidelity] = entry
+        by_group.setdefault((run.scenario_id, run.planner), []).append(RunEntry(run_dir, run, run.fidelity.label))
+    groups: dict[tuple[str, str], ScenarioGroup] = {}
+    twins: list[str] = []
+    for (scenario_id, planner), entries in by_group.items():
+        labels = variant_labels(entries)
+        twins += _twins(entries, labels)
+        scenario, problems = _scenario_of(entries[0])
+        first = entries[0].run
+        group = groups[scenario_id, planner] = ScenarioGroup(
+            scenario_id, dict(first.settings.parameters), scenario, problems, first.settings.sections, {},
+            planner=planner)
+        for e in entries:
+            group.runs[labels[e.run_dir]] = RunEntry(e.run_dir, e.run, labels[e.run_dir])
+    if twins:
+        raise InputError(f"{len(twins)} pairs of runs differ in nothing (scenario, planner, fidelity, settings, "
+                         f"seed): {'; '.join(twins)}", file=root, field="runs",
+                         allowed="runs that differ in their scenario, planner, fidelity or settings; move the "
+                                 "copies away")
     for group in groups.values():
         group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))   # ideal first
         ref = group.reference
@@ -108,3 +115,52 @@ def collect(root: Path) -> list[ScenarioGroup]:
                 group.comparisons[fidelity] = compare_histories(ref.run.history, entry.run.history, group.scenario,
                                                                 group.problems, group.sections)
     return sorted(groups.values(), key=lambda g: (g.scenario_id, g.planner))
+
+
+def variant_labels(entries: list[RunEntry]) -> dict[Path, str]:
+    """Each run's label among runs of one scenario and planner: its fidelity, and where several runs
+    share one, the settings that differ between them (``mujoco/sedan latency=0.0``,
+    ``mujoco/sedan seed=3``). Of reference runs that share the label, the first keeps it plain."""
+    by_fidelity: dict[str, list[RunEntry]] = {}
+    for e in entries:
+        by_fidelity.setdefault(e.fidelity, []).append(e)
+    labels = {}
+    for fidelity, same in by_fidelity.items():
+        if len(same) == 1:
+            labels[same[0].run_dir] = fidelity
+            continue
+        flat = [_flat_settings(e.run) for e in same]
+        differ = [k for k in dict.fromkeys(k for f in flat for k in f) if len({repr(f.get(k)) for f in flat}) > 1]
+        for e, f in zip(same, flat):
+            labels[e.run_dir] = " ".join([fidelity] + [f"{k.rsplit('.', 1)[-1]}={f.get(k)}" for k in differ])
+        if fidelity == REFERENCE:
+            labels[min(same, key=lambda e: str(labels[e.run_dir])).run_dir] = REFERENCE
+    return labels
+
+
+def _twins(entries: list[RunEntry], labels: dict[Path, str]) -> list[str]:
+    seen: dict[str, Path] = {}
+    twins = []
+    for e in entries:
+        label = labels[e.run_dir]
+        if label in seen:
+            twins.append(f"{seen[label]} and {e.run_dir} ({label})")
+        seen.setdefault(label, e.run_dir)
+    return twins
+
+
+def _flat_settings(run: RunRecord) -> dict[str, object]:
+    """A run's settings that can tell two runs of one fidelity apart, flat: the seed, the backend's
+    and the loop's settings (dotted names)."""
+    flat: dict[str, object] = {"seed": run.settings.seed}
+
+    def add(prefix: str, value: object) -> None:
+        if isinstance(value, dict):
+            for k, v in value.items():
+                add(f"{prefix}.{k}" if prefix else str(k), v)
+        else:
+            flat[prefix] = value
+
+    add("", dict(run.settings.backend))
+    add("cosim", run.settings.cosim.model_dump(mode="json"))
+    return flat

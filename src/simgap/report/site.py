@@ -25,6 +25,7 @@ from simgap.evaluate.errors import lateral_profile
 from simgap.files import atomic_write_text, replace_directory
 from simgap.evaluate.route_centre import route_centre
 from simgap.experiment.run_row import RunRow
+from simgap.experiment.repeats import odds_over_repeats
 from simgap.experiment.store import ResultsStore
 from simgap.cosim import REFERENCE, Outcome
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -351,6 +352,16 @@ def _store_section(rows: list[RunRow]) -> list[str]:
             "<code>simgap experiment query</code> runs SQL over them).</p>", table(table_rows)]
     if failed:
         body += ["<h3>Failed runs</h3>", table(failed)]
+    repeated = [o for o in odds_over_repeats(rows) if o.runs > 1]
+    if repeated:
+        body += ["<h3>Odds over repeats</h3>",
+                 "<p>Each scenario run with several seeds (the spec's <code>repeats</code>): how many runs reached "
+                 "every goal or failed, with Wilson 95 % intervals, and the median and 90th percentile over runs of "
+                 "the largest lateral offset |d| from the lane's centre [m], with bootstrap 95 % intervals "
+                 "(<code>store/odds.parquet</code>).</p>",
+                 table([{"scenario": o.scenario, "fidelity": o.fidelity, "planner": o.planner, "runs": o.runs,
+                         "goal": str(o.goal), "failure": str(o.failure), "max |d| median": str(o.max_d_median),
+                         "max |d| p90": str(o.max_d_p90)} for o in repeated])]
     return body
 
 
