@@ -61,6 +61,7 @@ class ConcreteScenario:
     units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
     blueprint: RoadBlueprint | JunctionBlueprint | None = None   # what the road network was built from
     opendrive: OpenDriveOrigin | None = None     # the OpenDRIVE file its lanelets were read from, and its relief
+    warnings: tuple[str, ...] = ()     # what building it dropped from its source, one line each (not in the sidecar)
 
     def metadata(self) -> dict[str, Any]:
         meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
