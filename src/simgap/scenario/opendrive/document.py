@@ -54,7 +54,7 @@ class Poly3(BaseModel):
     """A cubic ``a + b u + c u^2 + d u^3`` in ``u = s - s_start``, valid from ``s_start`` to the
     next record (OpenDRIVE's elevation, superelevation, lane offset and lane width records)."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(frozen=True, allow_inf_nan=False)
     s: float
     a: float
     b: float = 0.0
