@@ -81,6 +81,7 @@ REFUSED = [  # name, base, old, new, what the message says
     ("lane-width-1e200", "curve", '<width a="3.0" b="0" c="0" d="0"', '<width a="3.0" b="0" c="0" d="1e200"',
      "outer border"),
     ("duplicate-road-id", "t-junction", 'id="2" junction="-1"', 'id="1" junction="-1"', "road id '1' again"),
+    ("duplicate-lane-id", "curve", '<lane id="1" type="driving"', '<lane id="-1" type="driving"', "lane id -1 again"),
     ("duplicate-junction-id", "t-junction", "</OpenDRIVE>", '<junction id="1" name="again" type="default"/>'
      "</OpenDRIVE>", "junction id '1' again"),
 ]

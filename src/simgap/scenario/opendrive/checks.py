@@ -17,8 +17,8 @@ with a warning.
     beyond it would swap sides), a lane border farther than `MAX_LATERAL_M` from the reference line,
     a height beyond `MAX_HEIGHT_M`, or a superelevation of 90 degrees or more (a wall, or upside
     down) — each evaluated every metre along the road;
-  - a road or junction id stated twice (`simgap.scenario.opendrive.document`: which one a link
-    means cannot be told).
+  - a road or junction id stated twice, or a lane id twice in a lane section
+    (`simgap.scenario.opendrive.document`: which one a link means cannot be told).
 
 * **Dropped with a warning** (`Dropped`: one line per kind, with a count and the first few): a
   link to a road, junction or lane that is not in the file, a junction's connection from a road

@@ -293,8 +293,11 @@ class _Reader:
                     raise self.refuse(lane, f"not supported in <{side.tag}>", "lane")
                 if side.tag == "center":
                     centre_marks = self.marks(lane)
-                else:
-                    lanes.append(self.lane(lane))
+                    continue
+                read = self.lane(lane)
+                if any(other.id == read.id for other in lanes):
+                    raise self.refuse(lane, f"lane id {read.id} again in this lane section", "one <lane> per id")
+                lanes.append(read)
         return LaneSection(self.number(el, "s"), tuple(lanes), centre_marks)
 
     def marks(self, lane: etree._Element) -> tuple[RoadMark, ...]:
