@@ -1198,6 +1198,130 @@ def print_table(results: list[dict]) -> None:
             print("    " + textwrap.shorten(line, 200))
 
 
+# --- round 5, h2-roads-input: OpenDRIVE in (issue 54 item 5), 3D relief and template names (item 6)
+
+def _exported_road(stock: Stock, template: str) -> str:
+    """simgap's own road of ``template`` (curve r = 50 m, 30 deg; or the T-junction) exported as
+    OpenDRIVE, once per sweep: the text the OpenDRIVE cases mutate."""
+    folder = stock.root / "stock" / f"exported-{template}"
+    if not folder.exists():
+        sets = ("--set", "radius=50", "--set", "angle=30") if template == "curve" else ()
+        p = simgap("generate", template, *sets, "--no-preview", "--out", folder / "scenarios", cwd=stock.root)
+        assert p.rc == 0, p.stderr
+        (xml,) = (folder / "scenarios").glob("*.xml")
+        p = simgap("export", xml, "--format", "opendrive", "--out", folder / "xodr", cwd=stock.root)
+        assert p.rc == 0, p.stderr
+    (road,) = (folder / "xodr").glob("*.xodr")
+    return road.read_text()
+
+
+def _replaced(text: str, old: str, new: str, after: str = "") -> str:
+    """``text`` with the first ``old`` after ``after`` replaced by ``new``."""
+    at = text.index(after) if after else 0
+    assert old in text[at:], old
+    return text[:at] + text[at:].replace(old, new, 1)
+
+
+T_ROUTE = ("--start", "2:1:30", "--goal", "1:-1:30")     # road 2 into the junction, out on road 1
+ODR_REFUSED = [  # name, road, old, new, encoding, what the refusal should name
+    ("odr-latin1-declared-utf8", "curve", 'name="curve', 'name="Straße curve', "latin-1", ("encoding",)),
+    ("odr-zero-length-geometry-gap", "curve", 'length="100.0">', 'length="0">', "utf-8", ("geometry 0",)),
+    ("odr-negative-lane-width", "curve", '<width a="3.0"', '<width a="-3.0"', "utf-8", ("lane 1", "width")),
+    ("odr-curvature-1e6", "curve", 'curvature="0.02"', 'curvature="1e6"', "utf-8", ("geometry 1", "curvature")),
+    ("odr-parampoly3-all-zero", "curve", '<arc curvature="0.02" />', '<paramPoly3 aU="0" bU="0" cU="0" dU="0" '
+     'aV="0" bV="0" cV="0" dV="0" pRange="normalized" />', "utf-8", ("geometry 1", "paramPoly3")),
+    ("odr-poly3-1e200", "curve", '<arc curvature="0.02" />', '<poly3 a="0" b="0" c="1e200" d="1e200" />', "utf-8",
+     ("geometry 1", "poly3")),
+    ("odr-elevation-1e200", "curve", "<elevationProfile />", '<elevationProfile><elevation s="0" a="0" b="0" c="0" '
+     'd="1e200" /></elevationProfile>', "utf-8", ("elevationProfile",)),
+    ("odr-duplicate-road-id", "t-junction", 'id="2" junction="-1"', 'id="1" junction="-1"', "utf-8", ("road 1",)),
+]
+ODR_DROPPED = [  # name, old, new, after, the warning's kind
+    ("odr-link-to-missing-road", '<successor elementType="road" elementId="2"',
+     '<successor elementType="road" elementId="99"', "", "road links to roads that are not in the file: 1 dropped"),
+    ("odr-link-to-missing-junction", '<predecessor elementType="junction" elementId="1" />',
+     '<predecessor elementType="junction" elementId="7" />', 'id="3" junction="-1"',
+     "road links to junctions that are not in the file: 1 dropped"),
+    ("odr-lane-link-to-missing-lane", '<successor id="-1" />', '<successor id="-4" />', "",
+     "lane links to lanes that the linked lane section does not have: 1 dropped"),
+    ("odr-circular-junction", 'incomingRoad="1"', 'incomingRoad="100"', "",
+     "links of a junction into itself: 1 dropped"),
+]
+
+
+def _odr_refused_case(road, old, new, encoding, names):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "hostile.xodr").write_bytes(_replaced(_exported_road(stock, road), old, new).encode(encoding))
+        route = T_ROUTE if road == "t-junction" else ("--start", "1:-1:20", "--goal", "1:-1:200")
+        p = simgap("generate", folder / "hostile.xodr", *route, "--no-preview", "--out", folder / "out", cwd=folder)
+        return expect_refusal(p, "hostile.xodr", *names)
+    return run
+
+
+def _odr_dropped_case(old, new, after, warning):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "hostile.xodr").write_text(_replaced(_exported_road(stock, "t-junction"), old, new, after))
+        p = simgap("generate", folder / "hostile.xodr", *T_ROUTE, "--no-preview", "--out", folder / "out",
+                   cwd=folder)
+        warned = [line for line in p.stderr_lines() if line.startswith("warning:")]
+        kinds = [line.split(": ")[2] for line in warned if line.count(": ") >= 3]
+        said = [line for line in warned if warning in line]
+        ok = p.rc == 0 and len(said) == 1 and len(kinds) == len(set(kinds)) == len(warned)
+        return expect(p, ok, f"ran, one line per kind: {said[0][:120] if said else ''}",
+                      SILENT if p.rc == 0 else OTHER, f"exit {p.rc}, warnings: {' | '.join(warned)[:140]}")
+    return run
+
+
+for _name, _road, _old, _new, _encoding, _names in ODR_REFUSED:
+    case(_name, 5)(_odr_refused_case(_road, _old, _new, _encoding, _names))
+for _name, _old, _new, _after, _warning in ODR_DROPPED:
+    case(_name, 5)(_odr_dropped_case(_old, _new, _after, _warning))
+
+
+RELIEF_EDITS = [  # name, the edit of the sidecar's relief, the field the refusal should name
+    ("relief-grade-1000", lambda r: r["elevation"].update(grade=1000), "grade"),
+    ("relief-bank-90", lambda r: r["superelevation"][2].update(bank=90), "bank"),
+    ("relief-vertical-radius-0", lambda r: r["elevation"]["changes"][0].update(radius=0), "radius"),
+    ("relief-vertical-radius-negative", lambda r: r["elevation"]["changes"][0].update(radius=-100), "radius"),
+    ("relief-vertical-radius-nan", lambda r: r["elevation"]["changes"][0].update(radius=float("nan")), "radius"),
+    ("relief-grade-string", lambda r: r["elevation"].update(grade="steep"), "grade"),
+    ("relief-vertical-curve-at-nan", lambda r: r["elevation"]["changes"][0].update(s=float("nan")), "changes"),
+]
+
+
+def _relief_case(edit, field_name):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        import json
+        source = stock.root / "stock" / "crest"
+        if not source.exists():
+            p = simgap("generate", "crest-curve", "--set", "radius=30", "--set", "vertical_radius=200",
+                       "--no-preview", "--out", source, cwd=stock.root)
+            assert p.rc == 0, p.stderr
+        (xml,) = source.glob("*.xml")
+        shutil.copy(xml, folder / "edited.xml")
+        metadata = json.loads(xml.with_suffix(".json").read_text())
+        edit(metadata["blueprint"]["relief"])
+        (folder / "edited.json").write_text(json.dumps(metadata))
+        p = simgap("run", folder / "edited.xml", "--backend", "mujoco", "--no-validate", "--max-time", "2",
+                   "--out", folder / "r", cwd=folder)
+        return expect_refusal(p, "edited.json", field_name)
+    return run
+
+
+for _name, _edit, _field in RELIEF_EDITS:
+    case(_name, 6)(_relief_case(_edit, _field))
+for _name, _text, _names in [
+    ("logical-curve-without-angle", "name: hostile\ntemplate: curve\nparameters:\n"
+     "  radius: {unit: m, min: 10, max: 100, default: 50}\n", ("angle",)),
+    ("logical-hairpins-without-radius", "name: hostile\ntemplate: hairpins\nparameters: {}\n", ("hairpin_radius",)),
+    ("logical-angle-a-string", "name: hostile\ntemplate: curve\nfixed: {angle: big}\nparameters:\n"
+     "  radius: {unit: m, min: 10, max: 100, default: 50}\n", ("angle",)),
+    ("logical-lanes-not-whole", "name: hostile\ntemplate: curve\nfixed: {angle: 30, lanes: 1.5}\nparameters:\n"
+     "  radius: {unit: m, min: 10, max: 100, default: 50}\n", ("lanes",)),
+]:
+    case(_name, 6)(_logical_case(_text, _names))
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -8,6 +8,7 @@ from typing import List, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import track
 from rich.table import Table
 
@@ -65,7 +66,7 @@ def generate(
     spec = load_logical(logical)
     pins = spec.pinned(_parse_sets(set_))
     combos = list(spec.grid(pins))
-    written = []
+    written, warned = [], set()
     steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
     where = logical if logical.endswith((".yaml", ".yml")) else None
     made_out = not out.exists()
@@ -77,6 +78,7 @@ def generate(
                 if err.file is None and where is not None:
                     raise InputError(err.reason, file=where, field=err.field, allowed=err.allowed) from None
                 raise
+            _warn(concrete.warnings, warned)
             written.append(write_scenario(concrete, out, preview=preview))
     except BaseException:
         if made_out and out.is_dir() and not any(out.iterdir()):    # leave no empty folder of ours behind
@@ -100,11 +102,21 @@ def _from_opendrive(console: Console, road: Path, start: str | None, goal: str |
                              allowed=PLACE_FORMS if option != "--out" else "a directory to write into")
     started = time.perf_counter()
     concrete = opendrive_scenario(road, start, goal, pins)
+    _warn(concrete.warnings, set())
     xml = write_scenario(concrete, out, preview=preview)
     problem = next(iter(concrete.problems.planning_problem_dict.values()))
     console.print(f"wrote [bold]{xml}[/bold]: {len(concrete.opendrive.lanelets)} lanelets from {road.name} "
                   f"({time.perf_counter() - started:.2f} s), one agent from "
                   f"({problem.initial_state.position[0]:.1f}, {problem.initial_state.position[1]:.1f})")
+
+
+def _warn(warnings: tuple[str, ...], said: set[str]) -> None:
+    """Each warning not ``said`` yet, one line on stderr."""
+    console = output_console(stderr=True)
+    for text in warnings:
+        if text not in said:
+            said.add(text)
+            console.print(f"[yellow]warning[/yellow]: {escape(text)}")
 
 
 def _print_builtins(console: Console) -> None:

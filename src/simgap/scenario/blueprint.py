@@ -11,13 +11,15 @@ same lanelets (`rebuild`).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Any, Literal, Mapping, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
+from simgap.errors import InputError
 from simgap.scenario.geometry import Arc, CentreLine, Straight, centre_line
 from simgap.scenario.junction import Junction, build_junction
-from simgap.scenario.relief import ReliefProfile, RoadRelief
+from simgap.scenario.relief import MAX_BANK_DEG, MAX_GRADE_PERCENT, ReliefProfile, RoadRelief
 from simgap.scenario.road import LaneLayout, Road, build_road
 
 RELIEF_SAMPLE_M = 0.2      # sampling of the centre line a relief is laid on [m]
@@ -72,18 +74,26 @@ class JunctionBlueprint(BaseModel):
 Blueprint = Annotated[Union[RoadBlueprint, JunctionBlueprint], Field(discriminator="kind")]
 
 
-class _Holder(BaseModel):
-    blueprint: Blueprint
+_BLUEPRINT: TypeAdapter[RoadBlueprint | JunctionBlueprint] = TypeAdapter(Blueprint)
 
 
-def blueprint_of(metadata: Mapping[str, Any]) -> RoadBlueprint | JunctionBlueprint | None:
-    """The blueprint in a scenario's sidecar (None: not a generated scenario, or written before
-    blueprints were recorded, or not readable as one)."""
+def blueprint_of(metadata: Mapping[str, Any], file: str | Path | None = None) -> RoadBlueprint | JunctionBlueprint | None:
+    """The blueprint in a scenario's sidecar ``file`` (None: not a generated scenario, or written
+    before blueprints were recorded); one that is not readable as one — a relief out of bounds, a
+    field of the wrong type — is refused, naming its field: a 3D world would otherwise drive a flat
+    road."""
     raw = metadata.get("blueprint")
     if raw is None:
         return None
     try:
-        return _Holder.model_validate({"blueprint": raw}).blueprint
-    except ValidationError:
-        return None
-
+        return _BLUEPRINT.validate_python(raw)
+    except ValidationError as err:
+        first = err.errors()[0]
+        loc = list(first.get("loc", ()))
+        if loc and loc[0] in ("road", "junction"):      # the union's tag, not a field
+            loc = loc[1:]
+        raise InputError(first.get("msg", str(err)).removeprefix("Value error, "), file=file,
+                         field=".".join(["blueprint", *map(str, loc)]),
+                         allowed="the blueprint simgap generate wrote (a relief: grades within "
+                                 f"+-{MAX_GRADE_PERCENT:g} %, banks within +-{MAX_BANK_DEG:g} deg, vertical curves "
+                                 "of a positive radius at finite stations)") from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import tempfile
 import warnings
@@ -20,6 +21,8 @@ from lxml import etree
 
 from simgap.errors import InputError
 from simgap.files import atomic_write, atomic_write_text
+from simgap.scenario.blueprint import blueprint_of
+from simgap.scenario.opendrive.origin import origin_of
 from simgap.scenario.physical_bounds import check_lanelets, check_planning_problems, check_time_step
 from simgap.scenario.templates import ConcreteScenario
 
@@ -122,11 +125,35 @@ def _check_obstacles_are_placed(scenario: Scenario, path: Path) -> None:
 
 
 def read_metadata(xml_path: str | Path) -> dict[str, Any]:
-    """The sidecar of a generated scenario (name, logical, parameters, sections), or {} if none."""
+    """The sidecar of a generated scenario (name, logical, parameters, sections, and what its 3D
+    ground is built from), or {} if none. A sidecar that is not a JSON object, holds a number that
+    is not finite, or whose blueprint or OpenDRIVE origin does not read is refused naming the field:
+    a scenario whose relief cannot be read is never run flat."""
     sidecar = Path(xml_path).with_suffix(".json")
     if not sidecar.exists():
         return {}
     try:
-        return json.loads(sidecar.read_text())
+        metadata = json.loads(sidecar.read_text())
     except (OSError, ValueError) as exc:
         raise InputError(f"unreadable scenario metadata: {exc}", file=sidecar) from None
+    if not isinstance(metadata, dict):
+        raise InputError(f"the scenario metadata is {json.dumps(metadata)[:40]}, not a JSON object", file=sidecar,
+                         allowed="a JSON object (the sidecar simgap generate wrote)")
+    where = _not_finite(metadata)
+    if where is not None:
+        raise InputError("a number that is not finite", file=sidecar, field=where, allowed="finite numbers")
+    blueprint_of(metadata, sidecar)
+    origin_of(metadata, sidecar)
+    return metadata
+
+
+def _not_finite(value: Any, path: str = "") -> str | None:
+    """The path of the first number in ``value`` (parsed JSON) that is not finite, or None."""
+    if isinstance(value, float):
+        return None if math.isfinite(value) else path or "."
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _not_finite(item, f"{path}.{key}".lstrip("."))
+        if found is not None:
+            return found
+    return None

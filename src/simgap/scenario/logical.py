@@ -40,7 +40,7 @@ from simgap.files import read_model
 from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
 from simgap.scenario.opendrive.scenario import opendrive_template
 from simgap.scenario.templates import TEMPLATES as ROAD_TEMPLATES
-from simgap.scenario.templates import ConcreteScenario
+from simgap.scenario.templates import ConcreteScenario, check_template_inputs
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 TEMPLATES = ROAD_TEMPLATES | {"opendrive": opendrive_template}
@@ -162,6 +162,7 @@ class LogicalScenario(BaseModel):
             raise InputError(f"unknown parameter '{sorted(unknown)[0]}' of logical scenario '{self.name}'",
                              field=sorted(unknown)[0], allowed=", ".join(self.parameters))
         full = {n: par.coerce(par.default) for n, par in self.parameters.items()} | params
+        check_template_inputs(self.template, self.fixed, list(self.parameters))
         concrete = TEMPLATES[self.template](self.scenario_name(full), self.name, self.fixed | full)
         concrete.units = {n: par.unit for n, par in self.parameters.items()}
         return concrete
@@ -191,6 +192,10 @@ def load_logical(name_or_path: str | Path) -> LogicalScenario:
                              field="LOGICAL", allowed=", ".join(builtin_names()) + ", or a .yaml path")
         path = _builtin_dir() / f"{text}.yaml"
     logical = read_model(path, LogicalScenario, "logical scenario", "name, description, template, fixed, parameters")
+    try:
+        check_template_inputs(logical.template, logical.fixed, list(logical.parameters))
+    except InputError as err:
+        raise InputError(err.reason, file=path, field=err.field, allowed=err.allowed) from None
     source = logical.fixed.get("file")
     if logical.template == "opendrive" and isinstance(source, str):      # a road file beside the YAML
         logical.fixed["file"] = str((path.parent / source).resolve())

@@ -48,7 +48,7 @@ class VerticalCurve(BaseModel):
     """A change of grade at station ``s`` (where the two grades meet) to ``grade``, rounded by a
     parabola of ``radius`` at its vertex, ``radius * |change|`` long and centred on ``s``."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     s: float = Field(description="station where the grades meet [m]")
     grade: float = Field(ge=-MAX_GRADE_PERCENT, le=MAX_GRADE_PERCENT, description="grade after it [%]")
     radius: float = Field(gt=0.0, description="radius of the vertical curve at its vertex [m]")
@@ -67,7 +67,7 @@ class ElevationPiece:
 class ElevationProfile(BaseModel):
     """The grade from the road's start and its changes (see the module doc)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     grade: float = Field(0.0, ge=-MAX_GRADE_PERCENT, le=MAX_GRADE_PERCENT, description="grade at the start [%]")
     changes: tuple[VerticalCurve, ...] = ()
 
@@ -112,7 +112,7 @@ def _piece_height(piece: ElevationPiece, s: float) -> float:
 class BankKnot(BaseModel):
     """The superelevation at station ``s`` (linear between knots)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     s: float = Field(description="station [m]")
     bank: float = Field(ge=-MAX_BANK_DEG, le=MAX_BANK_DEG,
                         description="roll of the cross section [deg]; positive: falls to the right of the reference line")
@@ -121,7 +121,7 @@ class BankKnot(BaseModel):
 class ReliefProfile(BaseModel):
     """A road's relief along its reference line: elevation and superelevation (see the module doc)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     elevation: ElevationProfile = ElevationProfile()
     superelevation: tuple[BankKnot, ...] = ()
 

@@ -61,6 +61,7 @@ class ConcreteScenario:
     units: dict[str, str] = field(default_factory=dict)      # parameter -> unit (of the logical scenario)
     blueprint: RoadBlueprint | JunctionBlueprint | None = None   # what the road network was built from
     opendrive: OpenDriveOrigin | None = None     # the OpenDRIVE file its lanelets were read from, and its relief
+    warnings: tuple[str, ...] = ()     # what building it dropped from its source, one line each (not in the sidecar)
 
     def metadata(self) -> dict[str, Any]:
         meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
@@ -300,3 +301,43 @@ TEMPLATES: dict[str, Callable[[str, str, dict[str, Any]], ConcreteScenario]] = {
     "curve": curve, "s-curve": s_curve, "road": road, "hairpins": hairpins, "t-junction": t_junction,
     "intersection": intersection,
 }
+
+# What the templates read from a logical scenario: the names each cannot do without (the others
+# have defaults), and the kind of value each name must hold in ``fixed`` (a name means the same in
+# every template; ``parameters`` always hold numbers)
+REQUIRED: dict[str, tuple[str, ...]] = {"curve": ("radius", "angle"), "s-curve": ("radius", "angle"),
+                                        "hairpins": ("hairpin_radius",), "road": ("segments",), "t-junction": (),
+                                        "intersection": (), "opendrive": ("file", "start", "goal")}
+_NUMBERS = ("radius", "angle", "transition", "straight_length", "leg_length", "hairpin_radius", "lane_width",
+            "grade", "grade_change", "vertical_radius", "vertical_curve_shift", "bank", "bank_transition", "dt",
+            "start_offset", "goal_offset", "initial_speed", "time_limit", "approach_length", "stagger",
+            "start_distance")
+KINDS: dict[str, str] = {name: "a finite number" for name in _NUMBERS} | {
+    "lanes": "a whole number", "hairpins": "a whole number", "agents": "a whole number", "two_way": "true or false",
+    "centre_marking": "text", "file": "text", "start": "text (quoted: a place such as \"2:-1:30\")",
+    "goal": "text (quoted: a place such as \"2:-1:30\")"}
+
+
+def _is(kind: str, value: Any) -> bool:
+    number = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if kind == "a finite number":
+        return number
+    if kind == "a whole number":
+        return number and float(value).is_integer()
+    if kind == "true or false":
+        return isinstance(value, bool)
+    return isinstance(value, str)
+
+
+def check_template_inputs(template: str, fixed: dict[str, Any], parameters: list[str]) -> None:
+    """Refuse a logical scenario on ``template`` that leaves out a name the template needs, or whose
+    ``fixed`` settings hold a value of the wrong kind (`REQUIRED`, `KINDS`)."""
+    given = set(fixed) | set(parameters)
+    missing = [name for name in REQUIRED.get(template, ()) if name not in given]
+    if missing:
+        raise InputError(f"the {template} template needs '{missing[0]}'", field=missing[0],
+                         allowed=f"{', '.join(REQUIRED[template])} in fixed or parameters")
+    for name, value in fixed.items():
+        kind = KINDS.get(name)
+        if kind is not None and not _is(kind, value):
+            raise InputError(f"is {value!r}", field=f"fixed.{name}", allowed=kind)

@@ -3,5 +3,6 @@ keeping each road's elevation and superelevation (`origin`), and a scenario on i
 a goal (`scenario`).
 
 The reader is simgap's own, on lxml (`document`), with the reference line's geometry evaluated in
-`reference_line` and the lanes' borders sampled in `lanes`.
+`reference_line` and the lanes' borders sampled in `lanes`. What cannot be a road is refused and a
+link that leads nowhere dropped with a warning (`checks`, where the rule is).
 """

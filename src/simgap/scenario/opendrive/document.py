@@ -54,7 +54,7 @@ class Poly3(BaseModel):
     """A cubic ``a + b u + c u^2 + d u^3`` in ``u = s - s_start``, valid from ``s_start`` to the
     next record (OpenDRIVE's elevation, superelevation, lane offset and lane width records)."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(frozen=True, allow_inf_nan=False)
     s: float
     a: float
     b: float = 0.0
@@ -76,6 +76,7 @@ class Geometry:
     hdg: float
     length: float
     values: tuple[float, ...] = ()
+    line: int | None = None                   # where the file states it
 
 
 @dataclass(frozen=True)
@@ -97,6 +98,7 @@ class Lane:
     marks: tuple[RoadMark, ...]
     reversed: bool = False
     both_ways: bool = False
+    line: int | None = None
 
 
 @dataclass(frozen=True)
@@ -127,6 +129,7 @@ class Road:
     sections: tuple[LaneSection, ...]
     elevation: tuple[Poly3, ...]
     superelevation: tuple[Poly3, ...]
+    line: int | None = None
 
 
 @dataclass(frozen=True)
@@ -230,7 +233,8 @@ class _Reader:
             lane_offsets=_in_order(self.poly3(o) for o in lane_children if o.tag == "laneOffset"),
             sections=tuple(self.section(sec) for sec in lane_children if sec.tag == "laneSection"),
             elevation=_in_order(self.poly3(e) for p in parts.get("elevationProfile", []) for e in self.children(p)),
-            superelevation=_in_order(self.poly3(e) for p in parts.get("lateralProfile", []) for e in self.children(p)))
+            superelevation=_in_order(self.poly3(e) for p in parts.get("lateralProfile", []) for e in self.children(p)),
+            line=el.sourceline)
 
     def road_link(self, link: etree._Element | None, which: str) -> RoadLink | None:
         el = link.find(which) if link is not None else None
@@ -272,7 +276,7 @@ class _Reader:
                 raise self.refuse(g, f"length {length:g}", "a length >= 0 m")
             if length > 0:
                 out.append(Geometry(kind, self.number(g, "s"), self.number(g, "x"), self.number(g, "y"),
-                                    self.number(g, "hdg"), length, values))
+                                    self.number(g, "hdg"), length, values, g.sourceline))
         if not out:
             raise self.refuse(plan_view, "no geometry of positive length", "one or more <geometry>")
         return tuple(sorted(out, key=lambda g: g.s))
@@ -289,8 +293,11 @@ class _Reader:
                     raise self.refuse(lane, f"not supported in <{side.tag}>", "lane")
                 if side.tag == "center":
                     centre_marks = self.marks(lane)
-                else:
-                    lanes.append(self.lane(lane))
+                    continue
+                read = self.lane(lane)
+                if any(other.id == read.id for other in lanes):
+                    raise self.refuse(lane, f"lane id {read.id} again in this lane section", "one <lane> per id")
+                lanes.append(read)
         return LaneSection(self.number(el, "s"), tuple(lanes), centre_marks)
 
     def marks(self, lane: etree._Element) -> tuple[RoadMark, ...]:
@@ -308,7 +315,7 @@ class _Reader:
         return Lane(id=int(self.number(el, "id")), type=el.get("type", "none"),
                     widths=_in_order(self.poly3(w, "sOffset") for w in children if w.tag == "width"),
                     predecessors=ids["predecessor"], successors=ids["successor"], marks=self.marks(el),
-                    reversed=direction == "reversed", both_ways=direction == "both")
+                    reversed=direction == "reversed", both_ways=direction == "both", line=el.sourceline)
 
     # ----------------------------------------------------------------- junctions
     def junction(self, el: etree._Element) -> Junction:
@@ -330,24 +337,38 @@ def _in_order(records) -> tuple[Poly3, ...]:
 
 
 def read_document(path: str | Path) -> OpenDriveDocument:
-    """The roads and junctions of the OpenDRIVE file at ``path``."""
+    """The roads and junctions of the OpenDRIVE file at ``path`` (a road or junction id stated
+    twice is refused: which of the two the links mean cannot be told)."""
     path = Path(path)
     if not path.is_file():
         raise InputError("no such OpenDRIVE file", file=path, allowed="an .xodr file")
     parser = etree.XMLParser(resolve_entities=False, no_network=True, remove_comments=True)
     try:
-        root = etree.parse(str(path), parser).getroot()
+        root = etree.fromstring(path.read_bytes(), parser, base_url=str(path))
+    except OSError as exc:
+        raise InputError(f"cannot be read ({exc.strerror or exc})", file=path, allowed="a readable .xodr file") from None
     except etree.XMLSyntaxError as exc:
-        raise InputError(f"not readable as XML ({exc})", file=path, allowed="an OpenDRIVE (.xodr) file") from None
+        allowed = ("text in the encoding its XML declaration names (UTF-8 without one)" if "encoding" in str(exc)
+                   else "an OpenDRIVE (.xodr) file")
+        raise InputError(f"not readable as XML ({exc.msg})", file=path, allowed=allowed) from None
     if root.tag != "OpenDRIVE":
         raise InputError(f"the root element is <{root.tag}>", file=path, allowed="<OpenDRIVE>")
     reader = _Reader(path)
-    roads, junctions = {}, {}
+    roads: dict[str, Road] = {}
+    junctions: dict[str, Junction] = {}
+    lines: dict[tuple[str, str], int | None] = {}
     for el in reader.children(root):
+        if el.tag not in ("road", "junction"):
+            continue
+        key = (el.tag, str(el.get("id")))
+        if key in lines:
+            raise reader.refuse(el, f"{el.tag} id '{key[1]}' again (first on line {lines[key]})",
+                                f"one <{el.tag}> per id")
+        lines[key] = el.sourceline
         if el.tag == "road":
             road = reader.road(el)
             roads[road.id] = road
-        elif el.tag == "junction":
+        else:
             junction = reader.junction(el)
             junctions[junction.id] = junction
     if not roads:

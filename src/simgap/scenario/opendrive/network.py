@@ -12,6 +12,9 @@ junctions alike). A link becomes a successor relation where one lane's exit meet
 entry; a link between two lanes driven towards (or away from) each other is no relation and is
 counted as not kept (`LinkTally`). Lanes side by side in a lane section are neighbours, the same
 way or the opposite.
+
+A file that cannot be a road is refused, and a link that leads nowhere is dropped and reported
+(`OpenDriveNetwork.dropped`), by `simgap.scenario.opendrive.checks`.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from pathlib import Path
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LaneletType, LineMarking
 
+from simgap.scenario.opendrive.checks import Dropped, check_roads, without_broken_links
 from simgap.scenario.opendrive.document import Lane, OpenDriveDocument, Road, RoadMark, read_document
 from simgap.scenario.opendrive.lanes import LaneStrip, Piece, lane_strips, road_pieces
 from simgap.scenario.opendrive.origin import LaneletPlace, OpenDriveOrigin, RoadProfile
@@ -57,13 +61,14 @@ class LinkTally:
 @dataclass
 class OpenDriveNetwork:
     """The lanelets of an OpenDRIVE file, each one's kind of road section, where each came from,
-    and the links kept."""
+    the links kept, and the links dropped as leading nowhere (`checks`)."""
 
     document: OpenDriveDocument
     lanelets: LaneletNetwork
     sections: RoadSections
     origin: OpenDriveOrigin
     links: LinkTally
+    dropped: tuple[Dropped, ...] = ()
 
 
 def _drivable(lane: Lane) -> bool:
@@ -158,7 +163,7 @@ def _lane_links(document: OpenDriveDocument) -> set[frozenset[LaneEnd]]:
             pairs |= {frozenset({(road.id, k + 1, lane.id, "start"), (road.id, k, m, "end")})
                       for lane in nxt.lanes for m in lane.predecessors}
         for which, link in (("start", road.predecessor), ("end", road.successor)):
-            if link is None or link.element_type != "road" or link.element_id not in roads:
+            if link is None or link.element_type != "road":
                 continue
             other = roads[link.element_id]
             own = 0 if which == "start" else last(road)
@@ -168,9 +173,7 @@ def _lane_links(document: OpenDriveDocument) -> set[frozenset[LaneEnd]]:
                     pairs.add(frozenset({(road.id, own, lane.id, which), (other.id, theirs, m, link.contact_point)}))
     for junction in document.junctions.values():
         for c in junction.connections:
-            incoming, other = roads.get(c.incoming_road), roads.get(c.road)
-            if incoming is None or other is None:
-                continue
+            incoming, other = roads[c.incoming_road], roads[c.road]
             theirs = 0 if c.contact_point == "start" else last(other)
             for which, link in (("start", incoming.predecessor), ("end", incoming.successor)):
                 if link is None or link.element_type != "junction" or link.element_id != junction.id:
@@ -184,6 +187,8 @@ def _lane_links(document: OpenDriveDocument) -> set[frozenset[LaneEnd]]:
 def opendrive_network(path: str | Path) -> OpenDriveNetwork:
     """The lanelet network of the OpenDRIVE file at ``path`` (see the module doc)."""
     document = read_document(path)
+    check_roads(document)
+    document, dropped = without_broken_links(document)
     drafts: dict[tuple[str, int, int, int], _Draft] = {}     # (road, section, lane, piece)
     pieces_in: dict[tuple[str, int], int] = {}                # (road, section) -> number of pieces
     for road in document.roads.values():
@@ -251,4 +256,4 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
                   for road in document.roads.values() if road.id in relief})
     return OpenDriveNetwork(document, LaneletNetwork.create_from_lanelet_list(lanelets),
                             RoadSections({ids[key]: draft.piece.kind for key, draft in drafts.items()}), origin,
-                            LinkTally(source, kept))
+                            LinkTally(source, kept), dropped)

@@ -6,10 +6,12 @@ vertices — for a 3D world to lay the surface on (the CommonRoad XML is 2D).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Mapping
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
+from simgap.errors import validation_error
 from simgap.scenario.opendrive.document import Poly3
 
 
@@ -17,7 +19,7 @@ class LaneletPlace(BaseModel):
     """A lanelet's lane in the OpenDRIVE file, over stations ``s_start`` to ``s_end`` of its road's
     reference line; on a road with a relief, the heights [m] of its left and right bound vertices."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(frozen=True, allow_inf_nan=False)
     road: str
     section: int
     lane: int
@@ -30,7 +32,7 @@ class LaneletPlace(BaseModel):
 class RoadProfile(BaseModel):
     """A road's elevation [m] and superelevation [rad, positive: falls to the right] records."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(frozen=True, allow_inf_nan=False)
     elevation: tuple[Poly3, ...] = ()
     superelevation: tuple[Poly3, ...] = ()
 
@@ -38,18 +40,22 @@ class RoadProfile(BaseModel):
 class OpenDriveOrigin(BaseModel):
     """An imported road network's source and relief (see the module doc)."""
 
-    model_config = ConfigDict(frozen=True)
+    model_config = ConfigDict(frozen=True, allow_inf_nan=False)
     source: str
     sha256: str
     lanelets: dict[int, LaneletPlace]
     profiles: dict[str, RoadProfile]     # the roads that are not flat
 
 
-def origin_of(metadata: Mapping[str, Any]) -> OpenDriveOrigin | None:
-    """The OpenDRIVE origin in a scenario's sidecar (None: not imported from OpenDRIVE, or not
-    readable as one)."""
+def origin_of(metadata: Mapping[str, Any], file: str | Path | None = None) -> OpenDriveOrigin | None:
+    """The OpenDRIVE origin in a scenario's sidecar ``file`` (None: not imported from OpenDRIVE); one
+    that is not readable as one is refused, naming its field (a 3D world would otherwise stand the
+    road on flat ground)."""
     raw = metadata.get("opendrive")
-    try:
-        return None if raw is None else OpenDriveOrigin.model_validate(raw)
-    except ValidationError:
+    if raw is None:
         return None
+    try:
+        return OpenDriveOrigin.model_validate(raw)
+    except ValidationError as err:
+        raise validation_error(err, file=file, prefix="opendrive",
+                               allowed="the origin simgap generate wrote for an OpenDRIVE road") from None

@@ -47,27 +47,42 @@ def _spiral(g: Geometry, u: np.ndarray) -> Poses:
     return Poses(x, y, hdg, k0 + rate * u)
 
 
+def _coefficients(g: Geometry) -> tuple[tuple[float, ...], tuple[float, ...], float]:
+    """The u and v cubics of a poly3 or paramPoly3 in its parameter, and where the parameter ends."""
+    if g.kind == "poly3":       # the parameter is the local u, at most the geometry's length where it ends
+        return (0.0, 1.0, 0.0, 0.0), g.values, g.length
+    return g.values[0:4], g.values[4:8], (1.0 if g.values[8] else g.length)
+
+
+def _derivative(c: tuple[float, ...], t: np.ndarray) -> np.ndarray:
+    return c[1] + t * (2 * c[2] + 3 * t * c[3])
+
+
+def _length_table(g: Geometry) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter values of a poly3 or paramPoly3 and the curve's length up to each."""
+    cu, cv, p_end = _coefficients(g)
+    n = max(64, int(np.ceil(g.length / _ARC_TABLE_STEP_M)))
+    p = np.linspace(0.0, p_end, n + 1)
+    speed = np.hypot(_derivative(cu, p), _derivative(cv, p))
+    return p, np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(p))])
+
+
+def polynomial_length(g: Geometry) -> float:
+    """The length of a poly3's or paramPoly3's curve over its whole parameter range [m]."""
+    return float(_length_table(g)[1][-1])
+
+
 def _polynomial(g: Geometry, u: np.ndarray) -> Poses:
     """poly3 (v a cubic in the local u axis) and paramPoly3 (u and v cubics in a parameter p), both
     in the frame of the geometry's start, evaluated where their arc length is ``u``."""
-    if g.kind == "poly3":       # the parameter is the local u, at most the geometry's length where it ends
-        cu, cv, p_end = (0.0, 1.0, 0.0, 0.0), g.values, g.length
-    else:
-        cu, cv, p_end = g.values[0:4], g.values[4:8], (1.0 if g.values[8] else g.length)
-    n = max(64, int(np.ceil(g.length / _ARC_TABLE_STEP_M)))
-    p = np.linspace(0.0, p_end, n + 1)
-
-    def derivative(c, t):
-        return c[1] + t * (2 * c[2] + 3 * t * c[3])
-
-    speed = np.hypot(derivative(cu, p), derivative(cv, p))
-    length = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(p))])
+    cu, cv, _ = _coefficients(g)
+    p, length = _length_table(g)
     # a poly3 ends where it is as long as the geometry; a paramPoly3 ends with its parameter range, a
     # small difference between its length and the geometry's spread over the curve
     t = np.interp(u if g.kind == "poly3" else u * length[-1] / g.length, length, p)
     lu = cu[0] + t * (cu[1] + t * (cu[2] + t * cu[3]))
     lv = cv[0] + t * (cv[1] + t * (cv[2] + t * cv[3]))
-    du, dv = derivative(cu, t), derivative(cv, t)
+    du, dv = _derivative(cu, t), _derivative(cv, t)
     ddu, ddv = 2 * cu[2] + 6 * cu[3] * t, 2 * cv[2] + 6 * cv[3] * t
     cos, sin = np.cos(g.hdg), np.sin(g.hdg)
     curvature = (du * ddv - dv * ddu) / np.maximum(np.hypot(du, dv), 1e-12) ** 3

@@ -156,8 +156,12 @@ def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, 
     end = lane_place(roads, goal, "--goal", prefer=ahead)
     goal_id = end.lanelet.lanelet_id
     if goal_id not in ahead or (goal_id == begin.lanelet.lanelet_id and end.s <= begin.s):
+        dropped = sum(d.count for d in roads.dropped)
+        why = f" ({dropped} of the file's links lead nowhere and were dropped: " + \
+            "; ".join(d.describe() for d in roads.dropped) + ")" if dropped else ""
         raise InputError(f"the goal (lanelet {goal_id}, road {roads.origin.lanelets[goal_id].road} lane "
-                         f"{roads.origin.lanelets[goal_id].lane}) is not ahead of the start along the lanes' links",
+                         f"{roads.origin.lanelets[goal_id].lane}) is not ahead of the start along the lanes' "
+                         f"links{why}",
                          field="--goal", allowed="a place reached from the start by following the lanes' "
                                                  "successors and lane changes the same way")
     problem = planning_problem(1, (begin.lanelet, begin.s), (end.lanelet, end.s),
@@ -165,7 +169,8 @@ def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, 
     name = name or re.sub(r"[^A-Za-z0-9_-]+", "_", path.stem).strip("_") or "opendrive"
     parameters = {"source": path.name, "start": start, "goal": goal, **settings.model_dump()}
     return ConcreteScenario(name, logical, parameters, scenario_of(name, settings.dt, roads.lanelets),
-                            PlanningProblemSet([problem]), roads.sections, dict(UNITS), opendrive=roads.origin)
+                            PlanningProblemSet([problem]), roads.sections, dict(UNITS), opendrive=roads.origin,
+                            warnings=tuple(f"{path}: {d.describe()}" for d in roads.dropped))
 
 
 def opendrive_template(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
