@@ -18,6 +18,9 @@ from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
 
 
+CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default (`simgap.experiment.search.confirmation`)
+
+
 @app.command("search")
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
@@ -32,6 +35,9 @@ def search_cmd(
     probe_runs: int = typer.Option(20, "--probe-runs", min=0,
                                    help="per strategy, high-fidelity runs that probe which dimensions its "
                                         "violations need (their failure modes; 0: none)"),
+    repeats: int = typer.Option(CONFIRMATION_REPEATS, "--repeats", min=1,
+                                help="seeds each distinct violation is confirmed over in high fidelity (its own "
+                                     "included): it says in how many of them it fails"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
@@ -63,7 +69,7 @@ def search_cmd(
 
     try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             validate=not no_validate, probe_runs=probe_runs)
+                             validate=not no_validate, probe_runs=probe_runs, repeats=repeats)
     finally:
         if bar.live.is_started:
             bar.stop()
@@ -98,7 +104,9 @@ def _print_findings(console: Console, results) -> None:
                   + (f" (the first {FINDINGS_SHOWN}; all in the report and simgap export --violations)"
                      if len(found) > FINDINGS_SHOWN else "") + ":")
     for v in worst[:FINDINGS_SHOWN]:
-        console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): {escape(v.row.failure_reason)}")
+        seeds = "" if v.reproduces is None or v.reproduces.n < 2 else f"; fails in {v.reproduces} seeds"
+        console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): {escape(v.row.failure_reason)}"
+                      f"{seeds}")
         console.print(f"    {escape(v.reproduce)}", soft_wrap=True)
 
 

@@ -12,8 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from simgap.errors import InputError
+from simgap.evaluate.odds import Rate
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.replay import reproduce_command
+from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
@@ -32,6 +34,7 @@ class Violation:
     ideal_row: SearchRow               # ... and the ideal run, which passed
     run_dir: Path                      # the high-fidelity run's directory
     scenario_xml: Path | None          # the candidate's CommonRoad scenario
+    reproduces: Rate | None = None     # in how many of its seeds it failed in high fidelity (confirmation)
 
     @property
     def candidate(self) -> int:
@@ -72,7 +75,10 @@ class Violation:
                                 "range": [d.low, d.high]}
                                for d in spec.dimensions if d.name in values[d.kind]],
                 "vehicle": self.vehicle, "planner": self.planner, "failure": self.row.failure_reason,
-                "high_fidelity": run(self.row), "ideal": run(self.ideal_row), "reproduce": self.reproduce}
+                "high_fidelity": run(self.row), "ideal": run(self.ideal_row), "reproduce": self.reproduce,
+                "reproduces": None if self.reproduces is None else
+                {"failed": self.reproduces.k, "seeds": self.reproduces.n, "low": self.reproduces.low,
+                 "high": self.reproduces.high}}
 
 
 def _plain(value: Any) -> Any:
@@ -163,7 +169,8 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
 
 def _violation(root: Path, strategy: str, high: SearchRow, ideal: SearchRow) -> Violation:
     scenario = root / "scenarios" / high.run.id.scenario
-    return Violation(strategy, high, ideal, root / str(high.run.run_dir), next(iter(sorted(scenario.glob("*.xml"))), None))
+    return Violation(strategy, high, ideal, root / str(high.run.run_dir), next(iter(sorted(scenario.glob("*.xml"))), None),
+                     reproduction(root, high))
 
 
 @dataclass(frozen=True)

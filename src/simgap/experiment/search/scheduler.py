@@ -39,6 +39,7 @@ from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
 from simgap.experiment.search.ledger import SearchLedger
+from simgap.experiment.search.confirmation import Confirmations
 from simgap.experiment.search.mode_probes import ModeProbes
 from simgap.experiment.search.results import META, StrategyResult, summarise
 from simgap.experiment.search.rows import SearchRow
@@ -210,11 +211,12 @@ class SearchProgress:
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
-               probe_runs: int = 0) -> list[StrategyResult]:
+               probe_runs: int = 0, repeats: int = 1) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
     checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
     each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
-    (`simgap.experiment.search.mode_probes`), and record what each found in ``search.json``."""
+    (`simgap.experiment.search.mode_probes`), confirm each over ``repeats`` seeds in high fidelity
+    (`simgap.experiment.search.confirmation`), and record what each found in ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
     if not validate and spec.failure.solution_invalid:
@@ -253,6 +255,12 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         if probes.pending and probe_runs > 0:
             runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle,
                                                    validate=validate, criticality=False), probes.on_result)
+        confirmations = Confirmations(search, space, sroot, [v.row for v in found.found], repeats,
+                                      {v.candidate: v.ideal_row for v in found.found})
+        if confirmations.pending:
+            runner.run(confirmations.next_job, JobContext(confirmations.root, planner_vehicle=search.planner_vehicle,
+                                                          validate=validate, criticality=False),
+                       confirmations.on_result)
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
         _record_findings(root, results[-1])
     return results
