@@ -66,6 +66,8 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
     for fragment in ("<h2>Scores</h2>", "at_fault_collisions", "time_to_collision", "comfort", "partial costs",
                      "invalid: goal not reached"):
         assert fragment in page
+    # the physical run's timeline (why it parted from its plan); none of the ideal run, which cannot part
+    assert "timeline_mujoco-city_1.png" in page and "timeline_ideal" not in page
     for ref in re.findall(r"(?:src|href)='([^']+)'", text):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref
