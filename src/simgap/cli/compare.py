@@ -78,7 +78,7 @@ def event_rows(places: list[EventPlace]) -> list[dict]:
 def print_events(console: Console, result: dict) -> None:
     table = Table(title="events (where: x, y in the scenario; s, d along the agent's route centre)")
     for col in ("run", "t [s]", "agent", "event", "x, y [m]", "s [m]", "d [m]", "detail"):
-        table.add_column(col, justify="right" if col in ("t [s]", "agent", "s [m]", "d [m]") else "left",
+        table.add_column(escape(col), justify="right" if col in ("t [s]", "agent", "s [m]", "d [m]") else "left",
                          no_wrap=col != "detail")
     for side in ("a", "b"):
         for e in result["events"][side]:

@@ -71,9 +71,11 @@ def plot_d_over_s(curves: Mapping[str, tuple[np.ndarray, np.ndarray]], path: Pat
 
 def _draw_edges(ax, edges: RouteEdges, curves: Mapping[str, tuple[np.ndarray, np.ndarray]],
                 events: Mapping[str, Sequence[EventPlace]]) -> None:
-    """Lane edges dashed, road edges solid, over the curves' stretch of s; the d axis spans the
-    curves, the events and the edges."""
-    s_max = max((float(np.nanmax(s)) for s, _ in curves.values() if len(s)), default=float(edges.s[-1]))
+    """Lane edges dashed, road edges solid, over the stretch of s of the curves and events; the d
+    axis spans the curves, the events and the edges."""
+    reached = [float(np.nanmax(s)) for s, _ in curves.values() if len(s)]
+    reached += [p.s for ps in events.values() for p in ps if p.s is not None]
+    s_max = max(reached, default=float(edges.s[-1]))
     keep = edges.s <= s_max + 5.0
     for kind, (left, right) in (("lane", (edges.lane_left, edges.lane_right)),
                                 ("road", (edges.road_left, edges.road_right))):

@@ -60,7 +60,7 @@ def plot_timeline(timeline: AgentTimeline, events: Sequence[Event], path: Path, 
 def _tracking(ax, tl: AgentTimeline) -> None:
     if len(tl.lateral_error):
         ax.plot(tl.lateral_error.t, tl.lateral_error.values, color=COLOURS[1], lw=1.4, label="lateral [m]")
-    ax.set_ylabel("tracking error")
+    ax.set_ylabel("lateral error [m]", color=COLOURS[1], fontsize=8)
     twin = ax.twinx()
     if len(tl.heading_error):
         twin.plot(tl.heading_error.t, np.degrees(tl.heading_error.values), color=COLOURS[2], lw=1.2, ls="--",
