@@ -8,9 +8,11 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from concrete_runs import drive
+from simgap.errors import InputError
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.timeline import agent_timeline
 from simgap.record import read_run, write_run
@@ -61,6 +63,12 @@ def test_a_physical_run_records_its_commands_per_control_tick_and_they_reload_eq
     again = read_run(tmp_path / "run").history.agents[0].controls
     assert again == trace
     assert pickle.loads(pickle.dumps(prompt)).history.agents[0].controls == trace
+    # a hand-edited file whose commands lost their columns is refused, naming it
+    path = tmp_path / "run" / "trajectories.parquet"
+    pq.write_table(pq.read_table(path).drop_columns(["steer_at_wheels"]), path)
+    with pytest.raises(InputError, match="without the columns steer_at_wheels") as refused:
+        read_run(tmp_path / "run")
+    assert refused.value.file == str(path)
 
 
 def test_a_late_steering_shows_as_a_road_wheel_angle_that_lags_the_request(sharp_curve, prompt):

@@ -229,6 +229,11 @@ def _read_states(path: Path, dt: float) -> dict[str, Any]:
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
                          allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    missing = [f for f in CONTROL_COLUMNS if f not in table]
+    if missing and "controls" in table["kind"]:
+        raise InputError(f"rows of kind 'controls' without the columns {', '.join(missing)}", file=path,
+                         field="controls", allowed=f"the columns {', '.join(CONTROL_COLUMNS)} beside them, as simgap "
+                                                   "wrote them; run the scenario again")
     groups: dict[tuple[str, int, float], list[int]] = {}
     for i, (kind, aid, pt) in enumerate(zip(table["kind"], table["agent_id"], table["plan_t"])):
         groups.setdefault((kind, aid, pt if kind == "planned" else -1.0), []).append(i)
