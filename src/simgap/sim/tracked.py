@@ -38,7 +38,7 @@ from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enter
 from simgap.sim.rates import is_multiple, nearest_multiple
 from simgap.scenario.relief import Surface
 from simgap.sim.settings import TrackingSettings
-from simgap.trajectory import CONTROL_FIELDS, DEFAULT_TIME_STEP_S, Attitude, ControlTrace, State
+from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, ControlTrace, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
 
 class Physics(Protocol):
@@ -99,7 +99,7 @@ class TrackedBackend:
         self._actuators: dict[int, Actuators] = {}
         self._responses: dict[int, ActuatorResponses] = {}
         self._pedal_maps: dict[int, LongitudinalMap] = {}
-        self._ticks_of: dict[int, tuple[list[float], ...]] = {}     # per car, a list per `CONTROL_FIELDS`
+        self._ticks_of: dict[int, list[tuple[State, Command]]] = {}    # per car and control tick: measured, asked
 
     @property
     def realism(self) -> Realism:
@@ -169,7 +169,7 @@ class TrackedBackend:
 
     def reset(self) -> dict[int, State]:
         self._step = 0
-        self._ticks_of = {aid: tuple([] for _ in CONTROL_FIELDS) for aid in self._controllers}
+        self._ticks_of = {aid: [] for aid in self._controllers}
         self.physics.reset(0.0)
         self._present = [a for a in self._agents if enters_at(a, 0.0, self._dt)]
         states = {a.id: self.physics.measure(a.id, 0.0) for a in self._present}
@@ -183,20 +183,16 @@ class TrackedBackend:
         period = self._dt / ticks
         t0 = self._step * self._dt
         physics.begin_step(t0)
-        driving = [(a.id, self._controllers[a.id], self._responses[a.id], self._pedal_maps[a.id].acceleration,
-                    *self._ticks_of[a.id]) for a in self._present if a.id in self._controllers]
+        driving = [(a.id, self._controllers[a.id], self._responses[a.id], self._ticks_of[a.id].append)
+                   for a in self._present if a.id in self._controllers]
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for aid, controller, actuators, acceleration, ts, steer_asked, steer_had, accel_asked, accel_had in driving:
+            for aid, controller, actuators, keep in driving:
                 measured = physics.measure(aid, t)
                 asked = controller.command(measured, plan_at(plans[aid], t), t)
                 physics.actuate(aid, Command(*actuators.respond(asked.steer, asked.throttle, asked.brake)), period)
-                ts.append(t)
-                steer_asked.append(asked.steer)
-                steer_had.append(measured.steer)
-                accel_asked.append(acceleration(asked.throttle, asked.brake, measured.v))
-                accel_had.append(measured.a)
+                keep((measured, asked))
             timings["control"] += time.perf_counter() - start
             physics.advance(t, period)
         self._step += 1
@@ -214,9 +210,18 @@ class TrackedBackend:
 
     def control_traces(self) -> dict[int, ControlTrace]:
         """Per car its controller drives, what it asked and what the car did at each control tick
-        since the last `reset`."""
-        return {aid: ControlTrace(**dict(zip(CONTROL_FIELDS, columns)))
-                for aid, columns in self._ticks_of.items() if columns[0]}
+        since the last `reset`: the road wheels' angle and the acceleration as measured at the tick,
+        the acceleration asked for as the vehicle's pedal map reads the pedals at the measured speed."""
+        traces = {}
+        for aid, ticks in self._ticks_of.items():
+            if ticks:
+                acceleration = self._pedal_maps[aid].acceleration
+                traces[aid] = ControlTrace(
+                    t=[m.t for m, _ in ticks], steer_requested=[c.steer for _, c in ticks],
+                    steer_at_wheels=[m.steer for m, _ in ticks],
+                    accel_requested=[acceleration(c.throttle, c.brake, m.v) for m, c in ticks],
+                    accel_achieved=[m.a for m, _ in ticks])
+        return traces
 
     def attitudes(self) -> dict[int, Attitude]:
         return {a.id: attitude for a in self._present if (attitude := self.physics.attitude(a.id)) is not None}
