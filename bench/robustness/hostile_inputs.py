@@ -1322,6 +1322,22 @@ for _name, _text, _names in [
     case(_name, 6)(_logical_case(_text, _names))
 
 
+# --- round 5, h5-commands-timeline: a run whose recorded commands lost their columns
+
+@case("run-controls-without-columns", 7)
+def _(folder: Path, stock: Stock) -> Outcome:
+    import pyarrow.parquet as pq
+
+    p = simgap("run", stock.scenario, "--no-validate", "--backend", "dynamic", "--replan-every", "3", "--out",
+               folder / "r", cwd=folder)
+    if p.rc != 0:
+        return problem(p) or Outcome(OTHER, f"the dynamic run failed: exit {p.rc}", p.stderr, p.seconds)
+    path = folder / "r" / "trajectories.parquet"
+    table = pq.read_table(path)
+    pq.write_table(table.drop_columns(["steer_requested", "accel_achieved"]), path)    # a hand-edited file
+    return expect_refusal(simgap("compare", stock.run, folder / "r", cwd=folder), "trajectories.parquet")
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -146,3 +146,57 @@ class Trajectory:
 
     def path_length(self) -> float:
         return float(np.sum(np.hypot(np.diff(self._data["x"]), np.diff(self._data["y"]))))
+
+
+CONTROL_FIELDS = ("t", "steer_requested", "steer_at_wheels", "accel_requested", "accel_achieved")
+
+
+class ControlTrace:
+    """What one car's controller asked and what the car did, per control tick (at the
+    controller's rate, not the scenario's): ``t`` [s]; ``steer_requested``, the road-wheel angle
+    the controller asked for [rad]; ``steer_at_wheels``, the road wheels' angle the car had then
+    [rad] (after its actuators' dead time and lag and its steering's rate and angle limits);
+    ``accel_requested``, the acceleration the controller's pedal positions ask for at the car's
+    speed, through the vehicle's pedal map [m/s^2]; ``accel_achieved``, the car's measured
+    longitudinal acceleration [m/s^2]. A world whose plans are executed exactly has none.
+
+    Immutable like a `Trajectory`: the arrays are read-only."""
+
+    __slots__ = ("_data",)
+
+    def __init__(self, **columns: Iterable[float]):
+        missing = [f for f in CONTROL_FIELDS if f not in columns]
+        if missing:
+            raise ValueError(f"control trace is missing columns {missing}")
+        data = {}
+        for name in CONTROL_FIELDS:
+            arr = np.array(columns[name], dtype=float).reshape(-1)
+            if data and len(arr) != len(data["t"]):
+                raise ValueError(f"column {name!r} has {len(arr)} entries, expected {len(data['t'])}")
+            arr.flags.writeable = False
+            data[name] = arr
+        self._data = data
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("__") or name == "_data":
+            raise AttributeError(name)
+        try:
+            return self._data[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    def __len__(self) -> int:
+        return len(self._data["t"])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ControlTrace):
+            return NotImplemented
+        return all(np.array_equal(self._data[f], other._data[f]) for f in CONTROL_FIELDS)
+
+    def __repr__(self) -> str:
+        return f"ControlTrace(n={len(self)})"
+
+    def until(self, t: float) -> "ControlTrace":
+        """The ticks up to ``t`` (inclusive)."""
+        keep = self._data["t"] <= t + 1e-9
+        return ControlTrace(**{f: a[keep] for f, a in self._data.items()})

@@ -103,6 +103,13 @@ def test_compare_two_fidelities_as_json_and_plots(tmp_path):
     assert len(scores["components"]) == 8 and scores["a"]["solution_cost"] > 0 and scores["b"]["solution_cost"] > 0
     regained = [c["regained"] for c in scores["components"]]
     assert regained == sorted(regained, reverse=True)          # the component that lost most first
+    # each run's events, with their time and place (in the scenario and along the route)
+    events = json.loads(proc.stdout)["events"]
+    for side in ("a", "b"):
+        (goal,) = [e for e in events[side] if e["kind"] == "goal_reached"]
+        assert goal["agent_id"] == 1 and goal["t"] > 5 and abs(goal["d"]) < 0.5 and goal["s"] > 150
+    printed = simgap("compare", str(tmp_path / "ideal"), str(tmp_path / "dynamic"))
+    assert printed.returncode == 0 and "events" in printed.stdout and printed.stdout.count("goal_reached") == 2
 
 
 def test_run_mujoco_json_scores_every_agent_and_writes_a_solution_file(tmp_path):

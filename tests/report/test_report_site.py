@@ -12,6 +12,7 @@ import pytest
 
 from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.record import read_run
 from simgap.report.scene2d import render_run
 from simgap.report.scene3d import write_video
 from simgap.report.site import build_report
@@ -66,6 +67,11 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
     for fragment in ("<h2>Scores</h2>", "at_fault_collisions", "time_to_collision", "comfort", "partial costs",
                      "invalid: goal not reached"):
         assert fragment in page
+    # the physical run's timeline (why it parted from its plan), drawn from the commands its record holds;
+    # none of the ideal run, which cannot part
+    assert "timeline_mujoco-city_1.png" in page and "timeline_ideal" not in page
+    mujoco = read_run(next((out.parent / "runs").glob("*/mujoco"))).history.agents[0]
+    assert mujoco.controls is not None and np.diff(mujoco.controls.t) == pytest.approx(0.01)
     for ref in re.findall(r"(?:src|href)='([^']+)'", text):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref

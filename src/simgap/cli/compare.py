@@ -17,6 +17,8 @@ from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.evaluate.closed_loop_score import score_drop
 from simgap.evaluate.compare import compare_histories
+from simgap.evaluate.route_centre import route_centre
+from simgap.evaluate.route_edges import EventPlace, event_places, route_edges
 from simgap.files import writable_directory
 from simgap.record import RunRecord, read_run
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -67,6 +69,26 @@ def print_scores(console: Console, result: dict) -> None:
     console.print(table)
 
 
+def event_rows(places: list[EventPlace]) -> list[dict]:
+    """The events of a run, in time order, with their place (x, y; s, d along the agent's route)."""
+    return [{"t": p.event.t, "agent_id": p.event.agent_id, "kind": p.event.kind.value, "x": p.event.x,
+             "y": p.event.y, "s": p.s, "d": p.d, "detail": p.event.detail} for p in places]
+
+
+def print_events(console: Console, result: dict) -> None:
+    table = Table(title="events (where: x, y in the scenario; s, d along the agent's route centre)")
+    for col in ("run", "t [s]", "agent", "event", "x, y [m]", "s [m]", "d [m]", "detail"):
+        table.add_column(escape(col), justify="right" if col in ("t [s]", "agent", "s [m]", "d [m]") else "left",
+                         no_wrap=col != "detail")
+    for side in ("a", "b"):
+        for e in result["events"][side]:
+            table.add_row(side.upper(), f"{e['t']:.2f}", str(e["agent_id"]), e["kind"],
+                          "—" if e["x"] is None else f"{e['x']:.1f}, {e['y']:.1f}",
+                          "—" if e["s"] is None else f"{e['s']:.1f}", "—" if e["d"] is None else f"{e['d']:+.2f}",
+                          escape(e["detail"]))
+    console.print(table)
+
+
 def _label(run: RunRecord, run_dir: Path) -> str:
     return f"{run.fidelity.label} ({run_dir.name})"
 
@@ -79,7 +101,8 @@ def compare(
                                        callback=writable_directory),
     as_json: bool = typer.Option(False, "--json", help="print the metrics as JSON"),
 ) -> None:
-    """Compare two runs of the same scenario: lateral displacement by arc length, errors by time.
+    """Compare two runs of the same scenario: lateral displacement by arc length, errors by time,
+    and where and when each run's events happened (goal, off road, collision, ...).
 
     Example: simgap compare runs/c10 runs/c10-dynamic --out runs/c10-vs-dynamic
     """
@@ -92,17 +115,26 @@ def compare(
     scenario, problems = load_scenario(xml)
     sections = a.settings.sections or RoadSections.of_json(read_metadata(xml).get("sections"))
     comparisons = compare_histories(a.history, b.history, scenario, problems, sections)
+    network, by_id = scenario.lanelet_network, problems.planning_problem_dict
+    frames = {aid: route_centre(network, by_id[aid]) if aid in by_id else None
+              for aid in {x.id for x in a.history.agents} | {x.id for x in b.history.agents}}
+    places = {side: event_places(run.history.events, frames) for side, run in (("a", a), ("b", b))}
     result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
               "agents": [c.as_dict() for c in comparisons], "scores": score_comparison(a, b),
+              "events": {side: event_rows(p) for side, p in places.items()},
               "criticality": {"a": [asdict(c) for c in a.evaluation.criticality],
                               "b": [asdict(c) for c in b.evaluation.criticality]}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for c in comparisons:
+            frame = frames.get(c.agent_id)
             plot_d_over_s({result["a"]: (c.s, c.d_a), result["b"]: (c.s, c.d_b)},
                           out / f"d_over_s_agent{c.agent_id}.png",
                           f"{a.scenario_id}, agent {c.agent_id}: lateral offset from the lane centre",
-                          None if c.section_along_s is None else (c.s, c.section_along_s))
+                          None if c.section_along_s is None else (c.s, c.section_along_s),
+                          None if frame is None else route_edges(network, by_id[c.agent_id], frame),
+                          {result[side]: [p for p in places[side] if p.event.agent_id == c.agent_id]
+                           for side in ("a", "b")})
             plot_v_over_t({result["a"]: a.history.driven[c.agent_id], result["b"]: b.history.driven[c.agent_id]},
                           out / f"v_over_t_agent{c.agent_id}.png", f"{a.scenario_id}, agent {c.agent_id}: speed")
         (out / "comparison.json").write_text(json.dumps(result, indent=2))
@@ -132,6 +164,7 @@ def compare(
     console.print("lateral displacement: |d_b - d_a| at equal arc length along the route's lane centre; "
                   "position, orientation and velocity errors at equal time; tracking error: where a run's "
                   "vehicle was against where its plan in force said it would be", style="dim")
+    print_events(console, result)
     print_scores(console, result)
     if result["criticality"]["a"]:
         crit = Table(title="criticality per agent pair (commonroad-crime; most critical value over the run)")

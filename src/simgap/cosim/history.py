@@ -2,7 +2,8 @@
 
 `simulate` (`simgap.cosim.loop`) returns one: per agent the states it drove, the plans its planner
 made, the states its planner observed, how its run ended and when; the events of the run; the
-wall time of every planning call and the latency of every plan; the timings of the loop's phases.
+wall time of every planning call and the latency of every plan; in a physical world, what each
+car's controller asked and what the car did per control tick; the timings of the loop's phases.
 A History holds what happened and nothing computed from it: every metric and score of a run is
 `simgap.evaluate.run_evaluation.evaluate`'s, and the record on disk is `simgap.record`'s.
 """
@@ -18,7 +19,7 @@ from typing import Mapping
 import numpy as np
 
 from simgap.sim.protocol import EventKind, Realism
-from simgap.trajectory import STATE_FIELDS, Attitude, Trajectory
+from simgap.trajectory import STATE_FIELDS, Attitude, ControlTrace, Trajectory
 from simgap.vehicles import Vehicle
 
 AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
@@ -93,6 +94,8 @@ class AgentHistory:
     plan_latency_s: tuple[float, ...] = ()      # how long after its planning time each plan reached the car
     planner_failures: int = 0                   # planning cycles without a plan (None or an exception)
     planner_exceptions: int = 0                 # ... of them, cycles in which the planner raised
+    controls: ControlTrace | None = None        # what its controller asked and its car did, per control tick
+                                                # until its outcome (None: a world that executes plans exactly)
 
     @property
     def time_to_goal_s(self) -> float | None:

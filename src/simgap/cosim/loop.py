@@ -53,7 +53,7 @@ from simgap.scenario.goal import Goal
 from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.sim.protocol import Agent, Backend, EventKind, PhysicsDiverged, PlanHandover, PlanInForce, Realism
-from simgap.trajectory import Attitude, State, Trajectory
+from simgap.trajectory import Attitude, ControlTrace, State, Trajectory
 
 
 MEASURED = "measured"
@@ -268,9 +268,10 @@ class _CoSimulation:
         finally:
             backend_timings = dict(self.backend.timings)
             backend_notes = list(self.backend.notes)
+            controls = dict(self.backend.control_traces() or {})
             self.backend.close()
         self.timings.update(backend_timings)
-        return self._record(time.perf_counter() - wall_start, backend_notes, failure)
+        return self._record(time.perf_counter() - wall_start, backend_notes, failure, controls)
 
     def _scenario_for_backend(self) -> Scenario:
         """The scenario as the backend builds it: with IDM traffic the loop moves the recorded
@@ -490,11 +491,13 @@ class _CoSimulation:
             self._finish(p, Outcome.TIMEOUT, state, f"goal not reached by t = {p.deadline:.1f} s: "
                                               f"{p.goal.miss_reason(p.driven)}")
 
-    def _record(self, wall_time: float, backend_notes: list[str], failure: str | None) -> History:
+    def _record(self, wall_time: float, backend_notes: list[str], failure: str | None,
+                controls: Mapping[int, ControlTrace]) -> History:
         dt = self.dt
         agents = []
         for aid, p in self.progress_of.items():
             driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
+            trace = controls[aid].until(driven.t_end) if aid in controls else None
             agents.append(AgentHistory(
                 id=aid, vehicle=p.agent.vehicle, outcome=p.outcome or Outcome.TIMEOUT, driven=driven,
                 plans=tuple(p.plans),
@@ -502,7 +505,8 @@ class _CoSimulation:
                 attitudes=tuple(p.attitudes) if p.attitudes and len(p.attitudes) == len(p.driven) else (),
                 standing=Trajectory.from_states(p.standing, dt) if p.standing else None,
                 planning_call_s=tuple(p.call_times), plan_latency_s=tuple(p.latencies),
-                planner_failures=p.failures, planner_exceptions=p.exceptions))
+                planner_failures=p.failures, planner_exceptions=p.exceptions,
+                controls=trace if trace is not None and len(trace) else None))
         return History(
             scenario_id=str(self.scenario.scenario_id), backend=self.backend.name, dt=dt, realism=self.realism,
             agents=tuple(agents), events=tuple(self.events), timings=self.timings, wall_time_s=wall_time,

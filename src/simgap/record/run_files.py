@@ -13,7 +13,10 @@ A run directory holds:
                           ``roll`` from a 3D world), ``planned`` (by the plan's start ``plan_t``),
                           ``observed`` (what the planner saw at each call), ``standing`` (an agent
                           still in the world after its outcome), ``traffic`` (road users the loop
-                          drove itself; ``agent_id`` is the obstacle's id)
+                          drove itself; ``agent_id`` is the obstacle's id), and ``controls`` (per control
+                          tick of a physical world: ``t`` and what the controller asked and the car did,
+                          ``steer_requested``, ``steer_at_wheels``, ``accel_requested``, ``accel_achieved``;
+                          the state columns but ``t`` empty, as these columns are on the states' rows)
 - ``driven.xml``          the driven scenario as CommonRoad XML (agents as dynamic obstacles, their ids
                           offset by `AGENT_ID_OFFSET`), and ``driven.json`` its sidecar (the road's relief)
 - ``solution.xml``        every agent's driven trajectory as a CommonRoad solution
@@ -48,11 +51,12 @@ from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
-from simgap.trajectory import ATTITUDE_FIELDS, STATE_FIELDS, Attitude, Trajectory
+from simgap.trajectory import ATTITUDE_FIELDS, CONTROL_FIELDS, STATE_FIELDS, Attitude, ControlTrace, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
 RUN_FILE = "run.json"
 TRAJECTORIES_FILE = "trajectories.parquet"
+CONTROL_COLUMNS = CONTROL_FIELDS[1:]     # a ``controls`` row's own columns (its time is the ``t`` column)
 RECORD_TIMINGS = ("scoring", "criticality", "io", "validation")      # phases outside the loop, timed by the writer
 
 
@@ -135,8 +139,9 @@ def _agent_evaluation_json(a: AgentEvaluation) -> dict[str, Any]:
 def _trajectory_table(history: History) -> pa.Table:
     attitudes = any(a.attitudes for a in history.agents)
     third = ATTITUDE_FIELDS if attitudes else ()
+    commands = CONTROL_COLUMNS if any(a.controls is not None for a in history.agents) else ()
     cols: dict[str, list] = {"kind": [], "agent_id": [], "plan_t": [], "k": []}
-    cols.update({f: [] for f in STATE_FIELDS + third})
+    cols.update({f: [] for f in STATE_FIELDS + third + commands})
 
     def add(kind: str, aid: int, plan_t: float, traj: Trajectory, attitude: tuple[Attitude, ...] = ()) -> None:
         n = len(traj)
@@ -148,6 +153,19 @@ def _trajectory_table(history: History) -> pa.Table:
             cols[f].extend(getattr(traj, f).tolist())
         for f in third:
             cols[f].extend([getattr(a, f) for a in attitude] if attitude else [math.nan] * n)
+        for f in commands:
+            cols[f].extend([math.nan] * n)
+
+    def add_controls(aid: int, trace: ControlTrace) -> None:
+        n = len(trace)
+        cols["kind"].extend(["controls"] * n)
+        cols["agent_id"].extend([aid] * n)
+        cols["plan_t"].extend([math.nan] * n)
+        cols["k"].extend(range(n))
+        for f in STATE_FIELDS + third:
+            cols[f].extend(trace.t.tolist() if f == "t" else [math.nan] * n)
+        for f in commands:
+            cols[f].extend(getattr(trace, f).tolist())
 
     agents = sorted(history.agents, key=lambda a: a.id)
     for a in agents:
@@ -162,8 +180,11 @@ def _trajectory_table(history: History) -> pa.Table:
             add("standing", a.id, math.nan, a.standing)
     for oid, traj in sorted(history.traffic.items()):
         add("traffic", oid, math.nan, traj)
+    for a in agents:
+        if a.controls is not None:
+            add_controls(a.id, a.controls)
     schema = pa.schema([("kind", pa.string()), ("agent_id", pa.int64()), ("plan_t", pa.float64()),
-                        ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS + third])
+                        ("k", pa.int32())] + [(f, pa.float64()) for f in STATE_FIELDS + third + commands])
     return pa.table(cols, schema=schema)
 
 
@@ -204,18 +225,28 @@ def read_run(run_dir: str | Path) -> RunRecord:
 
 def _read_states(path: Path, dt: float) -> dict[str, Any]:
     """The trajectories of a run directory by kind: ``driven`` etc. agent id -> Trajectory,
-    ``planned`` agent id -> [Trajectory], ``attitudes`` agent id -> (Attitude, ...)."""
+    ``planned`` agent id -> [Trajectory], ``attitudes`` agent id -> (Attitude, ...), ``controls``
+    agent id -> ControlTrace."""
     try:
         table = pq.read_table(path).to_pydict()
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
                          allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    missing = [f for f in CONTROL_COLUMNS if f not in table]
+    if missing and "controls" in table["kind"]:
+        raise InputError(f"rows of kind 'controls' without the columns {', '.join(missing)}", file=path,
+                         field="controls", allowed=f"the columns {', '.join(CONTROL_COLUMNS)} beside them, as simgap "
+                                                   "wrote them; run the scenario again")
     groups: dict[tuple[str, int, float], list[int]] = {}
     for i, (kind, aid, pt) in enumerate(zip(table["kind"], table["agent_id"], table["plan_t"])):
         groups.setdefault((kind, aid, pt if kind == "planned" else -1.0), []).append(i)
     out: dict[str, Any] = {"driven": {}, "planned": {}, "observed": {}, "standing": {}, "traffic": {},
-                           "attitudes": {}}
+                           "attitudes": {}, "controls": {}}
     for (kind, aid, _), rows in groups.items():
+        if kind == "controls":
+            out["controls"][aid] = ControlTrace(t=[table["t"][i] for i in rows],
+                                                **{f: [table[f][i] for i in rows] for f in CONTROL_COLUMNS})
+            continue
         traj = Trajectory(dt, **{f: [table[f][i] for i in rows] for f in STATE_FIELDS})
         if kind == "planned":
             out["planned"].setdefault(aid, []).append(traj)
@@ -233,7 +264,8 @@ def _history(h: Mapping[str, Any], states: Mapping[str, Any]) -> History:
         observed=states["observed"].get(int(a["id"])), attitudes=states["attitudes"].get(int(a["id"]), ()),
         standing=states["standing"].get(int(a["id"])),
         planning_call_s=tuple(a.get("planning_call_s") or ()), plan_latency_s=tuple(a.get("plan_latency_s") or ()),
-        planner_failures=int(a.get("planner_failures", 0)), planner_exceptions=int(a.get("planner_exceptions", 0)))
+        planner_failures=int(a.get("planner_failures", 0)), planner_exceptions=int(a.get("planner_exceptions", 0)),
+        controls=states["controls"].get(int(a["id"])))
         for a in h["agents"])
     return History(scenario_id=h["scenario_id"], backend=h["backend"], dt=float(h["dt"]),
                    realism=Realism(h["realism"]), agents=agents, events=tuple(Event(**e) for e in h.get("events") or ()),

@@ -1,10 +1,11 @@
 """Line plots of one scenario across fidelities: lateral offset d over arc length s, and speed v
-over time t (the paper's two line plots), with the road sections shaded."""
+over time t (the paper's two line plots), with the road sections shaded; on d over s the lane
+and road edges and every event of each run (goal, off road, collision, ...) where it happened."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import matplotlib
 
@@ -13,12 +14,17 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from simgap.evaluate.route_edges import EventPlace, RouteEdges  # noqa: E402
 from simgap.trajectory import Trajectory  # noqa: E402
 
 # Okabe–Ito colours, plus distinct line styles so the plots read in grayscale too
 COLOURS = ["#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00"]
 STYLES = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1))]
 SECTION_SHADES = {"curve": "#d9d9d9", "clothoid": "#efefef", "junction": "#bdbdbd"}
+# a marker per kind of event (the run's colour says whose)
+EVENT_MARKERS = {"goal_reached": "*", "off_road": "X", "collision": "P", "planner_failure": "v", "timeout": "s",
+                 "diverged": "D", "planner_no_solution": "1", "damage": "d"}
+EDGE_STYLES = {"lane": dict(color="#7f7f7f", lw=0.8, ls="--"), "road": dict(color="#3f3f3f", lw=1.4, ls="-")}
 
 
 def _shade_sections(ax, s: np.ndarray, kinds: np.ndarray | None) -> None:
@@ -37,15 +43,51 @@ def _shade_sections(ax, s: np.ndarray, kinds: np.ndarray | None) -> None:
 
 
 def plot_d_over_s(curves: Mapping[str, tuple[np.ndarray, np.ndarray]], path: Path, title: str,
-                  section_kinds: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
-    """``curves``: label -> (s, d). ``section_kinds``: (s grid, kind per s) for shading."""
+                  section_kinds: tuple[np.ndarray, np.ndarray] | None = None, edges: RouteEdges | None = None,
+                  events: Mapping[str, Sequence[EventPlace]] | None = None) -> Path:
+    """``curves``: label -> (s, d). ``section_kinds``: (s grid, kind per s) for shading. ``edges``:
+    the route's lane and road edges; ``events``: label -> the run's events of this agent, marked
+    where they happened (in the label's colour)."""
     fig, ax = plt.subplots(figsize=(8, 3.6))
     if section_kinds is not None:
         _shade_sections(ax, *section_kinds)
     for i, (label, (s, d)) in enumerate(curves.items()):
         ax.plot(s, d, linestyle=STYLES[i % 6], color=COLOURS[i % 6], lw=1.6, label=label)
     ax.axhline(0.0, color="grey", lw=0.6)
+    if edges is not None:
+        _draw_edges(ax, edges, curves, events or {})
+    for i, (label, places) in enumerate((events or {}).items()):
+        colour = COLOURS[list(curves).index(label) % 6] if label in curves else COLOURS[i % 6]
+        for place in places:
+            if place.s is None or place.d is None:
+                continue
+            kind = place.event.kind.value
+            ax.plot(place.s, place.d, marker=EVENT_MARKERS.get(kind, "o"), color=colour, ms=11, mec="white",
+                    mew=0.8, ls="none", zorder=5)
+            ax.annotate(f"{kind.replace('_', ' ')} {place.event.t:.1f} s", (place.s, place.d), xytext=(4, 6 + 10 * i),
+                        textcoords="offset points", fontsize=7, color=colour)
     return _finish(fig, ax, path, "arc length s along the route centre line [m]", "lateral offset d [m]", title)
+
+
+def _draw_edges(ax, edges: RouteEdges, curves: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                events: Mapping[str, Sequence[EventPlace]]) -> None:
+    """Lane edges dashed, road edges solid, over the stretch of s of the curves and events; the d
+    axis spans the curves, the events and the edges."""
+    reached = [float(np.nanmax(s)) for s, _ in curves.values() if len(s)]
+    reached += [p.s for ps in events.values() for p in ps if p.s is not None]
+    s_max = max(reached, default=float(edges.s[-1]))
+    keep = edges.s <= s_max + 5.0
+    for kind, (left, right) in (("lane", (edges.lane_left, edges.lane_right)),
+                                ("road", (edges.road_left, edges.road_right))):
+        style = EDGE_STYLES[kind]
+        ax.plot(edges.s[keep], left[keep], label=f"{kind} edges", **style)
+        ax.plot(edges.s[keep], right[keep], **style)
+    shown = [d for _, d in curves.values() if len(d)] + [edges.road_left[keep], edges.road_right[keep]]
+    shown += [np.array([p.d for ps in events.values() for p in ps if p.d is not None])]
+    values = np.concatenate([np.asarray(v, dtype=float) for v in shown])
+    values = values[np.isfinite(values)]
+    if len(values):
+        ax.set_ylim(float(values.min()) - 0.4, float(values.max()) + 0.4)
 
 
 def plot_v_over_t(trajectories: Mapping[str, Trajectory], path: Path, title: str) -> Path:

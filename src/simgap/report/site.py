@@ -4,7 +4,9 @@
 lateral displacement over the scenario parameters (the planners side by side; hover a cell for its
 values), the runtime table, the time per planning call, outcomes, and the scenarios ranked by their
 largest gap. ``scenarios/NAME.html`` — one page per scenario (and planner, when runs have several): parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
-s and v over t (wheel to zoom, drag to pan, double-click to reset), the paths from above, error
+s and v over t (wheel to zoom, drag to pan, double-click to reset) with lane and road edges and every
+event marked, per physical run a timeline of why it parted from its plan (tracking error, steering and
+acceleration requested against achieved, plan latency, sensing error), the paths from above, error
 box plots, criticality of agent pairs, and the run's 2D and 3D pictures and its 3D video where they exist.
 """
 
@@ -32,7 +34,11 @@ from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.report.collection import ScenarioGroup, collect
 from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
                                    plot_paths_from_above, runtime_table)
+from simgap.evaluate.route_edges import event_places, route_edges
+from simgap.scenario.road_frame import PathFrame
+from simgap.evaluate.timeline import agent_timeline
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
+from simgap.report.timeline import plot_timeline
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
 from simgap.cosim.fidelity import Realism
 
@@ -237,9 +243,19 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
             "orientation errors at equal time.</p>", table(_gap_rows(group)),
             "<h2>Scores</h2>", SCORES_NOTE, table(breakdown_rows(group)),
             "<h2>Plots</h2>"]
-    for aid in sorted({a.id for e in group.runs.values() for a in e.run.history.agents}):
-        body += _agent_figures(group, aid, adir, rel)
+    agent_ids = sorted({a.id for e in group.runs.values() for a in e.run.history.agents})
+    frames = {aid: _route_frame(group, aid) for aid in agent_ids}
+    for aid in agent_ids:
+        body += _agent_figures(group, aid, frames[aid], adir, rel)
     body += _scenario_figures(group, adir, rel)
+    timelines = [f for aid in agent_ids for f in _agent_timelines(group, aid, frames[aid], adir, rel)]
+    if timelines:
+        body += ["<h2>Why they parted: timelines</h2>",
+                 "<p>Per physical run and agent, against time: where the car was against its plan in force "
+                 "(lateral and heading), the steering and acceleration its controller asked for against what the "
+                 "car did (after its actuators' delays and limits), each plan's latency until it reached the car "
+                 "and each planning call's wall time, and how far the state its planner observed was from the "
+                 "true one; every event dotted.</p>"] + timelines
     crit = [{"fidelity": fidelity} | r for fidelity, entry in group.runs.items() for r in _criticality(entry)]
     if crit:
         body += ["<h2>Criticality of agent pairs (commonroad-crime)</h2>",
@@ -287,24 +303,50 @@ def _gap_rows(group: ScenarioGroup) -> list[dict]:
     return rows
 
 
-def _agent_figures(group: ScenarioGroup, aid: int, adir: Path, rel: str) -> list[str]:
-    """Agent ``aid``'s d over s (with the road's sections shaded) and v over t, every fidelity."""
+def _route_frame(group: ScenarioGroup, aid: int) -> PathFrame | None:
+    """Agent ``aid``'s route centre line (None: it has no route, or no planning problem)."""
+    problem = group.problems.planning_problem_dict.get(aid)
+    return route_centre(group.scenario.lanelet_network, problem) if problem is not None else None
+
+
+def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir: Path, rel: str) -> list[str]:
+    """Agent ``aid``'s d over s (with the road's sections shaded, its lane and road edges and every
+    fidelity's events where they happened) and v over t, every fidelity."""
     figures = []
     problem = group.problems.planning_problem_dict.get(aid)
-    frame = route_centre(group.scenario.lanelet_network, problem) if problem is not None else None
     curves = {f: lateral_profile(e.run.history.driven[aid], frame) for f, e in group.runs.items()
               if frame is not None and aid in e.run.history.driven}
     if curves:
         shading = next(((c.s, c.section_along_s) for comps in reversed(list(group.comparisons.values()))
                         for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
         sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
+        events = {f: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})
+                  for f, e in group.runs.items()}
         plot_d_over_s(sorted_curves, adir / f"d_over_s_{aid}.png",
-                      f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading)
-        figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity", zoom=True,
-                              half=True))
+                      f"{group.scenario_id}, agent {aid}: lateral offset d over arc length s", shading,
+                      route_edges(group.scenario.lanelet_network, problem, frame), events)
+        figures.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s per fidelity, lane (dashed) and "
+                              "road (solid) edges, and each run's events where they happened", zoom=True, half=True))
     trajs = {f: e.run.history.driven[aid] for f, e in group.runs.items() if aid in e.run.history.driven}
     plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
     figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
+    return figures
+
+
+def _agent_timelines(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir: Path, rel: str) -> list[str]:
+    """Per physical run, agent ``aid``'s timeline: why it parted from its plan (``frame``: its route's
+    centre line)."""
+    figures = []
+    for fidelity, entry in group.runs.items():
+        history = entry.run.history
+        if history.backend == REFERENCE or aid not in history.driven:
+            continue
+        name = f"timeline_{_slug(fidelity)}_{aid}.png"
+        plot_timeline(agent_timeline(history.agent(aid), frame), [e for e in history.events if e.agent_id == aid],
+                      adir / name, f"{group.scenario_id}, {fidelity}, agent {aid}: why it parted from its plan")
+        figures.append(figure(rel + name, f"{fidelity}, agent {aid}: timeline — tracking error, steering and "
+                              "acceleration requested against achieved, plan latency, sensing error; events "
+                              "dotted", zoom=True, half=True))
     return figures
 
 

@@ -74,6 +74,10 @@ class IdealBackend:
     def events(self) -> list[BackendEvent]:
         return []
 
+    def control_traces(self) -> None:
+        """None: the ideal world executes each plan exactly, with no controller and no actuators."""
+        return None
+
     def close(self) -> None:
         pass
 

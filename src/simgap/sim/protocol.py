@@ -9,7 +9,7 @@ from typing import Any, Callable, Mapping, Protocol, Sequence, Union
 from commonroad.scenario.scenario import Scenario
 
 from simgap.scenario.relief import Surface
-from simgap.trajectory import Attitude, State, Trajectory
+from simgap.trajectory import Attitude, ControlTrace, State, Trajectory
 from simgap.vehicles import Vehicle
 
 REFERENCE = "ideal"     # the ideal backend's name: the world of the planner's assumptions, which every other is compared with
@@ -123,7 +123,8 @@ class Backend(Protocol):
     record should say, e.g. how it approximated a moving start) once the run ends. A plan that
     reaches a car during the step (a `PlanHandover`) is followed from its time on. ``attitudes``
     gives the third dimension of the states the last `reset` or `step` returned, for the agents
-    whose world has one.
+    whose world has one. ``control_traces`` gives, once the run ends, what each car's controller
+    asked and what the car did per control tick (None: a world that executes plans exactly).
     """
 
     name: str
@@ -143,6 +144,11 @@ class Backend(Protocol):
 
     def events(self) -> list[BackendEvent]:
         """Events observed during the last step (may be empty)."""
+        ...
+
+    def control_traces(self) -> Mapping[int, ControlTrace] | None:
+        """Per agent whose car a controller drives, its `ControlTrace` since the last `reset`
+        (None: this world has no controller and no actuators)."""
         ...
 
     def close(self) -> None: ...

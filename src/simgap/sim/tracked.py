@@ -13,7 +13,10 @@ them, or none under ``realism: ideal``; the controller compensates their delays 
 ``delay_compensation`` is off (`simgap.control.delay`). A plan that reaches a car during the step
 (`PlanHandover`, after the planner's compute latency) is followed from its time on.
 
-and times the phases (``control`` here; ``physics`` and anything finer in the physics).
+and times the phases (``control`` here; ``physics`` and anything finer in the physics). Per
+control tick it keeps, for each car, what its controller asked and what the car did (its
+`ControlTrace`: steering requested and at the road wheels, acceleration requested and achieved),
+which the loop puts into the run's history.
 
 (A *plant* is one car alone — ``reset(state)``, ``step(command, period)`` — see
 `simgap.sim.dynamic.closed_loop.Plant`.)
@@ -28,13 +31,14 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control import make_controller
 from simgap.control.delay import compensated
+from simgap.control.longitudinal import LongitudinalMap
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
 from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.sim.rates import is_multiple, nearest_multiple
 from simgap.scenario.relief import Surface
 from simgap.sim.settings import TrackingSettings
-from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, State
+from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, ControlTrace, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
 
 class Physics(Protocol):
@@ -94,6 +98,8 @@ class TrackedBackend:
         self._present: list[Agent] = []
         self._actuators: dict[int, Actuators] = {}
         self._responses: dict[int, ActuatorResponses] = {}
+        self._pedal_maps: dict[int, LongitudinalMap] = {}
+        self._ticks_of: dict[int, list[tuple[State, Command]]] = {}    # per car and control tick: measured, asked
 
     @property
     def realism(self) -> Realism:
@@ -111,6 +117,8 @@ class TrackedBackend:
         self.physics.load(scenario, agents, relief)
         self._actuators = {a.id: self.tracking.actuators(a.vehicle) for a in agents}
         self._controllers = {a.id: c for a in agents if (c := self.make_controller(a)) is not None}
+        self._pedal_maps = {a.id: LongitudinalMap.for_vehicle(a.vehicle) for a in agents if a.id in self._controllers}
+        self._ticks_of = {}
         for a in agents:
             if a.id in self._controllers:
                 self.notes.append(self._actuator_note(a))
@@ -161,6 +169,7 @@ class TrackedBackend:
 
     def reset(self) -> dict[int, State]:
         self._step = 0
+        self._ticks_of = {aid: [] for aid in self._controllers}
         self.physics.reset(0.0)
         self._present = [a for a in self._agents if enters_at(a, 0.0, self._dt)]
         states = {a.id: self.physics.measure(a.id, 0.0) for a in self._present}
@@ -174,14 +183,16 @@ class TrackedBackend:
         period = self._dt / ticks
         t0 = self._step * self._dt
         physics.begin_step(t0)
-        driving = [(a.id, self._controllers[a.id], self._responses[a.id]) for a in self._present
-                   if a.id in self._controllers]
+        driving = [(a.id, self._controllers[a.id], self._responses[a.id], self._ticks_of[a.id].append)
+                   for a in self._present if a.id in self._controllers]
         for k in range(ticks):
             t = t0 + k * period
             start = time.perf_counter()
-            for aid, controller, actuators in driving:
-                asked = controller.command(physics.measure(aid, t), plan_at(plans[aid], t), t)
+            for aid, controller, actuators, keep in driving:
+                measured = physics.measure(aid, t)
+                asked = controller.command(measured, plan_at(plans[aid], t), t)
                 physics.actuate(aid, Command(*actuators.respond(asked.steer, asked.throttle, asked.brake)), period)
+                keep((measured, asked))
             timings["control"] += time.perf_counter() - start
             physics.advance(t, period)
         self._step += 1
@@ -196,6 +207,21 @@ class TrackedBackend:
                 self.physics.enter(a.id, t)
                 self._present.append(a)
                 self._start(a.id, self.physics.measure(a.id, t))
+
+    def control_traces(self) -> dict[int, ControlTrace]:
+        """Per car its controller drives, what it asked and what the car did at each control tick
+        since the last `reset`: the road wheels' angle and the acceleration as measured at the tick,
+        the acceleration asked for as the vehicle's pedal map reads the pedals at the measured speed."""
+        traces = {}
+        for aid, ticks in self._ticks_of.items():
+            if ticks:
+                acceleration = self._pedal_maps[aid].acceleration
+                traces[aid] = ControlTrace(
+                    t=[m.t for m, _ in ticks], steer_requested=[c.steer for _, c in ticks],
+                    steer_at_wheels=[m.steer for m, _ in ticks],
+                    accel_requested=[acceleration(c.throttle, c.brake, m.v) for m, c in ticks],
+                    accel_achieved=[m.a for m, _ in ticks])
+        return traces
 
     def attitudes(self) -> dict[int, Attitude]:
         return {a.id: attitude for a in self._present if (attitude := self.physics.attitude(a.id)) is not None}
