@@ -56,6 +56,10 @@ class Troubled(KeepLane):
             plan = Trajectory(self.dt, **{f: np.zeros(n) for f in ("t", "x", "y", "yaw", "v")})
         elif BEHAVIOUR == "slow_once" and self.cycle == CYCLE_OF_TROUBLE:
             time.sleep(1.0)
+        elif BEHAVIOUR == "late_then_silent":      # a little over a 0.2 s deadline once, then no answer ever
+            time.sleep(0.25 if self.cycle == CYCLE_OF_TROUBLE else 3600)
+        elif BEHAVIOUR == "always_late":           # a little over a 0.2 s deadline, every cycle
+            time.sleep(0.25)
         return plan
 
 

@@ -47,6 +47,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -75,8 +76,10 @@ from simgap.trajectory import STATE_FIELDS, State, Trajectory
 EXEC_PREFIX = "exec:"
 ADDRESS_SCHEMES = ("tcp://", "ipc://")
 MAX_PLAN_STATES = 100_000           # a reply with more states is refused, not cut
+MAX_REPLY_BYTES = 16 << 20         # a larger reply is not read (a plan of MAX_PLAN_STATES states: 6.4 MB)
 POLL_SLICE_S = 0.05                 # how often a wait checks that a started planner still runs [s]
-STDERR_TAIL = 2000                  # characters of a dead planner's stderr kept in the reason
+STDERR_TAIL = 2000                  # characters of a dead planner's output kept in the reason
+OUTPUT_TAIL_BYTES = 4 * STDERR_TAIL  # bytes of its output kept while it runs (UTF-8: up to 4 per character)
 
 
 class ProcessLimits(BaseModel):
@@ -193,20 +196,48 @@ def _libc_prctl():
 
 
 _PRCTL = _libc_prctl()      # looked up here: the child between fork and exec only calls it
+SUPERVISOR = Path(__file__).with_name("supervisor.py")
 
 
-def _die_with_parent() -> None:         # pragma: no cover - runs in the child before exec
-    """A started planner ends when simgap's process does (Linux), never left behind."""
-    _PRCTL(1, signal.SIGKILL)           # PR_SET_PDEATHSIG
+def _end_with_parent() -> None:         # pragma: no cover - runs in the child before exec
+    """The supervisor is told (SIGTERM) when simgap's process ends, however it ends, and then ends
+    the planner and all it started."""
+    _PRCTL(1, signal.SIGTERM)           # PR_SET_PDEATHSIG
+
+
+class OutputTail:
+    """The last bytes a process wrote to a pipe, read as it writes (it is never held up by a full
+    pipe) without keeping more than about ``2 * size`` bytes in memory."""
+
+    def __init__(self, fd: int, size: int):
+        self._fd, self._size, self._kept = fd, size, bytearray()
+        self._reader = threading.Thread(target=self._read, name="planner-output", daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        with contextlib.suppress(OSError):
+            while chunk := os.read(self._fd, 1 << 16):
+                self._kept += chunk
+                if len(self._kept) > 2 * self._size:
+                    del self._kept[:-self._size]
+        with contextlib.suppress(OSError):
+            os.close(self._fd)
+
+    def text(self, wait_s: float = 0.5) -> str:
+        """What it wrote last (after the pipe's end, waited for up to ``wait_s``)."""
+        self._reader.join(wait_s)
+        return bytes(self._kept[-self._size:]).decode(errors="replace")
 
 
 @dataclass
 class _Connection:
-    """A REQ socket to a planner, and the process simgap started for it (None for an address)."""
+    """A REQ socket to a planner, and the process simgap started for it (None for an address):
+    the planner below a `simgap.planning.supervisor`, which ends whatever the planner started."""
 
     endpoint: str
     process: subprocess.Popen | None = None
     folder: Path | None = None
+    output: OutputTail | None = None
     socket: Any = None
     ids: Any = field(default_factory=lambda: itertools.count(1))
 
@@ -217,22 +248,25 @@ class _Connection:
         else:
             folder = Path(tempfile.mkdtemp(prefix="simgap-planner-"))
             endpoint = f"ipc://{folder}/planner.sock"
-            stderr = open(folder / "stderr.txt", "wb")
+            read_end, write_end = os.pipe()
             try:
                 process = subprocess.Popen(
-                    target.command, stdin=subprocess.DEVNULL, stdout=stderr, stderr=stderr,
+                    [sys.executable, "-I", "-S", str(SUPERVISOR), str(os.getpid()), str(folder), "--",
+                     *target.command], stdin=subprocess.DEVNULL, stdout=write_end, stderr=write_end,
                     env={**os.environ, ENDPOINT_VARIABLE: endpoint}, start_new_session=True,
-                    preexec_fn=_die_with_parent if _PRCTL is not None else None)
+                    preexec_fn=_end_with_parent if _PRCTL is not None else None)
             except OSError as exc:
+                os.close(read_end)
                 shutil.rmtree(folder, ignore_errors=True)
                 raise PlannerStartFailed(f"cannot start {shlex.join(target.command)}: {exc}") from None
             finally:
-                stderr.close()
-            connection = cls(endpoint, process, folder)
+                os.close(write_end)
+            connection = cls(endpoint, process, folder, OutputTail(read_end, OUTPUT_TAIL_BYTES))
         socket = zmq.Context.instance().socket(zmq.REQ)
         socket.setsockopt(zmq.REQ_RELAXED, 1)         # a new request after one that got no answer …
         socket.setsockopt(zmq.REQ_CORRELATE, 1)       # … whose late answer is then dropped
         socket.setsockopt(zmq.LINGER, 0)
+        socket.setsockopt(zmq.MAXMSGSIZE, MAX_REPLY_BYTES)    # a larger reply drops the connection, unread
         connection.socket = socket
         try:
             socket.connect(connection.endpoint)
@@ -242,7 +276,8 @@ class _Connection:
         return connection
 
     def call(self, request, timeout_s: float):
-        """The reply to ``request`` (its ``id`` set here) within ``timeout_s``."""
+        """The reply to ``request`` (its ``id`` set here) within ``timeout_s``; a reply that comes
+        later is never returned (a later call drops it)."""
         request.id = next(self.ids)
         self.socket.send(request.SerializeToString())
         end = time.perf_counter() + timeout_s
@@ -252,11 +287,18 @@ class _Connection:
                 raise _NoAnswer()
             wait = left if self.process is None else min(left, POLL_SLICE_S)
             if self.socket.poll(max(1, math.ceil(wait * 1000)), zmq.POLLIN):
-                raw = self.socket.recv()
                 try:
-                    return pb.Reply.FromString(raw)
+                    raw = self.socket.recv(zmq.NOBLOCK)
+                except zmq.Again:           # the late answer to an earlier request, dropped: wait on
+                    continue
+                try:
+                    reply = pb.Reply.FromString(raw)
                 except Exception as exc:        # protobuf's DecodeError, or worse on garbage
                     raise ValueError(f"not a planner reply ({len(raw)} bytes: {type(exc).__name__})") from None
+                if reply.id != request.id:
+                    raise ValueError(f"a reply with the id {reply.id} to request {request.id} (a reply carries "
+                                     "its request's id)")
+                return reply
             if self.process is not None and self.process.poll() is not None:
                 raise _Gone(self.exit_reason())
 
@@ -264,15 +306,13 @@ class _Connection:
         code = self.process.returncode
         how = f"was killed by {signal.Signals(-code).name}" if code < 0 and -code in signal.Signals._value2member_map_ \
             else f"exited with code {code}"
-        tail = ""
-        with contextlib.suppress(OSError):
-            text = (self.folder / "stderr.txt").read_text(errors="replace").strip()
-            if text:
-                tail = f"; its output ends: {text[-STDERR_TAIL:]}"
+        text = self.output.text().strip() if self.output is not None else ""
+        tail = f"; its output ends: {text[-STDERR_TAIL:]}" if text else ""
         return f"the planner process {how}{tail}"
 
     def close(self, request=None) -> None:
-        """Send ``request`` (Close) when given and the peer lives; end a started process."""
+        """Send ``request`` (Close) when given and the peer lives; end a started process and
+        every process it started."""
         if request is not None and (self.process is None or self.process.poll() is None):
             with contextlib.suppress(Exception):
                 self.call(request, 0.5)
@@ -281,8 +321,13 @@ class _Connection:
             if self.process.poll() is None:
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     self.process.wait(0.5)
-            if self.process.poll() is None:
-                with contextlib.suppress(ProcessLookupError):     # started in a session of its own: its group
+            if self.process.poll() is None:                 # the supervisor ends the planner and its own
+                with contextlib.suppress(ProcessLookupError):
+                    self.process.terminate()
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.process.wait(5.0)
+            if self.process.poll() is None:                 # it does not end: its group, killed
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(self.process.pid, signal.SIGKILL)
                 self.process.wait()
             shutil.rmtree(self.folder, ignore_errors=True)
