@@ -3,33 +3,13 @@ accepted, and a late one followed by silence fails cycles instead of hanging the
 
 from __future__ import annotations
 
-import sys
 import time
-from pathlib import Path
 
-import pytest
+from planner_runs import reasons, server
 
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.planning.registry import PlannerChoice
 from simgap.planning.remote import ProcessLimits
-from simgap.scenario import build_scenario
-from simgap.scenario.files import write_scenario
-
-SERVERS = Path(__file__).with_name("servers.py")
-
-
-def server(behaviour: str) -> str:
-    return f"exec:{sys.executable} {SERVERS} {behaviour}"
-
-
-@pytest.fixture(scope="module")
-def curve_xml(tmp_path_factory) -> Path:
-    return write_scenario(build_scenario("curve", {"radius": 30.0, "angle": 45.0}), tmp_path_factory.mktemp("curve"),
-                          preview=False)
-
-
-def reasons(run) -> str:
-    return "\n".join(e.detail for e in run.history.events)
 
 
 def run_late(curve_xml, out, behaviour: str):

@@ -65,7 +65,7 @@ from simgap_planner.messages import (
     trajectory_columns,
     trajectory_message,
 )
-from simgap_planner.server import ENDPOINT_VARIABLE
+from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
 from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
@@ -79,6 +79,9 @@ MAX_PLAN_STATES = 100_000           # a reply with more states is refused, not c
 MAX_REPLY_BYTES = 16 << 20         # a larger reply is not read (a plan of MAX_PLAN_STATES states: 6.4 MB)
 POLL_SLICE_S = 0.05                 # how often a wait checks that a started planner still runs [s]
 STDERR_TAIL = 2000                  # characters of a dead planner's output kept in the reason
+MAX_NAME = 200                      # characters kept of a planner's name, version or error type
+MAX_REASON = 1000                   # … of a reason for no plan or an error's message
+MAX_TRACE = 20_000                  # … of an error's traceback
 OUTPUT_TAIL_BYTES = 4 * STDERR_TAIL  # bytes of its output kept while it runs (UTF-8: up to 4 per character)
 
 
@@ -135,6 +138,12 @@ class PlannerTarget:
         if self.command and shutil.which(self.command[0]) is None:
             raise InputError(f"no program '{self.command[0]}' to start the planner with", file=file, field=field_name,
                              allowed="exec:PROGRAM ARGS with PROGRAM on PATH or a path to an executable file")
+
+
+def capped(text: str, size: int) -> str:
+    """``text``, or its first ``size`` characters and how many more it had (what a planner sends is
+    stored in every event and record it reaches)."""
+    return text if len(text) <= size else f"{text[:size]}… ({len(text) - size} more characters)"
 
 
 class PlannerStartFailed(RuntimeError):
@@ -279,8 +288,8 @@ class _Connection:
         """The reply to ``request`` (its ``id`` set here) within ``timeout_s``; a reply that comes
         later is never returned (a later call drops it)."""
         request.id = next(self.ids)
-        self.socket.send(request.SerializeToString())
         end = time.perf_counter() + timeout_s
+        self._send(request.SerializeToString(), end)
         while True:
             left = end - time.perf_counter()
             if left <= 0:
@@ -299,6 +308,21 @@ class _Connection:
                     raise ValueError(f"a reply with the id {reply.id} to request {request.id} (a reply carries "
                                      "its request's id)")
                 return reply
+            if self.process is not None and self.process.poll() is not None:
+                raise _Gone(self.exit_reason())
+
+    def _send(self, data: bytes, end: float) -> None:
+        """Send ``data`` by ``end`` (a REQ socket holds a request while it has no peer: the planner
+        has not bound its socket yet, or its connection was dropped)."""
+        while True:
+            try:
+                return self.socket.send(data, zmq.NOBLOCK)
+            except zmq.Again:
+                pass
+            left = end - time.perf_counter()
+            if left <= 0:
+                raise _NoAnswer()
+            self.socket.poll(max(1, math.ceil(min(left, POLL_SLICE_S) * 1000)), zmq.POLLOUT)
             if self.process is not None and self.process.poll() is not None:
                 raise _Gone(self.exit_reason())
 
@@ -361,11 +385,17 @@ class RemotePlanner:
         body = reply.WhichOneof("body")
         if body != "ready":
             connection.close()
-            detail = f"{reply.error.type}: {reply.error.message}" if body == "error" else f"a {body} reply"
-            trace = f"\n{reply.error.traceback}" if body == "error" and reply.error.traceback else ""
+            detail = f"{capped(reply.error.type, MAX_NAME)}: {capped(reply.error.message, MAX_REASON)}" \
+                if body == "error" else f"a {body} reply"
+            trace = f"\n{capped(reply.error.traceback, MAX_TRACE)}" if body == "error" and reply.error.traceback else ""
             raise PlannerStartFailed(f"the planner refused Initialize: {detail}{trace}")
+        version = reply.ready.protocol_version
+        if not compatible(version):
+            connection.close()
+            raise PlannerStartFailed(f"the planner speaks protocol version '{capped(version, MAX_NAME)}', simgap "
+                                     f"{PROTOCOL_VERSION}: another major version (or no MAJOR.MINOR) is refused")
         self._connection, self._session = connection, reply.ready.session
-        self.name, self.protocol_version = reply.ready.planner, reply.ready.protocol_version
+        self.name, self.protocol_version = capped(reply.ready.planner, MAX_NAME), version
 
     @property
     def where(self) -> str:
@@ -388,11 +418,12 @@ class RemotePlanner:
         if body == "error" and reply.error.type == "InvalidPlan":
             return self._fail(f"invalid plan: {reply.error.message}")
         if body == "error":
-            raise RemotePlannerError(reply.error.type or "Error", reply.error.message, reply.error.traceback)
+            raise RemotePlannerError(capped(reply.error.type or "Error", MAX_NAME),
+                                     capped(reply.error.message, MAX_REASON), capped(reply.error.traceback, MAX_TRACE))
         if body != "plan":
             return self._fail(f"invalid plan: a {body or 'empty'} reply to a planning request")
         if reply.plan.WhichOneof("result") != "trajectory":
-            return self._fail(reply.plan.no_plan or "no plan")
+            return self._fail(capped(reply.plan.no_plan, MAX_REASON) or "no plan")
         return self._trajectory(reply.plan.trajectory)
 
     def _plan_request(self, observed: State, t: float, world: World):
