@@ -13,7 +13,8 @@ import time
 import pytest
 from planner_runs import reasons, server
 
-from simgap.experiment.single_run import RunRequest, execute
+from simgap.errors import InputError
+from simgap.experiment.single_run import RunRequest, execute, parse_planners
 from simgap.planning.registry import PlannerChoice
 from simgap.planning.remote import MAX_NAME, MAX_REASON, ProcessLimits
 
@@ -112,3 +113,29 @@ def test_a_killed_simgap_leaves_no_planner_process_or_folder(curve_xml, tmp_path
     while list(tmp_path.glob("simgap-planner-*")) and time.monotonic() < end:
         time.sleep(0.05)
     assert not list(tmp_path.glob("simgap-planner-*")), "its temporary folder is removed"
+
+
+@pytest.mark.parametrize("text, field, fragment", [
+    ("when: 2024-01-01\n", "when", "2024-01-01 (a date) is not a JSON value"),
+    ("speed: .inf\n", "speed", "inf is not a finite number"),
+    ("a:\n  b: [1, .nan]\n", "a.b[1]", "nan is not a finite number"),
+    ("2024-01-01: x\n", None, "Input should be a valid string"),
+])
+def test_settings_that_are_not_json_are_refused_before_any_run(tmp_path, text, field, fragment):
+    config = tmp_path / "settings.yaml"
+    config.write_text(text)
+    with pytest.raises(InputError) as refused:
+        parse_planners(server("keep_lane"), config)
+    assert field is None or refused.value.field == field
+    assert fragment in str(refused.value)
+
+
+def test_the_command_refuses_a_date_in_a_planners_settings_in_one_line(curve_xml, tmp_path):
+    config = tmp_path / "settings.yaml"
+    config.write_text("when: 2024-01-01\n")
+    done = subprocess.run([sys.executable, "-m", "simgap", "run", str(curve_xml), "--out", str(tmp_path / "run"),
+                           "--planner", server("keep_lane"), "--planner-config", str(config)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1 and "settings.yaml" in done.stderr and "when" in done.stderr
+    assert not (tmp_path / "run").exists()

@@ -21,7 +21,7 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
 from simgap.cosim.sensing import localisation_accuracy
-from simgap.errors import InputError
+from simgap.errors import InputError, validated
 from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_criticality, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
@@ -129,8 +129,8 @@ def parse_planners(text: str, settings_file: Path | None = None, isolate: bool =
     choices = {}
     for ref in refs:
         own_process = isolate and PlannerTarget.parse(ref) is None
-        choice = PlannerChoice(planner=ref, settings=settings[ref], isolate=own_process,
-                               process=process or ProcessLimits())
+        choice = validated(PlannerChoice, dict(planner=ref, settings=settings[ref], isolate=own_process,
+                                               process=process or ProcessLimits()), file=settings_file)
         choice.load(file=settings_file, settings_field="" if len(refs) == 1 else ref)
         choices[ref] = choice
     if isinstance(parsed, str):

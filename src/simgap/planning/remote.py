@@ -488,6 +488,30 @@ class RemotePlanner:
                 "restarts": self.restarts}
 
 
+def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
+    """The first part of ``value`` that JSON cannot hold as it is — its dotted path and what it is —
+    or None (an infinity or NaN, a date, any object but a finite number, a string, a bool, None, a
+    list or a mapping with string or number keys)."""
+    if value is None or isinstance(value, (str, bool, int)):
+        return None
+    if isinstance(value, float):
+        return None if math.isfinite(value) else (path, f"{value} is not a finite number")
+    if isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            if (problem := not_json(item, f"{path}[{i}]")) is not None:
+                return problem
+        return None
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            where = f"{path}.{key}" if path else str(key)
+            if not isinstance(key, (str, int, float, bool)) or isinstance(key, float) and not math.isfinite(key):
+                return where, f"the key {key!r} (a {type(key).__name__}) is not a name"
+            if (problem := not_json(item, where)) is not None:
+                return problem
+        return None
+    return path, f"{value} (a {type(value).__name__}) is not a JSON value"
+
+
 @dataclass(frozen=True)
 class RemotePlannerClass:
     """An out-of-process planner as the registry hands it out: ``build`` starts (or connects to)
@@ -502,8 +526,18 @@ class RemotePlannerClass:
     def description(self) -> str:
         return f"a planner in its own process ({self.target.address or shlex.join(self.target.command)})"
 
-    def settings(self, values: Mapping[str, Any] | None, **_: Any) -> dict[str, Any]:
-        return dict(values or {})
+    def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                 prefix: str | None = None, **_: Any) -> dict[str, Any]:
+        """``values`` as they are, once they are sure to be JSON (what the planner and run.json get)."""
+        settings = dict(values or {})
+        problem = not_json(settings)
+        if problem is not None:
+            path, what = problem
+            raise InputError(f"{what}: the settings of a planner in its own process are sent as JSON", file=file,
+                             field=".".join(p for p in (prefix, path) if p) or "settings",
+                             allowed="finite numbers, strings, true/false, null, lists and mappings "
+                             "(quote a date: '2024-01-01')")
+        return settings
 
     def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
         return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
