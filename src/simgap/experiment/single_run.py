@@ -8,6 +8,7 @@ batch executors call it.
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import time
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
@@ -163,7 +164,9 @@ def execute(request: RunRequest, out: Path | None = None,
     meta = read_metadata(request.scenario)
     relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
     planners, errors, planner_records = {}, [], {}
+    out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
+        closing.callback(_back_in, folder)
         for a in agents:
             choice = planner_of(request.planner, a.id, [b.id for b in agents])
             planner_class, settings = choice.load()
@@ -182,6 +185,7 @@ def execute(request: RunRequest, out: Path | None = None,
                 continue
             if callable(getattr(planners[a.id], "close", None)):
                 closing.callback(planners[a.id].close)
+        _back_in(folder)
         if errors:
             history = not_started(scenario, request.backend, agents, errors, realism_of(request.backend_settings))
         else:
@@ -222,6 +226,12 @@ def execute(request: RunRequest, out: Path | None = None,
     if out is not None and request.validate:
         rewrite_record(record, out)
     return record
+
+
+def _back_in(folder: str) -> None:
+    """Back in the working folder ``folder`` when a planner moved simgap's process out of it."""
+    if os.getcwd() != folder:
+        os.chdir(folder)
 
 
 def _planner_record(planners: PlannerAssignment, planner_records: dict[int, PlannerRecord]) -> PlannerRecord:
