@@ -17,15 +17,22 @@ runs on its own. What a planner may do wrong, and what follows:
 * no Ready within ``startup_timeout_s``, an Error for Initialize, another protocol major version:
   the constructor raises `PlannerStartFailed` (the run fails, recorded, before it starts);
 * no answer within ``deadline_s``: that cycle fails ("missed its deadline"); the late answer is
-  dropped when it comes;
+  dropped when it comes (every send and receive waits at most until its deadline; a reply over
+  `MAX_REPLY_BYTES` is not read and counts as none);
 * an Error reply: the cycle fails as a planner that raised (`RemotePlannerError`, with the
   planner's own traceback);
-* a reply that is not a valid plan (not a protobuf Reply, columns of unequal length, more than
+* a reply that is not a valid plan (not a protobuf Reply, another request's id, columns of unequal length, more than
   `MAX_PLAN_STATES` states; NaNs, wrong grid and wrong start are the loop's `executable_plan`
   checks): the cycle fails ("invalid plan");
 * its process ends (an exit, a crash, a segfault): the cycle fails and the planner is restarted
   (``restarts`` times per agent and run), after which `PlannerUnavailable` ends the agent as a
-  planner failure.
+  planner failure;
+* names, reasons and tracebacks it sends are cut to `MAX_NAME`, `MAX_REASON` and `MAX_TRACE`
+  characters before anything keeps them; of its output, the last `STDERR_TAIL` characters.
+
+A started planner runs below `simgap.planning.supervisor`, which ends whatever the planner starts
+(forked children, ``setsid`` daemons) and removes its temporary folder, when simgap closes it and
+when simgap's process ends, however it ends.
 
 `IsolatedPlannerClass` runs a Python planner class of simgap's registry the same way, in a child
 process of simgap's own interpreter (`simgap.planning.isolated`): a hang or a segfault in a
