@@ -255,6 +255,7 @@ class _Connection:
     folder: Path | None = None
     output: OutputTail | None = None
     socket: Any = None
+    monitor: Any = None                 # the socket's disconnections (a reply over MAX_REPLY_BYTES drops one)
     ids: Any = field(default_factory=lambda: itertools.count(1))
 
     @classmethod
@@ -284,6 +285,7 @@ class _Connection:
         socket.setsockopt(zmq.LINGER, 0)
         socket.setsockopt(zmq.MAXMSGSIZE, MAX_REPLY_BYTES)    # a larger reply drops the connection, unread
         connection.socket = socket
+        connection.monitor = socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
         try:
             socket.connect(connection.endpoint)
         except zmq.ZMQError as exc:
@@ -296,11 +298,13 @@ class _Connection:
         later is never returned (a later call drops it)."""
         request.id = next(self.ids)
         end = time.perf_counter() + timeout_s
+        self._dropped()
         self._send(request.SerializeToString(), end)
         while True:
             left = end - time.perf_counter()
             if left <= 0:
-                raise _NoAnswer()
+                raise _NoAnswer(f"its connection dropped meanwhile (a reply over {MAX_REPLY_BYTES >> 20} MiB drops it "
+                                "unread)" if self._dropped() else "")
             wait = left if self.process is None else min(left, POLL_SLICE_S)
             if self.socket.poll(max(1, math.ceil(wait * 1000)), zmq.POLLIN):
                 try:
@@ -317,6 +321,14 @@ class _Connection:
                 return reply
             if self.process is not None and self.process.poll() is not None:
                 raise _Gone(self.exit_reason())
+
+    def _dropped(self) -> bool:
+        """Whether the connection dropped since this was last asked."""
+        dropped = False
+        while self.monitor.poll(0):
+            self.monitor.recv_multipart()
+            dropped = True
+        return dropped
 
     def _send(self, data: bytes, end: float) -> None:
         """Send ``data`` by ``end`` (a REQ socket holds a request while it has no peer: the planner
@@ -347,6 +359,8 @@ class _Connection:
         if request is not None and (self.process is None or self.process.poll() is None):
             with contextlib.suppress(Exception):
                 self.call(request, 0.5)
+        self.socket.disable_monitor()
+        self.monitor.close(linger=0)
         self.socket.close(linger=0)
         if self.process is not None:
             if self.process.poll() is None:
@@ -414,9 +428,10 @@ class RemotePlanner:
         request = self._plan_request(observed, t, world)
         try:
             reply = self._connection.call(request, self.limits.deadline_s)
-        except _NoAnswer:
+        except _NoAnswer as exc:
             self.deadline_misses += 1
-            return self._fail(f"missed its deadline: no answer within {self.limits.deadline_s:g} s")
+            why = f"; {exc}" if str(exc) else ""
+            return self._fail(f"missed its deadline: no answer within {self.limits.deadline_s:g} s{why}")
         except ValueError as exc:
             return self._fail(f"invalid plan: {exc}")
         except _Gone as exc:

@@ -26,6 +26,7 @@ import signal
 import sys
 import time
 
+LINUX = sys.platform.startswith("linux")
 PR_SET_PDEATHSIG = 1
 PR_SET_CHILD_SUBREAPER = 36
 END_ALL_WITHIN_S = 5.0          # wall time to kill and reap every descendant (a fork bomb: as many as it made)
@@ -41,8 +42,10 @@ def _stop(signum, frame) -> None:
 
 
 def descendants(root: int) -> list[int]:
-    """Every process below ``root`` (from /proc: each process's parent)."""
+    """Every process below ``root`` (from /proc: each process's parent; none without /proc)."""
     children: dict[int, list[int]] = {}
+    if not LINUX:
+        return []
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
             continue
@@ -94,7 +97,8 @@ def _start(command: list[str]) -> int:
         try:
             for signum in STOP_SIGNALS:
                 signal.signal(signum, signal.SIG_DFL)
-            ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+            if LINUX:
+                ctypes.CDLL(None).prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
             os.execvp(command[0], command)
         except BaseException as exc:                            # noqa: BLE001 - whatever it is, say it and end
             os.write(2, f"cannot start {command[0]}: {exc}\n".encode(errors="replace"))
@@ -107,9 +111,10 @@ def main(argv: list[str]) -> None:
         raise SystemExit("usage: supervisor.py SIMGAP_PID FOLDER -- COMMAND ARGS")
     simgap, folder, command = int(argv[0]), argv[1], argv[3:]
     resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
-    libc = ctypes.CDLL(None)
-    libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
-    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    if LINUX:                                                   # elsewhere: the planner alone is ended
+        libc = ctypes.CDLL(None)
+        libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
     status = None
     try:
         for signum in STOP_SIGNALS:
