@@ -1334,7 +1334,7 @@ def _r5_recorded_case(how: str, reason: str):
 
 for _name, _how, _reason in (("version-2.0", "version=2.0", "protocol version"),
                              ("version-banana", "version=banana", "protocol version"),
-                             ("version-empty", "version=", "protocol version"), ("wrong-id", "wrong-id", "id"),
+                             ("version-empty", "version=", "protocol version"), ("wrong-id", "wrong-id", "with the id"),
                              ("late-then-silent", "late-then-silent", "missed its deadline")):
     case(f"r5-planner-{_name}", 1 if "late" in _how else 2)(_r5_recorded_case(_how, _reason))
 
