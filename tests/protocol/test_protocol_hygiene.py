@@ -12,6 +12,7 @@ import time
 
 import pytest
 from planner_runs import reasons, server
+from simgap_planner.server import compatible
 
 from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute, parse_planners
@@ -140,3 +141,9 @@ def test_the_command_refuses_a_date_in_a_planners_settings_in_one_line(curve_xml
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "settings.yaml" in done.stderr and "when" in done.stderr
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("version, speaks", [("1.0", True), ("1.12", True), ("2.0", False), ("banana", False),
+                                             ("", False), ("1", False), ("1.x", False), ("1.0.0", False)])
+def test_only_major_minor_of_the_same_major_version_is_compatible(version, speaks):
+    assert compatible(version) is speaks
