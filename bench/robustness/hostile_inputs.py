@@ -1258,7 +1258,7 @@ elif HOW == "name-10mb":
 elif HOW == "output-300mb":
     for _ in range(300):
         sys.stdout.write("x" * (1 << 20))
-    raw()
+    sys.exit(3)
 elif HOW == "fork-and-daemon":
     if os.fork() == 0:
         open("child.pid", "w").write(str(os.getpid()))
@@ -1354,10 +1354,10 @@ def _(folder: Path, stock: Stock) -> Outcome:
 def _(folder: Path, stock: Stock) -> Outcome:
     p = simgap("run", stock.scenario, "--no-validate", "--planner", _r5_server(folder, "output-300mb"),
                "--out", folder / "r", cwd=folder, timeout=90)
-    kept = sum(f.stat().st_size for f in Path(tempfile.gettempdir()).glob("simgap-planner-*/*") if f.is_file())
-    return expect(p, p.max_rss_mb < 1000 and (folder / "r" / "run.json").is_file(),
-                  f"run written, peak {p.max_rss_mb:.0f} MB, {kept} bytes left in temporary folders", OTHER,
-                  f"peak {p.max_rss_mb:.0f} MB")
+    reason = _r5_record(folder).get("history", {}).get("planner_errors", [{}])[0].get("message", "")
+    return expect(p, p.max_rss_mb < 600 and "exited with code 3" in reason and len(reason) < 3000,
+                  f"recorded with the end of its output ({len(reason)} characters), peak {p.max_rss_mb:.0f} MB",
+                  OTHER, f"peak {p.max_rss_mb:.0f} MB, a reason of {len(reason)} characters")
 
 
 @case("r5-planner-no-plan-5mb", 2)
