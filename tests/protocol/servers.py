@@ -56,6 +56,10 @@ class Troubled(KeepLane):
             plan = Trajectory(self.dt, **{f: np.zeros(n) for f in ("t", "x", "y", "yaw", "v")})
         elif BEHAVIOUR == "slow_once" and self.cycle == CYCLE_OF_TROUBLE:
             time.sleep(1.0)
+        elif BEHAVIOUR == "late_then_silent":      # a little over a 0.2 s deadline once, then no answer ever
+            time.sleep(0.25 if self.cycle == CYCLE_OF_TROUBLE else 3600)
+        elif BEHAVIOUR == "always_late":           # a little over a 0.2 s deadline, every cycle
+            time.sleep(0.25)
         return plan
 
 
@@ -68,9 +72,61 @@ def garbage() -> None:
         socket.send(b"\xff\xfe not a reply")
 
 
+def raw(version: str = "1.0", name_chars: int = 3, reason_chars: int = 7, id_shift: int = 0,
+        output_bytes: int = 0, exit_code: int = -1) -> None:
+    """Answers Initialize with Ready(``version``, a name of ``name_chars``), each Plan with a no_plan reason of
+    ``reason_chars`` (its id shifted by ``id_shift``); writes ``output_bytes`` to stdout first (and then
+    exits with ``exit_code`` when it is not -1)."""
+    from simgap_planner import simgap_planner_pb2 as pb
+    for _ in range(output_bytes >> 20):
+        sys.stdout.write("x" * (1 << 20))
+    print("the last line of the output", flush=True)
+    if exit_code != -1:
+        sys.exit(exit_code)
+    socket = zmq.Context.instance().socket(zmq.REP)
+    socket.bind(os.environ[ENDPOINT_VARIABLE])
+    while True:
+        request = pb.Request.FromString(socket.recv())
+        reply = pb.Reply(id=request.id)
+        kind = request.WhichOneof("body")
+        if kind == "initialize":
+            reply.ready.protocol_version, reply.ready.session, reply.ready.planner = version, 1, "n" * name_chars
+        elif kind == "plan":
+            reply.id += id_shift
+            reply.plan.no_plan = "r" * reason_chars
+        else:
+            reply.closed.SetInParent()
+        socket.send(reply.SerializeToString())
+        if kind == "close":
+            return
+
+
+def fork_and_daemon() -> None:
+    """Keeps its lane; it forked a child and a setsid daemon first (each writes its pid to a file and sleeps)."""
+    folder = os.environ["SIMGAP_TEST_PIDS"]
+    if os.fork() == 0:
+        with open(os.path.join(folder, "child.pid"), "w") as f:
+            f.write(str(os.getpid()))
+        time.sleep(3600)
+        os._exit(0)
+    if os.fork() == 0:
+        os.setsid()
+        if os.fork() == 0:
+            with open(os.path.join(folder, "daemon.pid"), "w") as f:
+                f.write(str(os.getpid()))
+            time.sleep(3600)
+        os._exit(0)
+    serve(KeepLane)
+
+
 if __name__ == "__main__":
     if BEHAVIOUR == "garbage_bytes":
         garbage()
+    elif BEHAVIOUR.startswith("raw"):        # raw,KEY=VALUE,...: the arguments of raw()
+        options = dict(item.partition("=")[::2] for item in BEHAVIOUR.split(",")[1:])
+        raw(**{k: (v if k == "version" else int(v)) for k, v in options.items()})
+    elif BEHAVIOUR == "fork_and_daemon":
+        fork_and_daemon()
     elif BEHAVIOUR == "hang_init":
         time.sleep(3600)
     elif BEHAVIOUR == "refuse_init":

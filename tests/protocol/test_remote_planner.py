@@ -10,26 +10,13 @@ import sys
 from pathlib import Path
 
 import pytest
+from planner_runs import SERVERS, reasons, server
 
 from simgap.cosim import CosimSettings
 from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute, parse_planners
 from simgap.planning.registry import PlannerChoice
 from simgap.planning.remote import ProcessLimits
-from simgap.scenario import build_scenario
-from simgap.scenario.files import write_scenario
-
-SERVERS = Path(__file__).with_name("servers.py")
-
-
-def server(behaviour: str) -> str:
-    return f"exec:{sys.executable} {SERVERS} {behaviour}"
-
-
-@pytest.fixture(scope="module")
-def curve_xml(tmp_path_factory) -> Path:
-    return write_scenario(build_scenario("curve", {"radius": 30.0, "angle": 45.0}), tmp_path_factory.mktemp("curve"),
-                          preview=False)
 
 
 def run_with(curve_xml: Path, out: Path, planner: str, backend: str = "ideal", **limits):
@@ -37,10 +24,6 @@ def run_with(curve_xml: Path, out: Path, planner: str, backend: str = "ideal", *
     run = execute(RunRequest(scenario=curve_xml, backend=backend, planner=choice), out)
     assert (out / "run.json").is_file(), "every run is written"
     return run, json.loads((out / "run.json").read_text())
-
-
-def reasons(run) -> str:
-    return "\n".join(e.detail for e in run.history.events)
 
 
 @pytest.mark.parametrize("backend", ["ideal", "mujoco"])

@@ -9,6 +9,7 @@ serves every run that connects until it is stopped.
 from __future__ import annotations
 
 import os
+import re
 import traceback
 from typing import Any, Callable, Dict, Optional, Tuple
 
@@ -36,8 +37,9 @@ class Adapter:
 
 
 def compatible(version: str) -> bool:
-    """Whether a peer speaking ``version`` speaks ours: the same major version."""
-    return version.split(".")[0] == PROTOCOL_VERSION.split(".")[0]
+    """Whether a peer speaking ``version`` speaks ours: ``MAJOR.MINOR`` (digits) of the same major version."""
+    match = re.fullmatch(r"(\d+)\.(\d+)", version)
+    return match is not None and match.group(1) == PROTOCOL_VERSION.split(".")[0]
 
 
 def serve(factory: Callable[[Any], Any], endpoint: Optional[str] = None, *, name: Optional[str] = None,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import faulthandler
 import importlib
 import sys
 
@@ -39,6 +40,7 @@ def _register(argv: list[str]) -> None:
 
 
 def main() -> None:
+    faulthandler.enable()       # an interpreter that crashes (a planner's segfault) says so, and where
     _register(sys.argv[1:])
     try:
         app()

@@ -7,11 +7,15 @@ mistaken for one (`RUN_STOPS`): while `interruptions` is active the user's Ctrl-
 signal that raises `WallClockExceeded` wherever the run is, even in a ``plan()`` that never
 returns (once its Python code runs again). Signals reach only the main thread: elsewhere neither is
 installed, and the loop's check of the wall clock between steps remains. A planner that ends the
-process itself (``os._exit``) cannot be stopped in process.
+process itself with ``os._exit`` raises `ProcessExitRefused` instead while `interruptions` is active
+(its cycle fails like any crash; a process it forked still ends); one that crashes the interpreter
+(a segfault) cannot be stopped in process: the command says so (``faulthandler``) and ``--isolate``
+keeps such a planner in a process of its own.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 from contextlib import contextmanager
@@ -33,6 +37,31 @@ class WallClockExceeded(BaseException):
         self.limit_s = limit_s
 
 
+class ProcessExitRefused(BaseException):
+    """``os._exit`` called in simgap's process during a run (by a planner): its cycle fails, the run goes on."""
+
+    def __init__(self, code: int):
+        super().__init__(f"os._exit({code}) would have ended simgap's process (refused; --isolate runs a planner "
+                         "in a process of its own)")
+
+
+@contextmanager
+def _exit_refused() -> Iterator[None]:
+    """Inside, in this process (not in one forked from it), ``os._exit`` raises `ProcessExitRefused`."""
+    own_exit, owner = os._exit, os.getpid()
+
+    def refused(code: int) -> None:
+        if os.getpid() != owner:
+            own_exit(code)
+        raise ProcessExitRefused(code)
+
+    os._exit = refused
+    try:
+        yield
+    finally:
+        os._exit = own_exit
+
+
 @contextmanager
 def interruptions(wall_time_limit_s: float | None = None) -> Iterator[None]:
     """Inside: Ctrl-C raises `RunInterrupted` (where it would raise KeyboardInterrupt), and
@@ -40,6 +69,12 @@ def interruptions(wall_time_limit_s: float | None = None) -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    with _exit_refused(), _signals(wall_time_limit_s):
+        yield
+
+
+@contextmanager
+def _signals(wall_time_limit_s: float | None) -> Iterator[None]:
 
     def interrupted(signum, frame) -> None:
         raise RunInterrupted()

@@ -8,6 +8,7 @@ batch executors call it.
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import time
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
@@ -21,7 +22,7 @@ from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
 from simgap.cosim.sensing import localisation_accuracy
-from simgap.errors import InputError
+from simgap.errors import InputError, validated
 from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_criticality, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
@@ -131,8 +132,8 @@ def parse_planners(text: str, settings_file: Path | None = None, isolate: bool =
     choices = {}
     for ref in refs:
         own_process = isolate and PlannerTarget.parse(ref) is None
-        choice = PlannerChoice(planner=ref, settings=settings[ref], isolate=own_process,
-                               process=process or ProcessLimits())
+        choice = validated(PlannerChoice, dict(planner=ref, settings=settings[ref], isolate=own_process,
+                                               process=process or ProcessLimits()), file=settings_file)
         choice.load(file=settings_file, settings_field="" if len(refs) == 1 else ref)
         choices[ref] = choice
     if isinstance(parsed, str):
@@ -165,7 +166,9 @@ def execute(request: RunRequest, out: Path | None = None,
     meta = read_metadata(request.scenario)
     relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
     planners, errors, planner_records = {}, [], {}
+    out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
+        closing.callback(_back_in, folder)
         for a in agents:
             choice = planner_of(request.planner, a.id, [b.id for b in agents])
             planner_class, settings = choice.load()
@@ -184,6 +187,7 @@ def execute(request: RunRequest, out: Path | None = None,
                 continue
             if callable(getattr(planners[a.id], "close", None)):
                 closing.callback(planners[a.id].close)
+        _back_in(folder)
         if errors:
             history = not_started(scenario, request.backend, agents, errors, realism_of(request.backend_settings))
         else:
@@ -229,6 +233,12 @@ def execute(request: RunRequest, out: Path | None = None,
 
 def _vehicle(vehicle: str | Vehicle) -> Vehicle:
     return vehicle if isinstance(vehicle, Vehicle) else load_vehicle(vehicle)
+
+
+def _back_in(folder: str) -> None:
+    """Back in the working folder ``folder`` when a planner moved simgap's process out of it."""
+    if os.getcwd() != folder:
+        os.chdir(folder)
 
 
 def _planner_record(planners: PlannerAssignment, planner_records: dict[int, PlannerRecord]) -> PlannerRecord:

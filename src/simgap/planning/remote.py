@@ -17,15 +17,22 @@ runs on its own. What a planner may do wrong, and what follows:
 * no Ready within ``startup_timeout_s``, an Error for Initialize, another protocol major version:
   the constructor raises `PlannerStartFailed` (the run fails, recorded, before it starts);
 * no answer within ``deadline_s``: that cycle fails ("missed its deadline"); the late answer is
-  dropped when it comes;
+  dropped when it comes (every send and receive waits at most until its deadline; a reply over
+  `MAX_REPLY_BYTES` is not read and counts as none);
 * an Error reply: the cycle fails as a planner that raised (`RemotePlannerError`, with the
   planner's own traceback);
-* a reply that is not a valid plan (not a protobuf Reply, columns of unequal length, more than
+* a reply that is not a valid plan (not a protobuf Reply, another request's id, columns of unequal length, more than
   `MAX_PLAN_STATES` states; NaNs, wrong grid and wrong start are the loop's `executable_plan`
   checks): the cycle fails ("invalid plan");
 * its process ends (an exit, a crash, a segfault): the cycle fails and the planner is restarted
   (``restarts`` times per agent and run), after which `PlannerUnavailable` ends the agent as a
-  planner failure.
+  planner failure;
+* names, reasons and tracebacks it sends are cut to `MAX_NAME`, `MAX_REASON` and `MAX_TRACE`
+  characters before anything keeps them; of its output, the last `STDERR_TAIL` characters.
+
+A started planner runs below `simgap.planning.supervisor`, which ends whatever the planner starts
+(forked children, ``setsid`` daemons) and removes its temporary folder, when simgap closes it and
+when simgap's process ends, however it ends.
 
 `IsolatedPlannerClass` runs a Python planner class of simgap's registry the same way, in a child
 process of simgap's own interpreter (`simgap.planning.isolated`): a hang or a segfault in a
@@ -47,6 +54,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,7 +72,7 @@ from simgap_planner.messages import (
     trajectory_columns,
     trajectory_message,
 )
-from simgap_planner.server import ENDPOINT_VARIABLE
+from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
 from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
@@ -75,8 +83,13 @@ from simgap.trajectory import STATE_FIELDS, State, Trajectory
 EXEC_PREFIX = "exec:"
 ADDRESS_SCHEMES = ("tcp://", "ipc://")
 MAX_PLAN_STATES = 100_000           # a reply with more states is refused, not cut
+MAX_REPLY_BYTES = 16 << 20         # a larger reply is not read (a plan of MAX_PLAN_STATES states: 6.4 MB)
 POLL_SLICE_S = 0.05                 # how often a wait checks that a started planner still runs [s]
-STDERR_TAIL = 2000                  # characters of a dead planner's stderr kept in the reason
+STDERR_TAIL = 2000                  # characters of a dead planner's output kept in the reason
+MAX_NAME = 200                      # characters kept of a planner's name, version or error type
+MAX_REASON = 1000                   # … of a reason for no plan or an error's message
+MAX_TRACE = 20_000                  # … of an error's traceback
+OUTPUT_TAIL_BYTES = 4 * STDERR_TAIL  # bytes of its output kept while it runs (UTF-8: up to 4 per character)
 
 
 class ProcessLimits(BaseModel):
@@ -132,6 +145,12 @@ class PlannerTarget:
         if self.command and shutil.which(self.command[0]) is None:
             raise InputError(f"no program '{self.command[0]}' to start the planner with", file=file, field=field_name,
                              allowed="exec:PROGRAM ARGS with PROGRAM on PATH or a path to an executable file")
+
+
+def capped(text: str, size: int) -> str:
+    """``text``, or its first ``size`` characters and how many more it had (what a planner sends is
+    stored in every event and record it reaches)."""
+    return text if len(text) <= size else f"{text[:size]}… ({len(text) - size} more characters)"
 
 
 class PlannerStartFailed(RuntimeError):
@@ -193,21 +212,50 @@ def _libc_prctl():
 
 
 _PRCTL = _libc_prctl()      # looked up here: the child between fork and exec only calls it
+SUPERVISOR = Path(__file__).with_name("supervisor.py")
 
 
-def _die_with_parent() -> None:         # pragma: no cover - runs in the child before exec
-    """A started planner ends when simgap's process does (Linux), never left behind."""
-    _PRCTL(1, signal.SIGKILL)           # PR_SET_PDEATHSIG
+def _end_with_parent() -> None:         # pragma: no cover - runs in the child before exec
+    """The supervisor is told (SIGTERM) when simgap's process ends, however it ends, and then ends
+    the planner and all it started."""
+    _PRCTL(1, signal.SIGTERM)           # PR_SET_PDEATHSIG
+
+
+class OutputTail:
+    """The last bytes a process wrote to a pipe, read as it writes (it is never held up by a full
+    pipe) without keeping more than about ``2 * size`` bytes in memory."""
+
+    def __init__(self, fd: int, size: int):
+        self._fd, self._size, self._kept = fd, size, bytearray()
+        self._reader = threading.Thread(target=self._read, name="planner-output", daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        with contextlib.suppress(OSError):
+            while chunk := os.read(self._fd, 1 << 16):
+                self._kept += chunk
+                if len(self._kept) > 2 * self._size:
+                    del self._kept[:-self._size]
+        with contextlib.suppress(OSError):
+            os.close(self._fd)
+
+    def text(self, wait_s: float = 0.5) -> str:
+        """What it wrote last (after the pipe's end, waited for up to ``wait_s``)."""
+        self._reader.join(wait_s)
+        return bytes(self._kept[-self._size:]).decode(errors="replace")
 
 
 @dataclass
 class _Connection:
-    """A REQ socket to a planner, and the process simgap started for it (None for an address)."""
+    """A REQ socket to a planner, and the process simgap started for it (None for an address):
+    the planner below a `simgap.planning.supervisor`, which ends whatever the planner started."""
 
     endpoint: str
     process: subprocess.Popen | None = None
     folder: Path | None = None
+    output: OutputTail | None = None
     socket: Any = None
+    monitor: Any = None                 # the socket's disconnections (a reply over MAX_REPLY_BYTES drops one)
     ids: Any = field(default_factory=lambda: itertools.count(1))
 
     @classmethod
@@ -217,23 +265,27 @@ class _Connection:
         else:
             folder = Path(tempfile.mkdtemp(prefix="simgap-planner-"))
             endpoint = f"ipc://{folder}/planner.sock"
-            stderr = open(folder / "stderr.txt", "wb")
+            read_end, write_end = os.pipe()
             try:
                 process = subprocess.Popen(
-                    target.command, stdin=subprocess.DEVNULL, stdout=stderr, stderr=stderr,
+                    [sys.executable, "-I", "-S", str(SUPERVISOR), str(os.getpid()), str(folder), "--",
+                     *target.command], stdin=subprocess.DEVNULL, stdout=write_end, stderr=write_end,
                     env={**os.environ, ENDPOINT_VARIABLE: endpoint}, start_new_session=True,
-                    preexec_fn=_die_with_parent if _PRCTL is not None else None)
+                    preexec_fn=_end_with_parent if _PRCTL is not None else None)
             except OSError as exc:
+                os.close(read_end)
                 shutil.rmtree(folder, ignore_errors=True)
                 raise PlannerStartFailed(f"cannot start {shlex.join(target.command)}: {exc}") from None
             finally:
-                stderr.close()
-            connection = cls(endpoint, process, folder)
+                os.close(write_end)
+            connection = cls(endpoint, process, folder, OutputTail(read_end, OUTPUT_TAIL_BYTES))
         socket = zmq.Context.instance().socket(zmq.REQ)
         socket.setsockopt(zmq.REQ_RELAXED, 1)         # a new request after one that got no answer …
         socket.setsockopt(zmq.REQ_CORRELATE, 1)       # … whose late answer is then dropped
         socket.setsockopt(zmq.LINGER, 0)
+        socket.setsockopt(zmq.MAXMSGSIZE, MAX_REPLY_BYTES)    # a larger reply drops the connection, unread
         connection.socket = socket
+        connection.monitor = socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
         try:
             socket.connect(connection.endpoint)
         except zmq.ZMQError as exc:
@@ -242,21 +294,54 @@ class _Connection:
         return connection
 
     def call(self, request, timeout_s: float):
-        """The reply to ``request`` (its ``id`` set here) within ``timeout_s``."""
+        """The reply to ``request`` (its ``id`` set here) within ``timeout_s``; a reply that comes
+        later is never returned (a later call drops it)."""
         request.id = next(self.ids)
-        self.socket.send(request.SerializeToString())
         end = time.perf_counter() + timeout_s
+        self._dropped()
+        self._send(request.SerializeToString(), end)
         while True:
             left = end - time.perf_counter()
             if left <= 0:
-                raise _NoAnswer()
+                raise _NoAnswer(f"its connection dropped meanwhile (a reply over {MAX_REPLY_BYTES >> 20} MiB drops it "
+                                "unread)" if self._dropped() else "")
             wait = left if self.process is None else min(left, POLL_SLICE_S)
             if self.socket.poll(max(1, math.ceil(wait * 1000)), zmq.POLLIN):
-                raw = self.socket.recv()
                 try:
-                    return pb.Reply.FromString(raw)
+                    raw = self.socket.recv(zmq.NOBLOCK)
+                except zmq.Again:           # the late answer to an earlier request, dropped: wait on
+                    continue
+                try:
+                    reply = pb.Reply.FromString(raw)
                 except Exception as exc:        # protobuf's DecodeError, or worse on garbage
                     raise ValueError(f"not a planner reply ({len(raw)} bytes: {type(exc).__name__})") from None
+                if reply.id != request.id:
+                    raise ValueError(f"a reply with the id {reply.id} to request {request.id} (a reply carries "
+                                     "its request's id)")
+                return reply
+            if self.process is not None and self.process.poll() is not None:
+                raise _Gone(self.exit_reason())
+
+    def _dropped(self) -> bool:
+        """Whether the connection dropped since this was last asked."""
+        dropped = False
+        while self.monitor.poll(0):
+            self.monitor.recv_multipart()
+            dropped = True
+        return dropped
+
+    def _send(self, data: bytes, end: float) -> None:
+        """Send ``data`` by ``end`` (a REQ socket holds a request while it has no peer: the planner
+        has not bound its socket yet, or its connection was dropped)."""
+        while True:
+            try:
+                return self.socket.send(data, zmq.NOBLOCK)
+            except zmq.Again:
+                pass
+            left = end - time.perf_counter()
+            if left <= 0:
+                raise _NoAnswer()
+            self.socket.poll(max(1, math.ceil(min(left, POLL_SLICE_S) * 1000)), zmq.POLLOUT)
             if self.process is not None and self.process.poll() is not None:
                 raise _Gone(self.exit_reason())
 
@@ -264,25 +349,30 @@ class _Connection:
         code = self.process.returncode
         how = f"was killed by {signal.Signals(-code).name}" if code < 0 and -code in signal.Signals._value2member_map_ \
             else f"exited with code {code}"
-        tail = ""
-        with contextlib.suppress(OSError):
-            text = (self.folder / "stderr.txt").read_text(errors="replace").strip()
-            if text:
-                tail = f"; its output ends: {text[-STDERR_TAIL:]}"
+        text = self.output.text().strip() if self.output is not None else ""
+        tail = f"; its output ends: {text[-STDERR_TAIL:]}" if text else ""
         return f"the planner process {how}{tail}"
 
     def close(self, request=None) -> None:
-        """Send ``request`` (Close) when given and the peer lives; end a started process."""
+        """Send ``request`` (Close) when given and the peer lives; end a started process and
+        every process it started."""
         if request is not None and (self.process is None or self.process.poll() is None):
             with contextlib.suppress(Exception):
                 self.call(request, 0.5)
+        self.socket.disable_monitor()
+        self.monitor.close(linger=0)
         self.socket.close(linger=0)
         if self.process is not None:
             if self.process.poll() is None:
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     self.process.wait(0.5)
-            if self.process.poll() is None:
-                with contextlib.suppress(ProcessLookupError):     # started in a session of its own: its group
+            if self.process.poll() is None:                 # the supervisor ends the planner and its own
+                with contextlib.suppress(ProcessLookupError):
+                    self.process.terminate()
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    self.process.wait(5.0)
+            if self.process.poll() is None:                 # it does not end: its group, killed
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(self.process.pid, signal.SIGKILL)
                 self.process.wait()
             shutil.rmtree(self.folder, ignore_errors=True)
@@ -316,11 +406,17 @@ class RemotePlanner:
         body = reply.WhichOneof("body")
         if body != "ready":
             connection.close()
-            detail = f"{reply.error.type}: {reply.error.message}" if body == "error" else f"a {body} reply"
-            trace = f"\n{reply.error.traceback}" if body == "error" and reply.error.traceback else ""
+            detail = f"{capped(reply.error.type, MAX_NAME)}: {capped(reply.error.message, MAX_REASON)}" \
+                if body == "error" else f"a {body} reply"
+            trace = f"\n{capped(reply.error.traceback, MAX_TRACE)}" if body == "error" and reply.error.traceback else ""
             raise PlannerStartFailed(f"the planner refused Initialize: {detail}{trace}")
+        version = reply.ready.protocol_version
+        if not compatible(version):
+            connection.close()
+            raise PlannerStartFailed(f"the planner speaks protocol version '{capped(version, MAX_NAME)}', simgap "
+                                     f"{PROTOCOL_VERSION}: another major version (or no MAJOR.MINOR) is refused")
         self._connection, self._session = connection, reply.ready.session
-        self.name, self.protocol_version = reply.ready.planner, reply.ready.protocol_version
+        self.name, self.protocol_version = capped(reply.ready.planner, MAX_NAME), version
 
     @property
     def where(self) -> str:
@@ -332,9 +428,10 @@ class RemotePlanner:
         request = self._plan_request(observed, t, world)
         try:
             reply = self._connection.call(request, self.limits.deadline_s)
-        except _NoAnswer:
+        except _NoAnswer as exc:
             self.deadline_misses += 1
-            return self._fail(f"missed its deadline: no answer within {self.limits.deadline_s:g} s")
+            why = f"; {exc}" if str(exc) else ""
+            return self._fail(f"missed its deadline: no answer within {self.limits.deadline_s:g} s{why}")
         except ValueError as exc:
             return self._fail(f"invalid plan: {exc}")
         except _Gone as exc:
@@ -343,11 +440,12 @@ class RemotePlanner:
         if body == "error" and reply.error.type == "InvalidPlan":
             return self._fail(f"invalid plan: {reply.error.message}")
         if body == "error":
-            raise RemotePlannerError(reply.error.type or "Error", reply.error.message, reply.error.traceback)
+            raise RemotePlannerError(capped(reply.error.type or "Error", MAX_NAME),
+                                     capped(reply.error.message, MAX_REASON), capped(reply.error.traceback, MAX_TRACE))
         if body != "plan":
             return self._fail(f"invalid plan: a {body or 'empty'} reply to a planning request")
         if reply.plan.WhichOneof("result") != "trajectory":
-            return self._fail(reply.plan.no_plan or "no plan")
+            return self._fail(capped(reply.plan.no_plan, MAX_REASON) or "no plan")
         return self._trajectory(reply.plan.trajectory)
 
     def _plan_request(self, observed: State, t: float, world: World):
@@ -412,6 +510,30 @@ class RemotePlanner:
                 "restarts": self.restarts}
 
 
+def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
+    """The first part of ``value`` that JSON cannot hold as it is — its dotted path and what it is —
+    or None (an infinity or NaN, a date, any object but a finite number, a string, a bool, None, a
+    list or a mapping with string or number keys)."""
+    if value is None or isinstance(value, (str, bool, int)):
+        return None
+    if isinstance(value, float):
+        return None if math.isfinite(value) else (path, f"{value} is not a finite number")
+    if isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            if (problem := not_json(item, f"{path}[{i}]")) is not None:
+                return problem
+        return None
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            where = f"{path}.{key}" if path else str(key)
+            if not isinstance(key, (str, int, float, bool)) or isinstance(key, float) and not math.isfinite(key):
+                return where, f"the key {key!r} (a {type(key).__name__}) is not a name"
+            if (problem := not_json(item, where)) is not None:
+                return problem
+        return None
+    return path, f"{value} (a {type(value).__name__}) is not a JSON value"
+
+
 @dataclass(frozen=True)
 class RemotePlannerClass:
     """An out-of-process planner as the registry hands it out: ``build`` starts (or connects to)
@@ -426,8 +548,18 @@ class RemotePlannerClass:
     def description(self) -> str:
         return f"a planner in its own process ({self.target.address or shlex.join(self.target.command)})"
 
-    def settings(self, values: Mapping[str, Any] | None, **_: Any) -> dict[str, Any]:
-        return dict(values or {})
+    def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                 prefix: str | None = None, **_: Any) -> dict[str, Any]:
+        """``values`` as they are, once they are sure to be JSON (what the planner and run.json get)."""
+        settings = dict(values or {})
+        problem = not_json(settings)
+        if problem is not None:
+            path, what = problem
+            raise InputError(f"{what}: the settings of a planner in its own process are sent as JSON", file=file,
+                             field=".".join(p for p in (prefix, path) if p) or "settings",
+                             allowed="finite numbers, strings, true/false, null, lists and mappings "
+                             "(quote a date: '2024-01-01')")
+        return settings
 
     def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
         return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
