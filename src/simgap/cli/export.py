@@ -150,10 +150,14 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
 
 def _show_recording(console: Console, recording) -> None:
     """The recording written: what it holds, its size and time, and how to open it."""
-    cars = len(recording.driven_poses)
-    poses = sum(recording.driven_poses.values())
-    console.print(f"[bold]{recording.name}[/bold]: rerun recording, {len(recording.entities)} entities, "
-                  f"{cars} car{'s' if cars != 1 else ''} with {poses} driven poses ({recording.seconds:.2f} s)")
+    twin = {k: n for k, n in recording.driven_poses.items() if k.startswith("world/ideal/")}
+    cars = len(recording.driven_poses) - len(twin)
+    poses = sum(recording.driven_poses.values()) - sum(twin.values())
+    what = f"{cars} road user{'s' if cars != 1 else ''} with {poses} driven poses"
+    if twin:
+        what += f", the ideal twin's {len(twin)} with {sum(twin.values())}"
+    console.print(f"[bold]{recording.name}[/bold]: rerun recording, {len(recording.entities)} entities, {what} "
+                  f"({recording.seconds:.2f} s)")
     console.print(f"  {recording.path}  {recording.path.stat().st_size / 1e6:.2f} MB; open it with: "
                   f"rerun {recording.path}", soft_wrap=True)
     for note in recording.notes:

@@ -78,7 +78,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
     import rerun.blueprint as rrb
 
     from simgap.export.openscenario import road_users
-    from simgap.export.write import driven_scenario, safe_name
+    from simgap.export.write import read_driven_scenario, safe_name
 
     started = time.perf_counter()
     run_dir = Path(run_dir)
@@ -87,7 +87,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
     if ideal is not None and ideal.scenario_id != run.scenario_id:
         raise InputError(f"the ideal twin ran scenario '{ideal.scenario_id}', the run '{run.scenario_id}'",
                          file=Path(ideal_dir), field="--ideal", allowed="a run of the same scenario")
-    scenario_xml, scenario, _ = driven_scenario(run_dir, run)
+    scenario_xml, scenario, _ = read_driven_scenario(run_dir, run)
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     path = recording_path(Path(out), name)
     three_d = any(a.attitudes for a in run.history.agents)

@@ -119,7 +119,7 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
     return result
 
 
-def driven_scenario(run_dir: Path, run: RunRecord) -> tuple[Path, Scenario, PlanningProblemSet]:
+def read_driven_scenario(run_dir: Path, run: RunRecord) -> tuple[Path, Scenario, PlanningProblemSet]:
     """The scenario a run drove: its ``driven.xml``, or where it has none, the scenario file it
     names; the file, the scenario and its planning problems."""
     source = run_dir / "driven.xml"
@@ -142,7 +142,7 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     run_dir, out = Path(run_dir), Path(out)
     run = read_run(run_dir)
     scenario_path = run.settings.scenario_path
-    _, scenario, problems = driven_scenario(run_dir, run)
+    _, scenario, problems = read_driven_scenario(run_dir, run)
     backend = run.settings.backend
     surface = Surface(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
                       float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
