@@ -193,8 +193,10 @@ class _Log:
 
     def car(self, path: str, driven: Trajectory, length: float, width: float, height: float, colour,
             attitudes: tuple[Attitude, ...], cg_height: float | None) -> None:
-        """The road user's box posed at every driven state and its whole path."""
+        """The road user's box posed at every driven state and its whole path (none: it never drove)."""
         rr = self.rr
+        if not len(driven):
+            return
         x, y, yaw = np.asarray(driven.x), np.asarray(driven.y), np.asarray(driven.yaw)
         if attitudes:
             z = np.array([a.z for a in attitudes])
