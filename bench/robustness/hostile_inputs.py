@@ -1586,6 +1586,51 @@ def _(folder: Path, stock: Stock) -> Outcome:
                                                                     else "no line"), p.stderr)
 
 
+# --- round 5, h7-log-viewer: runs as rerun recordings (issue 53 item 5)
+
+def _no_recording(outcome: Outcome, folder: Path, p: Proc) -> Outcome:
+    """A refusal that left an .rrd (or its temporary) behind is a loss."""
+    left = [f.name for f in folder.rglob("*.rrd*") if f.is_file()]
+    if left and outcome.verdict == REFUSAL:
+        return Outcome(LOSS, f"refused but left {left[0]}", p.stderr, p.seconds)
+    return outcome
+
+
+@case("rerun-out-is-a-directory", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "mine.rrd").mkdir()
+    p = simgap("export", stock.run, "--format", "rerun", "--out", folder / "mine.rrd", cwd=folder)
+    return expect_refusal(p, "mine.rrd", "directory")
+
+
+@case("rerun-of-a-scenario-file", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("export", stock.scenario, "--out", folder / "x.rrd", cwd=folder)
+    return _no_recording(expect_refusal(p, "--format", "one run"), folder, p)
+
+
+@case("rerun-trajectories-truncated", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    run = folder / "run"
+    shutil.copytree(stock.run, run)
+    parquet = run / "trajectories.parquet"
+    parquet.write_bytes(parquet.read_bytes()[: parquet.stat().st_size // 2])
+    p = simgap("export", run, "--out", folder / "x.rrd", cwd=folder)
+    return _no_recording(expect_refusal(p, "trajectories.parquet"), folder, p)
+
+
+@case("rerun-ideal-twin-of-another-scenario", 5)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("generate", "curve", "--set", "radius=20", "--set", "angle=90", "--no-preview", "--out",
+               folder / "scenarios", cwd=folder)
+    assert p.rc == 0, p.stderr
+    p = simgap("run", folder / "scenarios" / "curve_radius-20_angle-90.xml", "--no-validate", "--max-time", "1",
+               "--out", folder / "other", cwd=folder)
+    assert p.rc == 0, p.stderr
+    p = simgap("export", stock.run, "--out", folder / "x.rrd", "--ideal", folder / "other", cwd=folder)
+    return _no_recording(expect_refusal(p, "--ideal", "same scenario"), folder, p)
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

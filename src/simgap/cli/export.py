@@ -1,4 +1,5 @@
-"""`simgap export`: runs, scenarios and search findings as OpenSCENARIO and OpenDRIVE files."""
+"""`simgap export`: runs, scenarios and search findings as OpenSCENARIO and OpenDRIVE files; a run as a
+rerun recording."""
 
 from __future__ import annotations
 
@@ -16,20 +17,38 @@ from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.files import writable_directory
 
+RECORDING_SUFFIX = ".rrd"
+
 
 class Format(StrEnum):
     OPENSCENARIO = "openscenario"
     OPENDRIVE = "opendrive"
+    RERUN = "rerun"
+
+
+def _writable_out(path: Path | None) -> Path | None:
+    """``--out``: a directory simgap can write in, or a rerun recording's ``.rrd`` file in one."""
+    if path is None or path.suffix != RECORDING_SUFFIX:
+        return writable_directory(path)
+    if path.is_dir():
+        raise InputError("is a directory", file=path, field="--out",
+                         allowed=f"a {RECORDING_SUFFIX} file to write, or a directory without that suffix")
+    writable_directory(path.parent)
+    return path
 
 
 @app.command("export")
 def export_cmd(
     source: Path = typer.Argument(..., help="a run directory, a CommonRoad scenario (.xml), or with --violations "
                                             "a search directory"),
-    out: Path = typer.Option(..., "--out", "-o", help="directory to write into", callback=writable_directory),
+    out: Path = typer.Option(..., "--out", "-o", help="directory to write into (rerun: or the .rrd file)",
+                             callback=_writable_out),
     format: Optional[str] = typer.Option(None, "--format", "-f",
-                                         help="openscenario (a run: .xosc + .xodr) or opendrive (a scenario's "
-                                              "road: .xodr); default: by SOURCE"),
+                                         help="openscenario (a run: .xosc + .xodr), opendrive (a scenario's "
+                                              "road: .xodr) or rerun (a run: .rrd, for rerun's viewer); "
+                                              "default: by SOURCE, rerun for an --out ending in .rrd"),
+    ideal: Optional[Path] = typer.Option(None, "--ideal", help="rerun: a run of the same scenario drawn beside "
+                                                               "as its ideal twin"),
     violations: bool = typer.Option(False, "--violations", help="SOURCE is a search: a folder per distinct violation"),
     version: Optional[str] = typer.Option(None, "--version", help="OpenSCENARIO version: 1.2 (default: every rule of ASAM's "
                                                          "Quality Checker applies), 1.0 (CARLA's ScenarioRunner), "
@@ -41,6 +60,7 @@ def export_cmd(
     version it declares, trajectories parse back to within 1 cm, and the road's lane centres lie
     where the lanelets are. Examples:
     simgap export runs/c10 --format openscenario --out exported;
+    simgap export runs/c10 --format rerun --out c10.rrd (open it with: rerun c10.rrd);
     simgap export scenarios/curve_radius-10_angle-90.xml --format opendrive --out exported;
     simgap export studies/gaps --violations --out findings
     """
@@ -54,10 +74,27 @@ def export_cmd(
         except ValueError:
             raise InputError(f"unknown format '{format}'", field="--format",
                              allowed=", ".join(f.value for f in Format)) from None
+    elif out.suffix == RECORDING_SUFFIX:
+        chosen = Format.RERUN
+    if out.suffix == RECORDING_SUFFIX and chosen is not Format.RERUN:
+        raise InputError(f"a {RECORDING_SUFFIX} file is a rerun recording", field="--out",
+                         allowed=f"a directory for {chosen.value}, or --format rerun")
+    if ideal is not None and chosen is not Format.RERUN:
+        raise InputError("an ideal twin is drawn in a rerun recording only", field="--ideal", allowed="--format rerun")
     console = output_console()
     if not source.exists():
         raise InputError("no such file or directory", file=source,
                          allowed="a run directory, a .xml scenario, or a search directory with --violations")
+    if chosen is Format.RERUN and (violations or not (source / "run.json").is_file()):
+        raise InputError("a rerun recording is of one run", file=source, field="--format",
+                         allowed="a run directory (with run.json) for rerun; openscenario or opendrive otherwise")
+    if ideal is not None and not ideal.exists():
+        raise InputError("no such file or directory", file=ideal, field="--ideal", allowed="a run directory")
+    if chosen is Format.RERUN:
+        from simgap.export.rerun_recording import export_recording
+
+        _show_recording(console, export_recording(source, out, ideal))
+        return
     if violations:
         if chosen is Format.OPENDRIVE:
             raise InputError("a search's findings are runs: they export as openscenario", field="--format",
@@ -109,6 +146,22 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
     console.print(f"{len(found)} distinct violation{'s' if len(found) != 1 else ''} in {search_dir}")
     if exports:
         _show(console, exports)
+
+
+def _show_recording(console: Console, recording) -> None:
+    """The recording written: what it holds, its size and time, and how to open it."""
+    twin = {k: n for k, n in recording.driven_poses.items() if k.startswith("world/ideal/")}
+    cars = len(recording.driven_poses) - len(twin)
+    poses = sum(recording.driven_poses.values()) - sum(twin.values())
+    what = f"{cars} road user{'s' if cars != 1 else ''} with {poses} driven poses"
+    if twin:
+        what += f", the ideal twin's {len(twin)} with {sum(twin.values())}"
+    console.print(f"[bold]{recording.name}[/bold]: rerun recording, {len(recording.entities)} entities, {what} "
+                  f"({recording.seconds:.2f} s)")
+    console.print(f"  {recording.path}  {recording.path.stat().st_size / 1e6:.2f} MB; open it with: "
+                  f"rerun {recording.path}", soft_wrap=True)
+    for note in recording.notes:
+        console.print(f"note: {note}", soft_wrap=True)
 
 
 def _show(console: Console, exports) -> None:

@@ -15,9 +15,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.lanelet import LaneletNetwork
+from commonroad.scenario.scenario import Scenario
 
-from simgap.record import read_run
+from simgap.record import RunRecord, read_run
 from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
@@ -56,7 +58,8 @@ class Export:
         return max(self.lane_deviation_m.values(), default=0.0)
 
 
-def _safe(name: str) -> str:
+def safe_name(name: str) -> str:
+    """``name`` as a file name: runs of other characters than letters, digits, ``_.-`` as ``_``."""
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "export"
 
 
@@ -106,7 +109,7 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
     started = time.perf_counter()
     scenario_xml, out = Path(scenario_xml), Path(out)
     scenario, _ = load_scenario(scenario_xml, needs_problems=False)
-    name = _safe(name or scenario_xml.stem)
+    name = safe_name(name or scenario_xml.stem)
     with staged_directory(out, name) as staged:
         roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
@@ -114,6 +117,20 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
         result.files = publish(staged, out, [path.name])
     result.seconds = time.perf_counter() - started
     return result
+
+
+def read_driven_scenario(run_dir: Path, run: RunRecord) -> tuple[Path, Scenario, PlanningProblemSet]:
+    """The scenario a run drove: its ``driven.xml``, or where it has none, the scenario file it
+    names; the file, the scenario and its planning problems."""
+    source = run_dir / "driven.xml"
+    if not source.exists():
+        scenario_path = run.settings.scenario_path
+        if not scenario_path or not Path(scenario_path).exists():
+            raise InputError("the run has no driven.xml and its scenario file is gone", file=run_dir,
+                             allowed="a run directory written by simgap run, an experiment or a search")
+        source = Path(scenario_path)
+    scenario, problems = load_scenario(source)
+    return source, scenario, problems
 
 
 def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = DEFAULT_VERSION,
@@ -125,17 +142,11 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     run_dir, out = Path(run_dir), Path(out)
     run = read_run(run_dir)
     scenario_path = run.settings.scenario_path
-    source = run_dir / "driven.xml"
-    if not source.exists():
-        if not scenario_path or not Path(scenario_path).exists():
-            raise InputError("the run has no driven.xml and its scenario file is gone", file=run_dir,
-                             allowed="a run directory written by simgap run, an experiment or a search")
-        source = Path(scenario_path)
-    scenario, problems = load_scenario(source)
+    _, scenario, problems = read_driven_scenario(run_dir, run)
     backend = run.settings.backend
     surface = Surface(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
                       float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
-    name = _safe(name or f"{run.scenario_id}_{run.history.backend}")
+    name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
                            (Path(scenario_path) if scenario_path else None))
     with staged_directory(out, name) as staged:
