@@ -322,7 +322,8 @@ def _comparison_page(scenario_id: str, groups: list[ScenarioGroup], out: Path, a
             events = {label: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})
                       for label, (g, e) in runs.items()}
             plot_d_over_s(curves, adir / f"d_over_s_{aid}.png",
-                          f"{scenario_id}, agent {aid}: d over s, every planner and fidelity", None,
+                          f"{scenario_id}, agent {aid}: d over s, every planner and fidelity",
+                          _section_shading(groups, aid),
                           route_edges(first.scenario.lanelet_network, problem, frame), events)
             body.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s of every planner and fidelity, "
                                "lane (dashed) and road (solid) edges, events where they happened", zoom=True,
@@ -389,8 +390,7 @@ def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir
     curves = {f: lateral_profile(e.run.history.driven[aid], frame) for f, e in group.runs.items()
               if frame is not None and aid in e.run.history.driven}
     if curves:
-        shading = next(((c.s, c.section_along_s) for comps in reversed(list(group.comparisons.values()))
-                        for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
+        shading = _section_shading([group], aid)
         sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
         events = {f: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})
                   for f, e in group.runs.items()}
@@ -403,6 +403,12 @@ def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir
     plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
     figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
     return figures
+
+
+def _section_shading(groups: Sequence[ScenarioGroup], aid: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The road's sections along agent ``aid``'s route (s, kind per s), as a comparison measured them."""
+    return next(((c.s, c.section_along_s) for g in groups for comps in reversed(list(g.comparisons.values()))
+                 for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
 
 
 def _agent_timelines(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir: Path, rel: str) -> list[str]:
