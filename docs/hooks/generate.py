@@ -6,7 +6,10 @@ A page asks for a generated table with an HTML comment on a line of its own:
 - ``<!-- gen:settings module:Model -->``: every field of a pydantic settings model, nested models
   flattened to dotted names (type, default, range, unit, description);
 - ``<!-- gen:backends -->``: each backend's settings model;
-- ``<!-- gen:knobs -->``, ``<!-- gen:sensing -->``: the reality knobs and the sensing profiles.
+- ``<!-- gen:knobs -->``, ``<!-- gen:sensing -->``: the reality knobs and the sensing profiles;
+- ``<!-- gen:include PATH -->``: a Markdown file of the repository (PATH from its root) as it is, the
+  files it links beside it appended as code blocks (the planner protocol's specification and its
+  ``.proto``), so the text lives once, where its code is.
 
 Nothing in these tables is typed by hand, so a default documented here is the code's default.
 """
@@ -30,7 +33,10 @@ from pydantic_core import PydanticUndefined
 # the libraries simgap imports (protobuf through commonroad-io) warn of their own deprecations
 warnings.filterwarnings("ignore", category=DeprecationWarning)
 
-MARKER = re.compile(r"^<!-- gen:(\w+)(?: ([\w.:,]+))? -->$", re.M)
+MARKER = re.compile(r"^<!-- gen:(\w+)(?: ([\w.:,/-]+))? -->$", re.M)
+ROOT = Path(__file__).resolve().parents[2]
+LINK = re.compile(r"\]\(([\w.-]+)\)")          # a link to a file beside the linking one
+LEXERS = {".proto": "protobuf", ".py": "python", ".toml": "toml", ".yaml": "yaml"}
 UNIT = re.compile(r"\[([^\]]*[A-Za-z%^°][^\]]*)\]")
 
 
@@ -200,7 +206,29 @@ def _backend_model(name: str) -> type[BaseModel]:
     return resolve(BACKEND_MODELS[name])
 
 
+def include(path: str) -> str:
+    """The Markdown file ``path`` (from the repository's root); each file beside it that it links
+    is appended as a code block, and the link points at it."""
+    source = ROOT / path
+    text = source.read_text()
+    linked = [name for name in dict.fromkeys(LINK.findall(text))
+              if (source.parent / name).is_file() and not name.endswith(".md")]
+    for name in linked:
+        text = text.replace(f"]({name})", f"](#{_anchor(name)})")
+    for name in linked:
+        lexer = LEXERS.get(Path(name).suffix, "text")
+        text += (f"\n\n## `{name}` {{#{_anchor(name)}}}\n\n`{Path(path).parent / name}`, as it is:\n\n"
+                 f"```{lexer}\n{(source.parent / name).read_text().rstrip()}\n```\n")
+    return text
+
+
+def _anchor(name: str) -> str:
+    return "file-" + re.sub(r"[^\w-]", "-", name)
+
+
 def render(kind: str, arg: str | None) -> str:
+    if kind == "include":
+        return include(arg)
     if kind == "cli":
         return cli_reference()
     if kind == "settings":
@@ -236,3 +264,15 @@ def expand(markdown: str) -> str:
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
     return expand(markdown)
+
+
+# an inline name (a knob, a field, an option: no space, up to 40 characters) in the text, not a code
+# block's (after <pre> or a highlighting <span>) nor a table's first column (the CSS keeps those whole)
+INLINE_NAME = re.compile(r"(?<!<pre>)(?<!</span>)(?<!<td>)<code>([^<\s]{1,40})</code>")
+
+
+def on_page_content(html: str, page: Any, config: Any, files: Any) -> str:
+    """Inline names in the text are wrapped in ``<span class="whole">`` (docs/stylesheets/extra.css
+    keeps them on one line: a knob name never breaks at its hyphen or underscore); longer inline
+    code wraps at its spaces."""
+    return INLINE_NAME.sub(r'<span class="whole"><code>\1</code></span>', html)

@@ -95,6 +95,27 @@ def test_knobs_and_validation_tables_come_from_the_code_and_the_results(site):
         json.loads(f.read_text())
 
 
+def test_the_protocol_specification_is_a_page_included_from_its_one_copy(site):
+    page = html.unescape((site / "reference/planner-protocol.html").read_text())
+    readme = (ROOT / "planner-protocol" / "README.md").read_text()
+    for heading in re.findall(r"^## (.+)$", readme, re.M):
+        assert heading in page, heading
+    assert 'href="#file-simgap_planner-proto"' in page                     # the .proto, appended and linked
+    assert "message PlanRequest {" in re.sub(r"<[^>]+>", "", page)
+    assert (ROOT / "docs" / "reference" / "planner-protocol.md").read_text().strip().startswith("<!-- gen:include")
+
+
+def test_the_loop_page_draws_the_loop_and_names_stay_whole(site):
+    page = (site / "concepts/fidelities.html").read_text()
+    assert '<img alt="The co-simulation loop' in page and (site / "images" / "loop.png").stat().st_size > 10_000
+    assert 400 <= len(re.sub(r"<[^>]+>", " ", page.split('class="md-content"')[1].split("</article>")[0]).split())
+    # a knob name in the text is kept on one line; a code block's text is left as it is
+    knobs = (site / "tutorials/search.html").read_text()
+    assert re.search(r'<span class="whole"><code>[\w-]+</code></span>', knobs)
+    assert '<span class="whole">' not in "".join(re.findall(r"<pre>.*?</pre>", page, re.S))
+    assert "white-space: nowrap" in (site / "stylesheets" / "extra.css").read_text()
+
+
 def test_validation_tables_are_the_results_files_figures(site):
     validation = _module("simgap_docs_validation", ROOT / "docs" / "hooks" / "validation.py")
     study = json.loads((ROOT / "bench" / "results" / "planner_study.json").read_text())
@@ -201,7 +222,7 @@ def served(site):
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
 def test_pages_load_in_chromium_without_console_errors(served, tmp_path):
     for name in ["index.html", "getting-started.html", "reference/cli.html", "reference/api.html",
-                 "validation/results.html"]:
+                 "validation/results.html", "concepts/fidelities.html", "reference/planner-protocol.html"]:
         proc = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                                "--disable-background-networking", "--disable-component-update", "--disable-sync",
                                f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 
 import pytest
@@ -88,4 +89,15 @@ def test_runs_of_other_planners_are_compared_within_their_planner(runs, tmp_path
     index = build_report(tmp_path / "runs", tmp_path / "report").read_text()
     for text in ("2 planners (frenet, time_gap)", "Time per planning call", "time_gap · mujoco/sedan"):
         assert text in index
-    assert (tmp_path / "report" / "scenarios" / "curve_radius-10_angle-90-time_gap.html").exists()
+    scenarios = tmp_path / "report" / "scenarios"
+    assert (scenarios / "curve_radius-10_angle-90-time_gap.html").exists()
+    # one page puts every planner and fidelity of the scenario on shared axes, linked from both planners' pages
+    both = (scenarios / "curve_radius-10_angle-90-all-planners.html").read_text()
+    rows = re.findall(r"<tr><td class=\"text\"><a href='[^']+'>(\w+)</a></td><td class=\"text\">([^<]+)</td>", both)
+    assert sorted(rows) == [("frenet", "ideal"), ("frenet", "mujoco/suv/stanley"), ("time_gap", "ideal"),
+                            ("time_gap", "mujoco/sedan")]
+    for name in ("d_over_s_1.png", "v_over_t_1.png", "paths.png"):
+        assert (tmp_path / "report" / "assets" / "curve_radius-10_angle-90-all-planners" / name).exists()
+    for planner_page in ("curve_radius-10_angle-90.html", "curve_radius-10_angle-90-time_gap.html"):
+        assert "href='curve_radius-10_angle-90-all-planners.html'" in (scenarios / planner_page).read_text()
+    assert "scenarios/curve_radius-10_angle-90-all-planners.html" in index

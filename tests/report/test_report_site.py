@@ -76,6 +76,9 @@ def test_the_report_is_one_folder_of_pages_and_pictures(report):
         if not ref.startswith(("data:", "http")):
             assert (out / ref).exists(), ref
     assert not any("http://" in p.read_text() or "https://" in p.read_text() for p in pages)
+    # every table scrolls sideways in its own box rather than widening the page
+    assert text.count("<table") == text.count("<div class='table-box'><table") > 0
+    assert ".table-box { overflow-x: auto" in (out / "report.css").read_text()
     # a run's 3D video plays in its scenario's page
     videos = [(p, ref) for p in pages for ref in re.findall(r"<video src='([^']+)'", p.read_text())]
     assert [(p.parent.name, Path(ref).name) for p, ref in videos] == [("scenarios", "mujoco-city_scene3d.mp4")]

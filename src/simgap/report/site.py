@@ -3,7 +3,9 @@
 ``index.html`` — what was run, headline numbers per planner and fidelity, heatmaps of the largest
 lateral displacement over the scenario parameters (the planners side by side; hover a cell for its
 values), the runtime table, the time per planning call, outcomes, and the scenarios ranked by their
-largest gap. ``scenarios/NAME.html`` — one page per scenario (and planner, when runs have several): parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
+largest gap. ``scenarios/NAME-all-planners.html`` — a scenario that several planners ran: a row per planner and fidelity,
+and d over s, v over t and the paths of every run on shared axes (each planner against its own ideal run).
+``scenarios/NAME.html`` — one page per scenario (and planner, when runs have several): parameters, outcome and tracking per fidelity, the gaps against the ideal run, d over
 s and v over t (wheel to zoom, drag to pan, double-click to reset) with lane and road edges and every
 event marked, per physical run a timeline of why it parted from its plan (tracking error, steering and
 acceleration requested against achieved, plan latency, sensing error), the paths from above, error
@@ -60,6 +62,8 @@ table.heatmap td { text-align: center; min-width: 3.2em; }
 .side { display: flex; flex-wrap: wrap; gap: 1.5em; align-items: flex-start; }
 .side > div { max-width: 48%; }
 nav { font-size: 0.9em; margin-bottom: 1em; }
+.table-box { overflow-x: auto; max-width: 100%; }   /* a wide table scrolls in its own box, not the page */
+.table-box table { margin: 0.4em 0; }
 """
 
 SCRIPT = """
@@ -123,7 +127,7 @@ def table(rows: Sequence[dict], caption: str = "") -> str:
     head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
     body = "".join("<tr>" + "".join(_cell(r.get(c, "")) for c in cols) + "</tr>" for r in rows)
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
-    return f"<table>{cap}<tr>{head}</tr>{body}</table>"
+    return f"<div class='table-box'><table>{cap}<tr>{head}</tr>{body}</table></div>"
 
 
 def figure(src: str, caption: str, zoom: bool = False, half: bool = False) -> str:
@@ -218,7 +222,8 @@ def heatmap_table(points, xlabel: str, ylabel: str, title: str, links: dict,
     legend = (f"<p>colour scale: <span style='background:{lo_bg};color:{lo_fg};padding:0 6px'>{lo:.2f} {unit}</span> → "
               f"<span style='background:{hi_bg};color:{hi_fg};padding:0 6px'>{hi:.2f} {unit}</span> "
               "(cividis; hover a cell for its value, click it for the scenario)</p>")
-    return f"<h3>{html.escape(title)}</h3><table class='heatmap'>{''.join(rows)}</table>{legend}"
+    return (f"<h3>{html.escape(title)}</h3><div class='table-box'><table class='heatmap'>{''.join(rows)}</table></div>"
+            f"{legend}")
 
 
 # ------------------------------------------------------------------------------ pages
@@ -227,12 +232,16 @@ def _criticality(entry) -> list[dict]:
     return [asdict(c) for c in entry.run.evaluation.criticality]
 
 
-def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
+def _scenario_page(group: ScenarioGroup, out: Path, assets: Path, compared: bool = False) -> Path:
+    """The page of one scenario and planner (``compared``: the scenario has a page comparing its
+    planners, linked from this one)."""
     name = _slug(group.name)
     adir = assets / name
     adir.mkdir(parents=True, exist_ok=True)
     rel = f"../assets/{name}/"
-    body = [f"<p>planner: <b>{html.escape(group.planner)}</b></p>",
+    body = [f"<p>planner: <b>{html.escape(group.planner)}</b>"
+            + (f" (<a href='{_comparison_name(group.scenario_id)}'>every planner on this scenario, on shared axes</a>)"
+               if compared else "") + "</p>",
             "<h2>Parameters</h2>", table([{"parameter": k, "value": v} for k, v in group.parameters.items()]),
             "<h2>Outcome and tracking per fidelity</h2>",
             "<p>Tracking: where each vehicle was against where the plan in force said it would be, in the "
@@ -265,6 +274,70 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path) -> Path:
     if pictures:
         body += ["<h2>Pictures</h2>"] + pictures
     return page(out / "scenarios" / f"{name}.html", f"Scenario {group.name}", body, "../")
+
+
+def _comparison_name(scenario_id: str) -> str:
+    """The file name of the page that compares every planner of a scenario."""
+    return f"{_slug(scenario_id)}-all-planners.html"
+
+
+def _comparison_page(scenario_id: str, groups: list[ScenarioGroup], out: Path, assets: Path) -> Path:
+    """One scenario, every planner and fidelity on shared axes: a row per planner and fidelity, d over
+    s and v over t of every run in one plot per agent, every run's path from above; each planner's
+    gaps are against its own ideal run."""
+    name = _slug(scenario_id) + "-all-planners"
+    adir = assets / name
+    adir.mkdir(parents=True, exist_ok=True)
+    rel = f"../assets/{name}/"
+    runs = {f"{g.planner} · {fidelity}": (g, entry) for g in groups for fidelity, entry in g.runs.items()}
+    rows = []
+    for g in groups:
+        for fidelity, entry in g.runs.items():
+            agents = entry.run.evaluation.agents
+            gaps = g.comparisons.get(fidelity, [])
+            times = [a.time_to_goal_s for a in agents]
+            rows.append({"planner": Raw(f"<a href='{_slug(g.name)}.html'>{html.escape(g.planner)}</a>"),
+                         "fidelity": fidelity,
+                         "outcomes": ", ".join(sorted({a.outcome for a in entry.run.history.agents})),
+                         "time to goal [s]": max(times) if times and None not in times else "—",
+                         "beyond road [m]": max((a.max_road_excursion_m for a in agents), default="—"),
+                         "max |d| against its ideal [m]": max((c.lateral_displacement.max for c in gaps), default="—"),
+                         "rms |d| against its ideal [m]": max((c.lateral_displacement.rms for c in gaps), default="—"),
+                         "wall time [s]": entry.run.history.wall_time_s})
+    body = [f"<p>Every planner's runs of this scenario side by side: {len(groups)} planners "
+            f"({', '.join(html.escape(g.planner) for g in groups)}), each in every fidelity it ran. Each planner's "
+            "gaps are measured against its own ideal run; the plots share their axes, so planners compare by eye. "
+            "Each planner's page (linked in the table) has its scores, timelines and pictures.</p>",
+            "<h2>Per planner and fidelity</h2>", table(rows), "<h2>Plots</h2>"]
+    first = groups[0]
+    for aid in sorted({a.id for g in groups for e in g.runs.values() for a in e.run.history.agents}):
+        frame = _route_frame(first, aid)
+        problem = first.problems.planning_problem_dict.get(aid)
+        if frame is not None:
+            curves = {}
+            for label, (g, e) in runs.items():
+                if aid in e.run.history.driven:
+                    s, d = lateral_profile(e.run.history.driven[aid], frame)
+                    curves[label] = (s[np.argsort(s)], d[np.argsort(s)])
+            events = {label: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})
+                      for label, (g, e) in runs.items()}
+            plot_d_over_s(curves, adir / f"d_over_s_{aid}.png",
+                          f"{scenario_id}, agent {aid}: d over s, every planner and fidelity",
+                          _section_shading(groups, aid),
+                          route_edges(first.scenario.lanelet_network, problem, frame), events)
+            body.append(figure(rel + f"d_over_s_{aid}.png", f"agent {aid}: d over s of every planner and fidelity, "
+                               "lane (dashed) and road (solid) edges, events where they happened", zoom=True,
+                               half=True))
+        trajs = {label: e.run.history.driven[aid] for label, (g, e) in runs.items() if aid in e.run.history.driven}
+        plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{scenario_id}, agent {aid}: v over t, every planner")
+        body.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t of every planner and fidelity",
+                           zoom=True, half=True))
+    plot_paths_from_above(first.scenario, {label: e.run.history for label, (g, e) in runs.items()},
+                          adir / "paths.png", f"{scenario_id}: planned and driven paths of every planner")
+    body.append(figure(rel + "paths.png", "planned (thin, every 10th plan) and driven (thick) paths of every "
+                       "planner and fidelity", zoom=True, half=True))
+    return page(out / "scenarios" / _comparison_name(scenario_id), f"Scenario {scenario_id}, every planner", body,
+                "../")
 
 
 def _outcome_rows(group: ScenarioGroup) -> list[dict]:
@@ -317,8 +390,7 @@ def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir
     curves = {f: lateral_profile(e.run.history.driven[aid], frame) for f, e in group.runs.items()
               if frame is not None and aid in e.run.history.driven}
     if curves:
-        shading = next(((c.s, c.section_along_s) for comps in reversed(list(group.comparisons.values()))
-                        for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
+        shading = _section_shading([group], aid)
         sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
         events = {f: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})
                   for f, e in group.runs.items()}
@@ -331,6 +403,12 @@ def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir
     plot_v_over_t(trajs, adir / f"v_over_t_{aid}.png", f"{group.scenario_id}, agent {aid}: speed v over time t")
     figures.append(figure(rel + f"v_over_t_{aid}.png", f"agent {aid}: v over t per fidelity", zoom=True, half=True))
     return figures
+
+
+def _section_shading(groups: Sequence[ScenarioGroup], aid: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """The road's sections along agent ``aid``'s route (s, kind per s), as a comparison measured them."""
+    return next(((c.s, c.section_along_s) for g in groups for comps in reversed(list(g.comparisons.values()))
+                 for c in reversed(comps) if c.agent_id == aid and c.section_along_s is not None), None)
 
 
 def _agent_timelines(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir: Path, rel: str) -> list[str]:
@@ -428,9 +506,15 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
     assets.mkdir(parents=True, exist_ok=True)
     (out / "report.css").write_text(STYLE)
     (out / "report.js").write_text(SCRIPT)
+    by_scenario: dict[str, list[ScenarioGroup]] = {}
+    for group in groups:
+        by_scenario.setdefault(group.scenario_id, []).append(group)
     for i, group in enumerate(groups):
         say(f"scenario {i + 1}/{len(groups)}: {group.scenario_id}")
-        _scenario_page(group, out, assets)
+        _scenario_page(group, out, assets, compared=len(by_scenario[group.scenario_id]) > 1)
+    for scenario_id, mine in by_scenario.items():
+        if len(mine) > 1:
+            _comparison_page(scenario_id, mine, out, assets)
 
     fidelities = sorted({f for g in groups for f in g.runs}, key=lambda f: (f != REFERENCE, f))
     planners = sorted({g.planner for g in groups}, key=lambda p: (p != DEFAULT_PLANNER, p))
@@ -469,6 +553,10 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
         outcome_rows.append({"planner": v[0], "fidelity": v[1]} | dict(sorted(counts.items())))
     body += ["<h2>Outcomes (agents)</h2>", table(outcome_rows),
              "<h2>Scenarios, largest gap first</h2>", table(_ranking_rows(groups, params))]
+    compared = [sid for sid, mine in by_scenario.items() if len(mine) > 1]
+    if compared:
+        body.append("<p>Every planner of a scenario on shared axes: " + ", ".join(
+            f"<a href='scenarios/{_comparison_name(sid)}'>{html.escape(sid)}</a>" for sid in compared) + ".</p>")
     if store_rows is not None:
         body += _store_section(store_rows)
     page(out / "index.html", "simgap report", body, "")
