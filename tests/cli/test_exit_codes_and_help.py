@@ -105,3 +105,26 @@ def test_simgap_run_help_in_an_80_column_terminal_names_its_longest_option():
     proc = subprocess.run([sys.executable, "-m", "simgap", "run", "--help"], capture_output=True, text=True,
                           timeout=120, env=dict(os.environ, COLUMNS="80"))
     assert proc.returncode == 0 and "--planner-startup-timeout <float>" in proc.stdout and "…" not in proc.stdout
+
+
+def test_experiment_run_and_search_fail_on_an_outcome_of_any_of_their_runs(off_the_curve, tmp_path):
+    _, planner = off_the_curve
+    spec = tmp_path / "offroad.yaml"
+    spec.write_text(f"name: offroad\nlogical: curve\nparameters:\n  radius: {{values: [10]}}\n  angle: {{values: [90]}}\n"
+                    f"sampler: {{kind: grid}}\nfidelities:\n  - backend: ideal\n"
+                    f"planners:\n  - {{planner: '{planner}', label: straight}}\n")
+    out = tmp_path / "experiment"
+    first = simgap("experiment", "run", str(spec), "--out", str(out), "--workers", "1", "--no-report",
+                   "--no-validate", "--fail-on", "off_road")
+    assert first.returncode == ExitCode.CHECK_FAILED, first.stdout + first.stderr
+    assert "check failed: curve_radius-10_angle-90/ideal/straight ended off_road (--fail-on)" in first.stdout
+    again = simgap("experiment", "run", str(spec), "--out", str(out), "--no-report", "--min-score", "0")
+    assert again.returncode == ExitCode.OK and "0 ran now" in again.stdout, again.stdout + again.stderr
+    search = tmp_path / "search.yaml"
+    search.write_text(f"name: offroad\nlogical: curve\nparameters: {{radius: {{min: 10, max: 12}}}}\n"
+                      f"planners: [{{planner: '{planner}', label: straight}}]\nladder: [{{backend: ideal}}, "
+                      f"{{backend: dynamic}}]\nstrategies: [random]\n")
+    found = simgap("search", str(search), "--budget", "1", "--out", str(tmp_path / "s"), "--workers", "1",
+                   "--probe-runs", "0", "--no-report", "--no-validate", "--fail-on", "collision,off_road")
+    assert found.returncode == ExitCode.CHECK_FAILED, found.stdout + found.stderr
+    assert "check failed: random " in found.stdout and "ended off_road (--fail-on)" in found.stdout
