@@ -31,6 +31,7 @@ from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, p
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.planning.remote import ProcessLimits
 from simgap.record import RunRecord
+from simgap.scenario.placement import GOAL_FORMS, START_FORMS, AgentPlacement
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
@@ -41,8 +42,12 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
 
 @app.command(epilog=EXIT_CODES_HELP)
 def run(
-    scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
+    scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent), or "
+                                    "any CommonRoad map with --start and --goal (simgap maps lists real ones)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write", callback=writable_directory),
+    start: Optional[str] = typer.Option(None, "--start", help="one agent on the map, in place of its planning "
+                                        "problems, starting at " + START_FORMS),
+    goal: Optional[str] = typer.Option(None, "--goal", help="with --start: the agent's goal, " + GOAL_FORMS),
     backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
@@ -112,6 +117,7 @@ def run(
      --backend mujoco --realism ideal)
     (a planner in its own interpreter:
      --planner 'exec:venv/bin/python my_server.py'; guarded: --isolate)
+    (any map: simgap run MAP.xml --start 10,2 --goal 80,-3,4 --out runs/map)
     (in CI: --fail-on off_road,collision --min-score 0.5 exits 1 when an agent
      ends so or scores less)
     """
@@ -119,6 +125,7 @@ def run(
         raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
                          allowed="a finite number of seconds > 0")
     check = OutcomeCheck.of_options(fail_on, min_score)
+    placement = AgentPlacement.of_options(start, goal)
     physical = {"realism": realism, "controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
@@ -137,7 +144,7 @@ def run(
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
-                         seed=seed, validate=not no_validate, run_timeout_s=run_timeout)
+                         seed=seed, validate=not no_validate, run_timeout_s=run_timeout, placement=placement)
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
     _execute(request, out, as_json, check)
