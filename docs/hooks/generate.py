@@ -175,7 +175,7 @@ def cli_reference() -> str:
     from simgap.cli.exit_codes import MEANINGS
 
     blocks = ["## Exit codes", "", "Every command exits with one of these:", "",
-              *(f"- `{int(code)}` ({code.name.lower().replace('_', ' ')}): {_cell(text)}" for code, text in MEANINGS.items()),
+              *(f"- `{int(code)}`: {_cell(text)}" for code, text in MEANINGS.items()),
               ""]
     for path, command in cli_commands(cli_app()):
         ctx = command.context_class(command, info_name=path)

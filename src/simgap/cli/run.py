@@ -119,7 +119,7 @@ def run(
      --planner 'exec:venv/bin/python my_server.py'; guarded: --isolate)
     (any map: simgap run MAP.xml --start 10,2 --goal 80,-3,4 --out runs/map)
     (in CI: --fail-on off_road,collision --min-score 0.5 exits 1 when an agent
-     ends so or scores less)
+     leaves the road, collides or scores below 0.5)
     """
     if not (math.isfinite(run_timeout) and run_timeout > 0):
         raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
