@@ -35,8 +35,11 @@ def test_maps_lists_every_installed_map_and_a_start_and_goal_that_drive_one_to_i
     listed = simgap("maps")
     assert listed.returncode == 0, listed.stderr
     assert all(p.stem in listed.stdout for p in map_files()) and f"{len(map_files())} maps" in listed.stdout
-    row = next(line for line in listed.stdout.splitlines() if f" {MAP} " in line)
-    start, goal = re.search(r"--start (\S+) --goal (\S+)", row).groups()
+    lines = listed.stdout.splitlines()
+    at = next(i for i, line in enumerate(lines) if f" {MAP} " in line)       # its row: two lines
+    start = re.search(r"--start (\S+)", lines[at]).group(1)
+    goal = re.search(r"--goal (\S+)", lines[at + 1]).group(1)
+    assert "drive one: simgap run " in listed.stdout
     out = tmp_path / "run"
     drove = simgap("run", str(real_map), "--start", start, "--goal", goal, "--out", str(out), "--no-validate",
                    "--json", "--fail-on", "off_road,collision,timeout")

@@ -31,21 +31,22 @@ def maps_cmd() -> None:
         return
     started = time.perf_counter()
     table = Table(title=f"real maps in {maps_dir()}", title_justify="left")
-    for col in ("map", "lanelets", "x [m]", "y [m]", "a start and a goal"):
-        table.add_column(escape(col), justify="right" if col == "lanelets" else "left", no_wrap=col != "map")
+    for col in ("map", "extent [m]", "a start and a goal"):
+        table.add_column(escape(col), no_wrap=True)
     first = None
     for path in files:
         network = load_map(path).lanelet_network
-        corners = [v for lanelet in network.lanelets for v in (lanelet.left_vertices, lanelet.right_vertices)]
-        xs = [float(p[0]) for vs in corners for p in vs]
-        ys = [float(p[1]) for vs in corners for p in vs]
+        xs = [float(p[0]) for lanelet in network.lanelets for vs in (lanelet.left_vertices, lanelet.right_vertices)
+              for p in vs]
+        ys = [float(p[1]) for lanelet in network.lanelets for vs in (lanelet.left_vertices, lanelet.right_vertices)
+              for p in vs]
         places = example_places(network)
         example = "—" if places is None else \
-            f"--start {places[0][0]:.1f},{places[0][1]:.1f} --goal {places[1][0]:.1f},{places[1][1]:.1f}"
+            f"--start {places[0][0]:.1f},{places[0][1]:.1f}\n--goal {places[1][0]:.1f},{places[1][1]:.1f}"
         if first is None and places is not None:
-            first = (path, example)
-        table.add_row(path.stem, str(len(network.lanelets)), f"{min(xs):.0f} … {max(xs):.0f}" if xs else "—",
-                      f"{min(ys):.0f} … {max(ys):.0f}" if ys else "—", example)
+            first = (path, example.replace("\n", " "))
+        table.add_row(f"{path.stem}\n{len(network.lanelets)} lanelets",
+                      f"x {min(xs):.0f} … {max(xs):.0f}\ny {min(ys):.0f} … {max(ys):.0f}" if xs else "—", example)
     console.print(table)
     console.print(f"{len(files)} maps ({time.perf_counter() - started:.1f} s); lanelet networks of the "
                   f"{MAPS_PACKAGE.split('==')[0]} package (BSD-3-Clause)")
