@@ -49,7 +49,10 @@ def run_cmd(
     """Generate the scenarios, run every combination, store the results, build the report.
 
     Running it again on the same --out resumes: finished runs are kept, runs that were cut off
-    are run again (--fail-on and --min-score check every run, earlier ones too). Example:
+    are run again (--fail-on and --min-score check every run, earlier ones too).
+
+    \b
+    Example:
     simgap experiment run paper-curves --out studies/paper --workers 2
     """
     from simgap.experiment.runner import run_experiment

@@ -46,7 +46,10 @@ def search_cmd(
 
     --budget is the whole search's: each strategy gets an equal share. Running it again on the
     same --out resumes each strategy where it stopped, with the share it has left (give a larger
-    --budget to go on). Example:
+    --budget to go on).
+
+    \b
+    Example:
     simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
     """
     from simgap.experiment.search import parse_budget, run_search
