@@ -1631,6 +1631,41 @@ def _(folder: Path, stock: Stock) -> Outcome:
     return _no_recording(expect_refusal(p, "--ideal", "same scenario"), folder, p)
 
 
+# --- round 5, h4-cli-day: CI checks (--fail-on, --min-score), agents placed by --start/--goal, the search's budget
+
+ROUND5_CLI_DAY = [  # name, issue-53 item, arguments after `simgap run SCENARIO --no-validate`, what the line names
+    ("run-fail-on-unknown-outcome", 3, ["--fail-on", "off_road,crash"], ("fail-on", "off_road")),
+    ("run-fail-on-empty", 3, ["--fail-on", ","], ("fail-on", "goal_reached")),
+    ("run-min-score-above-one", 3, ["--min-score", "2"], ("min-score", "0 to 1")),
+    ("run-start-off-the-map", 2, ["--start", "1e6,0", "--goal", "10,0"], ("--start", "no driving lane")),
+    ("run-goal-without-start", 2, ["--goal", "10,0"], ("--start",)),
+    ("run-start-nan", 2, ["--start", "nan,0", "--goal", "10,0"], ("--start", "finite")),
+    ("run-goal-radius-negative", 2, ["--start", "10,-1.5", "--goal", "40,-1.5,-3"], ("--goal", "radius")),
+]
+
+
+def _round5_run_refused(arguments: list[str], names: tuple[str, ...]):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        p = simgap("run", stock.scenario, "--no-validate", *arguments, "--out", folder / "r", cwd=folder)
+        if (folder / "r").exists():
+            return Outcome(LOSS, "a run directory was written for a refused run", p.stderr, p.seconds)
+        return expect_refusal(p, *names)
+    return run
+
+
+for _name, _item, _arguments, _names in ROUND5_CLI_DAY:
+    case(_name, _item)(_round5_run_refused(_arguments, _names))
+
+
+@case("search-budget-below-its-strategies", 6)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "search.yaml").write_text(
+        "name: t\nlogical: curve\nparameters: {radius: {min: 10, max: 50}}\n"
+        "ladder: [{backend: ideal}, {backend: dynamic}]\nstrategies: [grid, random, lhs]\n")
+    return expect_refusal(simgap("search", folder / "search.yaml", "--budget", "2", "--out", folder / "s",
+                                 "--no-report", cwd=folder, timeout=60), "budget", "3 strategies")
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import yaml
 
-from simgap.experiment.search import parse_budget, run_search
+from simgap.experiment.search import Budget, parse_budget, run_search
 from simgap.experiment.search.results import StrategyResult
 from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.store import ResultsStore
@@ -35,6 +35,14 @@ from simgap.files import BenchmarkResults
 PHASES = ("job_time_s", "wall_time_s", "time_planning_s", "time_control_s", "time_physics_s", "time_monitoring_s")
 FOUND = (("distinct violations", lambda r: r.distinct), ("failing scenarios", lambda r: r.scenarios),
          ("failure modes", lambda r: r.probed_modes))
+
+
+def _total(per_strategy: Budget, strategies: list[str]) -> Budget:
+    """The search's budget that gives each of ``strategies`` ``per_strategy`` (`simgap search`
+    shares its budget evenly among them)."""
+    n = len(strategies)
+    return Budget(seconds=per_strategy.seconds * n) if per_strategy.seconds is not None \
+        else Budget(runs=(per_strategy.runs or 0) * n)
 
 
 def seeded_spec(spec: str, seed: int, folder: Path) -> Path:
@@ -119,8 +127,9 @@ def main() -> None:
     for seed in range(args.seeds):
         out = args.out / f"seed-{seed}"
         spec = seeded_spec(args.spec, seed, args.out / "specs" / f"seed-{seed}")
-        results = run_search(spec, out, parse_budget(args.budget), args.workers, strategies=args.strategy,
-                             probe_runs=args.probe_runs)
+        results = run_search(spec, out, _total(parse_budget(args.budget), args.strategy or
+                                               list(load_search_spec(spec).spec.strategies)),
+                             args.workers, strategies=args.strategy, probe_runs=args.probe_runs)
         print(f"\nseed {seed}: budget {args.budget} per strategy, {args.workers} workers, {args.probe_runs} probe runs; "
               f"{time.perf_counter() - start:.0f} s so far\n")
         print_seed(out, results)

@@ -178,11 +178,15 @@ def cli_commands(group: Any, path: str = "simgap") -> list[tuple[str, Any]]:
 
 
 def cli_reference() -> str:
-    blocks = []
+    from simgap.cli.exit_codes import MEANINGS
+
+    blocks = ["## Exit codes", "", "Every command exits with one of these:", "",
+              *(f"- `{int(code)}`: {_cell(text)}" for code, text in MEANINGS.items()),
+              ""]
     for path, command in cli_commands(cli_app()):
         ctx = command.context_class(command, info_name=path)
         usage = re.sub(r"\{(\w+)\}", lambda m: m.group(1).upper(), " ".join(command.collect_usage_pieces(ctx)))
-        blocks += [f"## `{path}`", "", f"```\n{path} {usage}\n```", "", (command.help or "").strip(), ""]
+        blocks += [f"## `{path}`", "", f"```\n{path} {usage}\n```", "", (command.help or "").replace("\b\n", "").strip(), ""]
         params = [p for p in command.params if p.name != "help"]
         if params and not hasattr(command, "commands"):
             blocks += ["| argument or option | type | default | meaning |", "|---|---|---|---|"]

@@ -1,6 +1,6 @@
 """`simgap NAME` imports only NAME's module: the map from command names to modules is whole, and a
 command registered alone is still called by its name; a machine that fails the command (a full
-disk) is one line, not a traceback."""
+disk) or a bug is one line, not a traceback, and exit 3."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def test_a_command_registered_alone_is_still_called_by_its_name_and_help_lists_e
 
 @pytest.mark.parametrize("code, words", [(errno.ENOSPC, "no space left on the device"),
                                          (errno.EROFS, "the file system is read-only")])
-def test_a_full_disk_is_one_line_and_exit_1(monkeypatch, capsys, code, words):
+def test_a_full_disk_is_one_line_and_exit_3(monkeypatch, capsys, code, words):
     from simgap.cli import main as entry
 
     def full(*args, **kwargs):
@@ -47,18 +47,27 @@ def test_a_full_disk_is_one_line_and_exit_1(monkeypatch, capsys, code, words):
     monkeypatch.setattr(entry, "_register", lambda argv: None)
     with pytest.raises(SystemExit) as ended:
         entry.main()
-    assert ended.value.code == 1
+    assert ended.value.code == 3
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and words in err and "/runs/r1/run.json" in err and "Traceback" not in err
 
 
-def test_other_os_errors_are_not_hidden(monkeypatch):
+@pytest.mark.parametrize("error", [OSError(errno.EIO, "I/O error"), KeyError("lanelet 7")])
+def test_an_unexpected_error_is_one_line_exit_3_and_its_traceback_in_a_file(monkeypatch, capsys, tmp_path, error):
     from simgap.cli import main as entry
 
     def broken(*args, **kwargs):
-        raise OSError(errno.EIO, "I/O error")
+        raise error
 
     monkeypatch.setattr(entry, "app", broken)
     monkeypatch.setattr(entry, "_register", lambda argv: None)
-    with pytest.raises(OSError):
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    monkeypatch.setattr("tempfile.tempdir", None)          # TMPDIR is read again
+    with pytest.raises(SystemExit) as ended:
         entry.main()
+    assert ended.value.code == 3
+    err = capsys.readouterr().err
+    (written,) = tmp_path.glob("simgap-traceback-*.txt")
+    assert err.count("\n") == 1 and f"internal error: {type(error).__name__}" in err and str(written) in err
+    assert "Traceback" not in err and "Traceback (most recent call last)" in written.read_text()
+    assert "in broken" in written.read_text()

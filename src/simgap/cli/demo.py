@@ -11,6 +11,7 @@ from pathlib import Path
 import typer
 
 from simgap.cli.console import output_console
+from simgap.cli.exit_codes import ExitCode
 from simgap.cli.main import app
 from simgap.files import writable_directory
 
@@ -55,7 +56,7 @@ def demo(out: Path = typer.Option(Path("simgap-demo"), "--out", "-o", help="wher
     if report is not None:
         console.print(f"report: [bold]{report.resolve()}[/bold]")
     if result.failed or report is None:
-        raise typer.Exit(1)
+        raise typer.Exit(ExitCode.CHECK_FAILED)
 
 
 def _draw(out: Path, say) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
 from rich.console import Console
@@ -14,17 +14,22 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from simgap.cli.console import output_console
+from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.evaluate.odds import Odds
+from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
 
+if TYPE_CHECKING:
+    from simgap.experiment.run_row import RunRow
+
 experiment_app = typer.Typer(help="Experiments: many scenarios x vehicles x fidelities, resumable.",
-                             no_args_is_help=True)
+                             no_args_is_help=True, rich_markup_mode=None)
 app.add_typer(experiment_app, name="experiment")
 
 
-@experiment_app.command("run")
+@experiment_app.command("run", epilog=EXIT_CODES_HELP)
 def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
     out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)",
@@ -37,15 +42,23 @@ def run_cmd(
     retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
+    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (a stored run's outcome is its "
+                                          "first agent's that missed its goal)"),
+    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
 ) -> None:
     """Generate the scenarios, run every combination, store the results, build the report.
 
     Running it again on the same --out resumes: finished runs are kept, runs that were cut off
-    are run again. Example: simgap experiment run paper-curves --out studies/paper --workers 2
+    are run again (--fail-on and --min-score check every run, earlier ones too).
+
+    \b
+    Example:
+    simgap experiment run paper-curves --out studies/paper --workers 2
     """
     from simgap.experiment.runner import run_experiment
     from simgap.report.site import build_experiment_report
 
+    check = OutcomeCheck.of_options(fail_on, min_score)
     console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
@@ -76,6 +89,15 @@ def run_cmd(
                   f"(simgap experiment query {out} \"SELECT ...\")")
     if report:
         console.print(f"report: [bold]{report}[/bold]")
+    if check.asked:
+        from simgap.experiment.store import ResultsStore
+
+        exit_on_failures(console, check.failures([stored_run(row) for row in ResultsStore(out).run_rows()]))
+
+
+def stored_run(row: RunRow) -> CheckedRun:
+    """A stored run as the checks see it."""
+    return CheckedRun(row.id.key, row.outcome, row.score)
 
 
 def print_odds(console: Console, odds: list[Odds]) -> None:

@@ -5,26 +5,32 @@ from __future__ import annotations
 import errno
 import faulthandler
 import importlib
+import os
 import sys
+import tempfile
+import traceback
 
 import typer
 
+from simgap.cli.exit_codes import EXIT_CODES_HELP, ExitCode
 from simgap.errors import InputError
 
 app = typer.Typer(
     name="simgap",
     help="Validate a motion planner across simulation fidelities: generate scenarios, "
     "run them in a 2D and a 3D world, compare, and find where they part.",
+    epilog=EXIT_CODES_HELP,
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,          # click's help: an option's name is never cut, at any width
 )
 
 
 # the module that registers each command: a run imports only the one asked for (the commands'
 # modules together take about 2.5 s to import); no command, --help or an unknown name import all
 COMMANDS = {"compare": "compare", "demo": "demo", "experiment": "experiment", "export": "export",
-            "generate": "generate", "planners": "planners", "render": "render", "replay": "replay",
+            "generate": "generate", "maps": "maps", "planners": "planners", "render": "render", "replay": "replay",
             "report": "report", "run": "run", "search": "search", "search-status": "search", "vehicles": "vehicles"}
 
 
@@ -46,18 +52,37 @@ def main() -> None:
         app()
     except InputError as err:
         typer.secho(f"error: {err.describe()}", err=True, fg="red")
-        sys.exit(2)
+        sys.exit(ExitCode.BAD_INPUT)
     except OSError as err:
         if err.errno not in ENVIRONMENT_ERRORS:
-            raise
+            _internal_failure(err)
         where = f" writing {err.filename}" if err.filename else ""
         typer.secho(f"error: {ENVIRONMENT_ERRORS[err.errno]}{where}; nothing half-written was kept: free the space "
                     "or choose another --out, then run the command again", err=True, fg="red")
-        sys.exit(1)
+        sys.exit(ExitCode.INTERNAL_FAILURE)
+    except Exception as err:        # a bug of simgap's (or of a library's): one line, not a traceback
+        _internal_failure(err)
 
 
-# failures of the machine, not of the input: one line and exit 1 (what was being written is cleaned up
-# by the atomic writes of `simgap.files`)
+# failures of the machine, not of the input: one line (what was being written is cleaned up by the
+# atomic writes of `simgap.files`)
 ENVIRONMENT_ERRORS = {errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
                       errno.EROFS: "the file system is read-only"}
 
+
+def _internal_failure(err: BaseException) -> None:
+    """Say in one line that simgap failed and where its traceback is (a file in the temporary
+    folder, for a bug report), and exit with `ExitCode.INTERNAL_FAILURE`."""
+    text = "".join(traceback.format_exception(err))
+    try:
+        handle, path = tempfile.mkstemp(prefix="simgap-traceback-", suffix=".txt")
+        with os.fdopen(handle, "w") as fh:
+            fh.write(f"simgap {' '.join(sys.argv[1:])}\n\n{text}")
+        where = f"its traceback is in {path}"
+    except OSError as unwritten:
+        sys.stderr.write(text)
+        where = f"its traceback is above (it could not be written to a file: {unwritten.strerror})"
+    message = " ".join(str(err).split())
+    typer.secho(f"internal error: {type(err).__name__}{': ' * bool(message)}{message}; {where} (please report it)",
+                err=True, fg="red")
+    sys.exit(ExitCode.INTERNAL_FAILURE)

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from simgap.cli.console import output_console
+from simgap.cli.exit_codes import ExitCode
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, refuse
 from simgap.files import writable_directory
@@ -53,4 +54,4 @@ def replay(
                           f"{result.original.fingerprint} ({result.original.history.outcome} -> "
                           f"{result.replayed.history.outcome}{where})")
     if not result.reproduced:
-        raise typer.Exit(1)
+        raise typer.Exit(ExitCode.CHECK_FAILED)

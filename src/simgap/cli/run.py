@@ -15,6 +15,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.console import output_console
+from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, CosimSettings, Outcome
@@ -22,6 +23,7 @@ from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.cosim.loop import MAX_SIMULATED_TIME_S
 from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
+from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
@@ -29,6 +31,7 @@ from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, p
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.planning.remote import ProcessLimits
 from simgap.record import RunRecord
+from simgap.scenario.placement import GOAL_FORMS, START_FORMS, AgentPlacement
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings, preflight
 from simgap.vehicles import DEFAULT_VEHICLE
@@ -37,10 +40,14 @@ KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
     f"{k.name} [{k.unit}] {k.low:g} to {k.high:g} ({', '.join(k.backends)})" for k in KNOBS.values())
 
 
-@app.command()
+@app.command(epilog=EXIT_CODES_HELP)
 def run(
-    scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent)"),
+    scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent), or "
+                                    "any CommonRoad map with --start and --goal (simgap maps lists real ones)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write", callback=writable_directory),
+    start: Optional[str] = typer.Option(None, "--start", help="one agent on the map, in place of its planning "
+                                        "problems, starting at " + START_FORMS),
+    goal: Optional[str] = typer.Option(None, "--goal", help="with --start: the agent's goal, " + GOAL_FORMS),
     backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
     backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
@@ -91,21 +98,34 @@ def run(
                              "the same seed, scenario and settings drive the same run"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
                                      "part of scoring: feasibility state by state) for quick loops"),
+    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + ", e.g. off_road,collision"),
+    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
                                    "backend, vehicle or planner)"),
 ) -> None:
     """Run a scenario and print a per-agent summary.
 
-    Example: simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
-    (your planner: --planner my_planner.py:MyPlanner; a planner per agent: --planner 1=frenet,2=my_planner)
-    (on snow, with a later steering than the car's: --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.3)
-    (the perfect machine of the ideal world's assumptions, in 3D: --backend mujoco --realism ideal)
-    (a planner in its own interpreter: --planner 'exec:venv/bin/python my_server.py'; guarded: --isolate)
+    \b
+    Example:
+    simgap run curve_radius-10_angle-90.xml --backend ideal --out runs/c10
+    (your planner: --planner my_planner.py:MyPlanner;
+     a planner per agent: --planner 1=frenet,2=my_planner)
+    (on snow, with a later steering than the car's:
+     --backend mujoco --knob road_friction=0.3 --knob steer_delay=0.3)
+    (the perfect machine of the ideal world's assumptions, in 3D:
+     --backend mujoco --realism ideal)
+    (a planner in its own interpreter:
+     --planner 'exec:venv/bin/python my_server.py'; guarded: --isolate)
+    (any map: simgap run MAP.xml --start 10,2 --goal 80,-3,4 --out runs/map)
+    (in CI: --fail-on off_road,collision --min-score 0.5 exits 1 when an agent
+     leaves the road, collides or scores below 0.5)
     """
     if not (math.isfinite(run_timeout) and run_timeout > 0):
         raise InputError(f"{run_timeout:g} s is no wall-time limit", field="run-timeout",
                          allowed="a finite number of seconds > 0")
+    check = OutcomeCheck.of_options(fail_on, min_score)
+    placement = AgentPlacement.of_options(start, goal)
     physical = {"realism": realism, "controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_settings, knob_cosim = _knobs(knobs or [], backend)
@@ -124,10 +144,10 @@ def run(
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
-                         seed=seed, validate=not no_validate, run_timeout_s=run_timeout)
+                         seed=seed, validate=not no_validate, run_timeout_s=run_timeout, placement=placement)
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
-    _execute(request, out, as_json)
+    _execute(request, out, as_json, check)
 
 
 def _settings(backend: str, options: dict, backend_config: Path | None, knob_settings: dict) -> BaseModel:
@@ -146,13 +166,13 @@ def _settings(backend: str, options: dict, backend_config: Path | None, knob_set
     return backend_settings(backend, options | knob_settings, file=backend_config)
 
 
-def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
-    """Run ``request`` into ``out`` and print its summary (as a table, or JSON)."""
+def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck = OutcomeCheck()) -> None:
+    """Run ``request`` into ``out`` and print its summary (as a table, or JSON); exit
+    `simgap.cli.exit_codes.ExitCode.CHECK_FAILED` if the run failed or ``check`` fails."""
     if as_json:
         result = execute(request, out)
         typer.echo(json.dumps(result.summary(), indent=2))
-        if result.failure:
-            raise typer.Exit(1)
+        _exit_on_failures(result, check, output_console(stderr=True))
         return
     console = output_console()
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
@@ -161,8 +181,13 @@ def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
-    if result.failure:
-        raise typer.Exit(1)
+    _exit_on_failures(result, check, console)
+
+
+def _exit_on_failures(result: RunRecord, check: OutcomeCheck, console: Console) -> None:
+    """Exit `simgap.cli.exit_codes.ExitCode.CHECK_FAILED` if an agent fails ``check`` (saying which) or the run failed."""
+    exit_on_failures(console, check.failures([CheckedRun(f"agent {a.id}", a.history.outcome, a.evaluation.score)
+                                              for a in result.agents]), run_failed=bool(result.failure))
 
 
 def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:

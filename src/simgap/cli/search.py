@@ -1,5 +1,5 @@
 """`simgap search`: look for scenarios that pass in the ideal world and fail in a higher fidelity,
-with each strategy of the spec on the same budget; resumable."""
+the strategies of the spec on equal shares of the budget; resumable."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from simgap.cli.console import output_console
+from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
+from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
 
@@ -21,10 +23,11 @@ from simgap.files import writable_directory
 CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default (`simgap.experiment.search.confirmation`)
 
 
-@app.command("search")
+@app.command("search", epilog=EXIT_CODES_HELP)
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
-    budget: str = typer.Option(..., "--budget", "-b", help="per strategy: wall clock (20m, 90s, 1h) or runs (200)"),
+    budget: str = typer.Option(..., "--budget", "-b", help="the search's total, shared evenly among its strategies: wall clock "
+                        "(20m, 90s, 1h) or runs (200); the probe runs come on top"),
     out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)",
                              callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
@@ -41,11 +44,18 @@ def search_cmd(
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
+    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (in any rung of the search; a "
+                                          "stored run's outcome is its first agent's that missed its goal)"),
+    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP + " (in any rung)"),
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
 
-    Running it again on the same --out resumes each strategy where it stopped, with the budget
-    it has left (give a larger --budget to go on). Example:
+    --budget is the whole search's: each strategy gets an equal share. Running it again on the
+    same --out resumes each strategy where it stopped, with the share it has left (give a larger
+    --budget to go on).
+
+    \b
+    Example:
     simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
     """
     from simgap.experiment.search import parse_budget, run_search
@@ -53,6 +63,7 @@ def search_cmd(
     from simgap.report.search_page import build_search_report
 
     limit = parse_budget(budget)
+    check = OutcomeCheck.of_options(fail_on, min_score)
     console = output_console()
     bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                    TimeElapsedColumn(), console=console)
@@ -60,10 +71,10 @@ def search_cmd(
 
     def show(p) -> None:
         bar.start()                     # on the first progress: an error before it shows no bar
-        if p.strategy not in tasks:
-            total = limit.seconds if limit.seconds is not None else limit.runs
+        if p.strategy not in tasks:          # its share of the budget
+            total = p.budget.seconds if p.budget.seconds is not None else p.budget.runs
             tasks[p.strategy] = bar.add_task(p.strategy, total=total, counts="")
-        done = p.elapsed_s if limit.seconds is not None else p.runs
+        done = p.elapsed_s if p.budget.seconds is not None else p.runs
         bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
                    counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
@@ -77,6 +88,12 @@ def search_cmd(
     _print_findings(console, results)
     if not no_report:
         console.print(f"report: [bold]{build_search_report(search_results(out))}[/bold]")
+    if check.asked:
+        from simgap.experiment.search.rows import read_search_rows
+
+        exit_on_failures(console, check.failures([
+            CheckedRun(f"{r.name} {row.run.id.key}", row.run.outcome, row.run.score)
+            for r in results for row in read_search_rows(out / r.name) if row.ideal_of is None]))
 
 
 def _print(console: Console, results) -> None:

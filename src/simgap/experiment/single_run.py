@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
+import tempfile
 import time
+import warnings
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, PlannerError, not_started, simulate
@@ -36,6 +40,7 @@ from simgap.scenario.sections import RoadSections
 from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
+from simgap.scenario.placement import AgentPlacement
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, Vehicle, load_vehicle
@@ -66,6 +71,8 @@ class RunRequest:
     criticality: bool = True                   # evaluate the criticality of agent pairs (commonroad-crime; slow)
     replayed_latencies: Mapping[int, tuple[float, ...]] | None = None   # a record's plan latencies, which
                                                # replace the measured ones (`simgap.experiment.replay`)
+    placement: AgentPlacement | None = None    # one agent from a start to a goal, in place of the scenario's
+                                               # planning problems (a map without any: --start and --goal)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -153,7 +160,22 @@ def _check_agents_assigned_exist(request: RunRequest, agent_ids: list[int]) -> N
 def execute(request: RunRequest, out: Path | None = None,
             progress: Callable[[float], None] | None = None) -> RunRecord:
     """Run ``request`` — simulate, evaluate, record — and write the run directory to ``out`` when given."""
-    scenario, problems = load_scenario(request.scenario)
+    scenario, problems = load_scenario(request.scenario, needs_problems=request.placement is None)
+    if request.placement is None:
+        return _execute(request, scenario, problems, Path(request.scenario), out, progress)
+    problems = request.placement.planning_problems(scenario)
+    with tempfile.TemporaryDirectory(prefix="simgap-placed-") as tmp:     # the scenario the solution is checked in
+        placed = Path(tmp) / Path(request.scenario).name
+        with warnings.catch_warnings():       # a map's sign of a country commonroad-io does not know: said on reading
+            warnings.simplefilter("ignore")
+            placed.write_text(scenario_xml(scenario, problems))
+        return _execute(request, scenario, problems, placed, out, progress)
+
+
+def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemSet, scenario_file: Path,
+             out: Path | None, progress: Callable[[float], None] | None) -> RunRecord:
+    """`execute` on the scenario and planning problems ``request`` names, read (``scenario_file``:
+    a file that holds both, for the solution's checks)."""
     _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
     scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
@@ -164,6 +186,8 @@ def execute(request: RunRequest, out: Path | None = None,
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     meta = read_metadata(request.scenario)
+    if request.placement is not None:
+        meta = meta | {"parameters": meta.get("parameters", {}) | request.placement.parameters()}
     relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
     planners, errors, planner_records = {}, [], {}
     out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
@@ -207,7 +231,7 @@ def execute(request: RunRequest, out: Path | None = None,
         planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
         versions=software_versions())
     context = EvaluationContext(scenario, problems, request.cosim, road_friction(request.backend_settings),
-                                planner_vehicle, relief, Path(request.scenario))
+                                planner_vehicle, relief, scenario_file)
     clock = time.perf_counter()
     evaluation = evaluate(history, context)
     timings = {"scoring": time.perf_counter() - clock}

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import errno
 import json
+import logging
 import math
 import os
 import tempfile
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 from xml.etree import ElementTree
 
 from commonroad.common.file_reader import CommonRoadFileReader
@@ -38,6 +40,21 @@ def _format_version(path: Path) -> str | None:
     except (ElementTree.ParseError, StopIteration):
         return None
     return root.get("commonRoadVersion")
+
+
+@contextmanager
+def quiet_reader() -> Iterator[None]:
+    """Read CommonRoad files without commonroad-io's warnings (a traffic sign of a country it does not
+    know read as an unknown sign: nothing a user can act on, and nothing simgap reads)."""
+    reader_log = logging.getLogger("commonroad.common.reader.file_reader_xml")
+    level = reader_log.level
+    reader_log.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        reader_log.setLevel(level)
 
 
 def write_xml(scenario: Scenario, problems: PlanningProblemSet, path: Path, source: str = "simgap") -> None:
@@ -90,8 +107,7 @@ def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenar
         raise InputError(f"CommonRoad format {version}, which commonroad-io 2024.3 does not read", file=path,
                          field="commonRoadVersion", allowed=f"{' or '.join(READ_FORMATS)}; convert older files first")
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with quiet_reader():
             scenario, problems = CommonRoadFileReader(str(path)).open()
     except Exception as exc:  # the reader raises many kinds on malformed input
         raise InputError(f"not a readable CommonRoad scenario ({type(exc).__name__}: {exc})".strip(),
@@ -101,7 +117,9 @@ def load_scenario(path: str | Path, needs_problems: bool = True) -> tuple[Scenar
     _check_obstacles_are_placed(scenario, path)
     if needs_problems and (problems is None or not problems.planning_problem_dict):
         raise InputError("the scenario has no planning problems, so there is no agent to run",
-                         file=path, field="planningProblem", allowed="one or more planning problems")
+                         file=path, field="planningProblem",
+                         allowed="one or more planning problems; simgap run places one agent on any map with "
+                                 "--start X,Y --goal X,Y")
     if problems is not None:
         check_planning_problems(problems, path)
     return scenario, problems

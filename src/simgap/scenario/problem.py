@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 from commonroad.common.util import Interval
-from commonroad.geometry.shape import Rectangle
+from commonroad.geometry.shape import Circle, Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import Lanelet
@@ -41,24 +41,31 @@ def planning_problem(
     dt: float = DEFAULT_TIME_STEP_S,
     goal_speed: tuple[float, float] | None = None,
     goal_on_lanelet: bool = False,
+    heading: float | None = None,
+    goal_disc: tuple[np.ndarray, float] | None = None,
 ) -> PlanningProblem:
-    """An agent starting on ``start`` (lanelet, s) at ``initial_speed`` heading along the lane.
+    """An agent starting on ``start`` (lanelet, s) at ``initial_speed`` heading along the lane (or
+    ``heading`` [rad]).
 
     The goal region is a ``goal_length`` x lane-width rectangle centred at ``goal`` (lanelet, s),
-    oriented along the lane — or, with ``goal_on_lanelet``, the whole goal lanelet — to be reached
-    within ``time_limit_s``, optionally within a speed interval.
+    oriented along the lane — or, with ``goal_on_lanelet``, the whole goal lanelet; with
+    ``goal_disc`` (centre, radius [m]), that disc — to be reached within ``time_limit_s``,
+    optionally within a speed interval.
     """
     if initial_speed < 0:
         raise InputError(f"initial speed {initial_speed} is negative", field="initial_speed",
                          allowed=">= 0 m/s")
-    pos, heading = pose_on_lanelet(*start)
-    init = InitialState(position=pos, orientation=heading, velocity=float(initial_speed),
-                        acceleration=0.0, yaw_rate=0.0, slip_angle=0.0, time_step=0)
+    pos, lane_heading = pose_on_lanelet(*start)
+    init = InitialState(position=pos, orientation=lane_heading if heading is None else float(heading),
+                        velocity=float(initial_speed), acceleration=0.0, yaw_rate=0.0, slip_angle=0.0, time_step=0)
     goal_lanelet, goal_s = goal
     fields = {"time_step": Interval(0, int(round(time_limit_s / dt)))}
     if goal_speed is not None:
         fields["velocity"] = Interval(*goal_speed)
-    if goal_on_lanelet:
+    if goal_disc is not None:
+        fields["position"] = Circle(float(goal_disc[1]), np.asarray(goal_disc[0], dtype=float))
+        lanelets_of_goal = None
+    elif goal_on_lanelet:
         fields["position"] = goal_lanelet.polygon
         lanelets_of_goal = {0: [goal_lanelet.lanelet_id]}
     else:

@@ -18,7 +18,6 @@ import math
 import os
 import re
 import sys
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +35,7 @@ from commonroad.scenario.state import CustomState, InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
 from simgap.polyline import arc_length
+from simgap.scenario.files import quiet_reader
 
 MAPS_PACKAGE = "commonroad-dataset-converter==2025.1.0"
 _BENCHMARK_NAME = re.compile(r"^[A-Z]{3}_[A-Za-z]+-\d+\.xml$")
@@ -60,8 +60,7 @@ def map_files() -> list[Path]:
 
 
 def load_map(path: Path) -> Scenario:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet_reader():
         scenario, _ = CommonRoadFileReader(str(path)).open()
     return scenario
 
@@ -95,6 +94,18 @@ def random_route(network: LaneletNetwork, rng: np.random.Generator, length: floa
             return Route(xy, s, tuple(ids))
         successors = [i for i in lanelet.successor if i not in ids]
         lanelet = network.find_lanelet_by_id(int(rng.choice(successors))) if successors else None
+    return None
+
+
+def example_places(network: LaneletNetwork, length: float = 60.0) -> tuple[np.ndarray, np.ndarray] | None:
+    """A start and a goal point ``length`` metres apart along successive lanelets of ``network``
+    (the same ones every time), for ``simgap run MAP --start X,Y --goal X,Y``; None when the map
+    has no route that long."""
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        route = random_route(network, rng, length) if network.lanelets else None
+        if route is not None:
+            return route.pose(5.0)[0], route.pose(route.s[-1] - GOAL_BEFORE_ROUTE_END_M)[0]
     return None
 
 

@@ -299,3 +299,12 @@ def test_a_rule_on_solution_validity_needs_the_check(tmp_path):
         run_search(spec, tmp_path / "out", Budget(runs=1), workers=1, validate=False)
     assert "failure.solution_invalid" in err.value.describe()
     assert not (tmp_path / "out").exists()
+
+
+def test_the_budget_is_the_searchs_total_shared_evenly_among_its_strategies():
+    assert [b.runs for b in Budget(runs=7).shares(["grid", "random", "bo"]).values()] == [3, 2, 2]
+    assert Budget(seconds=1200).shares(["grid", "random", "bo", "lhs"])["bo"] == Budget(seconds=300)
+    assert Budget(runs=5).shares(["random"]) == {"random": Budget(runs=5)}
+    with pytest.raises(InputError, match="2 runs cannot be shared among 3 strategies") as err:
+        Budget(runs=2).shares(["grid", "random", "bo"])
+    assert err.value.field == "budget" and "--strategy" in err.value.allowed

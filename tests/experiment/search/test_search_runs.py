@@ -59,11 +59,11 @@ def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
 def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "search"
-    first = run_search(spec, out, Budget(runs=3), workers=2)
+    first = run_search(spec, out, Budget(runs=6), workers=2)          # the search's total: 3 runs each
     assert [r.name for r in first] == ["random", "multi_fidelity"]
     before = {r["key"]: r["fingerprint"] for r in ResultsStore(out / "multi_fidelity").rows()}
     assert len(before) == 3
-    run_search(spec, out, Budget(runs=6), workers=2, probe_runs=1)
+    run_search(spec, out, Budget(runs=12), workers=2, probe_runs=1)
     build_search_report(search_results(out))
     findings = json.loads((out / "search.json").read_text())["findings"]      # what each found, beside the spec
     assert set(findings) == {"random", "multi_fidelity"} and findings["random"]["runs"] == 6
@@ -83,4 +83,4 @@ def test_a_search_goes_on_with_a_larger_budget_and_reports(tmp_path):
     # another spec in the same directory is refused, naming what to do
     other = small_search(tmp_path, parameters={"radius": {"min": 10, "max": 40}})
     with pytest.raises(InputError, match="different spec"):
-        run_search(other, out, Budget(runs=1), workers=1)
+        run_search(other, out, Budget(runs=2), workers=1)

@@ -1,5 +1,5 @@
-"""A search for violated planning assumptions: each strategy of the spec in turn, on its own
-budget, into ``OUT/<strategy>/``; resumable like an experiment.
+"""A search for violated planning assumptions: each strategy of the spec in turn, on an equal
+share of the search's budget, into ``OUT/<strategy>/``; resumable like an experiment.
 
 Layout::
 
@@ -62,9 +62,23 @@ class Budget:
     def __str__(self) -> str:
         return f"{self.seconds:g} s" if self.seconds is not None else f"{self.runs} runs"
 
+    def shares(self, names: list[str]) -> dict[str, "Budget"]:
+        """This budget split evenly among the strategies ``names`` (they are compared on equal
+        budgets): seconds divided, runs divided with the remainder to the first ones."""
+        if self.seconds is not None:
+            return {n: Budget(seconds=self.seconds / len(names)) for n in names}
+        assert self.runs is not None
+        if self.runs < len(names):
+            raise InputError(f"{self.runs} runs cannot be shared among {len(names)} strategies", field="budget",
+                             allowed=f"at least {len(names)} runs (the budget is the search's total), or fewer "
+                                     "strategies (--strategy)")
+        each, extra = divmod(self.runs, len(names))
+        return {n: Budget(runs=each + (i < extra)) for i, n in enumerate(names)}
+
 
 def parse_budget(text: str) -> Budget:
-    """``20m``, ``90s``, ``1.5h`` (wall clock per strategy) or ``N`` (runs per strategy)."""
+    """``20m``, ``90s``, ``1.5h`` (wall clock) or ``N`` (runs): the search's total, shared among
+    its strategies (`Budget.shares`)."""
     m = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*", str(text))
     if not m or float(m.group(1)) <= 0:
         raise InputError(f"'{text}' is not a budget", field="budget", allowed="a duration like 20m, 90s, 1.5h, or a run count like 200")
@@ -212,7 +226,8 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
                probe_runs: int = 0, repeats: int = 1) -> list[StrategyResult]:
-    """Run (or resume) every strategy of the spec (or ``strategies``) on ``budget`` each; ``validate``
+    """Run (or resume) every strategy of the spec (or ``strategies``), ``budget`` shared evenly among
+    them (`Budget.shares`; the mode probes come on top); ``validate``
     checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
     each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
     (`simgap.experiment.search.mode_probes`), confirm each over ``repeats`` seeds in high fidelity
@@ -229,6 +244,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     for n in names:
         if n not in STRATEGIES:
             raise InputError(f"unknown strategy '{n}'", field="strategy", allowed=", ".join(STRATEGIES))
+    shares = budget.shares(names)
     root = Path(root)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
     _claim(root, spec)
@@ -237,18 +253,19 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     for name in names:
         sroot = root / name
         sroot.mkdir(parents=True, exist_ok=True)
-        run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, budget)
+        share = shares[name]
+        run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, share)
         run.resume()
         context = JobContext(sroot, planner_vehicle=search.planner_vehicle, validate=validate, criticality=False)
 
-        def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name) -> None:
+        def on_result(job: Job, row: RunRow, run: StrategyRun = run, name: str = name, share: Budget = share) -> None:
             run.on_result(job, row)
             if on_progress:
-                on_progress(SearchProgress(name, run.ledger.elapsed(), budget, run.runs(),
+                on_progress(SearchProgress(name, run.ledger.elapsed(), share, run.runs(),
                                            run.ledger.high_failures(run.high)))
 
         runner.run(run.next_job, context, on_result)
-        run.ledger.save_budget(budget)
+        run.ledger.save_budget(share)
         found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
         probes = ModeProbes(search, space, sroot, [v.row for v in found.found], probe_runs,
                             {v.candidate: v.ideal_row for v in found.found})

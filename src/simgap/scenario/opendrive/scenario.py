@@ -8,23 +8,19 @@ lanes' links (successors and lane changes the same way).
 from __future__ import annotations
 
 import re
-from collections import deque
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import shapely
 from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.errors import InputError, validated
 from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
+from simgap.scenario.lane_places import LanePlace, on_lanelet, place_under, reachable
 from simgap.scenario.opendrive.lanes import lane_centre
 from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S
 from simgap.scenario.problem import planning_problem
-from simgap.scenario.road_frame import PathFrame
 from simgap.scenario.templates import ConcreteScenario, scenario_of
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 from simgap.vehicles.constants import MAX_SPEED
@@ -47,24 +43,11 @@ class ProblemSettings(BaseModel):
 UNITS = {"initial_speed": "m/s", "time_limit": "s", "dt": "s"}
 
 
-@dataclass(frozen=True)
-class LanePlace:
-    """A place on a lanelet: the lanelet and the distance along its centre line [m]."""
-
-    lanelet: Lanelet
-    s: float
-
-
 def _number(text: str, option: str) -> float:
     try:
         return float(text)
     except ValueError:
         raise InputError(f"'{text}' is not a number", field=option, allowed=PLACE_FORMS) from None
-
-
-def _on_lanelet(lanelet: Lanelet, point: np.ndarray) -> LanePlace:
-    s, _ = PathFrame(lanelet.center_vertices).project(point)
-    return LanePlace(lanelet, float(np.clip(s[0], 0.0, lanelet.distance[-1])))
 
 
 def _by_lane(roads: OpenDriveNetwork, road_id: str, lane_id: int, station: float, option: str) -> LanePlace:
@@ -86,7 +69,7 @@ def _by_lane(roads: OpenDriveNetwork, road_id: str, lane_id: int, station: float
                          allowed=", ".join(f"{a:.1f} to {b:.1f} m" for a, b in _merged(spans)))
     lanelet_id, place = found[0]
     point = lane_centre(road, place.section, lane_id, station)
-    return _on_lanelet(roads.lanelets.find_lanelet_by_id(lanelet_id), point)
+    return on_lanelet(roads.lanelets.find_lanelet_by_id(lanelet_id), point)
 
 
 def _merged(spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -99,47 +82,15 @@ def _merged(spans: list[tuple[float, float]]) -> list[tuple[float, float]]:
     return out
 
 
-def _by_point(network: LaneletNetwork, point: np.ndarray, option: str,
-              prefer: set[int] | None = None) -> LanePlace:
-    """The lanelet under ``point``: of several (a junction's), one in ``prefer`` (those reachable
-    from the start), then the one whose centre line is nearest."""
-    under = [l for l in network.lanelets if l.polygon.shapely_object.buffer(1e-6).contains(shapely.Point(point))]
-    if not under:
-        nearest = min(network.lanelets, key=lambda l: l.polygon.shapely_object.distance(shapely.Point(point)))
-        gap = nearest.polygon.shapely_object.distance(shapely.Point(point))
-        raise InputError(f"the point ({point[0]:g}, {point[1]:g}) is on no driving lane (the nearest lanelet, "
-                         f"{nearest.lanelet_id}, is {gap:.1f} m away)", field=option, allowed=PLACE_FORMS)
-
-    def rank(lanelet: Lanelet) -> tuple[bool, float]:
-        _, d = PathFrame(lanelet.center_vertices).project(point)
-        return (prefer is not None and lanelet.lanelet_id not in prefer, abs(float(d[0])))
-
-    return _on_lanelet(min(under, key=rank), point)
-
-
 def lane_place(roads: OpenDriveNetwork, text: str, option: str, prefer: set[int] | None = None) -> LanePlace:
     """The place ``text`` names (see `PLACE_FORMS`)."""
     text = text.strip()
     if (m := _PLACE.match(text)) is not None:
         return _by_lane(roads, m["road"], int(m["lane"]), _number(m["s"], option), option)
     if (m := _POINT.match(text)) is not None:
-        return _by_point(roads.lanelets, np.array([_number(m["x"], option), _number(m["y"], option)]), option, prefer)
+        return place_under(roads.lanelets, np.array([_number(m["x"], option), _number(m["y"], option)]), option,
+                           PLACE_FORMS, prefer)
     raise InputError(f"'{text}' names no place", field=option, allowed=PLACE_FORMS)
-
-
-def reachable(network: LaneletNetwork, start: int) -> set[int]:
-    """The lanelets a car on ``start`` can reach: along successors, and changing lanes the same way."""
-    seen, queue = {start}, deque([start])
-    while queue:
-        lanelet = network.find_lanelet_by_id(queue.popleft())
-        ahead = list(lanelet.successor)
-        ahead += [n for n, same in ((lanelet.adj_left, lanelet.adj_left_same_direction),
-                                    (lanelet.adj_right, lanelet.adj_right_same_direction)) if n is not None and same]
-        for n in ahead:
-            if n not in seen:
-                seen.add(n)
-                queue.append(n)
-    return seen
 
 
 def opendrive_scenario(path: str | Path, start: str, goal: str, pins: dict[str, str] | None = None,
