@@ -65,6 +65,8 @@ class RunRequest:
     criticality: bool = True                   # evaluate the criticality of agent pairs (commonroad-crime; slow)
     replayed_latencies: Mapping[int, tuple[float, ...]] | None = None   # a record's plan latencies, which
                                                # replace the measured ones (`simgap.experiment.replay`)
+    flat_road: bool = False                    # the scenario's road without its relief: its flat twin (the
+                                               # relief assumption restored, `simgap.experiment.attribution`)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -163,7 +165,7 @@ def execute(request: RunRequest, out: Path | None = None,
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
     meta = read_metadata(request.scenario)
-    relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
+    relief = None if request.flat_road else ground_of(meta, scenario.lanelet_network)   # what 3D worlds build
     planners, errors, planner_records = {}, [], {}
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
         for a in agents:

@@ -1,0 +1,39 @@
+"""`simgap explain`: why a physical run parted from the ideal run — which of the planner's
+assumptions it broke, and by how much (`simgap.experiment.attribution`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from simgap.cli.console import output_console
+from simgap.cli.main import app
+from simgap.errors import InputError
+from simgap.experiment.attribution import explain as attribute
+
+
+@app.command()
+def explain(
+    run_dir: Path = typer.Argument(..., help="run directory of a run in a physical world (simgap run --out)"),
+    workers: int = typer.Option(2, min=1, help="processes the counterfactual runs share"),
+    as_json: bool = typer.Option(False, "--json", help="print the attribution as JSON on stdout"),
+) -> None:
+    """Rerun a run's scenario in the worlds where some of the planner's assumptions hold (its own
+    seed, planner and settings) and say what each broken assumption costs: its share of the gap to
+    the ideal run (max |d|, Shapley: the shares add up to the gap), whether restoring it alone fixes
+    the outcome, the smallest sets that do, and its score drop.
+
+    Example: simgap explain runs/c10-suv-mujoco
+    """
+    if not (run_dir / "run.json").is_file():
+        raise InputError("no run here (run.json is missing)", file=run_dir, field="RUN_DIR",
+                         allowed="a run directory simgap run wrote")
+    explained = attribute(run_dir, workers)
+    if as_json:
+        typer.echo(json.dumps(explained.as_json(), indent=2))
+        return
+    console = output_console()
+    for line in explained.lines():
+        console.print(line, highlight=False, markup=False)
