@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Optional
 
 import typer
 
@@ -12,12 +13,16 @@ from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.experiment.attribution import explain as attribute
+from simgap.sim.assumptions import Assumption
 
 
 @app.command()
 def explain(
     run_dir: Path = typer.Argument(..., help="run directory of a run in a physical world (simgap run --out)"),
     workers: int = typer.Option(2, min=1, help="processes the counterfactual runs share"),
+    assumptions: Optional[list[Assumption]] = typer.Option(
+        None, "--assumption", help="restore only this one of the assumptions the run broke (repeatable; default: "
+        "all; the others stay broken in every world, so the base holds them too)"),
     as_json: bool = typer.Option(False, "--json", help="print the attribution as JSON on stdout"),
 ) -> None:
     """Rerun a run's scenario in the worlds where some of the planner's assumptions hold (its own
@@ -30,7 +35,7 @@ def explain(
     if not (run_dir / "run.json").is_file():
         raise InputError("no run here (run.json is missing)", file=run_dir, field="RUN_DIR",
                          allowed="a run directory simgap run wrote")
-    explained = attribute(run_dir, workers)
+    explained = attribute(run_dir, workers, assumptions or None)
     if as_json:
         typer.echo(json.dumps(explained.as_json(), indent=2))
         return
