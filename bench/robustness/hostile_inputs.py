@@ -1338,6 +1338,38 @@ def _(folder: Path, stock: Stock) -> Outcome:
     return expect_refusal(simgap("compare", stock.run, folder / "r", cwd=folder), "trajectories.parquet")
 
 
+# --- round 5, h6-explain: simgap explain on what it cannot explain
+@case("explain-an-ideal-run", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    return expect_refusal(simgap("explain", stock.run, cwd=folder), "backend", "nothing to explain")
+
+
+@case("explain-not-a-run", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "empty").mkdir()
+    return expect_refusal(simgap("explain", folder / "empty", cwd=folder), "RUN_DIR", "run.json")
+
+
+@case("explain-scenario-gone", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    xml = folder / "moved.xml"
+    shutil.copy(stock.scenario, xml)
+    shutil.copy(stock.scenario.with_suffix(".json"), xml.with_suffix(".json"))
+    p = simgap("run", xml, "--backend", "dynamic", "--max-time", "2", "--no-validate", "--out", folder / "r",
+               cwd=folder)
+    xml.unlink()
+    return problem(p) or expect_refusal(simgap("explain", folder / "r", cwd=folder), "scenario_path", "moved.xml")
+
+
+@case("run-explain-in-the-ideal-world", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    outcome = expect_refusal(simgap("run", stock.scenario, "--explain", "--out", folder / "r", cwd=folder),
+                             "explain", "nothing to explain")
+    if outcome.verdict == REFUSAL and (folder / "r").exists():
+        return Outcome(SILENT, "refused, but after writing the run", "")
+    return outcome
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -104,3 +104,17 @@ def test_a_run_in_the_ideal_world_has_nothing_to_explain(paper_curve, tmp_path):
     proc = subprocess.run(SIMGAP + ["explain", str(tmp_path / "ideal")], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "nothing to explain" in proc.stderr and "backend" in proc.stderr
+
+
+@pytest.mark.slow
+def test_run_explain_json_carries_the_explanation_in_its_one_document(paper_curve, tmp_path):
+    proc = subprocess.run(SIMGAP + ["run", str(paper_curve), "--backend", "dynamic", "--max-time", "1",
+                                    "--no-validate", "--explain", "--json", "--out", str(tmp_path / "r")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    explained = summary["explanation"]
+    names = {a["name"] for a in explained["assumptions"]}
+    # the dynamic world breaks the actuators, the sensing and the latency (realism real), and has no relief
+    assert names == {"vehicle_dynamics", "actuators", "sensing", "latency"} and explained["runs"] == 8
+    assert sum(a["share_m"] for a in explained["assumptions"]) == pytest.approx(explained["gap_m"])

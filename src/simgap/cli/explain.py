@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import typer
+from rich.console import Console
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
@@ -35,10 +36,19 @@ def explain(
     if not (run_dir / "run.json").is_file():
         raise InputError("no run here (run.json is missing)", file=run_dir, field="RUN_DIR",
                          allowed="a run directory simgap run wrote")
-    explained = attribute(run_dir, workers, assumptions or None)
     if as_json:
-        typer.echo(json.dumps(explained.as_json(), indent=2))
+        typer.echo(json.dumps(explanation(run_dir, workers, assumptions), indent=2))
         return
-    console = output_console()
-    for line in explained.lines():
+    print_explanation(output_console(), run_dir, workers, assumptions)
+
+
+def explanation(run_dir: Path, workers: int = 2, assumptions: list[Assumption] | None = None) -> dict[str, Any]:
+    """The attribution of the run in ``run_dir``, as ``--json`` prints it."""
+    return attribute(run_dir, workers, assumptions or None).as_json()
+
+
+def print_explanation(console: Console, run_dir: Path, workers: int = 2,
+                      assumptions: list[Assumption] | None = None) -> None:
+    """The attribution of the run in ``run_dir``: a line per assumption, largest first, then why."""
+    for line in attribute(run_dir, workers, assumptions or None).lines():
         console.print(line, highlight=False, markup=False)

@@ -92,6 +92,8 @@ def run(
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
                                      "part of scoring: feasibility state by state) for quick loops"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
+    explain: bool = typer.Option(False, "--explain", help="then say which of the planner's assumptions the run broke "
+                                 "and what each cost (simgap explain; physics backends)"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
                                    "backend, vehicle or planner)"),
 ) -> None:
@@ -127,7 +129,10 @@ def run(
                          seed=seed, validate=not no_validate, run_timeout_s=run_timeout)
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
-    _execute(request, out, as_json)
+    if explain and backend == REFERENCE:
+        raise InputError("the ideal world is the planner's assumptions: a run there has nothing to explain",
+                         field="explain", allowed="--backend dynamic, mujoco or beamng")
+    _execute(request, out, as_json, explain)
 
 
 def _settings(backend: str, options: dict, backend_config: Path | None, knob_settings: dict) -> BaseModel:
@@ -146,11 +151,14 @@ def _settings(backend: str, options: dict, backend_config: Path | None, knob_set
     return backend_settings(backend, options | knob_settings, file=backend_config)
 
 
-def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
-    """Run ``request`` into ``out`` and print its summary (as a table, or JSON)."""
+def _execute(request: RunRequest, out: Path, as_json: bool, explain: bool = False) -> None:
+    """Run ``request`` into ``out`` and print its summary (as a table, or JSON), and with
+    ``explain`` its attribution (`simgap.cli.explain`)."""
+    from simgap.cli.explain import explanation, print_explanation
+
     if as_json:
         result = execute(request, out)
-        typer.echo(json.dumps(result.summary(), indent=2))
+        typer.echo(json.dumps(result.summary() | ({"explanation": explanation(out)} if explain else {}), indent=2))
         if result.failure:
             raise typer.Exit(1)
         return
@@ -161,6 +169,8 @@ def _execute(request: RunRequest, out: Path, as_json: bool) -> None:
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
+    if explain:
+        print_explanation(console, out)
     if result.failure:
         raise typer.Exit(1)
 
