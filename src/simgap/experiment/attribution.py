@@ -42,11 +42,17 @@ from simgap.scenario import load_scenario, read_metadata
 from simgap.scenario.ground import ground_of
 from simgap.sim.assumptions import Assumption, restorations, restoring
 from simgap.sim.protocol import Realism
-from simgap.sim.registry import BACKENDS, backend_settings
+from simgap.sim.registry import backend_settings
 from simgap.sim.settings import TrackingSettings, realism_of
 
 BASE = Assumption.VEHICLE_DYNAMICS
 EXACT_UP_TO = 5          # assumptions restored apart (every one the worlds declare): 2^5 worlds at most
+
+#: what a run imports, some of it only on its first call (the route planner, the ride-comfort
+#: filter, the solution's cost: seconds together), loaded once in the workers' fork server
+FIRST_RUN_IMPORTS = ("simgap.experiment.single_run", "simgap.planning.frenet", "simgap.sim.mujoco.backend",
+                     "commonroad_route_planner.reference_path_planner", "commonroad_route_planner.route_planner",
+                     "scipy.signal", "commonroad_dc.costs.evaluation")
 
 #: what breaking an assumption does to the car, and what restoring it gives (the explanation's sentence)
 CAUSE = {Assumption.VEHICLE_DYNAMICS: "its body does not move as the plan's model says",
@@ -286,21 +292,15 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
 
 
 def _run_all(requests: list[RunRequest], workers: int) -> list[_Ran]:
-    """The runs of ``requests``, in order, on ``workers`` processes: forked from a server that has
-    the run's modules (and its backend's) loaded once, so no worker pays their import, and none
-    inherits this process's state."""
+    """The runs of ``requests``, in order, on ``workers`` processes, forked from a server that has
+    loaded what a run imports once (never from this process: a fork of a process with threads
+    can deadlock)."""
     if workers <= 1:
         return [_run(r) for r in requests]
     context = mp.get_context("forkserver")
-    context.set_forkserver_preload(["simgap.experiment.single_run"] + sorted(
-        {_backend_module(r.backend) for r in requests} - {""}))
+    context.set_forkserver_preload(list(FIRST_RUN_IMPORTS))
     with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=context) as pool:
         return list(pool.map(_run, requests))
-
-
-def _backend_module(name: str) -> str:
-    entry = BACKENDS.load(name)
-    return entry.make.partition(":")[0] if isinstance(entry.make, str) else ""
 
 
 def _world(restored: frozenset[Assumption], history: History, scores: tuple[float, ...], wall_s: float,
