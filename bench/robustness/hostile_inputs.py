@@ -1350,15 +1350,12 @@ def _(folder: Path, stock: Stock) -> Outcome:
     return expect_refusal(simgap("explain", folder / "empty", cwd=folder), "RUN_DIR", "run.json")
 
 
-@case("explain-scenario-gone", 10)
+@case("explain-driven-scenario-gone", 10)
 def _(folder: Path, stock: Stock) -> Outcome:
-    xml = folder / "moved.xml"
-    shutil.copy(stock.scenario, xml)
-    shutil.copy(stock.scenario.with_suffix(".json"), xml.with_suffix(".json"))
-    p = simgap("run", xml, "--backend", "dynamic", "--max-time", "2", "--no-validate", "--out", folder / "r",
-               cwd=folder)
-    xml.unlink()
-    return problem(p) or expect_refusal(simgap("explain", folder / "r", cwd=folder), "scenario_path", "moved.xml")
+    p = simgap("run", stock.scenario, "--backend", "dynamic", "--max-time", "2", "--no-validate", "--out",
+               folder / "r", cwd=folder)
+    (folder / "r" / "driven.xml").unlink(missing_ok=True)
+    return problem(p) or expect_refusal(simgap("explain", folder / "r", cwd=folder), "driven.xml")
 
 
 @case("run-explain-in-the-ideal-world", 10)

@@ -4,8 +4,9 @@ by how much (`explain`).
 A run in a physical world breaks some of the assumptions the ideal world makes for the planner
 (`simgap.sim.assumptions.Assumption`): the ones its settings declare and its values break (the
 vehicle's actuators, a localisation that is not exact, latency, a relief, a friction other than
-dry). Each counterfactual world is the run's own request — same scenario, planner, vehicles,
-loop settings and seed — with a subset of them restored (`counterfactual`); every subset is run,
+dry). Each counterfactual world is the run's own request as a replay makes it from the record
+(`simgap.experiment.replay`: the scenario, vehicles, planners, loop settings and seed it kept, and
+its plans' measured latencies) with a subset of them restored (`counterfactual`); every subset is run,
 2^n worlds for the n assumptions the run breaks (at most 5, so the attribution is exact), beside
 the ideal run, and each is compared with the ideal run by `evaluate`'s comparison (the gap: max
 |d| against the ideal run by arc length, and the lateral tracking error). The run itself is the
@@ -26,23 +27,23 @@ from __future__ import annotations
 import itertools
 import math
 import multiprocessing as mp
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from simgap.cosim import REFERENCE, History, Outcome
 from simgap.errors import InputError
 from simgap.evaluate.compare import compare_histories
+from simgap.experiment.replay import recorded_scenario, replay_request
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.planning.registry import PlannerChoice
-from simgap.record import PlannerRecord, RunRecord, read_run
+from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_metadata
 from simgap.scenario.ground import ground_of
 from simgap.sim.assumptions import Assumption, restorations, restoring
 from simgap.sim.protocol import Realism
-from simgap.sim.registry import backend_settings
 from simgap.sim.settings import TrackingSettings, realism_of
 
 BASE = Assumption.VEHICLE_DYNAMICS
@@ -177,30 +178,6 @@ def _and(words: Iterable[str]) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
-def request_of(record: RunRecord, run_dir: Path | None = None) -> RunRequest:
-    """The request ``record``'s run was made with, rebuilt from its record (scenario, backend and its
-    settings, vehicles, planners, loop settings, seed), without the solution's validity check."""
-    s = record.settings
-    scenario = Path(s.scenario_path) if s.scenario_path else None
-    if scenario is None or not scenario.is_file():
-        raise InputError(f"the run's scenario {s.scenario_path or '(none recorded)'} is not there to run again",
-                         file=run_dir, field="settings.scenario_path",
-                         allowed="a run whose scenario file is where it was run (relative: from here)")
-    backend = record.history.backend
-    vehicles = {a.id: a.history.vehicle.name for a in record.agents}
-    names = set(vehicles.values())
-    return RunRequest(scenario=scenario, backend=backend,
-                      vehicles=names.pop() if len(names) == 1 else vehicles,
-                      planner_vehicle=s.planner_vehicle or vehicles[min(vehicles)],
-                      backend_settings=backend_settings(backend, s.backend) if backend != REFERENCE else None,
-                      planner=_planners(s.planner), cosim=s.cosim, seed=s.seed, criticality=False)
-
-
-def _planners(p: PlannerRecord) -> Any:
-    choice = lambda r: PlannerChoice(planner=r.planner or r.name, settings=dict(r.settings))   # noqa: E731
-    return {aid: choice(r) for aid, r in p.agents.items()} if p.agents else choice(p)
-
-
 def broken_assumptions(record: RunRecord, request: RunRequest) -> tuple[Assumption, ...]:
     """The assumptions ``record``'s run broke that a counterfactual can restore apart (its world's
     settings declare them, and their values break them), in `Assumption`'s order."""
@@ -230,19 +207,13 @@ def counterfactual(request: RunRequest, holding: Iterable[Assumption]) -> RunReq
     """``request`` in the world where the assumptions ``holding`` hold: its backend's and its loop's
     settings with their declared restorations put in (a flat twin of the road for ``relief``)."""
     holding = frozenset(holding)
-    return RunRequest(scenario=request.scenario, backend=request.backend, vehicles=request.vehicles,
-                      planner_vehicle=request.planner_vehicle,
-                      backend_settings=restoring(request.backend_settings, holding),
-                      planner=request.planner, cosim=restoring(request.cosim, holding), seed=request.seed,
-                      criticality=False, run_timeout_s=request.run_timeout_s,
-                      flat_road=request.flat_road or Assumption.RELIEF in holding)
+    return replace(request, backend_settings=restoring(request.backend_settings, holding),
+                   cosim=restoring(request.cosim, holding), flat_road=request.flat_road or Assumption.RELIEF in holding)
 
 
 def ideal_request(request: RunRequest) -> RunRequest:
     """``request`` in the ideal world: every assumption holds."""
-    return RunRequest(scenario=request.scenario, backend=REFERENCE, vehicles=request.vehicles,
-                      planner_vehicle=request.planner_vehicle, planner=request.planner, cosim=request.cosim,
-                      seed=request.seed, criticality=False, run_timeout_s=request.run_timeout_s)
+    return replace(request, backend=REFERENCE, backend_settings=None, replayed_latencies=None, flat_road=False)
 
 
 @dataclass(frozen=True)
@@ -274,14 +245,18 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     if record.history.backend == REFERENCE:
         raise InputError("the run is in the ideal world, which is the planner's assumptions: nothing to explain",
                          file=run_dir, field="backend", allowed="a run in a physical world (dynamic, mujoco, beamng)")
-    request = request_of(record, run_dir)
-    present = broken_assumptions(record, request)
-    if assumptions is not None:
-        present = tuple(a for a in present if a in set(assumptions))
-    subsets = [frozenset(c) for k in range(1, len(present) + 1) for c in itertools.combinations(present, k)]
-    requests = [ideal_request(request)] + [counterfactual(request, s) for s in subsets]
-    ran = _run_all(requests, workers)
-    scenario, problems = load_scenario(request.scenario)
+    with tempfile.TemporaryDirectory(prefix="simgap-explain-") as scratch:
+        # the run's own request, as a replay makes it: the scenario its record keeps, its vehicles,
+        # planners, settings and seed, and its plans' latencies where they were measured
+        request = replace(replay_request(record, recorded_scenario(run_dir, record, Path(scratch))),
+                          validate=False, criticality=False)
+        present = broken_assumptions(record, request)
+        if assumptions is not None:
+            present = tuple(a for a in present if a in set(assumptions))
+        subsets = [frozenset(c) for k in range(1, len(present) + 1) for c in itertools.combinations(present, k)]
+        requests = [ideal_request(request)] + [counterfactual(request, s) for s in subsets]
+        ran = _run_all(requests, workers)
+        scenario, problems = load_scenario(request.scenario)
     ideal = ran[0]
     worlds = {frozenset(): _world(frozenset(), record.history, _scores(record), record.history.wall_time_s,
                                   ideal.history, scenario, problems)}
