@@ -240,6 +240,8 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     ``workers`` processes (1: in this one); ``assumptions``: restore only these of those it broke
     (default: all)."""
     started = time.perf_counter()
+    if workers > 1:     # the fork server loads what a run imports while this process reads the run
+        _fork_server().ensure_running()
     run_dir = Path(run_dir)
     record = read_run(run_dir)
     if record.history.backend == REFERENCE:
@@ -272,10 +274,17 @@ def _run_all(requests: list[RunRequest], workers: int) -> list[_Ran]:
     can deadlock)."""
     if workers <= 1:
         return [_run(r) for r in requests]
-    context = mp.get_context("forkserver")
-    context.set_forkserver_preload(list(FIRST_RUN_IMPORTS))
-    with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=context) as pool:
+    _fork_server().ensure_running()      # (already running when `explain` started it)
+    with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=mp.get_context("forkserver")) as pool:
         return list(pool.map(_run, requests))
+
+
+def _fork_server() -> Any:
+    """The fork server the workers are forked from, told what to load first."""
+    from multiprocessing import forkserver
+
+    forkserver.set_forkserver_preload(list(FIRST_RUN_IMPORTS))
+    return forkserver
 
 
 def _world(restored: frozenset[Assumption], history: History, scores: tuple[float, ...], wall_s: float,
