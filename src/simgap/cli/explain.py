@@ -36,6 +36,9 @@ def explain(
     if not (run_dir / "run.json").is_file():
         raise InputError("no run here (run.json is missing)", file=run_dir, field="RUN_DIR",
                          allowed="a run directory simgap run wrote")
+    if assumptions and Assumption.VEHICLE_DYNAMICS in assumptions:
+        raise InputError("vehicle_dynamics cannot be restored apart: its world is the ideal one (the base)",
+                         field="assumption", allowed=", ".join(a for a in Assumption if a != Assumption.VEHICLE_DYNAMICS))
     if as_json:
         typer.echo(json.dumps(explanation(run_dir, workers, assumptions), indent=2))
         return
