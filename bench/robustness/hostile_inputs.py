@@ -1666,6 +1666,35 @@ def _(folder: Path, stock: Stock) -> Outcome:
                                  "--no-report", cwd=folder, timeout=60), "budget", "3 strategies")
 
 
+# --- round 5, h6-explain: simgap explain on what it cannot explain
+@case("explain-an-ideal-run", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    return expect_refusal(simgap("explain", stock.run, cwd=folder), "backend", "nothing to explain")
+
+
+@case("explain-not-a-run", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "empty").mkdir()
+    return expect_refusal(simgap("explain", folder / "empty", cwd=folder), "RUN_DIR", "run.json")
+
+
+@case("explain-driven-scenario-gone", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    p = simgap("run", stock.scenario, "--backend", "dynamic", "--max-time", "2", "--no-validate", "--out",
+               folder / "r", cwd=folder)
+    (folder / "r" / "driven.xml").unlink(missing_ok=True)
+    return problem(p) or expect_refusal(simgap("explain", folder / "r", cwd=folder), "driven.xml")
+
+
+@case("run-explain-in-the-ideal-world", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    outcome = expect_refusal(simgap("run", stock.scenario, "--explain", "--out", folder / "r", cwd=folder),
+                             "explain", "nothing to explain")
+    if outcome.verdict == REFUSAL and (folder / "r").exists():
+        return Outcome(SILENT, "refused, but after writing the run", "")
+    return outcome
+
+
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -29,7 +29,7 @@ app = typer.Typer(
 
 # the module that registers each command: a run imports only the one asked for (the commands'
 # modules together take about 2.5 s to import); no command, --help or an unknown name import all
-COMMANDS = {"compare": "compare", "demo": "demo", "experiment": "experiment", "export": "export",
+COMMANDS = {"compare": "compare", "demo": "demo", "experiment": "experiment", "explain": "explain", "export": "export",
             "generate": "generate", "maps": "maps", "planners": "planners", "render": "render", "replay": "replay",
             "report": "report", "run": "run", "search": "search", "search-status": "search", "vehicles": "vehicles"}
 

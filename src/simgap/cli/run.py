@@ -101,6 +101,8 @@ def run(
     fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + ", e.g. off_road,collision"),
     min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
+    explain: bool = typer.Option(False, "--explain", help="then say which of the planner's assumptions the run broke "
+                                 "and what each cost (simgap explain; physics backends)"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP + " (a run of another scenario, "
                                    "backend, vehicle or planner)"),
 ) -> None:
@@ -147,7 +149,10 @@ def run(
                          seed=seed, validate=not no_validate, run_timeout_s=run_timeout, placement=placement)
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
-    _execute(request, out, as_json, check)
+    if explain and backend == REFERENCE:
+        raise InputError("the ideal world is the planner's assumptions: a run there has nothing to explain",
+                         field="explain", allowed="--backend dynamic, mujoco or beamng")
+    _execute(request, out, as_json, check, explain)
 
 
 def _settings(backend: str, options: dict, backend_config: Path | None, knob_settings: dict) -> BaseModel:
@@ -166,12 +171,16 @@ def _settings(backend: str, options: dict, backend_config: Path | None, knob_set
     return backend_settings(backend, options | knob_settings, file=backend_config)
 
 
-def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck = OutcomeCheck()) -> None:
-    """Run ``request`` into ``out`` and print its summary (as a table, or JSON); exit
-    `simgap.cli.exit_codes.ExitCode.CHECK_FAILED` if the run failed or ``check`` fails."""
+def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck = OutcomeCheck(),
+             explain: bool = False) -> None:
+    """Run ``request`` into ``out`` and print its summary (as a table, or JSON), with ``explain`` its
+    attribution (`simgap.cli.explain`); exit `simgap.cli.exit_codes.ExitCode.CHECK_FAILED` if the run
+    failed or ``check`` fails."""
     if as_json:
         result = execute(request, out)
-        typer.echo(json.dumps(result.summary(), indent=2))
+        if explain:
+            from simgap.cli.explain import explanation
+        typer.echo(json.dumps(result.summary() | ({"explanation": explanation(out)} if explain else {}), indent=2))
         _exit_on_failures(result, check, output_console(stderr=True))
         return
     console = output_console()
@@ -181,6 +190,10 @@ def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck 
         result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
+    if explain:
+        from simgap.cli.explain import print_explanation
+
+        print_explanation(console, out)
     _exit_on_failures(result, check, console)
 
 

@@ -34,7 +34,7 @@ import copy
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Annotated, Callable, Literal, Mapping
+from typing import Annotated, Callable, ClassVar, Literal, Mapping
 
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
@@ -45,13 +45,14 @@ from simgap.polyline import arc_length
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
 from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
-from simgap.cosim.sensing import Localisation, SensingSettings, localisation_accuracy
+from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, localisation_accuracy
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
 from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
 from simgap.scenario.goal import Goal
 from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea, footprint
+from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.protocol import Agent, Backend, EventKind, PhysicsDiverged, PlanHandover, PlanInForce, Realism
 from simgap.trajectory import Attitude, ControlTrace, State, Trajectory
 
@@ -81,6 +82,10 @@ class CosimSettings(BaseModel):
     """Settings of the loop (not of the planner or backend)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    # what a physical world of realism real breaks between the planner and its car: exact
+    # observation, and plans that take no time
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.SENSING: {"sensing": SensingSettings(profile=SensingProfile.PERFECT)},
+                                           Assumption.LATENCY: {"latency": 0.0}}
 
     replan_every: int = Field(1, ge=1, description="replan every N steps (the paper's Frenetix: 3)")
     max_time_s: float | None = Field(

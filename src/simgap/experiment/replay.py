@@ -73,7 +73,7 @@ def replay(run_dir: str | Path, out: Path | None = None) -> Replay:
     run_dir = Path(run_dir)
     original = read_run(run_dir)
     with tempfile.TemporaryDirectory(prefix="simgap-replay-") as scratch:
-        scenario = _recorded_scenario(run_dir, original, Path(scratch))
+        scenario = recorded_scenario(run_dir, original, Path(scratch))
         replayed = execute(replay_request(original, scenario), out)
     return Replay(run_dir, original, replayed)
 
@@ -107,7 +107,7 @@ def _choice(planner: PlannerRecord) -> PlannerChoice:
     return choice
 
 
-def _recorded_scenario(run_dir: Path, record: RunRecord, scratch: Path) -> Path:
+def recorded_scenario(run_dir: Path, record: RunRecord, scratch: Path) -> Path:
     """The scenario the run drove, as its record keeps it (``driven.xml`` without the agents),
     written to ``scratch`` with its sidecar."""
     driven = run_dir / DRIVEN_SCENARIO

@@ -73,6 +73,8 @@ class RunRequest:
                                                # replace the measured ones (`simgap.experiment.replay`)
     placement: AgentPlacement | None = None    # one agent from a start to a goal, in place of the scenario's
                                                # planning problems (a map without any: --start and --goal)
+    flat_road: bool = False                    # the scenario's road without its relief: its flat twin (the
+                                               # relief assumption restored, `simgap.experiment.attribution`)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -188,7 +190,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
     meta = read_metadata(request.scenario)
     if request.placement is not None:
         meta = meta | {"parameters": meta.get("parameters", {}) | request.placement.parameters()}
-    relief = ground_of(meta, scenario.lanelet_network)    # the surface the 3D worlds build (None: flat)
+    relief = None if request.flat_road else ground_of(meta, scenario.lanelet_network)   # what 3D worlds build
     planners, errors, planner_records = {}, [], {}
     out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens

@@ -4,13 +4,14 @@ settings model extends `TrackingSettings`; a world with a road surface extends `
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from simgap.control import DEFAULT_CONTROLLER
 from simgap.control.registry import CONTROLLERS
 from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
+from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.protocol import Realism
 from simgap.vehicles import Vehicle
 from simgap.vehicles.actuators import IDEAL_ACTUATORS, MAX_DEAD_TIME_S, MAX_TIME_CONSTANT_S, Actuators
@@ -27,6 +28,7 @@ class RoadSurface(BaseModel):
     """The settings of a world with a road surface: its friction."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.FRICTION: {"road_friction": DRY_ROAD_FRICTION}}
 
     road_friction: RoadFriction = DRY_ROAD_FRICTION
 
@@ -41,6 +43,10 @@ class TrackingSettings(BaseModel):
     """How each car of a physics backend follows its plan."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+    # the perfect machine: no dead time, no lag (sensing and latency, which ``realism`` also
+    # gates, are the loop's settings: `simgap.cosim.CosimSettings`)
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.ACTUATORS: {"steer_delay": 0.0, "steer_lag": 0.0,
+                                                                  "pedal_delay": 0.0, "pedal_lag": 0.0}}
 
     controller: str = Field(DEFAULT_CONTROLLER, description="tracking controller: pure_pursuit, stanley, lqr")
     controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, le=MAX_RATE_HZ, description="controller rate [Hz]")

@@ -3,11 +3,12 @@ slope) and, on top, the tracking (`MujocoSettings`). Plain models, importable wi
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 
 from simgap.errors import validated_settings
+from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.rates import steps_per_tick
 from simgap.sim.protocol import BackendEntry
 from simgap.sim.settings import RoadFriction, RoadSurface, TrackingSettings
@@ -17,6 +18,10 @@ PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
 
 class WorldSettings(RoadSurface):
     """Settings of the physics world (``backend_settings`` of a run)."""
+
+    # a flat twin of the road: no slope on top (the scenario's own relief is the run's ground,
+    # `simgap.experiment.single_run.RunRequest.flat_road`)
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.RELIEF: {"road_bank": 0.0, "road_grade": 0.0}}
 
     physics_hz: float = Field(PHYSICS_HZ, ge=200.0, le=5000.0, description="physics rate [Hz]")
     offroad_friction: RoadFriction = Field(0.6, description="off-road (verge) friction, scales each tyre's [-]")
