@@ -13,9 +13,10 @@ import pytest
 
 from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingProfile, SensingSettings
-from simgap.experiment.attribution import counterfactual, explain, shapley
+from simgap.experiment.attribution import counterfactual, explain, read_explanation, shapley
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, write_scenario
+from simgap.report.site import build_report
 from simgap.sim.assumptions import Assumption as A
 
 SIMGAP = [sys.executable, "-m", "simgap"]
@@ -86,6 +87,12 @@ def test_the_suv_on_the_paper_curve_leaves_the_road_because_its_steering_is_late
     shape = explained.as_json()
     assert {"run", "outcome", "gap_m", "assumptions", "fixing_sets", "runs", "wall_s"} <= set(shape)
     assert {"name", "share_m", "fixes_outcome", "score_drop"} <= set(shape["assumptions"][0])
+    assert read_explanation(tmp_path / "run") == explained          # kept beside the record, reloads equal
+    execute(RunRequest(scenario=paper_curve, backend="ideal", criticality=False), tmp_path / "ideal")
+    index = build_report(tmp_path, tmp_path / "report")
+    page = next((index.parent / "scenarios").glob("*.html")).read_text()
+    assert "the assumptions that broke" in page and explained.sentence() in page
+    assert (index.parent / "assets" / "curve_radius-10_angle-90" / "waterfall_mujoco-suv.png").stat().st_size > 5000
 
 
 @pytest.mark.slow

@@ -46,7 +46,10 @@ def _register(argv: list[str]) -> None:
 
 
 def main() -> None:
-    faulthandler.enable()       # an interpreter that crashes (a planner's segfault) says so, and where
+    try:       # an interpreter that crashes (a planner's segfault) says so, and where
+        faulthandler.enable()
+    except (OSError, ValueError):  # a standard error without a file descriptor (a caller captured it)
+        pass
     _register(sys.argv[1:])
     try:
         app()

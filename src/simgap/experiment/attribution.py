@@ -9,8 +9,11 @@ dry). Each counterfactual world is the run's own request as a replay makes it fr
 its plans' measured latencies) with a subset of them restored (`counterfactual`); every subset is run,
 2^n worlds for the n assumptions the run breaks (at most 5, so the attribution is exact), beside
 the ideal run, and each is compared with the ideal run by `evaluate`'s comparison (the gap: max
-|d| against the ideal run by arc length, and the lateral tracking error). The run itself is the
-world where none holds: its record is read, not rerun.
+|d| against the ideal run by arc length, over the stretch of route the explained run drove — a
+world that drives on past where the run left the road is measured where the run was —, and the
+lateral tracking error). The run itself is the world where none holds: its record is read, not
+rerun. An explanation is kept beside the run's record (``explanation.json``), where the report
+draws it.
 
 Per assumption the attribution reports its Shapley share of the gap (the mean, over the orders of
 restoring them, of how much restoring it narrows the gap), of the lateral tracking error and of
@@ -25,6 +28,7 @@ restoration explains alone is the interaction (``interaction_m``).
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import multiprocessing as mp
 import tempfile
@@ -34,10 +38,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+import numpy as np
+
 from simgap.cosim import REFERENCE, History, Outcome
 from simgap.errors import InputError
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment.replay import recorded_scenario, replay_request
+from simgap.files import atomic_write_text
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_metadata
@@ -75,7 +82,7 @@ class World:
 
     restored: frozenset[Assumption]
     outcome: Outcome
-    gap_m: float             # max |d| against the ideal run [m]
+    gap_m: float             # max |d| against the ideal run [m], where the explained run drove
     tracking_m: float        # max lateral tracking error (plan against car) [m]
     score: float             # the closed-loop score (the worst agent's)
     wall_s: float
@@ -83,6 +90,11 @@ class World:
     def as_json(self) -> dict[str, Any]:
         return {"restored": sorted(self.restored), "outcome": str(self.outcome), "gap_m": self.gap_m,
                 "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s}
+
+    @classmethod
+    def of_json(cls, d: Mapping[str, Any]) -> "World":
+        return cls(frozenset(Assumption(a) for a in d["restored"]), Outcome(d["outcome"]), float(d["gap_m"]),
+                   float(d["tracking_m"]), float(d["score"]), float(d["wall_s"]))
 
 
 @dataclass(frozen=True)
@@ -98,6 +110,11 @@ class AssumptionShare:
     def as_json(self) -> dict[str, Any]:
         return {"name": str(self.name), "share_m": self.share_m, "fixes_outcome": self.fixes_outcome,
                 "score_drop": self.score_drop, "tracking_share_m": self.tracking_share_m}
+
+    @classmethod
+    def of_json(cls, d: Mapping[str, Any]) -> "AssumptionShare":
+        return cls(Assumption(d["name"]), float(d["share_m"]), float(d["tracking_share_m"]), float(d["score_drop"]),
+                   bool(d["fixes_outcome"]))
 
 
 @dataclass(frozen=True)
@@ -132,6 +149,16 @@ class Attribution:
                 "fixing_sets": [[str(a) for a in s] for s in self.fixing_sets], "interaction_m": self.interaction_m,
                 "runs": self.runs, "wall_s": self.wall_s, "run_wall_s": self.run_wall_s, "workers": self.workers,
                 "worlds": [w.as_json() for w in self.worlds]}
+
+    @classmethod
+    def of_json(cls, d: Mapping[str, Any]) -> "Attribution":
+        """An attribution as `as_json` wrote it (``explanation.json``)."""
+        return cls(str(d["run"]), str(d["scenario_id"]), str(d["backend"]), str(d["vehicle"]), Outcome(d["outcome"]),
+                   Outcome(d["ideal_outcome"]), float(d["gap_m"]), float(d["tracking_m"]),
+                   tuple(AssumptionShare.of_json(a) for a in d["assumptions"]),
+                   tuple(tuple(Assumption(a) for a in s) for s in d["fixing_sets"]), float(d["interaction_m"]),
+                   int(d["runs"]), float(d["wall_s"]), float(d["run_wall_s"]), int(d["workers"]),
+                   tuple(World.of_json(w) for w in d.get("worlds") or ()))
 
     def sentence(self) -> str:
         """The explanation in a sentence: what the car did, the assumption that most caused it, and
@@ -235,10 +262,31 @@ def _scores(record: RunRecord) -> tuple[float, ...]:
     return tuple(0.0 if a.score is None else float(a.score) for a in record.evaluation.agents)
 
 
-def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumption] | None = None) -> Attribution:
+EXPLANATION_FILE = "explanation.json"       # an explained run's attribution, beside its record
+
+
+def write_explanation(run_dir: str | Path, attribution: Attribution) -> Path:
+    """Keep ``attribution`` in its run directory (atomically), where the report finds it."""
+    return atomic_write_text(Path(run_dir) / EXPLANATION_FILE, json.dumps(attribution.as_json(), indent=2))
+
+
+def read_explanation(run_dir: str | Path) -> Attribution | None:
+    """The attribution kept in ``run_dir`` (None: the run was not explained)."""
+    path = Path(run_dir) / EXPLANATION_FILE
+    if not path.is_file():
+        return None
+    try:
+        return Attribution.of_json(json.loads(path.read_text()))
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"cannot read the run's explanation ({type(exc).__name__}: {exc})", file=path,
+                         allowed="the explanation.json simgap explain wrote; explain the run again") from None
+
+
+def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumption] | None = None,
+            keep: bool = True) -> Attribution:
     """Explain the run in ``run_dir`` (see the module doc): its counterfactual worlds run on
     ``workers`` processes (1: in this one); ``assumptions``: restore only these of those it broke
-    (default: all)."""
+    (default: all); ``keep``: write it into the run directory (`EXPLANATION_FILE`)."""
     started = time.perf_counter()
     if workers > 1:     # the fork server loads what a run imports while this process reads the run
         _fork_server().ensure_running()
@@ -260,12 +308,17 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
         ran = _run_all(requests, workers)
         scenario, problems = load_scenario(request.scenario)
     ideal = ran[0]
+    stretch = {c.agent_id: float(c.s[-1]) for c in compare_histories(ideal.history, record.history, scenario, problems)
+               if len(c.s)}
     worlds = {frozenset(): _world(frozenset(), record.history, _scores(record), record.history.wall_time_s,
-                                  ideal.history, scenario, problems)}
+                                  ideal.history, scenario, problems, stretch)}
     for subset, r in zip(subsets, ran[1:]):
-        worlds[subset] = _world(subset, r.history, r.scores, r.wall_s, ideal.history, scenario, problems)
-    return _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
-                        max(1, workers))
+        worlds[subset] = _world(subset, r.history, r.scores, r.wall_s, ideal.history, scenario, problems, stretch)
+    attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
+                               max(1, workers))
+    if keep:
+        write_explanation(run_dir, attribution)
+    return attribution
 
 
 def _run_all(requests: list[RunRequest], workers: int) -> list[_Ran]:
@@ -288,9 +341,13 @@ def _fork_server() -> Any:
 
 
 def _world(restored: frozenset[Assumption], history: History, scores: tuple[float, ...], wall_s: float,
-           ideal: History, scenario: Any, problems: Any) -> World:
+           ideal: History, scenario: Any, problems: Any, stretch: Mapping[int, float]) -> World:
+    """A world's run against the ideal run; its gap over the ``stretch`` of route (agent -> arc
+    length) the explained run drove, so that every world is measured where the run itself was (a
+    world that drives on past where the run left the road adds no gap beyond it)."""
     comparisons = compare_histories(ideal, history, scenario, problems)
-    gaps = [c.lateral_displacement.max for c in comparisons]
+    gaps = [float(np.max(np.abs(c.d_b - c.d_a)[c.s <= stretch.get(c.agent_id, np.inf)], initial=0.0))
+            for c in comparisons if len(c.s)]
     tracking = [c.tracking_lateral_b.max for c in comparisons if c.tracking_lateral_b is not None]
     return World(restored, Outcome.worst([a.outcome for a in history.agents]), _max(gaps), _max(tracking),
                  min(scores, default=0.0), wall_s)

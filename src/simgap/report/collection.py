@@ -10,7 +10,7 @@ is the one its record names (`simgap.record.RunSettings.planner`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from commonroad.planning.planning_problem import PlanningProblemSet
@@ -19,6 +19,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.cosim import REFERENCE, Outcome
 from simgap.errors import InputError
 from simgap.evaluate.compare import AgentComparison, compare_histories
+from simgap.experiment.attribution import Attribution, read_explanation
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario
@@ -29,6 +30,7 @@ class RunEntry:
     run_dir: Path
     run: RunRecord
     fidelity: str
+    explanation: Attribution | None = None      # why it parted from the ideal run, where it was explained
 
     @property
     def failed(self) -> bool:
@@ -87,7 +89,8 @@ def collect(root: Path) -> list[ScenarioGroup]:
     by_group: dict[tuple[str, str], list[RunEntry]] = {}
     for run_dir in find_run_dirs(root):
         run = read_run(run_dir)
-        by_group.setdefault((run.scenario_id, run.planner), []).append(RunEntry(run_dir, run, run.fidelity.label))
+        by_group.setdefault((run.scenario_id, run.planner), []).append(
+            RunEntry(run_dir, run, run.fidelity.label, read_explanation(run_dir)))
     groups: dict[tuple[str, str], ScenarioGroup] = {}
     twins: list[str] = []
     for (scenario_id, planner), entries in by_group.items():
@@ -99,7 +102,7 @@ def collect(root: Path) -> list[ScenarioGroup]:
             scenario_id, dict(first.settings.parameters), scenario, problems, first.settings.sections, {},
             planner=planner)
         for e in entries:
-            group.runs[labels[e.run_dir]] = RunEntry(e.run_dir, e.run, labels[e.run_dir])
+            group.runs[labels[e.run_dir]] = replace(e, fidelity=labels[e.run_dir])
     if twins:
         raise InputError(f"{len(twins)} pairs of runs differ in nothing (scenario, planner, fidelity, settings, "
                          f"seed): {'; '.join(twins)}", file=root, field="runs",

@@ -107,3 +107,32 @@ def _finish(fig, ax, path: Path, xlabel: str, ylabel: str, title: str) -> Path:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+def plot_waterfall(steps: Sequence[tuple[str, float, bool]], total: float, path: Path, title: str,
+                   unit: str = "m") -> Path:
+    """A waterfall of shares that add up to ``total``: each step (name, share, whether restoring it
+    alone fixes the outcome) a bar from where the shares before it ended, the total a bar from 0."""
+    fig, ax = plt.subplots(figsize=(8, 0.55 * (len(steps) + 1) + 1.2))
+    start = 0.0
+    names = [name for name, _, _ in steps] + ["gap"]
+    for i, (name, share, fixes) in enumerate(steps):
+        colour = "#d55e00" if share >= 0 else "#009e73"
+        ax.barh(i, share, left=start, color=colour, hatch="//" if fixes else None, edgecolor="black", lw=0.6)
+        ax.text(max(start, start + share), i, f" {share:+.3f} {unit}" + ("  restoring it alone fixes the outcome"
+                                                                         if fixes else ""), va="center", fontsize=8)
+        start += share
+    ax.barh(len(steps), total, color="#0072b2", edgecolor="black", lw=0.6)
+    ax.text(max(total, 0.0), len(steps), f" {total:.3f} {unit}", va="center", fontsize=8)
+    ax.set_yticks(range(len(names)), names)
+    ax.invert_yaxis()
+    ax.axvline(0.0, color="black", lw=0.8)
+    lo, hi = ax.get_xlim()
+    ax.set_xlim(lo, hi + 0.6 * (hi - lo))        # room for the labels
+    ax.set_xlabel(f"share of the gap [{unit}]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

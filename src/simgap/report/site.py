@@ -39,7 +39,7 @@ from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxe
 from simgap.evaluate.route_edges import event_places, route_edges
 from simgap.scenario.road_frame import PathFrame
 from simgap.evaluate.timeline import agent_timeline
-from simgap.report.plots import plot_d_over_s, plot_v_over_t
+from simgap.report.plots import plot_d_over_s, plot_v_over_t, plot_waterfall
 from simgap.report.timeline import plot_timeline
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
 from simgap.cosim.fidelity import Realism
@@ -265,6 +265,7 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path, compared: bool
                  "car did (after its actuators' delays and limits), each plan's latency until it reached the car "
                  "and each planning call's wall time, and how far the state its planner observed was from the "
                  "true one; every event dotted.</p>"] + timelines
+    body += _explanations(group, adir, rel)
     crit = [{"fidelity": fidelity} | r for fidelity, entry in group.runs.items() for r in _criticality(entry)]
     if crit:
         body += ["<h2>Criticality of agent pairs (commonroad-crime)</h2>",
@@ -274,6 +275,60 @@ def _scenario_page(group: ScenarioGroup, out: Path, assets: Path, compared: bool
     if pictures:
         body += ["<h2>Pictures</h2>"] + pictures
     return page(out / "scenarios" / f"{name}.html", f"Scenario {group.name}", body, "../")
+
+
+def _explanations(group: ScenarioGroup, adir: Path, rel: str) -> list[str]:
+    """Per explained run (`simgap explain`), the waterfall of its attribution and its table."""
+    explained = [(fidelity, e.explanation) for fidelity, e in group.runs.items() if e.explanation is not None]
+    if not explained:
+        return []
+    body = ["<h2>Why they parted: the assumptions that broke</h2>",
+            "<p>Each explained run (<code>simgap explain</code>) was run again with each subset of the planner's "
+            "assumptions that it broke restored. An assumption's share is its Shapley value over those worlds of the "
+            "gap, max |d| against the ideal run: the shares add up to the gap. <code>vehicle_dynamics</code> is the "
+            "base, the perfect machine's own gap. A hatched bar: restoring that assumption alone brings the "
+            "outcome back to the ideal run's.</p>"]
+    for fidelity, a in explained:
+        png = plot_waterfall([(str(x.name), x.share_m, x.fixes_outcome) for x in a.assumptions], a.gap_m,
+                             adir / f"waterfall_{_slug(fidelity)}.png",
+                             f"{group.scenario_id}, {fidelity}: {a.outcome} (ideal: {a.ideal_outcome})")
+        body += [f"<h3>{html.escape(fidelity)}</h3><p>{html.escape(a.sentence())}.</p>",
+                 figure(rel + png.name, f"{fidelity}: each assumption's share of the {a.gap_m:.3f} m gap", half=True),
+                 table([{"assumption": str(x.name), "share of max |d| [m]": x.share_m,
+                         "share of lateral tracking [m]": x.tracking_share_m, "score drop": x.score_drop,
+                         "restoring it alone fixes the outcome": "yes" if x.fixes_outcome else "no"}
+                        for x in a.assumptions]),
+                 f"<p>smallest sets whose restoration fixes the outcome: "
+                 f"{html.escape('; '.join('{' + ', '.join(s) + '}' for s in a.fixing_sets) or 'none')}; interaction "
+                 f"{a.interaction_m:.3f} m; {a.runs} runs in {a.wall_s:.1f} s.</p>"]
+    return body
+
+
+def _assumption_heatmaps(groups: list[ScenarioGroup], xp: str, yp: str) -> list[str]:
+    """Which assumption dominates where: per assumption, its share of the gap in each explained run
+    over two varying parameters (one colour scale for all)."""
+    points: dict[str, list[tuple[float, float, float]]] = {}
+    links: dict[tuple[float, float], str] = {}
+    for g in groups:
+        if xp not in g.parameters or yp not in g.parameters:
+            continue
+        key = (float(g.parameters[xp]), float(g.parameters[yp]))
+        for e in g.runs.values():
+            if e.explanation is not None:
+                for x in e.explanation.assumptions:
+                    points.setdefault(str(x.name), []).append((*key, x.share_m))
+                links[key] = f"scenarios/{_slug(g.name)}.html"
+    if not points:
+        return []
+    values = [v for pts in points.values() for *_, v in pts if math.isfinite(v)]
+    scale = (min(values), max(values)) if values else (0.0, 0.0)
+    xlabel, ylabel = _axis_labels(groups, xp, yp)
+    return (["<h2>Which assumption dominates where</h2>",
+             "<p>Per assumption, its Shapley share [m] of the gap (max |d| against the ideal run) in each explained "
+             f"run, over {html.escape(xp)} × {html.escape(yp)}; one colour scale, {scale[0]:.2f} to {scale[1]:.2f} m. "
+             "Where several runs of a scenario were explained, the last one read is shown.</p>"]
+            + [f"<div class='side'>{heatmap_table(pts, xlabel, ylabel, name, links, scale)}</div>"
+               for name, pts in sorted(points.items())])
 
 
 def _comparison_name(scenario_id: str) -> str:
@@ -535,6 +590,7 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
     if len(params) >= 2:
         body += _heatmaps(groups, fidelities, planners, params[0], params[1], assets)
         body += _score_heatmaps(groups, fidelities, planners, params[0], params[1], assets)
+        body += _assumption_heatmaps(groups, params[0], params[1])
     label = {v: f"{v[0]} · {v[1]}" if len(planners) > 1 else v[1] for v in variants}
     entries = {v: [g.runs[v[1]] for g in groups if g.planner == v[0] and v[1] in g.runs] for v in variants}
     wall = {label[v]: [e.run.history.wall_time_s for e in entries[v]] for v in variants}
