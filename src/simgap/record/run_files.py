@@ -48,6 +48,7 @@ from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunE
 from simgap.evaluate.solution import PartialCost
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.record.integrity import check_driven, check_record, check_states, record_object
 from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
@@ -211,8 +212,10 @@ def read_run(run_dir: str | Path) -> RunRecord:
         raise InputError(f"cannot read the run's record: {exc}", file=meta_path,
                          allowed="the run.json simgap wrote; run the scenario again") from None
     try:
-        meta = migrate(meta, run_dir)
+        meta = migrate(record_object(meta, meta_path), run_dir)
+        check_record(meta, meta_path)
         states = _read_states(run_dir / TRAJECTORIES_FILE, float(meta["history"]["dt"]))
+        check_driven((int(a["id"]) for a in meta["history"]["agents"]), states["driven"], run_dir / TRAJECTORIES_FILE)
         return RunRecord(history=_history(meta["history"], states), evaluation=_evaluation(meta["evaluation"]),
                          settings=_settings(meta["settings"]), timings=meta.get("timings") or {},
                          format_version=int(meta["format_version"]))
@@ -228,10 +231,12 @@ def _read_states(path: Path, dt: float) -> dict[str, Any]:
     ``planned`` agent id -> [Trajectory], ``attitudes`` agent id -> (Attitude, ...), ``controls``
     agent id -> ControlTrace."""
     try:
-        table = pq.read_table(path).to_pydict()
+        arrow = pq.read_table(path)
     except (OSError, ValueError, pa.ArrowException) as exc:
         raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
                          allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    check_states(arrow, path)
+    table = arrow.to_pydict()
     missing = [f for f in CONTROL_COLUMNS if f not in table]
     if missing and "controls" in table["kind"]:
         raise InputError(f"rows of kind 'controls' without the columns {', '.join(missing)}", file=path,
