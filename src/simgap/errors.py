@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 from typing import Any, Mapping, TypeVar
 
@@ -32,6 +33,22 @@ class InputError(Exception):
         if self.allowed:
             text += f" (allowed: {self.allowed})"
         return text
+
+
+# failures of the machine, not of the input (what was being written is cleaned up by the atomic
+# writes of `simgap.files`): the CLI says so in one line; an experiment runs such a run again
+ENVIRONMENT_ERRORS = {errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
+                      errno.EROFS: "the file system is read-only"}
+
+
+def machine_failure(exc: BaseException) -> str | None:
+    """What failed in the machine rather than in the input when ``exc`` was raised (a full disk,
+    a read-only file system, no memory left), or None."""
+    if isinstance(exc, MemoryError):
+        return "out of memory"
+    if isinstance(exc, OSError) and exc.errno in ENVIRONMENT_ERRORS:
+        return ENVIRONMENT_ERRORS[exc.errno]
+    return None
 
 
 def _model_at(model: type[BaseModel], loc: tuple) -> type[BaseModel]:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import errno
 import importlib
 import sys
 
 import typer
 
-from simgap.errors import InputError
+from simgap.errors import ENVIRONMENT_ERRORS, InputError
 
 app = typer.Typer(
     name="simgap",
@@ -53,9 +52,4 @@ def main() -> None:
                     "or choose another --out, then run the command again", err=True, fg="red")
         sys.exit(1)
 
-
-# failures of the machine, not of the input: one line and exit 1 (what was being written is cleaned up
-# by the atomic writes of `simgap.files`)
-ENVIRONMENT_ERRORS = {errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
-                      errno.EROFS: "the file system is read-only"}
 

@@ -27,9 +27,10 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any, Callable
 
+from simgap.errors import machine_failure
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.store import WORKER_DIED
+from simgap.experiment.store import MACHINE_FAILED, WORKER_DIED
 from simgap.files import replace_directory
 from simgap.record import read_run, rewrite_record
 
@@ -49,8 +50,11 @@ def failed_row(job: Job, reason: str) -> RunRow:
 
 
 def _crashed_row(job: Job, exc: BaseException) -> RunRow:
-    """The row of a run whose code raised ``exc``: its last line is the reason."""
-    return failed_row(job, traceback.format_exception_only(type(exc), exc)[-1].strip())
+    """The row of a run whose code raised ``exc``: its last line is the reason (a failure of the
+    machine says so: such a run is no result and runs again on resume)."""
+    reason = traceback.format_exception_only(type(exc), exc)[-1].strip()
+    machine = machine_failure(exc)
+    return failed_row(job, reason if machine is None else f"{MACHINE_FAILED}: {machine} ({reason})")
 
 
 def _worker(conn) -> None:
