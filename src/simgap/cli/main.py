@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import signal
 import sys
 
 import typer
@@ -38,9 +39,16 @@ def _register(argv: list[str]) -> None:
 
 
 def main() -> None:
-    _register(sys.argv[1:])
+    signal.signal(signal.SIGTERM, _terminated)
     try:
+        _register(sys.argv[1:])
         app()
+    except (SystemExit, KeyboardInterrupt):
+        if not _TERMINATED:
+            raise
+        typer.secho("error: stopped by SIGTERM before it finished; what it was writing was not kept (an "
+                    "experiment's finished runs are): run the command again", err=True, fg="red")
+        sys.exit(128 + signal.SIGTERM)
     except InputError as err:
         typer.secho(f"error: {err.describe()}", err=True, fg="red")
         sys.exit(2)
@@ -53,3 +61,16 @@ def main() -> None:
         sys.exit(1)
 
 
+
+
+_TERMINATED: list[int] = []
+
+
+def _terminated(signum, frame) -> None:
+    """The first SIGTERM stops the command as Ctrl-C does, where it is — so what it was writing is
+    cleaned up, and a run in the loop lets it through (`RunInterrupted`, if the loop is loaded) —
+    and the command says so; a second one ends it at once."""
+    _TERMINATED.append(signum)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    loop_stops = sys.modules.get("simgap.cosim.interruptions")
+    raise loop_stops.RunInterrupted() if loop_stops is not None else KeyboardInterrupt()

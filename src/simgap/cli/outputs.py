@@ -117,6 +117,7 @@ def record_pictures(out: Path, run_dir: Path, written: list[Path]) -> None:
     the run directory itself)."""
     if (out / "run.json").exists():
         return
+    out.mkdir(parents=True, exist_ok=True)
     try:
         earlier = set(json.loads((out / PICTURES).read_text())["pictures"])
     except (OSError, ValueError, KeyError, TypeError):
