@@ -29,6 +29,13 @@ def children(pid: int) -> list[int]:
     return found
 
 
+def cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text(errors="replace")
+    except OSError:
+        return ""
+
+
 def alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -46,10 +53,10 @@ def started_experiment(tmp_path: Path) -> tuple[subprocess.Popen, list[int], Pat
                               stderr=err.open("w"), start_new_session=True)
     deadline = time.monotonic() + 120
     workers: list[int] = []
-    while time.monotonic() < deadline and not workers:
+    while time.monotonic() < deadline and not workers and driver.poll() is None:
         time.sleep(0.2)
-        workers = [c for c in children(driver.pid) if "multiprocessing" in Path(f"/proc/{c}/cmdline").read_text()]
-    assert workers, "the pool's worker started"
+        workers = [c for c in children(driver.pid) if "multiprocessing" in cmdline(c)]
+    assert workers, f"the pool's worker started (driver exit {driver.poll()}: {err.read_text()[-300:]})"
     time.sleep(1.0)                                    # at work on its run
     return driver, workers, err
 
