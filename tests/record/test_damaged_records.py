@@ -99,3 +99,15 @@ def test_every_reader_refuses_a_damaged_run_in_one_line(sound_run, tmp_path):
         assert proc.returncode == 2, proc.stderr
         assert proc.stderr.strip().count("\n") == 0 and "run.json: field 'history.dt'" in proc.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_rows_that_are_not_states_are_not_held_to_a_states_rules(tmp_path):
+    from simgap.record.integrity import check_states
+    from simgap.trajectory import STATE_FIELDS
+
+    nan = float("nan")
+    table = pa.table({"kind": ["driven", "controls"], "agent_id": [1, 1], "plan_t": [nan, nan], "k": [0, 0]}
+                     | {f: [0.0, nan] for f in STATE_FIELDS})      # e.g. per control tick: only its time
+    check_states(table, tmp_path / "trajectories.parquet")
+    with pytest.raises(InputError, match="in the driven states of agent 1"):
+        check_states(table.set_column(table.schema.get_field_index("x"), "x", pa.array([nan, 0.0])), tmp_path)
