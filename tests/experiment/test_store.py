@@ -1,15 +1,19 @@
-"""The results store: a row file that cannot be read, or whose run directory is gone, is named,
-left out of every count and query, and its run runs again on resume."""
+"""The results store: a row file that cannot be read, or whose run directory is gone or damaged,
+is named, left out of every count and query, and its run runs again on resume; so does a run the
+machine failed (a full disk, no memory)."""
 
 from __future__ import annotations
 
+import errno
 import shutil
 
 import pytest
 import yaml
 
 from simgap.errors import InputError
+from simgap.experiment.executors import _crashed_row
 from simgap.experiment.runner import experiment_status, run_experiment
+from simgap.experiment.spec import jobs, load_spec
 from simgap.experiment.store import ResultsStore, row_file_name
 from simgap.files import sole_writer
 
@@ -74,3 +78,45 @@ def test_an_experiment_is_refused_in_a_folder_of_the_users_files(tmp_path):
     with pytest.raises(InputError, match=r"holds chapter1.tex and no experiment.json"):
         run_experiment(spec, out, workers=1)
     assert sorted(p.name for p in out.iterdir()) == ["chapter1.tex"]
+
+
+TWO_RUNS = THREE_RUNS | {"parameters": {"radius": {"values": [50, 100]}, "angle": {"values": [30]}},
+                        "cosim": {"replan_every": 3, "max_time_s": 3}}         # short runs
+
+
+def test_a_damaged_run_directory_is_not_done_and_runs_again_on_resume(tmp_path):
+    spec, out = tmp_path / "spec.yaml", tmp_path / "out"
+    spec.write_text(yaml.safe_dump(TWO_RUNS))
+    run_experiment(spec, out, workers=1)
+    store = ResultsStore(out)
+    first, second = store.rows()
+    meta = out / first["run_dir"] / "run.json"
+    meta.write_text(meta.read_text()[:300])                               # cut short
+    (out / second["run_dir"] / "trajectories.parquet").write_bytes(b"garbage" * 40)
+
+    status = experiment_status(out)
+    assert (len(status.ok), len(status.left)) == (0, 2)
+    reasons = sorted(status.unusable_rows.values())
+    assert f"its run directory {first['run_dir']} is damaged (run.json: cannot read the run's record" in reasons[0]
+    assert f"its run directory {second['run_dir']} is damaged (trajectories.parquet: cannot read" in reasons[1]
+
+    again = run_experiment(spec, out, workers=1)
+    assert (again.ran, again.skipped, again.failed) == (2, 0, 0)
+    after = experiment_status(out)
+    assert (len(after.ok), after.unusable_rows) == (2, {})
+
+
+def test_a_run_the_machine_failed_is_no_result_and_runs_again_on_resume(tmp_path):
+    spec, out = tmp_path / "spec.yaml", tmp_path / "out"
+    spec.write_text(yaml.safe_dump(TWO_RUNS))
+    run_experiment(spec, out, workers=1)
+    job = next(runs[0] for _, runs in jobs(load_spec(spec)))
+    assert _crashed_row(job, MemoryError()).failure.startswith("the machine failed: out of memory")
+    assert _crashed_row(job, OSError(errno.ENOENT, "gone")).failure.startswith("FileNotFoundError")   # an input's
+    row = _crashed_row(job, OSError(errno.ENOSPC, "No space left on device"))
+    assert row.status == "failed" and row.failure.startswith("the machine failed: no space left on the device")
+    ResultsStore(out).write_row(row)
+    status = experiment_status(out)
+    assert (len(status.ok), len(status.failed), status.left) == (1, 0, [job.key])
+    again = run_experiment(spec, out, workers=1)
+    assert (again.ran, again.skipped, again.failed) == (1, 1, 0)

@@ -240,7 +240,7 @@ def test_a_search_exports_one_folder_per_distinct_violation(tmp_path):
     proc = subprocess.run(SIMGAP + ["export", str(tmp_path / "search"), "--violations", "--out", str(tmp_path / "found")],
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
-    folders = sorted(p for p in (tmp_path / "found").iterdir())
+    folders = sorted(p for p in (tmp_path / "found").iterdir() if not p.name.startswith("."))   # (and the list of them)
     assert len(folders) == result.distinct and f"{result.distinct} distinct violation" in proc.stdout
     for folder in folders:
         names = sorted(p.name for p in folder.iterdir())

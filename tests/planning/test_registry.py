@@ -170,6 +170,15 @@ def test_planners_per_agent_and_their_settings_file(tmp_path):
         parse_planners(f"1=frenet,2={EXAMPLE}:TimeGapPlanner", config)
 
 
+def test_isolate_is_refused_where_no_planner_is_a_class():
+    for ref in ("tcp://127.0.0.1:5555", "ipc:///tmp/planner.sock", "exec:python -m my_planner"):
+        with pytest.raises(InputError, match="runs in a process of its own already") as refused:
+            parse_planners(ref, isolate=True)
+        assert refused.value.field == "isolate"
+    mixed = parse_planners("1=frenet,2=tcp://127.0.0.1:5555", isolate=True)    # the class in its own process
+    assert mixed[1].isolate and not mixed[2].isolate
+
+
 def test_a_planner_that_raises_fails_its_cycles_and_the_run_goes_on(curve_xml, flaky_file, tmp_path):
     request = RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{flaky_file}:Flaky"),
                          cosim=CosimSettings(planning_budget_s=10.0))

@@ -56,6 +56,7 @@ def run_cmd(
     simgap experiment run paper-curves --out studies/paper --workers 2
     """
     from simgap.experiment.runner import run_experiment
+    from simgap.experiment.store import MACHINE_FAILED
     from simgap.report.site import build_experiment_report
 
     check = OutcomeCheck.of_options(fail_on, min_score)
@@ -84,6 +85,10 @@ def run_cmd(
                       f"simgap experiment run {escape(spec)} --out {escape(str(out))} --retry-failed")
     for key, reason in result.failures[:20]:
         console.print(f"  [red]failed[/red] {escape(key)}: {escape(reason)}")
+    machine = sum(reason.startswith(MACHINE_FAILED) for _, reason in result.failures)
+    if machine:
+        console.print(f"  {machine} of the runs failed for the machine (disk, memory), not for their input: they are "
+                      "no result and run again when the command is run again")
     print_odds(console, result.odds)
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
                   f"(simgap experiment query {out} \"SELECT ...\")")

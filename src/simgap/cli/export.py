@@ -14,6 +14,7 @@ from rich.console import Console
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
+from simgap.cli.outputs import OVERWRITE_HELP, files_out, record_files
 from simgap.errors import InputError
 from simgap.files import writable_directory
 
@@ -53,6 +54,7 @@ def export_cmd(
     version: Optional[str] = typer.Option(None, "--version", help="OpenSCENARIO version: 1.2 (default: every rule of ASAM's "
                                                          "Quality Checker applies), 1.0 (CARLA's ScenarioRunner), "
                                                          "1.1 or 1.3"),
+    overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
 ) -> None:
     """Write a run, a scenario's road or a search's findings in the formats other simulators read.
 
@@ -99,7 +101,9 @@ def export_cmd(
         if chosen is Format.OPENDRIVE:
             raise InputError("a search's findings are runs: they export as openscenario", field="--format",
                              allowed="openscenario")
-        _violations(console, source, out, osc_version)
+        with files_out(out, "export", [], overwrite):
+            exports = _violations(console, source, out, osc_version)
+        record_files(out, "export", [p.parent.name for e in exports for p in e.files])
         return
     if (source / "run.json").is_file():
         if chosen is Format.OPENDRIVE:
@@ -107,20 +111,26 @@ def export_cmd(
                              file=source, field="--format", allowed="openscenario")
         from simgap.export.write import export_run
 
-        _show(console, [export_run(source, out, osc_version)])
+        with files_out(out, "export", [], overwrite):
+            exported = export_run(source, out, osc_version)
+        record_files(out, "export", [p.name for p in exported.files])
+        _show(console, [exported])
     elif source.is_file() and source.suffix == ".xml":
         if chosen is Format.OPENSCENARIO:
             raise InputError("a scenario file exports its road; OpenSCENARIO needs a run of it", file=source,
                              field="--format", allowed="opendrive (or give a run directory)")
         from simgap.export.write import export_road
 
-        _show(console, [export_road(source, out)])
+        with files_out(out, "export", [], overwrite):
+            exported = export_road(source, out)
+        record_files(out, "export", [p.name for p in exported.files])
+        _show(console, [exported])
     else:
         raise InputError("not a run directory (no run.json) nor a CommonRoad scenario file", file=source,
                          allowed="a run directory, a .xml scenario, or a search directory with --violations")
 
 
-def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
+def _violations(console: Console, search_dir: Path, out: Path, version) -> list:
     """One folder per distinct violation: its high-fidelity run as .xosc + .xodr, the CommonRoad
     scenario and violation.json (what made it one); each folder built aside, then moved in."""
     from simgap.experiment.search.results import search_results
@@ -146,6 +156,7 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> None:
     console.print(f"{len(found)} distinct violation{'s' if len(found) != 1 else ''} in {search_dir}")
     if exports:
         _show(console, exports)
+    return exports
 
 
 def _show_recording(console: Console, recording) -> None:

@@ -14,6 +14,7 @@ from rich.table import Table
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
+from simgap.cli.outputs import OVERWRITE_HELP, files_out
 from simgap.errors import InputError
 from simgap.files import writable_directory
 from simgap.scenario import builtin_names, load_logical, write_scenario
@@ -42,6 +43,7 @@ def generate(
     goal: Optional[str] = typer.Option(None, "--goal", help="OpenDRIVE road: the centre of the goal area, "
                                        "ROAD:LANE:S or X,Y (ahead of the start along the lanes' links)"),
     preview: bool = typer.Option(True, "--preview/--no-preview", help="write a PNG preview per scenario"),
+    overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),
     list_: bool = typer.Option(False, "--list", help="list the built-in logical scenarios and their parameters"),
 ) -> None:
     """Generate one CommonRoad scenario per parameter combination (full grid).
@@ -54,7 +56,7 @@ def generate(
         _print_builtins(console)
         return
     if logical is not None and logical.endswith(".xodr"):
-        _from_opendrive(console, Path(logical), start, goal, _parse_sets(set_), out, preview)
+        _from_opendrive(console, Path(logical), start, goal, _parse_sets(set_), out, preview, overwrite)
         return
     if start is not None or goal is not None:
         raise InputError("--start and --goal place an agent on an OpenDRIVE road",
@@ -69,8 +71,7 @@ def generate(
     written, warned = [], set()
     steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
     where = logical if logical.endswith((".yaml", ".yml")) else None
-    made_out = not out.exists()
-    try:
+    with files_out(out, "generate", _scenario_files([spec.scenario_name(p) for p in combos], preview), overwrite):
         for params in steps:
             try:
                 concrete = spec.build(params)
@@ -80,10 +81,6 @@ def generate(
                 raise
             _warn(concrete.warnings, warned)
             written.append(write_scenario(concrete, out, preview=preview))
-    except BaseException:
-        if made_out and out.is_dir() and not any(out.iterdir()):    # leave no empty folder of ours behind
-            out.rmdir()
-        raise
     console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
     for path in written[:5]:
         console.print(f"  {path.name}")
@@ -91,8 +88,13 @@ def generate(
         console.print(f"  … and {len(written) - 5} more")
 
 
+def _scenario_files(names: list[str], preview: bool) -> list[str]:
+    """The files `write_scenario` writes of scenarios ``names``."""
+    return [f"{name}{suffix}" for name in names for suffix in (".xml", ".json") + ((".png",) if preview else ())]
+
+
 def _from_opendrive(console: Console, road: Path, start: str | None, goal: str | None, pins: dict[str, str],
-                    out: Path | None, preview: bool) -> None:
+                    out: Path | None, preview: bool, overwrite: bool) -> None:
     """One scenario on an OpenDRIVE road: its lanelets, one agent from ``start`` to ``goal``."""
     from simgap.scenario.opendrive.scenario import PLACE_FORMS, opendrive_scenario
 
@@ -103,7 +105,8 @@ def _from_opendrive(console: Console, road: Path, start: str | None, goal: str |
     started = time.perf_counter()
     concrete = opendrive_scenario(road, start, goal, pins)
     _warn(concrete.warnings, set())
-    xml = write_scenario(concrete, out, preview=preview)
+    with files_out(out, "generate", _scenario_files([concrete.name], preview), overwrite):
+        xml = write_scenario(concrete, out, preview=preview)
     problem = next(iter(concrete.problems.planning_problem_dict.values()))
     console.print(f"wrote [bold]{xml}[/bold]: {len(concrete.opendrive.lanelets)} lanelets from {road.name} "
                   f"({time.perf_counter() - started:.2f} s), one agent from "

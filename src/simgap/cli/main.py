@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import errno
 import faulthandler
 import importlib
 import os
+import signal
 import sys
 import tempfile
 import traceback
@@ -13,7 +13,7 @@ import traceback
 import typer
 
 from simgap.cli.exit_codes import EXIT_CODES_HELP, ExitCode
-from simgap.errors import InputError
+from simgap.errors import ENVIRONMENT_ERRORS, InputError
 
 app = typer.Typer(
     name="simgap",
@@ -50,9 +50,16 @@ def main() -> None:
         faulthandler.enable()
     except (OSError, ValueError):  # a standard error without a file descriptor (a caller captured it)
         pass
-    _register(sys.argv[1:])
+    signal.signal(signal.SIGTERM, _terminated)
     try:
+        _register(sys.argv[1:])
         app()
+    except (SystemExit, KeyboardInterrupt):
+        if not _TERMINATED:
+            raise
+        typer.secho("error: stopped by SIGTERM before it finished; what it was writing was not kept (an "
+                    "experiment's finished runs are): run the command again", err=True, fg="red")
+        sys.exit(128 + signal.SIGTERM)
     except InputError as err:
         typer.secho(f"error: {err.describe()}", err=True, fg="red")
         sys.exit(ExitCode.BAD_INPUT)
@@ -65,12 +72,6 @@ def main() -> None:
         sys.exit(ExitCode.INTERNAL_FAILURE)
     except Exception as err:        # a bug of simgap's (or of a library's): one line, not a traceback
         _internal_failure(err)
-
-
-# failures of the machine, not of the input: one line (what was being written is cleaned up by the
-# atomic writes of `simgap.files`)
-ENVIRONMENT_ERRORS = {errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
-                      errno.EROFS: "the file system is read-only"}
 
 
 def _internal_failure(err: BaseException) -> None:
@@ -89,3 +90,16 @@ def _internal_failure(err: BaseException) -> None:
     typer.secho(f"internal error: {type(err).__name__}{': ' * bool(message)}{message}; {where} (please report it)",
                 err=True, fg="red")
     sys.exit(ExitCode.INTERNAL_FAILURE)
+
+
+_TERMINATED: list[int] = []
+
+
+def _terminated(signum, frame) -> None:
+    """The first SIGTERM stops the command as Ctrl-C does, where it is — so what it was writing is
+    cleaned up, and a run in the loop lets it through (`RunInterrupted`, if the loop is loaded) —
+    and the command says so; a second one ends it at once."""
+    _TERMINATED.append(signum)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    loop_stops = sys.modules.get("simgap.cosim.interruptions")
+    raise loop_stops.RunInterrupted() if loop_stops is not None else KeyboardInterrupt()

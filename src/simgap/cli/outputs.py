@@ -1,19 +1,22 @@
 """What a command may write over. A command writes into a folder that is new, or that holds what
 the same command wrote (a run of the very same scenario, backend, vehicles and planners; a
-report; pictures); anything else it would replace is refused before any work, naming what is
-there, unless ``--overwrite`` is given."""
+report; pictures; scenarios or exports, which `simgap generate` and `simgap export` list in a
+hidden file of the folder); anything else it would replace is refused before any work, naming
+what is there, unless ``--overwrite`` is given."""
 
 from __future__ import annotations
 
 import json
+import shutil
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING, Iterator
 
 from simgap.errors import InputError
-from simgap.experiment.single_run import RunRequest
 from simgap.files import atomic_write_text
-from simgap.planning.registry import planner_of
-from simgap.record import read_run
-from simgap.vehicles import load_vehicle
+
+if TYPE_CHECKING:                 # (a run's modules are imported by the checks of a run's folder only:
+    from simgap.experiment.single_run import RunRequest     # generate and export start without them)
 
 OVERWRITE_HELP = "replace what the output folder holds even when this command did not write it"
 REPORT_FILES = ("index.html", "report.css", "report.js")
@@ -27,6 +30,8 @@ def refuse(out: Path, what: str) -> None:
 
 def check_run_out(out: Path, request: RunRequest, overwrite: bool) -> None:
     """``out`` is new, empty, or holds a run of the very same configuration as ``request``."""
+    from simgap.record import read_run
+
     if overwrite or not out.exists():
         return
     if not out.is_dir():
@@ -62,6 +67,9 @@ def _same_scenario(path: str | None, scenario: Path) -> bool:
 
 def _requested_agents(request: RunRequest, ids: list[int]) -> dict[int, tuple[str, str]] | None:
     """(vehicle name, planner name) of each agent as ``request`` would run it (None: it cannot)."""
+    from simgap.planning.registry import planner_of
+    from simgap.vehicles import load_vehicle
+
     out = {}
     try:
         for aid in ids:
@@ -109,9 +117,66 @@ def record_pictures(out: Path, run_dir: Path, written: list[Path]) -> None:
     the run directory itself)."""
     if (out / "run.json").exists():
         return
+    out.mkdir(parents=True, exist_ok=True)
     try:
         earlier = set(json.loads((out / PICTURES).read_text())["pictures"])
     except (OSError, ValueError, KeyError, TypeError):
         earlier = set()
     atomic_write_text(out / PICTURES, json.dumps({"run": str(run_dir),
                                                    "pictures": sorted(earlier | {p.name for p in written})}, indent=2))
+
+
+def _written_by(out: Path, command: str) -> Path:
+    """The hidden file in which ``simgap COMMAND`` lists the files it wrote into ``out``."""
+    return out / f".simgap-{command}.json"
+
+
+def _listed(out: Path, command: str) -> set[str] | None:
+    """The files ``simgap COMMAND`` says it wrote into ``out`` (None: it says nothing there)."""
+    try:
+        return set(json.loads(_written_by(out, command).read_text())["files"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def check_files_out(out: Path, command: str, names: list[str], overwrite: bool) -> None:
+    """``out`` is new, empty (but for hidden files), or a folder ``simgap COMMAND`` wrote into, where
+    of the files ``names`` it would write only those it wrote before exist: the user's folder, and
+    the user's file of a name it would write, are refused (before any work) unless ``overwrite``."""
+    if overwrite or not out.exists():
+        return
+    if not out.is_dir():
+        refuse(out, "a file")
+    listed = _listed(out, command)
+    if listed is None:
+        theirs = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+        if theirs:
+            more = f" (and {len(theirs) - 1} more)" if len(theirs) > 1 else ""
+            refuse(out, f"{theirs[0]}{more}, which simgap {command} did not write")
+        return
+    theirs = [name for name in names if (out / name).exists() and name not in listed]
+    if theirs:
+        refuse(out, f"{theirs[0]}, which simgap {command} did not write")
+
+
+def record_files(out: Path, command: str, names: list[str]) -> None:
+    """Say in ``out`` that ``simgap COMMAND`` wrote the files (or folders) ``names`` there: before it
+    writes them, so a command cut short leaves a folder its rerun may write into again."""
+    out.mkdir(parents=True, exist_ok=True)
+    listed = _listed(out, command) or set()
+    atomic_write_text(_written_by(out, command), json.dumps({"files": sorted(listed | set(names))}, indent=2))
+
+
+@contextmanager
+def files_out(out: Path, command: str, names: list[str], overwrite: bool) -> Iterator[None]:
+    """`check_files_out`, then `record_files` of ``names``, for the block that writes them; a folder
+    the block made and left holding nothing of its own (it failed) is removed again."""
+    check_files_out(out, command, names, overwrite)
+    made = not out.exists()
+    record_files(out, command, names)
+    try:
+        yield
+    except BaseException:
+        if made and not any(p.name != _written_by(out, command).name for p in out.iterdir()):
+            shutil.rmtree(out, ignore_errors=True)
+        raise

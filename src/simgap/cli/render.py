@@ -28,6 +28,7 @@ def render(
 
     Example: simgap render runs/c10 --3d
     """
+    from simgap.record import read_run
     from simgap.report import scene2d
 
     if three_d:
@@ -37,7 +38,11 @@ def render(
         check_mujoco_gl()
         from simgap.sim.mujoco.replay import MujocoReplay
     folder = out or run_dir
-    check_pictures_out(folder, list(scene2d.PICTURES) + (list(scene3d.PICTURES) if three_d else []), overwrite)
+    pictures = list(scene2d.PICTURES) + (list(scene3d.PICTURES) if three_d else [])
+    check_pictures_out(folder, pictures, overwrite)
+    read_run(run_dir)                     # a run that cannot be drawn is refused before the folder is made
+    # said before any is drawn: a render cut short (a kill, a full disk) leaves a folder its rerun draws into again
+    record_pictures(folder, run_dir, [folder / name for name in pictures])
     console = output_console()
     with console.status("rendering the 2D scene"):
         written = scene2d.render_run(run_dir, out, frame_every)
@@ -46,6 +51,5 @@ def render(
             written += scene3d.render_run_3d(
                 run_dir, out, MujocoReplay,
                 on_frame=lambda done, total: status.update(f"rendering the 3D video offscreen: frame {done} of {total}"))
-    record_pictures(folder, run_dir, written)
     for path in written:
         console.print(f"wrote [bold]{path}[/bold]")

@@ -34,6 +34,7 @@ from simgap.record import RunRecord
 from simgap.scenario.placement import GOAL_FORMS, START_FORMS, AgentPlacement
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import backend_settings, preflight
+from simgap.sim.settings import realism_of
 from simgap.vehicles import DEFAULT_VEHICLE
 
 KNOB_HELP = "reality knob NAME=VALUE (repeatable): " + ", ".join(
@@ -130,7 +131,8 @@ def run(
     placement = AgentPlacement.of_options(start, goal)
     physical = {"realism": realism, "controller": controller, "controller_hz": controller_hz, "physics_hz": physics_hz,
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
-    knob_settings, knob_cosim = _knobs(knobs or [], backend)
+    knob_values = _knobs(knobs or [], backend)
+    knob_settings, knob_cosim = apply_knobs(backend, knob_values)
     scoring = {"score": read_model(score_config, ScoreSettings, "score settings file", empty_ok=True)} \
         if score_config else {}
     if cost_function is not None:
@@ -147,6 +149,8 @@ def run(
                                                              traffic=traffic, planning_budget_s=planning_budget,
                                                              **knob_cosim, **scoring)),
                          seed=seed, validate=not no_validate, run_timeout_s=run_timeout, placement=placement)
+    for name, value in knob_values.items():            # (a perfect machine drops the loop's knobs: refused)
+        check_knob(name, value, value, where=f"knob {name}", realism=realism_of(request.backend_settings))
     check_run_out(out, request, overwrite)
     preflight(request.backend, request.backend_settings)
     if explain and backend == REFERENCE:
@@ -203,9 +207,9 @@ def _exit_on_failures(result: RunRecord, check: OutcomeCheck, console: Console) 
                                               for a in result.agents]), run_failed=bool(result.failure))
 
 
-def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
-    """``--knob NAME=VALUE`` options as (backend settings, loop settings), checked."""
-    values = {}
+def _knobs(items: list[str], backend: str) -> dict[str, float]:
+    """``--knob NAME=VALUE`` options as knob values, checked (each knob once)."""
+    values: dict[str, float] = {}
     for item in items:
         name, _, text = (part.strip() for part in item.partition("="))
         k = knob(name)
@@ -214,9 +218,12 @@ def _knobs(items: list[str], backend: str) -> tuple[dict, dict]:
         except ValueError:
             raise InputError(f"'{item}' is not NAME=NUMBER", field=f"knob {name}",
                              allowed=f"{k.low:g} to {k.high:g} {k.unit}") from None
+        if name in values:
+            raise InputError(f"given twice ({values[name]:g} and {value:g})", field=f"knob {name}",
+                             allowed="each knob once")
         values[name] = value
         check_knob(name, value, value, where=f"knob {name}", backend=backend)
-    return apply_knobs(backend, values)
+    return values
 
 
 def print_summary(console: Console, result: RunRecord) -> None:

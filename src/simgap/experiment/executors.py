@@ -3,8 +3,9 @@
 `LocalExecutor` keeps N worker processes (spawned, so nothing of the parent's threads or state
 leaks into them), hands each one run at a time, and watches them: a worker that dies (a crash,
 a kill) or overruns the per-run timeout is replaced, and only its run is recorded as failed, with
-the reason. `RayExecutor` submits the runs to a Ray cluster (a local one when no address is
-given; `ray_cluster` connects and checks the nodes first). A node needs no shared filesystem: each
+the reason. A worker ends with the driver, however the driver ends (a SIGKILL too), and says
+nothing when it finds the driver gone. `RayExecutor` submits the runs to a Ray cluster (a local
+one when no address is given; `ray_cluster` connects and checks the nodes first). A node needs no shared filesystem: each
 run gets its scenario files with it, runs in a scratch directory of the node it lands on, and
 returns its store row and the files of its run directory, which the driver writes (it alone
 writes the experiment directory).
@@ -17,9 +18,12 @@ no job is in flight.
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import multiprocessing as mp
 import os
+import signal
+import sys
 import tempfile
 import time
 import traceback
@@ -27,13 +31,15 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any, Callable
 
+from simgap.errors import machine_failure
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.store import WORKER_DIED
+from simgap.experiment.store import MACHINE_FAILED, WORKER_DIED
 from simgap.files import replace_directory
 from simgap.record import read_run, rewrite_record
 
 OnResult = Callable[[Job, RunRow], None]
+_PRCTL = getattr(ctypes.CDLL(None), "prctl", None) if sys.platform.startswith("linux") else None
 JobSource = Callable[[], "Job | None"]
 
 
@@ -49,32 +55,52 @@ def failed_row(job: Job, reason: str) -> RunRow:
 
 
 def _crashed_row(job: Job, exc: BaseException) -> RunRow:
-    """The row of a run whose code raised ``exc``: its last line is the reason."""
-    return failed_row(job, traceback.format_exception_only(type(exc), exc)[-1].strip())
+    """The row of a run whose code raised ``exc``: its last line is the reason (a failure of the
+    machine says so: such a run is no result and runs again on resume)."""
+    reason = traceback.format_exception_only(type(exc), exc)[-1].strip()
+    machine = machine_failure(exc)
+    return failed_row(job, reason if machine is None else f"{MACHINE_FAILED}: {machine} ({reason})")
 
 
-def _worker(conn) -> None:
+def _worker(conn, driver: int) -> None:
+    """A pool's worker: runs the jobs the driver (process ``driver``) sends, one at a time, and
+    ends with it — killed when the driver dies (Linux), quietly when it finds the driver gone."""
     from simgap.experiment.worker import execute_job
 
+    _die_with_driver(driver)
     while True:
         try:
             message = conn.recv()
-        except EOFError:
+        except (EOFError, OSError):
             return
         if message is None:
             return
         job, context = message
         try:
             row = execute_job(job, context)
+        except KeyboardInterrupt:        # Ctrl-C reaches the whole process group: the driver stops, no result
+            return
         except BaseException as exc:     # the run failed; the worker lives on
             row = _crashed_row(job, exc)
-        conn.send(row)
+        try:
+            conn.send(row)
+        except (BrokenPipeError, OSError):   # the driver is gone: nobody is left to read it
+            return
+
+
+def _die_with_driver(driver: int) -> None:
+    """End this worker when the driver ends however it ends (SIGKILL too): the kernel's parent-death
+    signal on Linux, then a check that the driver did not end before it was set."""
+    if _PRCTL is not None:
+        _PRCTL(1, signal.SIGKILL)                        # PR_SET_PDEATHSIG
+    if os.getppid() != driver:
+        os._exit(0)
 
 
 class _Worker:
     def __init__(self, ctx):
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker, args=(child,), daemon=True)
+        self.process = ctx.Process(target=_worker, args=(child, os.getpid()), daemon=True)
         self.process.start()
         child.close()
         self.job: Job | None = None

@@ -2,7 +2,8 @@
 can vary in the higher fidelities. A knob left out of a search spec leaves its setting at the
 world's default (the vehicle's actuators, the sensing profile's accuracy, the measured latency);
 a knob's ``nominal`` value is the ideal world's assumption (no delay, no error), which a failure's
-probes move it back to. The ideal fidelity never takes a knob.
+probes move it back to. The ideal fidelity never takes a knob, and a physics world of realism
+ideal (a perfect machine) none of the loop's (latency, localisation errors).
 
 `KNOBS` is the one table of them (name, unit, the settings field it turns, the backends that take
 it, what it means); a knob's range is its field's, bound once in the settings model: the search
@@ -23,7 +24,8 @@ from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
 from simgap.sim.mujoco.settings import WorldSettings
-from simgap.sim.settings import RoadSurface, TrackingSettings
+from simgap.sim.protocol import Realism
+from simgap.sim.settings import RoadSurface, TrackingSettings, realism_of
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,13 @@ class Knob:
     @property
     def high(self) -> float:
         return float(next(m.le for m in self._bounds if hasattr(m, "le")))
+
+    @property
+    def real_only(self) -> bool:
+        """Taken by a world of realism real only: under realism ideal (a perfect machine) the loop
+        sends every plan at once and the planner observes the exact state (`simgap.cosim.loop`,
+        `simgap.cosim.sensing`), whatever the loop's latency and sensing settings say."""
+        return self.setting.startswith("cosim.")
 
     @property
     def default_text(self) -> str:
@@ -107,8 +116,9 @@ def knob(name: str, *, file: str | Path | None = None, where: str = "knob") -> K
 
 
 def check_knob(name: str, low: float, high: float, *, file: str | Path | None = None, where: str = "knob",
-               backend: str | None = None) -> Knob:
-    """``name`` is a knob, [low, high] lies in its range and (if given) ``backend`` takes it."""
+               backend: str | None = None, realism: Realism | None = None) -> Knob:
+    """``name`` is a knob, [low, high] lies in its range and (if given) ``backend`` in ``realism``
+    takes it."""
     k = knob(name, file=file, where=where)
     if low < k.low or high > k.high:
         what = f"{low:g} {k.unit} is out of range" if low == high else f"[{low:g}, {high:g}] leaves the knob's range"
@@ -116,6 +126,10 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
     if backend is not None and backend not in k.backends:
         raise InputError(f"the knob '{name}' does not apply to the {backend} backend", file=file, field=where,
                          allowed=", ".join(k.backends))
+    if realism is Realism.IDEAL and k.real_only:
+        raise InputError(f"the knob '{name}' does not apply under realism ideal (a perfect machine: plans reach the "
+                         "car at once, the planner observes the exact state)", file=file, field=where,
+                         allowed="realism real, or leave the knob out")
     return k
 
 
@@ -138,14 +152,15 @@ def knob_table() -> str:
     return "\n".join(rows)
 
 
-def apply_knobs(backend: str, values: Mapping[str, float]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(backend settings, cosim settings) that put the knob ``values`` into ``backend``; knobs
-    that do not apply to it are left out."""
+def apply_knobs(backend: str, values: Mapping[str, float],
+                realism: Realism = Realism.REAL) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(backend settings, cosim settings) that put the knob ``values`` into ``backend`` in a world
+    of ``realism``; knobs that do not apply there are left out (so no record says they applied)."""
     settings: dict[str, Any] = {}
     cosim: dict[str, Any] = {}
     for name, value in values.items():
         knob = KNOBS[name]
-        if backend not in knob.backends:
+        if backend not in knob.backends or (realism is Realism.IDEAL and knob.real_only):
             continue
         if knob.setting.startswith("cosim."):
             path = knob.setting.split(".")[1:]
@@ -163,7 +178,7 @@ def with_knobs(backend: str, settings: BaseModel | None, cosim: CosimSettings,
     """``backend``'s settings and the loop's with the knob ``values`` put in (those that apply to
     it). The values lie in the knobs' ranges, which are the settings models' own bounds, so the
     models take them as they are."""
-    overrides, sections = apply_knobs(backend, values)
+    overrides, sections = apply_knobs(backend, values, realism_of(settings))
     if overrides and settings is not None:
         settings = settings.model_copy(update=overrides)
     if sections:

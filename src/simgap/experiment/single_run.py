@@ -117,7 +117,7 @@ def parse_planners(text: str, settings_file: Path | None = None, isolate: bool =
                    process: ProcessLimits | None = None) -> PlannerAssignment:
     """``--planner`` and ``--planner-config`` as a planner assignment, every planner loaded and its
     settings validated (errors name the file and the field); ``isolate`` runs every planner class
-    in a process of its own, ``process`` limits every planner in its own process.
+    in a process of its own (refused where no planner is a class: exec: and addresses have theirs), ``process`` limits every planner in its own process.
 
     The settings file holds the settings of the planner when one planner drives every agent (or
     every agent named); with several different planners, it maps each planner, as ``--planner``
@@ -138,6 +138,10 @@ def parse_planners(text: str, settings_file: Path | None = None, isolate: bool =
                                      f"the settings of '{ref}' are not a mapping", file=settings_file,
                                      field=str(ref), allowed=", ".join(refs))
                 settings[ref] = values
+    if isolate and all(PlannerTarget.parse(ref) is not None for ref in refs):
+        raise InputError(f"'{refs[0]}' runs in a process of its own already; --isolate is for planner classes",
+                         field="isolate", allowed="a planner class (a name, module:Class or file.py:Class), "
+                                                  "or no --isolate")
     choices = {}
     for ref in refs:
         own_process = isolate and PlannerTarget.parse(ref) is None

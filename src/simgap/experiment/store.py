@@ -12,9 +12,9 @@ Layout of an experiment directory::
 
 A row is written (to a temporary file, then renamed) only after its run directory is complete,
 so a row always describes a whole run; a run killed half-way leaves no row and is run again on
-resume, and so is a run whose worker died under it (its row says so until then), a row file that
-cannot be read and a row whose run directory is gone. Nothing else in the directory is read as a
-result.
+resume, and so is a run whose worker died under it or that the machine failed (a full disk, no
+memory: its row says so until then), a row file that cannot be read and a row whose run directory
+is gone or damaged. Nothing else in the directory is read as a result.
 """
 
 from __future__ import annotations
@@ -29,10 +29,12 @@ import pyarrow.parquet as pq
 from simgap.errors import InputError
 from simgap.experiment.run_row import RunRow
 from simgap.files import atomic_write, remove_stale_temporaries
-from simgap.record import migrate_row
+from simgap.record import check_run, migrate_row
 
 
 WORKER_DIED = "worker died"     # the failure of a run whose worker died under it (a crash, a kill, a lost node)
+MACHINE_FAILED = "the machine failed"   # ... of a run the machine failed (a full disk, no memory): not its input's
+NOT_A_RESULT = (WORKER_DIED, MACHINE_FAILED)    # failures that say nothing of the run: it runs again on resume
 
 
 def row_file_name(key: str) -> str:
@@ -67,7 +69,7 @@ class ResultsStore:
     def _usable_rows(self) -> dict[Path, list[dict[str, Any]]]:
         """The rows of every row file that stands for a run, by file. A file that cannot be read
         (cut short by a full disk or a crash of the machine) and a row whose run directory is gone
-        stand for nothing: they are left out and named in ``unusable_rows``, so their jobs count as
+        or damaged (a ``run.json`` or trajectories that `read_run` would refuse) stand for nothing: they are left out and named in ``unusable_rows``, so their jobs count as
         not run and run again on resume (whose new row replaces the file)."""
         self.unusable_rows = {}
         usable = {}
@@ -77,13 +79,26 @@ class ResultsStore:
             except (pa.ArrowException, OSError) as exc:
                 self.unusable_rows[path] = f"cannot be read ({str(exc).splitlines()[0]})"
                 continue
-            gone = next((r["run_dir"] for r in rows if r.get("run_dir")
-                         and not (self.root / r["run_dir"] / "run.json").is_file()), None)
-            if gone is not None:
-                self.unusable_rows[path] = f"its run directory {gone} is gone"
+            damage = next((why for why in map(self._run_damage, rows) if why), None)
+            if damage is not None:
+                self.unusable_rows[path] = damage
                 continue
             usable[path] = rows
         return usable
+
+    def _run_damage(self, row: dict[str, Any]) -> str | None:
+        """Why the run directory of ``row`` stands for no run (gone, or damaged: `check_run`), or None."""
+        if not row.get("run_dir"):
+            return None
+        run_dir = self.root / row["run_dir"]
+        if not (run_dir / "run.json").is_file():
+            return f"its run directory {row['run_dir']} is gone"
+        try:
+            check_run(run_dir)
+        except InputError as err:
+            where = Path(err.file or "").name + (f" field '{err.field}'" if err.field else "")
+            return f"its run directory {row['run_dir']} is damaged ({where}: {err.reason})"
+        return None
 
     def rows(self) -> list[dict[str, Any]]:
         """Every row that stands for a run, as stored: column -> value (for queries and tools;
@@ -95,9 +110,9 @@ class ResultsStore:
         return [RunRow.from_columns(r) for r in self.rows()]
 
     def finished_rows(self) -> list[dict[str, Any]]:
-        """The rows of the finished runs. A run whose worker died under it is not finished: it has
-        no result of its own, and runs again on resume."""
-        return [r for r in self.rows() if not str(r.get("failure") or "").startswith(WORKER_DIED)]
+        """The rows of the finished runs. A run whose worker died under it, or that the machine
+        failed, is not finished: it has no result of its own, and runs again on resume."""
+        return [r for r in self.rows() if not str(r.get("failure") or "").startswith(NOT_A_RESULT)]
 
     def finished_keys(self) -> dict[str, str]:
         """Job key -> status ('ok' or 'failed') of every finished run."""

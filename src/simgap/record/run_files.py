@@ -30,12 +30,14 @@ from __future__ import annotations
 
 import json
 import math
+from contextlib import contextmanager
 from dataclasses import asdict, fields
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
@@ -48,6 +50,7 @@ from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunE
 from simgap.evaluate.solution import PartialCost
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
+from simgap.record.integrity import check_driven, check_record, check_states, record_object
 from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
@@ -200,8 +203,31 @@ def _json_default(obj: Any) -> Any:
 
 # ------------------------------------------------------------------------------ reading
 def read_run(run_dir: str | Path) -> RunRecord:
-    """The record of a run directory (of any format: older ones through `migrate`)."""
+    """The record of a run directory (of any format: older ones through `migrate`); a damaged one
+    is refused (`simgap.record.integrity`)."""
     run_dir = Path(run_dir)
+    with _not_written_by_simgap(run_dir / RUN_FILE):
+        meta = _checked_meta(run_dir)
+        states = _read_states(run_dir / TRAJECTORIES_FILE, float(meta["history"]["dt"]))
+        check_driven(_agent_ids(meta), states["driven"], run_dir / TRAJECTORIES_FILE)
+        return RunRecord(history=_history(meta["history"], states), evaluation=_evaluation(meta["evaluation"]),
+                         settings=_settings(meta["settings"]), timings=meta.get("timings") or {},
+                         format_version=int(meta["format_version"]))
+
+
+def check_run(run_dir: str | Path) -> None:
+    """Refuse a damaged run directory as `read_run` does, without building its record (a few
+    milliseconds: what a results store checks of every run it counts as finished)."""
+    run_dir = Path(run_dir)
+    with _not_written_by_simgap(run_dir / RUN_FILE):
+        meta = _checked_meta(run_dir)
+        table = _checked_table(run_dir / TRAJECTORIES_FILE)
+        driven = table.filter(pc.equal(table.column("kind"), "driven")).column("agent_id")
+        check_driven(_agent_ids(meta), set(pc.unique(driven).to_pylist()), run_dir / TRAJECTORIES_FILE)
+
+
+def _checked_meta(run_dir: Path) -> dict[str, Any]:
+    """The ``run.json`` of ``run_dir`` in the current format, checked."""
     meta_path = run_dir / RUN_FILE
     if not meta_path.exists():
         raise InputError("not a run directory (no run.json)", file=run_dir)
@@ -210,12 +236,20 @@ def read_run(run_dir: str | Path) -> RunRecord:
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read the run's record: {exc}", file=meta_path,
                          allowed="the run.json simgap wrote; run the scenario again") from None
+    meta = migrate(record_object(meta, meta_path), run_dir)
+    check_record(meta, meta_path)
+    return meta
+
+
+def _agent_ids(meta: Mapping[str, Any]) -> list[int]:
+    return [int(a["id"]) for a in meta["history"]["agents"]]
+
+
+@contextmanager
+def _not_written_by_simgap(meta_path: Path) -> Iterator[None]:
+    """What a record that is not one simgap wrote raises while it is read, as an `InputError`."""
     try:
-        meta = migrate(meta, run_dir)
-        states = _read_states(run_dir / TRAJECTORIES_FILE, float(meta["history"]["dt"]))
-        return RunRecord(history=_history(meta["history"], states), evaluation=_evaluation(meta["evaluation"]),
-                         settings=_settings(meta["settings"]), timings=meta.get("timings") or {},
-                         format_version=int(meta["format_version"]))
+        yield
     except InputError:
         raise
     except (KeyError, TypeError, ValueError) as exc:
@@ -223,15 +257,22 @@ def read_run(run_dir: str | Path) -> RunRecord:
                          allowed=f"a run.json of format {FORMAT_VERSION} or older; run the scenario again") from None
 
 
+def _checked_table(path: Path) -> pa.Table:
+    """The trajectories table at ``path``, checked."""
+    try:
+        table = pq.read_table(path)
+    except (OSError, ValueError, pa.ArrowException) as exc:
+        raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
+                         allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    check_states(table, path)
+    return table
+
+
 def _read_states(path: Path, dt: float) -> dict[str, Any]:
     """The trajectories of a run directory by kind: ``driven`` etc. agent id -> Trajectory,
     ``planned`` agent id -> [Trajectory], ``attitudes`` agent id -> (Attitude, ...), ``controls``
     agent id -> ControlTrace."""
-    try:
-        table = pq.read_table(path).to_pydict()
-    except (OSError, ValueError, pa.ArrowException) as exc:
-        raise InputError(f"cannot read the run's trajectories: {exc}", file=path,
-                         allowed="the trajectories.parquet simgap wrote; run the scenario again") from None
+    table = _checked_table(path).to_pydict()
     missing = [f for f in CONTROL_COLUMNS if f not in table]
     if missing and "controls" in table["kind"]:
         raise InputError(f"rows of kind 'controls' without the columns {', '.join(missing)}", file=path,

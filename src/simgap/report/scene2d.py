@@ -16,6 +16,7 @@ from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from commonroad.visualization.draw_params import MPDrawParams  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
+from simgap.files import atomic_write  # noqa: E402
 from simgap.record import RunRecord, read_run  # noqa: E402
 from simgap.errors import InputError  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
@@ -72,8 +73,8 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
     rnd = MPRenderer(plot_limits=limits, figsize=size)
     draw_scene(rnd, scenario, problems, run, last,
           f"{run.scenario_id} — {run.history.backend}: driven paths, t = {last * run.history.dt:.1f} s")
-    png = out_dir / PICTURES[0]
-    rnd.f.savefig(png, dpi=110, bbox_inches="tight")
+    png = atomic_write(out_dir / PICTURES[0], lambda tmp: rnd.f.savefig(tmp, dpi=110, bbox_inches="tight"),
+                       keep_suffix=True)                # whole or not at all (a kill, a full disk)
     plt.close(rnd.f)
     if not animation:
         return [png]
@@ -86,5 +87,6 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
         rnd.f.canvas.draw()
         frames.append(np.asarray(rnd.f.canvas.buffer_rgba())[..., :3].copy())
         plt.close(rnd.f)
-    imageio.mimsave(gif, frames, duration=1000.0 * frame_every * run.history.dt, loop=0)
+    atomic_write(gif, lambda tmp: imageio.mimsave(tmp, frames, duration=1000.0 * frame_every * run.history.dt, loop=0),
+                 keep_suffix=True)
     return [png, gif]

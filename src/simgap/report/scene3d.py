@@ -92,9 +92,9 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
     written = []
 
     chase, birdseye = replay.stills(step, first, STILL)
-    for name, image in zip(PICTURES[:2], (chase, birdseye)):
-        imageio.imwrite(out_dir / name, image)
-        written.append(out_dir / name)
+    for name, image in zip(PICTURES[:2], (chase, birdseye)):      # each whole or not at all (a kill, a full disk)
+        written.append(atomic_write(out_dir / name, lambda tmp, image=image: imageio.imwrite(tmp, image),
+                                    keep_suffix=True))
 
     duration = (max(len(t) for t in run.history.driven.values()) - 1) * run.history.dt
     times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
@@ -137,6 +137,6 @@ def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: RunRec
     ax2d = fig.add_axes([0.58, 0.12, 0.40, 0.78])
     rnd = MPRenderer(plot_limits=limits, ax=ax2d)
     draw_scene(rnd, scenario, problems, run, step, f"2D CommonRoad scene, t = {step * run.history.dt:.1f} s")
-    fig.savefig(path, dpi=110)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110), keep_suffix=True)
     plt.close(fig)
     return path
