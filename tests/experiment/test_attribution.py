@@ -132,3 +132,31 @@ def test_run_explain_json_carries_the_explanation_in_its_one_document(paper_curv
     names = {a["name"] for a in explained["assumptions"]}
     assert names == {"vehicle_dynamics", "actuators"} and explained["runs"] == 2
     assert sum(a["share_m"] for a in explained["assumptions"]) == pytest.approx(explained["gap_m"])
+
+
+def _env() -> dict[str, str]:
+    import os
+
+    return dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2] / "src"), COLUMNS="200",
+                MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+
+
+def test_an_experiment_explains_its_failed_physical_runs_and_a_resume_keeps_them(tmp_path):
+    import yaml
+
+    spec = tmp_path / "explained.yaml"
+    spec.write_text(yaml.safe_dump({
+        "name": "explained", "logical": "curve", "parameters": {"radius": {"values": [10]}, "angle": {"values": [90]}},
+        "fidelities": [{"backend": "ideal"}, {"backend": "mujoco", "vehicles": ["suv"]}],
+        "explain": {"failed": True, "assumptions": ["actuators"]}}))
+    out = tmp_path / "exp"
+    command = [sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out), "--workers", "2",
+               "--no-validate", "--no-report"]
+    first = subprocess.run(command, capture_output=True, text=True, timeout=600, env=_env())
+    assert first.returncode == 0, first.stderr
+    assert "1 runs explained (1 now" in first.stdout and "restoring instant actuators alone brings it to the goal" \
+        in first.stdout
+    (explained,) = [p.parent for p in (out / "runs").rglob("explanation.json")]
+    assert read_explanation(explained).assumptions[0].name is A.ACTUATORS
+    again = subprocess.run(command, capture_output=True, text=True, timeout=600, env=_env())
+    assert "1 runs explained (0 now" in again.stdout                # kept, not explained twice

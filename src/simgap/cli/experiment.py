@@ -90,6 +90,11 @@ def run_cmd(
         console.print(f"  {machine} of the runs failed for the machine (disk, memory), not for their input: they are "
                       "no result and run again when the command is run again")
     print_odds(console, result.odds)
+    if result.explained:
+        new = sum(e.new for e in result.explained)
+        console.print(f"{len(result.explained)} runs explained ({new} now; simgap explain RUN_DIR for the shares):")
+        for e in result.explained:
+            console.print(f"  {escape(e.key)}: {escape(e.attribution.sentence())}", highlight=False)
     console.print(f"results: [bold]{out / 'store' / 'results.parquet'}[/bold] "
                   f"(simgap experiment query {out} \"SELECT ...\")")
     if report:
@@ -110,8 +115,8 @@ def print_odds(console: Console, odds: list[Odds]) -> None:
     repeated = [o for o in odds if o.runs > 1]
     if not repeated:
         return
-    table = Table(title="over the repeats' seeds: rates with Wilson 95 % intervals, max |d| [m] with bootstrap 95 % "
-                  "intervals")
+    table = Table(title=escape("over the repeats' seeds: rates with Wilson 95 % intervals, max |d| [m] with "
+                               "bootstrap 95 % intervals"))
     for column in ("scenario", "fidelity", "planner", "runs", "goal", "failure", "max |d| median", "max |d| p90"):
         table.add_column(column, justify="left" if column in ("scenario", "fidelity", "planner") else "right")
     for o in repeated:

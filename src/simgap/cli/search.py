@@ -41,6 +41,9 @@ def search_cmd(
     repeats: int = typer.Option(CONFIRMATION_REPEATS, "--repeats", min=1,
                                 help="seeds each distinct violation is confirmed over in high fidelity (its own "
                                      "included): it says in how many of them it fails"),
+    explain_worst: int = typer.Option(0, "--explain", min=0,
+                                      help="explain the N worst distinct violations of each strategy (simgap explain: "
+                                           "which of the planner's assumptions each broke; 2^n runs each)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
@@ -80,7 +83,8 @@ def search_cmd(
 
     try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             validate=not no_validate, probe_runs=probe_runs, repeats=repeats)
+                             validate=not no_validate, probe_runs=probe_runs, repeats=repeats,
+                             explain_worst=explain_worst)
     finally:
         if bar.live.is_started:
             bar.stop()
@@ -125,6 +129,8 @@ def _print_findings(console: Console, results) -> None:
         console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): {escape(v.row.failure_reason)}"
                       f"{seeds}")
         console.print(f"    {escape(v.reproduce)}", soft_wrap=True)
+        if v.explanation is not None:
+            console.print(f"    why: {escape(v.explanation.sentence())}", soft_wrap=True)
 
 
 def _objective(v) -> float:

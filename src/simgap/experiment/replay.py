@@ -64,8 +64,14 @@ class Replay:
 
 
 def reproduce_command(run_dir: str | Path) -> str:
-    """The command that runs a recorded run again and says whether it reproduced."""
-    return f"simgap replay {shlex.quote(str(run_dir))}"
+    """The command that runs a recorded run again and says whether it reproduced (its folder
+    relative to the working folder where it lies below it, else absolute)."""
+    folder = Path(run_dir).resolve()
+    try:
+        folder = folder.relative_to(Path.cwd())
+    except ValueError:
+        pass
+    return f"simgap replay {shlex.quote(str(folder))}"
 
 
 def replay(run_dir: str | Path, out: Path | None = None) -> Replay:

@@ -15,6 +15,7 @@ from simgap.errors import InputError
 from simgap.evaluate.odds import Odds
 from simgap.experiment.executors import make_executor
 from simgap.experiment.job import Job, JobContext
+from simgap.experiment.explained_runs import ExplainedRun, explain_runs
 from simgap.experiment.repeats import odds_over_repeats, write_odds
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
@@ -53,6 +54,7 @@ class ExperimentResult:
     failures: list[tuple[str, str]]
     unusable_rows: dict[Path, str]      # row files left out (`ResultsStore.unusable_rows`): their runs ran again
     odds: list[Odds] = field(default_factory=list)    # per scenario, fidelity and planner, over its repeats
+    explained: list[ExplainedRun] = field(default_factory=list)   # the runs its spec's `explain` chose
 
 
 def _diff(old: dict, new: dict, prefix: str = "") -> list[str]:
@@ -169,11 +171,13 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
         if todo:
             runner.run(todo, context, on_result)
         store.consolidate()
-        odds = odds_over_repeats(store.run_rows())
+        rows = store.run_rows()
+        odds = odds_over_repeats(rows)
         write_odds(root / "store", odds)
+        explained = [] if spec.explain is None else explain_runs(root, rows, spec.explain, max(2, workers or 2))
         return ExperimentResult(root, len(all_jobs), progress.done + progress.failed, progress.failed,
                                 progress.skipped, skipped_failed, time.perf_counter() - start, failures,
-                                unusable_rows, odds)
+                                unusable_rows, odds, explained)
 
 
 @dataclass

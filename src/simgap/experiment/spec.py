@@ -45,6 +45,7 @@ from simgap.errors import InputError, validated
 from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import grid_size, sample
 from simgap.files import read_model
+from simgap.sim.assumptions import Assumption
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.planning.remote import ProcessLimits
 from simgap.scenario.logical import LogicalScenario, load_logical
@@ -130,14 +131,31 @@ class BatchSpec(BaseModel):
                                  description="wall time [s]: a run taking longer is stopped and recorded as failed")
 
 
+class ExplainSpec(BaseModel):
+    """Which of an experiment's physical runs are explained once they have run (`simgap explain`:
+    which of the planner's assumptions each broke, and by how much), the worst first."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    failed: bool = Field(True, description="explain the physical runs that did not reach every goal")
+    gap_above_m: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                      description="and those whose max |d| against the ideal run of their scenario "
+                                                  "and planner exceeds this [m]")
+    assumptions: list[Assumption] | None = Field(None, min_length=1, description="restore only these of the "
+                                                 "assumptions a run broke (default: every one: 2^n runs each)")
+    limit: int | None = Field(None, ge=1, description="explain at most this many runs (default: every one chosen)")
+
+
 class ExperimentSpec(BatchSpec):
     parameters: dict[str, ParameterRange] = Field(default_factory=dict)
     sampler: SamplerSpec = Field(default_factory=SamplerSpec)
     fidelities: list[FidelitySpec] = Field(min_length=1)
     repeats: int = Field(1, ge=1, le=1000)
+    explain: ExplainSpec | None = Field(None, description="explain the runs that failed or parted from their ideal "
+                                        "run by more than a threshold (simgap explain), after the runs")
 
     def results_relevant(self) -> dict[str, Any]:
-        return results_relevant(self, {"name", "description", "run_timeout_s"})
+        return results_relevant(self, {"name", "description", "run_timeout_s", "explain"})
 
     def results_hash(self) -> str:
         """Over everything that changes results (not the name, description or timeout)."""

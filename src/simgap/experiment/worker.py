@@ -28,4 +28,4 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
                          criticality=context.criticality)
     record = execute(request, run_dir)
     row = RunRow.of(job, record, str(run_dir.relative_to(context.root)), time.perf_counter() - started)
-    return replace(row, reproduce=reproduce_command(run_dir.resolve()))
+    return replace(row, reproduce=reproduce_command(run_dir))

@@ -14,6 +14,7 @@ from typing import Any
 from simgap.errors import InputError
 from simgap.evaluate.odds import Rate
 from simgap.evaluate.run_metrics import RUN_METRICS
+from simgap.experiment.attribution import Attribution, read_explanation
 from simgap.experiment.replay import reproduce_command
 from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
@@ -35,6 +36,7 @@ class Violation:
     run_dir: Path                      # the high-fidelity run's directory
     scenario_xml: Path | None          # the candidate's CommonRoad scenario
     reproduces: Rate | None = None     # in how many of its seeds it failed in high fidelity (confirmation)
+    explanation: Attribution | None = None   # which of the planner's assumptions it broke (simgap explain)
 
     @property
     def candidate(self) -> int:
@@ -55,7 +57,7 @@ class Violation:
     @property
     def reproduce(self) -> str:
         """The command that runs its high-fidelity run again, bit for bit (`simgap replay`)."""
-        return reproduce_command(self.run_dir.resolve())
+        return reproduce_command(self.run_dir)
 
     def facts(self, spec: SearchSpec) -> dict[str, Any]:
         """What made it a violation, as plain data: the search dimensions (value and range), the
@@ -78,7 +80,8 @@ class Violation:
                 "high_fidelity": run(self.row), "ideal": run(self.ideal_row), "reproduce": self.reproduce,
                 "reproduces": None if self.reproduces is None else
                 {"failed": self.reproduces.k, "seeds": self.reproduces.n, "low": self.reproduces.low,
-                 "high": self.reproduces.high}}
+                 "high": self.reproduces.high},
+                "explanation": None if self.explanation is None else self.explanation.as_json()}
 
 
 def _plain(value: Any) -> Any:
@@ -169,8 +172,9 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
 
 def _violation(root: Path, strategy: str, high: SearchRow, ideal: SearchRow) -> Violation:
     scenario = root / "scenarios" / high.run.id.scenario
-    return Violation(strategy, high, ideal, root / str(high.run.run_dir), next(iter(sorted(scenario.glob("*.xml"))), None),
-                     reproduction(root, high))
+    run_dir = root / str(high.run.run_dir)
+    return Violation(strategy, high, ideal, run_dir, next(iter(sorted(scenario.glob("*.xml"))), None),
+                     reproduction(root, high), read_explanation(run_dir))
 
 
 @dataclass(frozen=True)

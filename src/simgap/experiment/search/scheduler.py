@@ -28,6 +28,7 @@ off); `simgap.experiment.search.ledger` keeps its ledger (the typed rows: `rows`
 from __future__ import annotations
 
 import json
+import math
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -39,6 +40,7 @@ from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
 from simgap.experiment.search.ledger import SearchLedger
+from simgap.experiment.attribution import explain
 from simgap.experiment.search.confirmation import Confirmations
 from simgap.experiment.search.mode_probes import ModeProbes
 from simgap.experiment.search.results import META, StrategyResult, summarise
@@ -225,13 +227,15 @@ class SearchProgress:
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
-               probe_runs: int = 0, repeats: int = 1) -> list[StrategyResult]:
+               probe_runs: int = 0, repeats: int = 1, explain_worst: int = 0) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``), ``budget`` shared evenly among
     them (`Budget.shares`; the mode probes come on top); ``validate``
     checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
     each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
     (`simgap.experiment.search.mode_probes`), confirm each over ``repeats`` seeds in high fidelity
-    (`simgap.experiment.search.confirmation`), and record what each found in ``search.json``."""
+    (`simgap.experiment.search.confirmation`), explain its ``explain_worst`` worst ones (by the
+    spec's objective in high fidelity; `simgap.experiment.attribution`), and record what each found in
+    ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
     if not validate and spec.failure.solution_invalid:
@@ -278,9 +282,17 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
             runner.run(confirmations.next_job, JobContext(confirmations.root, planner_vehicle=search.planner_vehicle,
                                                           validate=validate, criticality=False),
                        confirmations.on_result)
+        found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
+        for v in sorted(found.found, key=lambda v: -_finite(v.row.run.value(spec.objective)))[:explain_worst]:
+            if v.explanation is None:
+                explain(v.run_dir, max(2, workers or 2))
         results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
         _record_findings(root, results[-1])
     return results
+
+
+def _finite(value: float) -> float:
+    return value if math.isfinite(value) else -math.inf
 
 
 def _record_findings(root: Path, found: StrategyResult) -> None:
