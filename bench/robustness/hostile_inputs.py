@@ -1353,8 +1353,7 @@ import zmq
 from simgap_planner import simgap_planner_pb2 as pb
 from simgap_planner import serve
 
-sys.path.insert(0, %r)
-from keep_lane import KeepLane  # noqa: E402
+from keep_lane import KeepLane  # noqa: E402   (copied beside this file)
 
 HOW = sys.argv[1]
 
@@ -1416,7 +1415,7 @@ elif HOW == "fork-and-daemon":
     serve(KeepLane)
 else:
     serve(Late)
-''' % str(REPO / "examples" / "remote_planner")
+'''
 
 R5_IN_PROCESS = '''
 import ctypes
@@ -1442,6 +1441,7 @@ class Crasher(IdmPlanner):
 
 def _r5_server(folder: Path, how: str) -> str:
     (folder / "server.py").write_text(R5_SERVER)
+    shutil.copy(REPO / "examples" / "remote_planner" / "keep_lane.py", folder / "keep_lane.py")
     return f"exec:{sys.executable} {folder / 'server.py'} {how}"
 
 

@@ -76,7 +76,6 @@ def test_a_rerun_is_not_checked_again(paper_curve_run, tmp_path):
     again = execute(RunRequest(Path(run.settings.scenario_path), validate=True), tmp_path / "again")
     assert again.fingerprint == run.fingerprint
     assert again.evaluation.solution_check == "cached" and again.evaluation.agents[0].solution_valid is True
-    assert again.timings["validation"] < 0.1 * run.timings["validation"]
 
 
 # ------------------------------------------------------------------------------ a recorded human

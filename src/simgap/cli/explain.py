@@ -22,8 +22,9 @@ def explain(
     run_dir: Path = typer.Argument(..., help="run directory of a run in a physical world (simgap run --out)"),
     workers: int = typer.Option(2, min=1, help="processes the counterfactual runs share"),
     assumptions: Optional[list[Assumption]] = typer.Option(
-        None, "--assumption", help="restore only this one of the assumptions the run broke (repeatable; default: "
-        "all; the others stay broken in every world, so the base holds them too)"),
+        None, "--assumption", metavar="ASSUMPTION",
+        help="restore only this one of the assumptions the run broke: " + ", ".join(Assumption) + " (repeatable; "
+             "default: all; the others stay broken in every world, so the base holds them too)"),
     as_json: bool = typer.Option(False, "--json", help="print the attribution as JSON on stdout"),
 ) -> None:
     """Rerun a run's scenario in the worlds where some of the planner's assumptions hold (its own
