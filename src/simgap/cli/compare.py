@@ -84,7 +84,7 @@ def print_events(console: Console, result: dict) -> None:
         for e in result["events"][side]:
             table.add_row(side.upper(), f"{e['t']:.2f}", str(e["agent_id"]), e["kind"],
                           "—" if e["x"] is None else f"{e['x']:.1f}, {e['y']:.1f}",
-                          "—" if e["s"] is None else f"{e['s']:.1f}", "—" if e["d"] is None else f"{e['d']:+.2f}",
+                          "—" if e["s"] is None else f"{e['s']:.1f}", "—" if e["d"] is None else _signed(e["d"]),
                           escape(e["detail"]))
     console.print(table)
 
@@ -178,3 +178,10 @@ def compare(
                       style="dim")
     if out is not None:
         console.print(f"plots written to [bold]{out}[/bold]")
+
+
+def _signed(value: float, digits: int = 2) -> str:
+    """``value`` with its sign, but none where it rounds to zero (a centre line's -1e-12 and +1e-12
+    are both 0.00: the same on any machine)."""
+    text = f"{value:+.{digits}f}"
+    return text[1:] if float(text) == 0.0 else text

@@ -13,10 +13,12 @@ import logging
 import math
 import os
 import sys
+import tempfile
 import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from itertools import permutations
+from pathlib import Path
 
 from commonroad.scenario.scenario import Scenario
 
@@ -40,7 +42,8 @@ class PairCriticality:
 def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int = 5,
                      measures: tuple[str, ...] = tuple(MEASURES)) -> list[PairCriticality]:
     """``obstacle_ids``: agent id -> its obstacle id in ``driven``."""
-    import commonroad_crime.measure as crime_measures           # slow to import: only when measured
+    with _one_builder():                                         # slow to import: only when measured
+        import commonroad_crime.measure as crime_measures
     from commonroad_crime.data_structure.configuration import CriMeConfiguration
 
     if len(obstacle_ids) < 2:
@@ -48,6 +51,23 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
     driven.assign_obstacles_to_lanelets()
     with _quiet():
         return _pairs(driven, obstacle_ids, every, measures, crime_measures, CriMeConfiguration)
+
+
+@contextmanager
+def _one_builder():
+    """One process at a time through CriMe's first import: commonroad-reach compiles a Cython module
+    there (pyximport, into ~/.pyxbld, again whenever its source is newer than the build), and a
+    second process loading it while the first writes it fails (an experiment's workers, the test
+    suite's)."""
+    import fcntl
+
+    lock = Path(tempfile.gettempdir()) / "simgap-pyximport.lock"
+    with open(lock, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 @contextmanager
