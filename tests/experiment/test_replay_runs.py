@@ -78,9 +78,7 @@ def test_a_run_made_on_a_loaded_machine_replays_exactly_on_an_idle_one(folder):
 
 
 def test_a_replay_that_differs_says_where_and_exits_1(folder):
-    import shutil
-
-    shutil.copytree(folder / "s3", folder / "changed")          # test_a_seed_gives_one_run's, or made now
+    _run(folder, "changed", "--seed", "2")
     run_json = folder / "changed" / "run.json"
     meta = json.loads(run_json.read_text())
     meta["settings"]["seed"] = 5                       # the record no longer says how the run was made

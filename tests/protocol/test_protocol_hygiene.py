@@ -110,7 +110,7 @@ def test_a_killed_simgap_leaves_no_planner_process_or_folder(curve_xml, tmp_path
         simgap.wait(10)
     finally:
         simgap.kill()
-    assert all_ended(pids), "the planner's forked child and setsid daemon end with simgap"
+    assert all_ended(pids, timeout_s=30.0), "the planner's forked child and setsid daemon end with simgap"
     end = time.monotonic() + 5
     while list(tmp_path.glob("simgap-planner-*")) and time.monotonic() < end:
         time.sleep(0.05)

@@ -282,7 +282,7 @@ def score_lines(a: AgentEvaluation) -> list[str]:
                                          else "") for name, value in a.score_components.items() if value < 1.0]
         lines = [f"agent {a.id}: score {a.score:.3f}" + (f", lost on {', '.join(lost)}" if lost else ", nothing lost")]
     if a.solution_partial_costs:
-        terms = ", ".join(f"{name} {c.weighted:.0f} ({c.cost:.3g} x {c.weight:g})"
+        terms = ", ".join(f"{name} {c.weighted:.0f} ({_partial(c.cost)} x {c.weight:g})"
                           for name, c in a.solution_partial_costs.items())
         lines.append(f"agent {a.id}: {a.solution_benchmark} cost {a.solution_cost:.0f} = {terms}")
     if a.solution_cost_error:
@@ -290,3 +290,9 @@ def score_lines(a: AgentEvaluation) -> list[str]:
     if a.solution_valid is False:
         lines.append(f"agent {a.id}: solution invalid: {a.solution_reason}")
     return lines
+
+
+def _partial(cost: float) -> str:
+    """A partial cost to 3 significant digits; 0 below 1e-9 (a straight road's steering terms are
+    rounding noise, ~1e-28, whose digits differ between machines)."""
+    return "0" if abs(cost) < 1e-9 else f"{cost:.3g}"
