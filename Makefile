@@ -61,10 +61,13 @@ planner-toolchain:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
+# the two virtual environments installed side by side (apt's installs one after the other), then
 # the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
 # then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
 # (tests/conftest.py groups by file), the tutorial pages each on whichever worker is free
-test: $(STAMP) $(MAPS) $(QC) browser planner-toolchain
+test:
+	$(MAKE) -j2 $(STAMP) $(QC)
+	$(MAKE) $(MAPS) browser planner-toolchain
 	$(BIN)/ruff check .
 	PYTHONPATH=src $(BIN)/lint-imports
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadgroup --durations=15

@@ -19,7 +19,7 @@ from simgap.trajectory import STATE_FIELDS, Trajectory
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# Runs the paper's r = 20 m, 90 degree curve in the three worlds (each 8 s of simulated time, plans
+# Runs the paper's r = 20 m, 90 degree curve in the three worlds (each 5 s of simulated time, plans
 # reaching the car after a fixed 0.1 s: a measured latency depends on the machine's load) and prints
 # every run's two fingerprints as JSON.
 PROBE = """
@@ -30,7 +30,7 @@ from simgap.experiment.single_run import RunRequest, execute
 out = Path(sys.argv[1])
 prints = {}
 for backend in ("ideal", "dynamic", "mujoco"):
-    record = execute(RunRequest(Path(sys.argv[2]), backend=backend, cosim=CosimSettings(max_time_s=8.0, latency=0.1),
+    record = execute(RunRequest(Path(sys.argv[2]), backend=backend, cosim=CosimSettings(max_time_s=5.0, latency=0.1),
                                 criticality=False), out / backend)
     prints[backend] = [record.fingerprint, record.machine_fingerprint]
 print(json.dumps(prints))
