@@ -75,20 +75,8 @@ class Trajectory:
     __slots__ = ("dt", "_data")
 
     def __init__(self, dt: float, **columns: Iterable[float]):
-        missing = [f for f in STATE_FIELDS if f not in columns]
-        if missing:
-            raise ValueError(f"trajectory is missing columns {missing}")
-        data = {}
-        n = None
-        for name in STATE_FIELDS:
-            arr = np.array(columns[name], dtype=float).reshape(-1)
-            if n is None:
-                n = len(arr)
-            elif len(arr) != n:
-                raise ValueError(f"column {name!r} has {len(arr)} entries, expected {n}")
-            arr.flags.writeable = False
-            data[name] = arr
-        if not n:
+        data = _read_only_columns(STATE_FIELDS, columns, "trajectory")
+        if not len(data["t"]):
             raise ValueError("a trajectory needs at least one state")
         self.dt = float(dt)
         self._data = data
@@ -98,12 +86,7 @@ class Trajectory:
         return cls(dt, **{f: [getattr(s, f) for s in states] for f in STATE_FIELDS})
 
     def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("__") or name == "_data":      # (copy and pickle look for these before _data is set)
-            raise AttributeError(name)
-        try:
-            return self._data[name]
-        except KeyError:
-            raise AttributeError(name) from None
+        return _column(self, name)
 
     def __len__(self) -> int:
         return len(self._data["t"])
@@ -165,25 +148,10 @@ class ControlTrace:
     __slots__ = ("_data",)
 
     def __init__(self, **columns: Iterable[float]):
-        missing = [f for f in CONTROL_FIELDS if f not in columns]
-        if missing:
-            raise ValueError(f"control trace is missing columns {missing}")
-        data = {}
-        for name in CONTROL_FIELDS:
-            arr = np.array(columns[name], dtype=float).reshape(-1)
-            if data and len(arr) != len(data["t"]):
-                raise ValueError(f"column {name!r} has {len(arr)} entries, expected {len(data['t'])}")
-            arr.flags.writeable = False
-            data[name] = arr
-        self._data = data
+        self._data = _read_only_columns(CONTROL_FIELDS, columns, "control trace")
 
     def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("__") or name == "_data":
-            raise AttributeError(name)
-        try:
-            return self._data[name]
-        except KeyError:
-            raise AttributeError(name) from None
+        return _column(self, name)
 
     def __len__(self) -> int:
         return len(self._data["t"])
@@ -200,3 +168,28 @@ class ControlTrace:
         """The ticks up to ``t`` (inclusive)."""
         keep = self._data["t"] <= t + 1e-9
         return ControlTrace(**{f: a[keep] for f, a in self._data.items()})
+
+
+def _read_only_columns(fields: Sequence[str], columns: dict, what: str) -> dict[str, np.ndarray]:
+    """``columns`` (each of ``fields``, of one length) as read-only float arrays."""
+    missing = [f for f in fields if f not in columns]
+    if missing:
+        raise ValueError(f"{what} is missing columns {missing}")
+    data: dict[str, np.ndarray] = {}
+    for name in fields:
+        arr = np.array(columns[name], dtype=float).reshape(-1)
+        if data and len(arr) != len(data[fields[0]]):
+            raise ValueError(f"column {name!r} has {len(arr)} entries, expected {len(data[fields[0]])}")
+        arr.flags.writeable = False
+        data[name] = arr
+    return data
+
+
+def _column(holder, name: str) -> np.ndarray:
+    """A column of a `Trajectory` or `ControlTrace` by its name."""
+    if name.startswith("__") or name == "_data":      # (copy and pickle look for these before _data is set)
+        raise AttributeError(name)
+    try:
+        return holder._data[name]
+    except KeyError:
+        raise AttributeError(name) from None
