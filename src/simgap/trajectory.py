@@ -29,6 +29,17 @@ def wrap_angle(angle):
     return wrapped
 
 
+
+def _column(holder, name: str) -> np.ndarray:
+    """A column of a `Trajectory` or `ControlTrace` by its name."""
+    if name.startswith("__") or name == "_data":      # (copy and pickle look for these before _data is set)
+        raise AttributeError(name)
+    try:
+        return holder._data[name]
+    except KeyError:
+        raise AttributeError(name) from None
+
+
 @dataclass(frozen=True)
 class State:
     """One vehicle at one instant: time [s], centre position [m], yaw [rad], speed [m/s],
@@ -85,8 +96,7 @@ class Trajectory:
     def from_states(cls, states: Sequence[State], dt: float) -> "Trajectory":
         return cls(dt, **{f: [getattr(s, f) for s in states] for f in STATE_FIELDS})
 
-    def __getattr__(self, name: str) -> np.ndarray:
-        return _column(self, name)
+    __getattr__ = _column
 
     def __len__(self) -> int:
         return len(self._data["t"])
@@ -150,8 +160,7 @@ class ControlTrace:
     def __init__(self, **columns: Iterable[float]):
         self._data = _read_only_columns(CONTROL_FIELDS, columns, "control trace")
 
-    def __getattr__(self, name: str) -> np.ndarray:
-        return _column(self, name)
+    __getattr__ = _column
 
     def __len__(self) -> int:
         return len(self._data["t"])
@@ -183,13 +192,3 @@ def _read_only_columns(fields: Sequence[str], columns: dict, what: str) -> dict[
         arr.flags.writeable = False
         data[name] = arr
     return data
-
-
-def _column(holder, name: str) -> np.ndarray:
-    """A column of a `Trajectory` or `ControlTrace` by its name."""
-    if name.startswith("__") or name == "_data":      # (copy and pickle look for these before _data is set)
-        raise AttributeError(name)
-    try:
-        return holder._data[name]
-    except KeyError:
-        raise AttributeError(name) from None
