@@ -19,7 +19,7 @@ from commonroad.scenario.scenario import Scenario
 from pydantic import Field
 
 from simgap.polyline import arc_length
-from simgap.cosim.traffic import ObstacleReach
+from simgap.cosim.obstacle_reach import ObstacleReach
 from simgap.planning.car_following import IdmParameters
 from simgap.planning.protocol import TrafficParticipant
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles

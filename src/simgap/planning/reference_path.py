@@ -64,6 +64,14 @@ class ReferencePath:
         x, y = line.point_at(s)
         return x, y, line.interpolate(self.theta, s), line.interpolate(self.kappa, s)
 
+    def dead_end(self, network: LaneletNetwork) -> float | None:
+        """The arc length where the route reaches the end of the mapped road (its last lanelet has
+        no successor); None where the road goes on."""
+        if not self.lanelet_ids:
+            return None
+        last = network.find_lanelet_by_id(self.lanelet_ids[-1])
+        return None if last is None or last.successor else float(self.route_s[1])
+
 
 def smooth_reference_path(centre: np.ndarray, spacing: float = 1.0, smoothing: float = 1.0,
                           extension_back: float = 20.0, extension_forward: float = 100.0,

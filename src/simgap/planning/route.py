@@ -2,8 +2,8 @@
 (`lanelet_routes`, with the map's repairs: a start off every lanelet snapped onto the nearest one,
 lanes side by side that the map leaves unlinked linked), the one the planners drive
 (`preferred_route`), its centre line (`route_centre_line`: the route planner's reference path, or
-the lanelets' centre lines joined, with the lane changes of `planning.lane_change`), and where it
-reaches the end of the mapped road (`dead_end`)."""
+the lanelets' centre lines joined, with the lane changes of `planning.lane_change`); where the
+route reaches the end of the mapped road is the reference path's (`ReferencePath.dead_end`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ import logging
 import math
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -24,9 +23,6 @@ from simgap.errors import InputError
 from simgap.polyline import arc_length, nearest, resample, without_duplicates
 from simgap.planning.lane_change import (adjacent, changes_from, lane_change_length, lane_change_path,
                                          lane_changes, lanes_beside)
-
-if TYPE_CHECKING:
-    from simgap.planning.reference_path import ReferencePath
 
 # two lanelets whose boundaries lie within this of each other end to end are side by side [m]
 SHARED_BOUNDARY_M = 0.2
@@ -273,12 +269,3 @@ def _snapped_to_lanelet(lanelet_network: LaneletNetwork, planning_problem: Plann
     snapped = copy.deepcopy(planning_problem)
     snapped.initial_state.position = best
     return snapped
-
-
-def dead_end(reference: ReferencePath, network: LaneletNetwork) -> float | None:
-    """The arc length where ``reference``'s route reaches the end of the mapped road (its last
-    lanelet has no successor); None where the road goes on."""
-    if not reference.lanelet_ids:
-        return None
-    last = network.find_lanelet_by_id(reference.lanelet_ids[-1])
-    return None if last is None or last.successor else float(reference.route_s[1])

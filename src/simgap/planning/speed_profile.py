@@ -22,7 +22,6 @@ from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.reference_path import ReferencePath
-from simgap.planning.route import dead_end
 from simgap.scenario.goal import Goal, Window, area_of
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 
@@ -311,8 +310,8 @@ def goal_approach(reference: ReferencePath, goal: Goal, profile: SpeedProfile, c
                   vehicle: Vehicle, network: LaneletNetwork, centre_ahead_m: float = 0.0) -> GoalApproach:
     """The approach to ``goal`` along ``reference`` within ``profile``'s limits (and its late
     limit), for ``vehicle`` whose planned point lies ``centre_ahead_m`` behind its centre, standing
-    short of the mapped road's end where the route has one (`dead_end`)."""
-    end = dead_end(reference, network)
+    short of the mapped road's end where the route has one (`ReferencePath.dead_end`)."""
+    end = reference.dead_end(network)
     road_end = None if end is None else end - (centre_ahead_m + vehicle.length / 2.0 + ROAD_END_MARGIN_M)
     return GoalApproach(reference, goal, profile.cruise, comfortable_deceleration, vehicle.limits.max_speed,
                         centre_ahead_m, profile.limit, road_end, profile.late_limit)
