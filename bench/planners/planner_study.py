@@ -27,7 +27,8 @@ import numpy as np
 from simgap.files import BenchmarkResults
 from simgap.cosim import CosimSettings, History, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.evaluate.closed_loop_score import score_drop
+from simgap.evaluate import EvaluationSettings
+from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.compare import compare_histories
 from simgap.evaluate.run_evaluation import EvaluationContext, RunEvaluation, evaluate, with_validity
 from simgap.evaluate.validity import SolutionCheckCache
@@ -111,7 +112,8 @@ def _run(template: str, params: dict, planner: str, backend: str, replan_every: 
     settings = backend_settings(backend)
     history = simulate(scenario, problems, make_backend(backend, settings), agents, timed, cosim)
     seconds = [s for p in timed.values() for s in p.seconds]
-    context = EvaluationContext(scenario, problems, cosim, road_friction(settings), sedan)
+    context = EvaluationContext(scenario, problems, EvaluationSettings(), cosim.offroad_tolerance, cosim.planning_budget_s,
+                                road_friction(settings), sedan)
     evaluation = with_validity(evaluate(history, context), history, context, SolutionCheckCache())
     return built, history, evaluation, seconds
 
@@ -158,7 +160,7 @@ def study(scenarios: list[str], planners: list[str], replan_every: int) -> list[
 def _scores(ideal: RunEvaluation, mujoco: RunEvaluation) -> dict:
     """The score columns of a row: per fidelity the mean score, the summed cost and the valid count;
     the mean drop and the component that explains most of it; the solutions that broke."""
-    weights = CosimSettings().score.weights
+    weights = EvaluationSettings().score.weights
     pairs = [(a, next(b for b in mujoco.agents if b.id == a.id)) for a in ideal.agents]
     lost: dict[str, float] = {}
     drops = []

@@ -46,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
         xml = Path(record.settings.scenario_path)
         scenario, problems = load_scenario(xml)
         scenario, _ = without_recorded_egos(scenario, problems)
-        context = EvaluationContext(scenario, problems, record.settings.cosim,
+        context = EvaluationContext(scenario, problems, record.settings.evaluation, record.settings.cosim.offroad_tolerance,
+                                    record.settings.cosim.planning_budget_s,
                                     float(record.settings.backend.get("road_friction", DRY_ROAD_FRICTION)),
                                     load_vehicle(record.settings.planner_vehicle or "sedan"),
                                     ground_of(read_metadata(xml), scenario.lanelet_network), xml)

@@ -32,6 +32,7 @@ from commonroad.scenario.state import CustomState, InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
 from simgap.cosim import CosimSettings
+from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.solution import (cost_function_of, run_solution, solution_costs, vehicle_type_of)
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
@@ -95,13 +96,13 @@ def measure(name: str, xml: Path, backend: str, folder: Path) -> dict:
     record = execute(RunRequest(xml, backend=backend, validate=False), folder / f"{name}-{backend}")
     history = record.history
     scenario, problems = load_scenario(xml)
-    cosim, planner_vehicle = CosimSettings(), load_vehicle("sedan")
+    cosim, evaluation, planner_vehicle = CosimSettings(), EvaluationSettings(), load_vehicle("sedan")
     excursions = {a.id: a.max_road_excursion_m for a in record.evaluation.agents}    # measured with the run
     clock = time.perf_counter()
-    closed_loop_scores(history, scenario, problems, cosim, excursions)
+    closed_loop_scores(history, scenario, problems, evaluation.score, cosim.offroad_tolerance, excursions)
     score_s = time.perf_counter() - clock
     clock = time.perf_counter()
-    solution = run_solution(history, scenario, vehicle_type_of(planner_vehicle), cost_function_of(xml, cosim.cost_function))
+    solution = run_solution(history, scenario, vehicle_type_of(planner_vehicle), cost_function_of(xml, evaluation.cost_function))
     costs = solution_costs(solution, scenario, problems)
     cost_s = time.perf_counter() - clock
     cache = SolutionCheckCache(folder / f"cache-{name}-{backend}")

@@ -54,7 +54,8 @@ def _rows(page: str) -> dict[str, str]:
     return rows
 
 
-MODELS = {"reference/loop-settings.html": ["simgap.cosim.loop:CosimSettings", "simgap.cosim.score_settings:ScoreSettings"],
+MODELS = {"reference/loop-settings.html": ["simgap.cosim.loop:CosimSettings", "simgap.evaluate.settings:EvaluationSettings",
+                                         "simgap.evaluate.settings:ScoreSettings"],
           "reference/planner-settings.html": ["simgap.planning.settings:FrenetSettings"],
           "reference/vehicles.html": ["simgap.vehicles.catalogue:Vehicle"],
           "reference/search-specs.html": ["simgap.experiment.search.spec:SearchSpec"]}

@@ -19,6 +19,7 @@ from cosim.real_like import DT, box_goal, highway, recorded_car, start
 from simgap.cosim import CosimSettings, Outcome, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.closed_loop_score import closed_loop_scores
+from simgap.evaluate.settings import ScoreSettings
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario import build_scenario, write_scenario
@@ -68,7 +69,7 @@ def cruise_past(obstacle, speed: float):
     problems = PlanningProblemSet([PlanningProblem(1, start(10.0, 0, speed), box_goal(400.0, 0, (0, 600)))])
     agents = agents_from_problems(problems, DT, load_vehicle("sedan"))
     run = simulate(scenario, problems, IdealBackend(), agents, {1: Cruise(speed)}, CosimSettings(max_time_s=20.0))
-    return run, closed_loop_scores(run, scenario, problems, CosimSettings())[1]
+    return run, closed_loop_scores(run, scenario, problems, ScoreSettings(), CosimSettings().offroad_tolerance)[1]
 
 
 def test_driving_into_a_standing_car_is_at_fault_and_scores_zero():
@@ -110,7 +111,7 @@ def test_without_a_route_to_the_goal_standing_or_driving_away_makes_no_progress(
     agents = agents_from_problems(problems, DT, load_vehicle("sedan"))
     run = simulate(scenario, problems, IdealBackend(), agents, {1: Cruise(speed)}, CosimSettings(max_time_s=6.0))
     assert run.agents[0].outcome == Outcome.TIMEOUT
-    score = closed_loop_scores(run, scenario, problems, CosimSettings())[1]
+    score = closed_loop_scores(run, scenario, problems, ScoreSettings(), CosimSettings().offroad_tolerance)[1]
     assert score.measures["goal_progress_m"] == pytest.approx(125.0)
     assert score.measures["progress_m"] == pytest.approx(-speed * 6.0, abs=0.01)
     assert score.components["making_progress"] == 0.0 and score.score == 0.0

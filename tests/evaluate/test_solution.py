@@ -23,7 +23,7 @@ from commonroad_dc.costs.evaluation import CostFunctionEvaluator
 from cosim.real_like import DT, box_goal, highway, lane_y, recorded_car, start
 from simgap.cosim import AgentHistory, History, Outcome
 from simgap.sim.protocol import Realism
-from simgap.cosim.score_settings import CostFunctionId
+from simgap.evaluate.settings import CostFunctionId
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, solution_xml
 from simgap.evaluate.solution_check import SolutionCheck, check_solution
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
@@ -222,7 +222,7 @@ def test_a_crash_of_the_checker_costs_the_verdict_not_the_run(tmp_path):
     checks, _ = checked_solution(solution, scenario, problems, xml, None)
     assert checks[1] == SolutionCheck(None, "the drivability checker crashed (signal 11) in agent 1's road boundary check")
     again = execute(RunRequest(paper_curve_xml(tmp_path), validate=True), tmp_path / "after")     # the next check has a new process
-    assert again.agents[0].solution_valid is True
+    assert again.agents[0].evaluation.solution_valid is True
 
 
 def test_a_footprint_at_the_road_edge_is_left_to_the_library_and_overlapping_lanelets_too():

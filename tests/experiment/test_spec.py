@@ -6,6 +6,7 @@ import pytest
 import yaml
 
 from simgap.errors import InputError
+from simgap.evaluate import EvaluationSettings
 from simgap.experiment.samplers import sample
 from simgap.experiment.spec import jobs, load_spec
 
@@ -40,6 +41,10 @@ def write(tmp_path, **changes):
     ({"fidelities": [{"backend": "ideal", "settings": {"road_friction": 0.5}}]},
      "fidelities.0.settings.road_friction", "no settings"),
     ({"cosim": {"replan_every": 0}}, "cosim.replan_every", "greater than or equal to 1"),
+    ({"cosim": {"score": {"min_progress_ratio": 2}}}, "cosim.score.min_progress_ratio", "less than or equal to 1"),
+    ({"evaluation": {"cost_function": "XX1"}}, "evaluation.cost_function", "SM1"),
+    ({"cosim": {"cost_function": "SM1"}, "evaluation": {"cost_function": "MW1"}}, "cosim.cost_function",
+     "evaluation.cost_function only"),
     ({"fidelities": [{"backend": "ideal"}, {"backend": "ideal"}]}, "fidelities.1", "as fidelities.0 does"),
     ({"fidelities": [{"backend": "mujoco", "vehicles": ["sedan", "sedan"]}]}, "fidelities.0",
      "names 'mujoco/sedan' twice"),
@@ -108,3 +113,18 @@ def test_planners_are_a_dimension_and_older_specs_keep_their_results(tmp_path):
     assert "planners" not in old.spec.results_relevant()
     (_, runs), *_ = jobs(old)
     assert runs[0].planner.settings == {"speed": {"cruise_m_s": 8}} and runs[0].key.endswith("/ideal")
+
+
+def test_the_evaluations_settings_of_a_spec_reach_every_run_and_older_specs_keep_theirs_and_their_results(tmp_path):
+    """A spec's ``evaluation`` is what its runs are evaluated by; a spec written when the cost function
+    and the score were loop settings (``cosim``) is read as it was meant, with the same results hash."""
+    score = {"min_progress_ratio": 0.4, "weights": {"comfort": 7.0}}
+    older = load_spec(write(tmp_path, cosim={"replan_every": 2, "cost_function": "MW1", "score": score}))
+    newer = load_spec(write(tmp_path, cosim={"replan_every": 2}, evaluation={"cost_function": "MW1", "score": score}))
+    for experiment in (older, newer):
+        assert experiment.cosim.replan_every == 2
+        assert experiment.evaluation.cost_function.value == "MW1"
+        assert experiment.evaluation.score.weights.comfort == 7.0 and experiment.evaluation.score.min_progress_ratio == 0.4
+    # an older spec hashes what it hashed before: its cosim as written, no evaluation field
+    assert "evaluation" not in older.spec.results_relevant() and older.spec.results_relevant()["cosim"]["score"] == score
+    assert load_spec(write(tmp_path, cosim={"replan_every": 2})).evaluation == EvaluationSettings()

@@ -59,6 +59,8 @@ def test_a_run_directory_of_format_1_reads_through_migrate_as_it_was_written(stu
         assert record.all_timings == old["timings"]
         assert set(record.timings) == {"scoring", "io", "validation"}
         assert record.settings.cosim.latency == 0.1 and record.settings.planner_vehicle == "sedan"
+        assert record.settings.evaluation.model_dump(mode="json") == \
+            {k: old["settings"]["cosim"][k] for k in ("cost_function", "score")}     # the loop's then, apart now
         assert record.realism is (Realism.IDEAL if run_dir.name == "ideal" else Realism.REAL)
         assert record.fidelity.label == ("ideal" if run_dir.name == "ideal" else "mujoco/sedan")
         assert [e.kind for e in record.history.events] == [e["kind"] for e in old["events"]]
@@ -111,3 +113,17 @@ def test_values_compare_as_plain_data_to_a_relative_tolerance_nan_equal_to_nan()
     assert same({"a": [1.0, PartialCost(2.0, 3.0)]}, {"a": (1.0, PartialCost(2.0, 3.0 + 1e-12))})
     assert not same({"a": 1.0}, {"a": 1.0, "b": 2.0}) and not same([1.0], [1.0, 2.0])
     assert plain(PartialCost(2.0, 3.0)) == {"cost": 2.0, "weight": 3.0}
+
+
+def test_a_record_of_format_3_reads_its_evaluation_settings_from_the_loops(study):
+    """Until format 4 the cost function and the score's settings were the loop's (``settings.cosim``)."""
+    run_dir = next(p.parent for p in study.rglob("run.json"))
+    current = migrate(json.loads((run_dir / "run.json").read_text()))
+    evaluation = current["settings"].pop("evaluation")
+    score = evaluation["score"] | {"min_progress_ratio": 0.4, "weights": evaluation["score"]["weights"] | {"comfort": 7.0}}
+    current["settings"]["cosim"] |= {"cost_function": "MW1", "score": score}
+    (run_dir / "run.json").write_text(json.dumps(current | {"format_version": 3}))
+    settings = read_run(run_dir).settings
+    assert settings.evaluation.cost_function.value == "MW1"
+    assert settings.evaluation.score.min_progress_ratio == 0.4 and settings.evaluation.score.weights.comfort == 7.0
+    assert "score" not in settings.cosim.model_dump() and "cost_function" not in settings.cosim.model_dump()

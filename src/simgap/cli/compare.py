@@ -15,7 +15,7 @@ from rich.table import Table
 from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
-from simgap.evaluate.closed_loop_score import score_drop
+from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.compare import compare_histories
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.route_edges import EventPlace, event_places, route_edges
@@ -32,7 +32,7 @@ UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error"
 def score_comparison(a: RunRecord, b: RunRecord) -> list[dict]:
     """Per agent of both runs: each world's score, cost and validity, the score's drop and the
     components that lost it (the largest loss first)."""
-    weights = b.settings.cosim.score.weights
+    weights = b.settings.evaluation.score.weights
     out = []
     for aid in sorted({x.id for x in a.evaluation.agents} & {x.id for x in b.evaluation.agents}):
         agent_a, agent_b = a.evaluation.agent(aid), b.evaluation.agent(aid)

@@ -21,8 +21,8 @@ from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
 from simgap.cosim import REFERENCE, CosimSettings, Outcome
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.cosim.loop import MAX_SIMULATED_TIME_S
-from simgap.cosim.score_settings import CostFunctionId, ScoreSettings
 from simgap.errors import InputError, validated
+from simgap.evaluate.settings import CostFunctionId, EvaluationSettings, ScoreSettings
 from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.files import read_model, read_yaml_mapping, writable_directory
@@ -94,7 +94,7 @@ def run(
         None, help="CommonRoad cost function of the solutions when the scenario's benchmark ID names none "
                    "(default SM1)"),
     score_config: Optional[Path] = typer.Option(None, help="YAML file of the closed-loop score's thresholds and "
-                                                "weights (cosim.score; defaults: nuPlan's)"),
+                                                "weights (evaluation.score; defaults: nuPlan's)"),
     seed: int = typer.Option(0, min=0, help="seed of everything random in the run (the localisations' errors); "
                              "the same seed, scenario and settings drive the same run"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
@@ -137,6 +137,7 @@ def run(
         if score_config else {}
     if cost_function is not None:
         scoring["cost_function"] = cost_function
+    evaluation = EvaluationSettings(**scoring)
     request = RunRequest(scenario=scenario, backend=backend, vehicles=parse_agent_map(vehicle),
                          planner_vehicle=planner_vehicle,
                          backend_settings=_settings(backend, {k: v for k, v in physical.items() if v is not None},
@@ -147,7 +148,8 @@ def run(
                              prefix="planner")),
                          cosim=validated(CosimSettings, dict(replan_every=replan_every, max_time_s=max_time,
                                                              traffic=traffic, planning_budget_s=planning_budget,
-                                                             **knob_cosim, **scoring)),
+                                                             **knob_cosim)),
+                         evaluation=evaluation,
                          seed=seed, validate=not no_validate, run_timeout_s=run_timeout, placement=placement)
     for name, value in knob_values.items():            # (a perfect machine drops the loop's knobs: refused)
         check_knob(name, value, value, where=f"knob {name}", realism=realism_of(request.backend_settings))

@@ -44,7 +44,6 @@ from pydantic import BaseModel, ConfigDict, Field
 from simgap.polyline import arc_length
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, WallClockExceeded, interruptions
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
-from simgap.cosim.score_settings import COST_FUNCTION_DESCRIPTION, DEFAULT_COST_FUNCTION, CostFunctionId, ScoreSettings
 from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, localisation_accuracy
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
@@ -108,9 +107,6 @@ class CosimSettings(BaseModel):
     planning_budget_s: float | None = Field(
         None, gt=0, description="wall time a planning call may take [s]; longer calls are counted per agent "
                                 "(over budget), the run goes on; default: no budget")
-    cost_function: CostFunctionId = Field(DEFAULT_COST_FUNCTION, description=COST_FUNCTION_DESCRIPTION)
-    score: ScoreSettings = Field(default_factory=ScoreSettings,
-                                 description="thresholds and weights of the closed-loop score (nuPlan's defaults)")
 
 
 @dataclass
@@ -453,9 +449,9 @@ class _CoSimulation:
         contacts = {}
         for ev in self.backend.events():       # a car that reached its goal has left the scenario
             gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
-            if ev.kind == EventKind.COLLISION and not gone:
+            if ev.kind == Outcome.COLLISION and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
-            elif ev.kind == EventKind.DIVERGED and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
+            elif ev.kind == Outcome.DIVERGED and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out
                 self._finish(progress_of[ev.agent_id], Outcome.DIVERGED, states[ev.agent_id], ev.detail)
         present = [aid for aid in states if progress_of[aid].outcome not in _LEFT_THE_WORLD]
         active = [aid for aid in present if progress_of[aid].active]

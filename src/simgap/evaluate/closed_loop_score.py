@@ -33,28 +33,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping
+from typing import Mapping
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim.loop import CosimSettings
 from simgap.cosim.history import AgentHistory, History, Outcome
-from simgap.cosim.score_settings import ScoreSettings, ScoreWeights
 from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
 from simgap.evaluate.road_users import RoadUser, RoadUserKind, road_users
 from simgap.evaluate.route_centre import route_centre
+from simgap.evaluate.settings import ScoreSettings, ScoreWeights
 from simgap.scenario.road_frame import footprint
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.scenario.goal import Goal
 from simgap.trajectory import Trajectory
-
-if TYPE_CHECKING:
-    from simgap.evaluate.run_evaluation import AgentEvaluation
 
 #: component -> (role, meaning); the multipliers first, then the weighted terms
 COMPONENTS = {
@@ -158,10 +154,10 @@ class _AgentScorer:
     """Everything one agent's score needs: its run, the road, the others, the settings."""
 
     def __init__(self, history: History, agent: AgentHistory, road_excursion_m: float, problem: PlanningProblem | None,
-                 lanes: LaneOccupancy, users: dict[int, RoadUser], cosim: CosimSettings):
+                 lanes: LaneOccupancy, users: dict[int, RoadUser], settings: ScoreSettings, offroad_tolerance_m: float):
         self.history, self.agent, self.problem, self.lanes = history, agent, problem, lanes
         self.road_excursion_m = road_excursion_m
-        self.users, self.cosim, self.settings = users, cosim, cosim.score
+        self.users, self.settings, self.offroad_tolerance_m = users, settings, offroad_tolerance_m
         self.driven: Trajectory = agent.driven
         self.vehicle = agent.vehicle
         self.measures: dict[str, float | None] = {}
@@ -209,7 +205,7 @@ class _AgentScorer:
 
     def _drivable_area(self) -> float:
         value, beyond = drivable_area_multiplier(self.agent.outcome, self.road_excursion_m,
-                                                 self.cosim.offroad_tolerance, self.settings)
+                                                 self.offroad_tolerance_m, self.settings)
         self.measures["max_road_excursion_m"] = beyond
         return value
 
@@ -288,41 +284,18 @@ class _AgentScorer:
         return float(all(within.values()))
 
 
-def closed_loop_scores(history: History, scenario: Scenario, problems: PlanningProblemSet, cosim: CosimSettings,
+def closed_loop_scores(history: History, scenario: Scenario, problems: PlanningProblemSet, settings: ScoreSettings,
+                       offroad_tolerance_m: float,
                        road_excursions_m: Mapping[int, float] | None = None) -> dict[int, ClosedLoopScore]:
     """Every agent's closed-loop score (none for an agent that drove no step: its run failed
-    before), given each agent's largest road excursion (`simgap.evaluate.closest_approach`;
+    before), given the loop's road tolerance (``offroad_tolerance_m``, the excursions are measured
+    beyond it) and each agent's largest road excursion (`simgap.evaluate.closest_approach`;
     measured here when not given)."""
     if road_excursions_m is None:
         road_excursions_m = {aid: round(a.max_road_excursion_m, 3)      # to the mm, as a run's evaluation keeps it
-                             for aid, a in closest_approaches(history, scenario, cosim.offroad_tolerance).items()}
+                             for aid, a in closest_approaches(history, scenario, offroad_tolerance_m).items()}
     lanes = LaneOccupancy(scenario.lanelet_network)
     users = road_users(history, scenario)
     return {a.id: _AgentScorer(history, a, road_excursions_m[a.id], problems.planning_problem_dict.get(a.id), lanes,
-                               users, cosim).score()
+                               users, settings, offroad_tolerance_m).score()
             for a in history.agents if len(a.driven) > 1}
-
-
-# ------------------------------------------------------------------------------ across fidelities
-@dataclass(frozen=True)
-class ComponentLoss:
-    """How much of the score drop one component explains."""
-
-    name: str
-    a: float                 # its value in the reference run
-    b: float                 # ... in the other run
-    regained: float          # the other run's score with this component as in the reference, minus its score
-
-
-def score_drop(a: "AgentEvaluation", b: "AgentEvaluation", weights: ScoreWeights) -> tuple[float, list[ComponentLoss]]:
-    """``a``'s score minus ``b``'s, and the components that lost it, the largest loss first: each
-    ranked by how much of ``b``'s score would come back if it alone were as in ``a``."""
-    if a.score is None or b.score is None or not a.score_components or not b.score_components:
-        return math.nan, []
-    losses = []
-    for name in COMPONENTS:
-        ca, cb = a.score_components.get(name, math.nan), b.score_components.get(name, math.nan)
-        restored = combine(dict(b.score_components) | {name: ca}, weights)
-        losses.append(ComponentLoss(name, ca, cb, restored - b.score))
-    losses.sort(key=lambda c: -c.regained)
-    return a.score - b.score, losses

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simgap.cosim.score_settings import ComfortBounds
+from simgap.evaluate.settings import ComfortBounds
 from simgap.trajectory import Trajectory
 
 

@@ -24,12 +24,12 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.history import AgentHistory, History
-from simgap.cosim.loop import CosimSettings
 from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.criticality import PairCriticality, run_criticality
 from simgap.evaluate.errors import Aggregate, Comfort, comfort, tracking_errors
 from simgap.evaluate.run_metrics import RouteMeasures, route_measures, run_metrics
+from simgap.evaluate.settings import EvaluationSettings
 from simgap.evaluate.solution import PartialCost, cost_function_of, run_solution, solution_costs, vehicle_type_of
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.scenario.relief import Surface
@@ -106,13 +106,16 @@ class RunEvaluation:
 
 @dataclass(frozen=True)
 class EvaluationContext:
-    """What a run is evaluated against: its scenario (as the loop ran it), the loop's settings
-    (thresholds, cost function, score settings), the road's friction and relief, the vehicle the
-    planner assumed (the solution's vehicle type), and the scenario's file (its benchmark ID)."""
+    """What a run is evaluated against: its scenario (as the loop ran it), the evaluation's settings
+    (cost function, score settings), the two loop settings its figures are measured against (how far
+    the footprint may leave the road, the planning calls' budget), the road's friction and relief, the
+    vehicle the planner assumed (the solution's vehicle type), and the scenario's file (its benchmark ID)."""
 
     scenario: Scenario
     problems: PlanningProblemSet
-    cosim: CosimSettings
+    settings: EvaluationSettings
+    offroad_tolerance_m: float           # the loop's ``offroad_tolerance``
+    planning_budget_s: float | None      # the loop's ``planning_budget_s``
     road_friction: float
     planner_vehicle: Vehicle
     relief: Surface | None = None
@@ -142,16 +145,17 @@ def tracking_of(agent: AgentHistory, route: RouteMeasures) -> AgentTracking:
 def solution_of(history: History, context: EvaluationContext) -> Solution:
     """Every agent's driven trajectory as one CommonRoad solution (``solution.xml``)."""
     return run_solution(history, context.scenario, vehicle_type_of(context.planner_vehicle),
-                        cost_function_of(context.scenario_file, context.cosim.cost_function))
+                        cost_function_of(context.scenario_file, context.settings.cost_function))
 
 
 def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
     """Every metric and score of the run ``history`` records, but its solution's validity."""
-    approaches = closest_approaches(history, context.scenario, context.cosim.offroad_tolerance)
+    approaches = closest_approaches(history, context.scenario, context.offroad_tolerance_m)
     routes = {a.id: route_measures(a, context.scenario, context.problems.planning_problem_dict.get(a.id))
               for a in history.agents}
     excursions = {aid: round(a.max_road_excursion_m, 3) for aid, a in approaches.items()}   # as recorded
-    scores = closed_loop_scores(history, context.scenario, context.problems, context.cosim, excursions)
+    scores = closed_loop_scores(history, context.scenario, context.problems, context.settings.score,
+                                context.offroad_tolerance_m, excursions)
     costs = solution_costs(solution_of(history, context), context.scenario, context.problems)
     agents = []
     for a in history.agents:
@@ -163,7 +167,7 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
             distance_m=round(a.driven.path_length(), 3),
             min_distance_to_traffic_m=None if approach.min_distance_m is None else round(approach.min_distance_m, 3),
             max_road_excursion_m=round(approach.max_road_excursion_m, 3),
-            **planning_times(a.planning_call_s, context.cosim.planning_budget_s),
+            **planning_times(a.planning_call_s, context.planning_budget_s),
             plan_latency_mean_s=round(float(np.mean(latencies)), 6) if latencies else None,
             plan_latency_max_s=round(max(latencies), 6) if latencies else None,
             tracking=tracking_of(a, routes[a.id]),

@@ -1,7 +1,7 @@
-"""What a run is scored by: the CommonRoad cost function its driven trajectories are costed with,
-and the thresholds and weights of the closed-loop score (the settings ``cosim.cost_function`` and
-``cosim.score``; the scoring itself is `simgap.evaluate.solution` and
-`simgap.evaluate.closed_loop_score`).
+"""What a run is evaluated by (`EvaluationSettings`): the CommonRoad cost function its driven
+trajectories are costed with, and the thresholds and weights of the closed-loop score (the settings
+``evaluation.cost_function`` and ``evaluation.score``; the scoring itself is
+`simgap.evaluate.solution` and `simgap.evaluate.closed_loop_score`). The loop knows nothing of them.
 
 The closed-loop score is built like nuPlan's closed-loop score (CLS). Every default below is
 nuPlan's, read from ``motional/nuplan-devkit``; the description of each setting names the file
@@ -85,7 +85,7 @@ class ScoreWeights(BaseModel):
 
 
 class ScoreSettings(BaseModel):
-    """Thresholds and weights of the closed-loop score (``cosim.score``)."""
+    """Thresholds and weights of the closed-loop score (``evaluation.score``)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -154,3 +154,14 @@ class ScoreSettings(BaseModel):
         if self.ttc_step_s > self.ttc_horizon_s:
             raise ValueError("ttc_step_s must not exceed ttc_horizon_s")
         return self
+
+
+class EvaluationSettings(BaseModel):
+    """What a run is evaluated by: the cost function of its solution and the closed-loop score's
+    thresholds and weights (the loop's own settings are `simgap.cosim.CosimSettings`)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    cost_function: CostFunctionId = Field(DEFAULT_COST_FUNCTION, description=COST_FUNCTION_DESCRIPTION)
+    score: ScoreSettings = Field(default_factory=ScoreSettings,
+                                 description="thresholds and weights of the closed-loop score (nuPlan's defaults)")

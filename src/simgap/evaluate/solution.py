@@ -7,7 +7,7 @@ vehicle model and type the planner plans with — the kinematic single-track mod
 planner's vehicle's CommonRoad type (``commonroad_vehicle_type`` of its data file; type 2, the
 BMW 320i every catalogue vehicle's planner limits come from, when it names none) — and a cost
 function: the one the scenario's benchmark ID names (``KS2:SM1:DEU_…``), else
-``cosim.cost_function``.
+``evaluation.cost_function``.
 
 The cost is commonroad-drivability-checker's `CostFunctionEvaluator`, every partial cost with its
 weight. Whether the solution is valid is `simgap.evaluate.solution_check` (slow: it runs after
@@ -29,7 +29,7 @@ from commonroad.scenario.state import KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
 from simgap.cosim.history import History
-from simgap.cosim.score_settings import CostFunctionId
+from simgap.evaluate.settings import CostFunctionId
 from simgap.trajectory import Trajectory
 from simgap.vehicles import Vehicle
 

@@ -16,6 +16,7 @@ from typing import Any, Mapping
 from pydantic import BaseModel
 
 from simgap.cosim import CosimSettings, Fidelity
+from simgap.evaluate import EvaluationSettings
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.vehicles import DEFAULT_VEHICLE
 
@@ -112,10 +113,12 @@ class Job:
 @dataclass(frozen=True)
 class JobContext:
     """What every job of an experiment or a search shares: where it writes, the scenario file of
-    each scenario, the vehicle the planner assumes, and whether each run's solution is checked."""
+    each scenario, the vehicle the planner assumes, what each run is evaluated by and whether its
+    solution is checked."""
 
     root: Path
     scenarios: dict[str, str] | None = None       # scenario name -> file (else each job names its file)
     planner_vehicle: str = DEFAULT_VEHICLE        # catalogue name or data file
     validate: bool = False                        # check each run's solution (slow; the CLI asks unless --no-validate)
     criticality: bool = True                      # evaluate the criticality of agent pairs (a search need not)
+    evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)   # cost function, score settings

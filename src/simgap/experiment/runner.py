@@ -167,7 +167,8 @@ def run_experiment(spec_ref: str | Path, root: Path, workers: int | None, execut
                 on_progress(progress)
 
         start = time.perf_counter()
-        context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate)
+        context = JobContext(root, scenarios, experiment.planner_vehicle, validate=validate,
+                             evaluation=experiment.evaluation)
         if todo:
             runner.run(todo, context, on_result)
         store.consolidate()

@@ -27,6 +27,7 @@ from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
 from simgap.cosim.sensing import localisation_accuracy
 from simgap.errors import InputError, validated
+from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_criticality, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
@@ -63,6 +64,7 @@ class RunRequest:
     backend_settings: BaseModel | Mapping[str, Any] | None = None
     planner: PlannerAssignment = field(default_factory=PlannerChoice)   # one for all, or per agent id
     cosim: CosimSettings = field(default_factory=CosimSettings)
+    evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)   # cost function, score settings
     seed: int = 0
     validate: bool = False                     # check the solution's validity (slow; after the run is saved;
                                                # the CLI's commands ask for it unless --no-validate)
@@ -229,14 +231,15 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
             if callable(getattr(planner, "record", None)):
                 planner_records[aid] = replace(planner_records[aid], process=planner.record())
     settings = RunSettings(
-        scenario_id=meta.get("name", Path(request.scenario).stem), cosim=request.cosim,
+        scenario_id=meta.get("name", Path(request.scenario).stem), cosim=request.cosim, evaluation=request.evaluation,
         planner=_planner_record(request.planner, planner_records), scenario_path=str(request.scenario),
         parameters=meta.get("parameters", {}), parameter_units=meta.get("units", {}),
         sections=RoadSections.of_json(meta.get("sections")), backend=request.backend_settings.model_dump(mode="json"),
         sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
         planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
         versions=software_versions())
-    context = EvaluationContext(scenario, problems, request.cosim, road_friction(request.backend_settings),
+    context = EvaluationContext(scenario, problems, request.evaluation, request.cosim.offroad_tolerance,
+                                request.cosim.planning_budget_s, road_friction(request.backend_settings),
                                 planner_vehicle, relief, scenario_file)
     clock = time.perf_counter()
     evaluation = evaluate(history, context)

@@ -19,6 +19,7 @@ Example (the built-in `demo`)::
       - {planner: frenet, label: frenet-slow, settings: {speed: {cruise_m_s: 6}}}
       - my_planners.py:TimeGapPlanner # a file beside the spec (or my_pkg.module:Class, or an installed name)
     cosim: {replan_every: 1}
+    evaluation: {cost_function: SM1}  # optional: the cost function, score thresholds and weights
 
 A wrong key, type or range is an `InputError` naming the file, the field path and what is allowed.
 An experiment samples at most `MAX_SCENARIOS` concrete scenarios: every one is written (about
@@ -42,6 +43,7 @@ from simgap.sim.settings import realism_of
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.errors import InputError, validated
+from simgap.evaluate import EvaluationSettings
 from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import grid_size, sample
 from simgap.files import read_model
@@ -57,7 +59,9 @@ MAX_SCENARIOS = 10_000      # concrete scenarios per experiment: about 1.6 GB of
 
 # spec fields newer than stored results, and their defaults
 ADDED_FIELDS = {"planner_vehicle": DEFAULT_VEHICLE, "planners": [{"planner": DEFAULT_PLANNER, "settings": {},
-                                                                    "label": None}]}
+                                                                    "label": None}], "evaluation": {}}
+# the evaluation's settings a spec once gave under cosim (read as evaluation's; the spec's hash unchanged)
+EVALUATION_KEYS_UNDER_COSIM = ("cost_function", "score")
 # fields of a planner newer than stored results, and their defaults
 ADDED_PLANNER_FIELDS = {"isolate": False, "process": ProcessLimits().model_dump()}
 PLANNERS_DESCRIPTION = ("the planners every run is made with (each a dimension value): a name, module:Class, "
@@ -153,6 +157,8 @@ class ExperimentSpec(BatchSpec):
     repeats: int = Field(1, ge=1, le=1000)
     explain: ExplainSpec | None = Field(None, description="explain the runs that failed or parted from their ideal "
                                         "run by more than a threshold (simgap explain), after the runs")
+    evaluation: dict[str, Any] = Field(default_factory=dict, description="what every run is evaluated by "
+                                       "(simgap.evaluate.EvaluationSettings: cost_function, score)")
 
     def results_relevant(self) -> dict[str, Any]:
         return results_relevant(self, {"name", "description", "run_timeout_s", "explain"})
@@ -238,6 +244,7 @@ class Experiment:
     planners: list[PlannerChoice]
     cosim: CosimSettings
     planner_vehicle: str
+    evaluation: EvaluationSettings
 
 
 def load_spec(name_or_path: str | Path) -> Experiment:
@@ -276,8 +283,21 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
         variants.append(fidelity_variants)
     _check_each_fidelity_once(variants, path)
     planners = planner_choices(spec, path)
-    cosim = validated(CosimSettings, spec.cosim, file=path, prefix="cosim")
-    return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle)
+    cosim, evaluation = loop_and_evaluation(spec.cosim, spec.evaluation, path)
+    return Experiment(spec, logical, path, variants, planners, cosim, planner_vehicle, evaluation)
+
+
+def loop_and_evaluation(cosim: dict[str, Any], evaluation: dict[str, Any],
+                        path: Path) -> tuple[CosimSettings, EvaluationSettings]:
+    """The loop's settings and the evaluation's, validated; a spec written when the cost function and
+    the score were loop settings (``cosim.cost_function``, ``cosim.score``) is read as it was meant."""
+    moved = {k: v for k, v in cosim.items() if k in EVALUATION_KEYS_UNDER_COSIM}
+    if twice := sorted(set(moved) & set(evaluation)):
+        raise InputError(f"{twice[0]} is given under both cosim and evaluation", file=path, field=f"cosim.{twice[0]}",
+                         allowed=f"evaluation.{twice[0]} only (cosim.{twice[0]} is its older place)")
+    loop = validated(CosimSettings, {k: v for k, v in cosim.items() if k not in moved}, file=path, prefix="cosim")
+    prefix = "cosim" if moved and not evaluation else "evaluation"
+    return loop, validated(EvaluationSettings, moved | evaluation, file=path, prefix=prefix)
 
 
 def _check_each_fidelity_once(variants: list[list[FidelityVariant]], path: Path) -> None:

@@ -25,7 +25,7 @@ def execute_job(job: Job, context: JobContext) -> RunRow:
     request = RunRequest(scenario=Path(scenario), backend=job.backend, vehicles=job.vehicle,
                          planner_vehicle=context.planner_vehicle, backend_settings=job.backend_settings,
                          planner=job.planner, cosim=job.cosim, seed=job.seed, validate=context.validate,
-                         criticality=context.criticality)
+                         criticality=context.criticality, evaluation=context.evaluation)
     record = execute(request, run_dir)
     row = RunRow.of(job, record, str(run_dir.relative_to(context.root)), time.perf_counter() - started)
     return replace(row, reproduce=reproduce_command(run_dir))

@@ -44,6 +44,7 @@ from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerE
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.sensing import LocalisationAccuracy
 from simgap.errors import InputError
+from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.criticality import PairCriticality
 from simgap.evaluate.errors import Aggregate, Comfort
 from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunEvaluation, SolutionCheckSource)
@@ -98,7 +99,8 @@ def _run_json(record: RunRecord) -> str:
 def _settings_json(s: RunSettings) -> dict[str, Any]:
     return {"scenario_id": s.scenario_id, "scenario_path": s.scenario_path, "parameters": dict(s.parameters),
             "parameter_units": dict(s.parameter_units), "sections": s.sections.as_json(), "seed": s.seed,
-            "cosim": s.cosim.model_dump(mode="json"), "backend": dict(s.backend),
+            "cosim": s.cosim.model_dump(mode="json"), "evaluation": s.evaluation.model_dump(mode="json"),
+            "backend": dict(s.backend),
             "sensing_accuracy": None if s.sensing_accuracy is None else s.sensing_accuracy.model_dump(mode="json"),
             "planner": _planner_json(s.planner), "planner_vehicle": s.planner_vehicle,
             "recorded_as": {str(k): v for k, v in s.recorded_as.items()}, "versions": dict(s.versions)}
@@ -341,6 +343,7 @@ def _settings(s: Mapping[str, Any]) -> RunSettings:
     accuracy = s.get("sensing_accuracy")
     return RunSettings(
         scenario_id=s["scenario_id"], cosim=CosimSettings.model_validate(s.get("cosim") or {}),
+        evaluation=EvaluationSettings.model_validate(s.get("evaluation") or {}),
         planner=_planner(s.get("planner") or {}), scenario_path=s.get("scenario_path"),
         parameters=s.get("parameters") or {}, parameter_units=s.get("parameter_units") or {},
         sections=RoadSections.of_json(s.get("sections")), backend=s.get("backend") or {},
@@ -359,7 +362,8 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
     the planners observed, tracking; its vehicles, where not kept (runs before 2026-11), are the
     catalogue's of that name; its realism, where not kept, ideal; its planner, where not named,
     ``frenet``. The criticality a report cached in the run directory (``criticality.json``) is
-    read as its evaluation's."""
+    read as its evaluation's. Formats 1 to 3 kept the evaluation's settings (``cost_function``,
+    ``score``) among the loop's (``settings.cosim``); they are the settings' ``evaluation``."""
     version = int(meta.get("format_version", 1))
     if version > FORMAT_VERSION:
         raise InputError(f"run.json of format {version}, newer than this simgap reads",
@@ -367,8 +371,10 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
                          allowed=f"formats 1 to {FORMAT_VERSION}: update simgap")
     if version == FORMAT_VERSION:
         return dict(meta)
-    if version == 2:                # its fingerprint hashed raw float bits; both are computed from the states
-        return dict(meta) | {"format_version": FORMAT_VERSION}
+    if version in (2, 3):           # 2: its fingerprint hashed raw float bits; both are computed from the states
+        settings = meta.get("settings")         # (one that is no mapping is refused by its check)
+        return dict(meta) | {"format_version": FORMAT_VERSION} | \
+            ({"settings": _evaluation_apart(settings)} if isinstance(settings, Mapping) else {})
     settings = dict(meta.get("settings") or {})
     vehicles = meta.get("vehicles") or {}
     timings = meta.get("timings") or {}
@@ -399,12 +405,21 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
         "parameters": meta.get("parameters") or {}, "parameter_units": settings.get("parameter_units") or {},
         "sections": meta.get("sections") or {}, "seed": meta.get("seed", 0),
         "cosim": {k: v for k, v in cosim.items() if k in CosimSettings.model_fields},
+        "evaluation": {k: v for k, v in cosim.items() if k in EvaluationSettings.model_fields},
         "backend": settings.get("backend") or {}, "sensing_accuracy": settings.get("sensing_accuracy"),
         "planner": planner, "planner_vehicle": settings.get("planner_vehicle") or "",
         "recorded_as": {str(a["id"]): a["recorded_as"] for a in agents if a.get("recorded_as") is not None},
         "versions": meta.get("versions") or {}}
     return {"format_version": FORMAT_VERSION, "settings": run_settings, "history": history, "evaluation": evaluation,
             "timings": {k: v for k, v in timings.items() if k in RECORD_TIMINGS}}
+
+
+def _evaluation_apart(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """Settings of formats 2 and 3 with the evaluation's (``cost_function``, ``score``) moved from
+    ``cosim`` to ``evaluation``."""
+    cosim = dict(settings.get("cosim") or {})
+    evaluation = {k: cosim.pop(k) for k in EvaluationSettings.model_fields if k in cosim}
+    return dict(settings) | {"cosim": cosim, "evaluation": evaluation}
 
 
 def migrate_row(columns: Mapping[str, Any]) -> dict[str, Any]:

@@ -12,12 +12,14 @@ from simgap.cosim.fidelity import Fidelity
 from simgap.cosim.history import AgentHistory, History
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.sensing import LocalisationAccuracy
+from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.run_evaluation import AgentEvaluation, RunEvaluation
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
 
-FORMAT_VERSION = 3      # 1: run.json without a format_version (simgap before the run record, 2026-11-27);
-                        # 2: a fingerprint over raw float bits (until 2026-12-02); 3: over quantised states
+FORMAT_VERSION = 4      # 1: run.json without a format_version (simgap before the run record, 2026-11-27);
+                        # 2: a fingerprint over raw float bits (until 2026-12-02); 3: over quantised states;
+                        # 4: the evaluation's settings (cost function, score) apart from the loop's
 
 
 @dataclass(frozen=True)
@@ -37,8 +39,8 @@ class PlannerRecord:
 
 @dataclass(frozen=True)
 class RunSettings:
-    """What a run was run with: the scenario, the loop's and the backend's settings, the planner,
-    the vehicle the planner assumed, the seed and the software's versions."""
+    """What a run was run with: the scenario, the loop's and the backend's settings, what it was
+    evaluated by, the planner, the vehicle the planner assumed, the seed and the software's versions."""
 
     scenario_id: str
     cosim: CosimSettings
@@ -53,6 +55,7 @@ class RunSettings:
     recorded_as: Mapping[int, int] = field(default_factory=dict)    # agent -> the recorded road user it replaces
     seed: int = 0
     versions: Mapping[str, str] = field(default_factory=dict)
+    evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)   # cost function, score settings
 
     def __post_init__(self) -> None:
         for name in ("parameters", "parameter_units", "backend", "recorded_as", "versions"):

@@ -166,4 +166,5 @@ def _flat_settings(run: RunRecord) -> dict[str, object]:
 
     add("", dict(run.settings.backend))
     add("cosim", run.settings.cosim.model_dump(mode="json"))
+    add("evaluation", run.settings.evaluation.model_dump(mode="json"))
     return flat

@@ -12,8 +12,9 @@ from typing import Sequence
 import numpy as np
 
 from simgap.cosim import REFERENCE
-from simgap.cosim.score_settings import ScoreWeights
-from simgap.evaluate.closed_loop_score import COMPONENTS, score_drop
+from simgap.evaluate.closed_loop_score import COMPONENTS
+from simgap.evaluate.score_drop import score_drop
+from simgap.evaluate.settings import ScoreWeights
 from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.experiment.run_row import RunRow
 from simgap.report.collection import ScenarioGroup
@@ -28,7 +29,7 @@ SCORES_NOTE = ("<p>score: the closed-loop score (built like nuPlan's CLS: the mu
 
 
 def _weights(entry) -> ScoreWeights:
-    return entry.run.settings.cosim.score.weights
+    return entry.run.settings.evaluation.score.weights
 
 
 def agent_drops(group: ScenarioGroup, fidelity: str) -> list[tuple[AgentEvaluation, float, list]]:
