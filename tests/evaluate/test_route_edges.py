@@ -10,7 +10,7 @@ from simgap.cosim.history import Event
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.route_edges import event_places, route_edges
 from simgap.scenario import build_scenario
-from simgap.sim.protocol import EventKind
+from simgap.sim.protocol import EventKind, Outcome
 
 
 @pytest.fixture(scope="module")
@@ -39,9 +39,9 @@ def test_an_event_is_placed_along_the_route_where_it_happened(curve):
     k = len(frame.xy) // 2
     normal = np.array([-frame.seg[k, 1], frame.seg[k, 0]]) / frame.seg_len[k]
     x, y = frame.xy[k] + 0.5 * frame.seg[k] + 0.7 * normal        # 0.7 m left of the centre line
-    late, early, nowhere = (Event(5.0, 1, EventKind.OFF_ROAD, float(x), float(y), "footprint 0.1 m beyond the road"),
+    late, early, nowhere = (Event(5.0, 1, Outcome.OFF_ROAD, float(x), float(y), "footprint 0.1 m beyond the road"),
                             Event(1.0, 1, EventKind.PLANNER_NO_SOLUTION, float(frame.xy[0, 0]), float(frame.xy[0, 1])),
-                            Event(2.0, 2, EventKind.COLLISION, 0.0, 0.0))
+                            Event(2.0, 2, Outcome.COLLISION, 0.0, 0.0))
     first, second, third = event_places([late, early, nowhere], {1: frame, 2: None})
     assert [p.event for p in (first, second, third)] == [early, nowhere, late]      # in time order
     assert third.s == pytest.approx(frame.s[k] + 0.5 * frame.seg_len[k], abs=1e-6)

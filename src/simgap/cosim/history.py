@@ -13,32 +13,15 @@ from __future__ import annotations
 import hashlib
 import traceback
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import Mapping
 
 import numpy as np
 
-from simgap.sim.protocol import EventKind, Realism
+from simgap.sim.protocol import EventKind, Outcome, Realism, event_kind
 from simgap.trajectory import STATE_FIELDS, Attitude, ControlTrace, Trajectory
 from simgap.vehicles import Vehicle
 
 AGENT_ID_OFFSET = 100_000       # agent i is obstacle AGENT_ID_OFFSET + i in the driven scenario (driven.xml)
-
-
-class Outcome(StrEnum):
-    """How an agent's run ended (a string enum: it compares and serialises as its value)."""
-
-    GOAL_REACHED = "goal_reached"
-    COLLISION = "collision"
-    OFF_ROAD = "off_road"
-    PLANNER_FAILURE = "planner_failure"      # no feasible plan for too long
-    TIMEOUT = "timeout"                      # the goal not reached by its deadline
-    DIVERGED = "diverged"                    # the physics blew up
-
-    @classmethod
-    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
-        """The first outcome that is not reaching the goal, else reaching it."""
-        return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
 
 
 @dataclass(frozen=True)
@@ -47,14 +30,14 @@ class Event:
 
     t: float
     agent_id: int
-    kind: EventKind
+    kind: Outcome | EventKind
     x: float | None = None
     y: float | None = None
     detail: str = ""
     other_id: int | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "kind", EventKind(self.kind))
+        object.__setattr__(self, "kind", event_kind(self.kind))
 
 
 @dataclass(frozen=True)

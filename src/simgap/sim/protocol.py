@@ -60,19 +60,37 @@ def enters_at(agent: Agent, t: float, dt: float) -> bool:
     return abs(agent.initial_state.t - t) < 0.5 * dt
 
 
-class EventKind(StrEnum):
-    """What a run's event records (a string enum: it compares and serialises as its value): how an
-    agent's run ended (the values of `simgap.cosim.Outcome`), a planning cycle without a plan, or
-    what a backend observed (a contact, a blow-up, damage)."""
+class Outcome(StrEnum):
+    """How an agent's run ended (a string enum: it compares and serialises as its value)."""
 
     GOAL_REACHED = "goal_reached"
     COLLISION = "collision"
     OFF_ROAD = "off_road"
-    PLANNER_FAILURE = "planner_failure"
-    TIMEOUT = "timeout"
-    DIVERGED = "diverged"
+    PLANNER_FAILURE = "planner_failure"      # no feasible plan for too long
+    TIMEOUT = "timeout"                      # the goal not reached by its deadline
+    DIVERGED = "diverged"                    # the physics blew up
+
+    @classmethod
+    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
+        """The first outcome that is not reaching the goal, else reaching it."""
+        return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
+
+
+class EventKind(StrEnum):
+    """What a run's event records besides how an agent's run ended (an `Outcome`, which a backend
+    reports too: a contact, a blow-up): a planning cycle without a plan, or damage a backend saw
+    (a string enum: it compares and serialises as its value)."""
+
     PLANNER_NO_SOLUTION = "planner_no_solution"
     DAMAGE = "damage"
+
+
+def event_kind(value: str) -> Outcome | EventKind:
+    """An event's kind by its value: the outcome of that value, else the event kind."""
+    try:
+        return Outcome(value)
+    except ValueError:
+        return EventKind(value)
 
 
 @dataclass(frozen=True)
@@ -81,7 +99,7 @@ class BackendEvent:
 
     t: float
     agent_id: int
-    kind: EventKind    # COLLISION, DIVERGED or DAMAGE
+    kind: Outcome | EventKind    # Outcome.COLLISION, Outcome.DIVERGED or EventKind.DAMAGE
     detail: str = ""
     other_id: int | None = None
 

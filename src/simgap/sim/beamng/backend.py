@@ -42,7 +42,7 @@ from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings
-from simgap.sim.protocol import Agent, BackendEvent, EventKind, PhysicsDiverged, PlanInForce, enters_at
+from simgap.sim.protocol import Agent, BackendEvent, EventKind, Outcome, PhysicsDiverged, PlanInForce, enters_at
 from simgap.sim.rates import SpeedRate, steps_per_tick
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import Attitude, State, Trajectory
@@ -230,7 +230,7 @@ class BeamngWorld:
             near = [(math.hypot(st.x - me.x, st.y - me.y), oid) for oid, st in others]
             if near:
                 dist, other = min(near)
-                self._events.append(BackendEvent(t, aid, EventKind.COLLISION, f"damage rose by {rise:.0f}; nearest road "
+                self._events.append(BackendEvent(t, aid, Outcome.COLLISION, f"damage rose by {rise:.0f}; nearest road "
                                                  f"user {other} at {dist:.1f} m", other))
             else:
                 self._events.append(BackendEvent(t, aid, EventKind.DAMAGE, f"damage rose by {rise:.0f}"))

@@ -44,7 +44,7 @@ from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
-from simgap.sim.protocol import Agent, BackendEvent, EventKind, PhysicsDiverged, enters_at
+from simgap.sim.protocol import Agent, BackendEvent, Outcome, PhysicsDiverged, enters_at
 from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import Attitude, State
@@ -125,7 +125,7 @@ class MujocoPhysics:
 
     def _flipped(self) -> list[int]:
         """The cars found on their side since the step began (their ``diverged`` events)."""
-        return [e.agent_id for e in self._events if e.kind == EventKind.DIVERGED]
+        return [e.agent_id for e in self._events if e.kind == Outcome.DIVERGED]
 
     def begin_step(self, t: float) -> None:
         for aid in self._flipped():
@@ -260,7 +260,7 @@ class MujocoPhysics:
             car = w.cars[a.id]
             q = d.qpos[car.qpos:car.qpos + 7]
             if up_z(q[3:7]) < FLIPPED_UP_Z and a.id not in self._retired and a.id not in self._flipped():
-                self._events.append(BackendEvent(t, a.id, EventKind.DIVERGED, f"chassis on its side or roof at t = {t:.2f} s, "
+                self._events.append(BackendEvent(t, a.id, Outcome.DIVERGED, f"chassis on its side or roof at t = {t:.2f} s, "
                                                  f"x = {q[0]:.1f} m, y = {q[1]:.1f} m"))
 
     def _collect_contacts(self, t: float, seen: set) -> None:
@@ -282,7 +282,7 @@ class MujocoPhysics:
                 if (int(me), other) in seen:
                     continue
                 seen.add((int(me), other))
-                self._events.append(BackendEvent(t, int(me), EventKind.COLLISION,
+                self._events.append(BackendEvent(t, int(me), Outcome.COLLISION,
                                                  f"physical contact with {kind} {other} at "
                                                  f"({pos[0]:.1f}, {pos[1]:.1f})", other))
 

@@ -13,7 +13,7 @@ from simgap.errors import validated_settings
 from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.backend import MujocoPhysics
 from simgap.sim.mujoco.settings import WorldSettings
-from simgap.sim.protocol import Agent, EventKind, PhysicsDiverged
+from simgap.sim.protocol import Agent, Outcome, PhysicsDiverged
 from simgap.trajectory import DEFAULT_TIME_STEP_S, State
 from simgap.vehicles import Vehicle
 
@@ -52,7 +52,7 @@ class MujocoPlant:
         self.physics.actuate(AGENT, command, period)
         self.physics.advance(self._t, period)
         self._t += period
-        flipped = next((e for e in self.physics.events() if e.kind == EventKind.DIVERGED), None)
+        flipped = next((e for e in self.physics.events() if e.kind == Outcome.DIVERGED), None)
         if flipped is not None:         # one car alone: nothing drives on without it
             raise PhysicsDiverged(flipped.detail)
         return self.physics.measure(AGENT, self._t)
