@@ -26,7 +26,7 @@ from simgap.record import RunRecord, read_run
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.export import checks
-from simgap.export.opendrive import Method, Surface, road_network
+from simgap.export.opendrive import Method, UniformRoad, road_network
 from simgap.export.opendrive_sampling import sample_roads
 from simgap.export.openscenario import OpenScenarioVersion
 from simgap.export.write import FITTED_TOLERANCE_M, export_road, export_run
@@ -95,7 +95,7 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
 
 def test_bank_and_grade_become_superelevation_and_elevation(tmp_path):
     concrete = build_scenario("curve", {"radius": 20, "angle": 45})
-    roads = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, Surface(0.8, 5.0, 3.0))
+    roads = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(0.8, 5.0, 3.0))
     path = tmp_path / "tilted.xodr"
     roads.opendrive.write_xml(str(path))
     assert checks.schema_errors(path)[1] == []
@@ -128,7 +128,7 @@ def test_a_roads_relief_becomes_its_elevation_and_superelevation_profiles(tmp_pa
     assert np.abs(_profile(road, "elevationProfile/elevation", s) - relief.height(s)[0]).max() < 1e-9
     assert np.abs(_profile(road, "lateralProfile/superelevation", s) - relief.bank(s)[0]).max() < 1e-9
     # the knobs' bank and grade add to the relief
-    tilted = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, Surface(1.0, 2.0, 1.0))
+    tilted = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(1.0, 2.0, 1.0))
     tilted.opendrive.write_xml(str(tmp_path / "tilted.xodr"))
     assert checks.schema_errors(tmp_path / "tilted.xodr")[1] == []
     road = ET.parse(tmp_path / "tilted.xodr").getroot().find("road")

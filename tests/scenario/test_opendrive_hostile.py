@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from simgap.errors import InputError
-from simgap.export.opendrive import Surface, road_network
+from simgap.export.opendrive import UniformRoad, road_network
 from simgap.scenario import build_scenario
 from simgap.scenario.opendrive.network import opendrive_network
 
@@ -27,7 +27,7 @@ def exported(tmp_path_factory) -> dict[str, str]:
     for name, params in (("curve", {"radius": 50, "angle": 30}), ("t-junction", {})):
         concrete = build_scenario(name, params)
         path = folder / f"{name}.xodr"
-        road_network(concrete.scenario.lanelet_network, name, concrete.blueprint, Surface()).opendrive.write_xml(
+        road_network(concrete.scenario.lanelet_network, name, concrete.blueprint, UniformRoad()).opendrive.write_xml(
             str(path))
         texts[name] = path.read_text()
     return texts

@@ -25,7 +25,7 @@ from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
 from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Realism
-from simgap.sim.settings import RoadSurface, TrackingSettings, realism_of
+from simgap.sim.settings import RoadFrictionSettings, TrackingSettings, realism_of
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ class Knob:
 
 _PHYSICAL = ("dynamic", "mujoco", "beamng")
 KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("road_friction", "-", RoadSurface, "road_friction", ("dynamic", "mujoco"),
+    Knob("road_friction", "-", RoadFrictionSettings, "road_friction", ("dynamic", "mujoco"),
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)", nominal=1.0),
     Knob("steer_delay", "s", TrackingSettings, "steer_delay", _PHYSICAL, "steering dead time",
          default="the vehicle's"),

@@ -71,8 +71,9 @@ class Method(StrEnum):
 
 
 @dataclass(frozen=True)
-class Surface:
-    """What the road is made of and how it lies: friction (1 = dry), bank and grade [deg]."""
+class UniformRoad:
+    """What the whole road is made of and how it lies, the same everywhere: friction (1 = dry), bank and
+    grade [deg] (its relief, where it has one, is `simgap.scenario.relief`'s)."""
 
     friction: float = 1.0
     bank_deg: float = 0.0
@@ -100,7 +101,7 @@ class RoadNetwork:
 
 
 def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | JunctionBlueprint | None,
-                 surface: Surface = Surface()) -> RoadNetwork:
+                 surface: UniformRoad = UniformRoad()) -> RoadNetwork:
     """``network`` as OpenDRIVE: exact when ``blueprint`` rebuilds it, fitted otherwise."""
     notes = []
     if blueprint is not None:
@@ -115,7 +116,7 @@ def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | 
     return result
 
 
-def _surface_notes(result: RoadNetwork, surface: Surface) -> list[str]:
+def _surface_notes(result: RoadNetwork, surface: UniformRoad) -> list[str]:
     notes = []
     if surface.bank_deg:
         notes.append(f"road_bank {surface.bank_deg:g} deg is every road's superelevation, falling to the right of its "
@@ -147,7 +148,7 @@ def _mark(marking: LineMarking) -> xodr.RoadMark:
     return xodr.RoadMark(_MARK_TYPE[marking], width)
 
 
-def _lane(width: float | tuple[Cubic, ...], marking: LineMarking, surface: Surface) -> xodr.Lane:
+def _lane(width: float | tuple[Cubic, ...], marking: LineMarking, surface: UniformRoad) -> xodr.Lane:
     """A driving lane of constant ``width`` or of width polynomials, its outer mark and friction."""
     if isinstance(width, tuple):
         lane = xodr.Lane(xodr.LaneType.driving, width[0].a, width[0].b, width[0].c, width[0].d, width[0].s)
@@ -167,7 +168,7 @@ def _centre_lane(marking: LineMarking) -> xodr.Lane:
 
 
 def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lanes: xodr.Lanes,
-          surface: Surface, junction: int = -1, grade: bool = False, relief: ReliefProfile | None = None) -> xodr.Road:
+          surface: UniformRoad, junction: int = -1, grade: bool = False, relief: ReliefProfile | None = None) -> xodr.Road:
     """A road from geometries placed at (x, y, heading), laid end to end, on its ``relief`` (None: flat)."""
     planview = xodr.PlanView()
     s = 0.0
@@ -186,7 +187,7 @@ def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lane
     return road
 
 
-def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: Surface) -> None:
+def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: UniformRoad) -> None:
     """The relief's records (the knobs' bank and grade added to every one)."""
     grade = math.tan(math.radians(surface.grade_deg))
     pieces = relief.elevation.pieces()
@@ -210,7 +211,7 @@ def _opendrive(name: str) -> xodr.OpenDrive:
 
 
 # ------------------------------------------------------------------------------ exact
-def _exact_road(blueprint: RoadBlueprint, name: str, surface: Surface) -> RoadNetwork:
+def _exact_road(blueprint: RoadBlueprint, name: str, surface: UniformRoad) -> RoadNetwork:
     centre, built = blueprint.centre(), blueprint.rebuild()
     pieces, s = [], 0.0
     for kind, length, k0, k1 in curvature_pieces(blueprint.segments):
@@ -254,7 +255,7 @@ def _poly3_length(b: np.ndarray, c: np.ndarray, d: np.ndarray, n: int = 2000) ->
     return float(np.sum(0.5 * (speed[1:] + speed[:-1])) / n)
 
 
-def _exact_junction(blueprint: JunctionBlueprint, name: str, surface: Surface) -> RoadNetwork:
+def _exact_junction(blueprint: JunctionBlueprint, name: str, surface: UniformRoad) -> RoadNetwork:
     built = blueprint.rebuild()
     by_id = {l.lanelet_id: l for l in built.lanelets}
     w = blueprint.lane_width
@@ -321,7 +322,7 @@ def _lane_change(marking: LineMarking) -> xodr.LaneChange:
     return xodr.LaneChange.none if marking in _NO_CROSSING else xodr.LaneChange.both
 
 
-def _fitted_road(road_id: int, fit: RoadFit, lanelets: list[Lanelet], surface: Surface, junction: int = -1,
+def _fitted_road(road_id: int, fit: RoadFit, lanelets: list[Lanelet], surface: UniformRoad, junction: int = -1,
                  grade: bool = False) -> xodr.Road:
     """A road of ``lanelets`` (left to right; the first ``fit.left`` of them left lanes, against the
     reference line) as ``fit`` places them."""
@@ -354,7 +355,7 @@ def _way(end: str) -> str:
     return "successor" if end == "end" else "predecessor"
 
 
-def _fitted(network: LaneletNetwork, name: str, surface: Surface) -> RoadNetwork:
+def _fitted(network: LaneletNetwork, name: str, surface: UniformRoad) -> RoadNetwork:
     """Roads of laterally adjacent lanelets between shared cross-sections, direct links and
     junctions (`simgap.export.road_topology`), each road's geometry fitted (`lanelet_fit`)."""
     odr = _opendrive(name)

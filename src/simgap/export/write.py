@@ -22,7 +22,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.record import RunRecord, read_run
 from simgap.errors import InputError
 from simgap.export import checks
-from simgap.export.opendrive import Method, RoadNetwork, Surface, road_network
+from simgap.export.opendrive import Method, RoadNetwork, UniformRoad, road_network
 from simgap.export.opendrive_sampling import RoadSamples, sample_roads
 from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, description, openscenario, road_users
 from simgap.files import publish, staged_directory
@@ -69,7 +69,7 @@ def _blueprint(scenario_xml: Path | None):
     return blueprint_of(read_metadata(scenario_xml))
 
 
-def _write_road(network: LaneletNetwork, name: str, blueprint, surface: Surface, staged: Path
+def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformRoad, staged: Path
                 ) -> tuple[RoadNetwork, Path, list[RoadSamples]]:
     """The road network written to ``staged``, its header's bounds those of its lanes as read back."""
     roads = road_network(network, name, blueprint, surface)
@@ -111,7 +111,7 @@ def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = No
     scenario, _ = load_scenario(scenario_xml, needs_problems=False)
     name = safe_name(name or scenario_xml.stem)
     with staged_directory(out, name) as staged:
-        roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), Surface(), staged)
+        roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), UniformRoad(), staged)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
         _check_road(roads, path, samples, scenario.lanelet_network, result)
         result.files = publish(staged, out, [path.name])
@@ -144,7 +144,7 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     scenario_path = run.settings.scenario_path
     _, scenario, problems = read_driven_scenario(run_dir, run)
     backend = run.settings.backend
-    surface = Surface(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
+    surface = UniformRoad(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
                       float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else

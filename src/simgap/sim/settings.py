@@ -1,6 +1,6 @@
 """Settings every physics backend shares, each bound and default written once: the tracking
 (controller, its rate and gains, actuator delays) and the road's friction. A backend's own
-settings model extends `TrackingSettings`; a world with a road surface extends `RoadSurface`."""
+settings model extends `TrackingSettings`; a world whose road has a friction extends `RoadFrictionSettings`."""
 
 from __future__ import annotations
 
@@ -24,8 +24,9 @@ ActuatorLag = Annotated[float | None, Field(ge=0.0, le=MAX_TIME_CONSTANT_S)]
 RoadFriction = Annotated[float, Field(ge=0.1, le=1.5, description="scales each tyre's friction [-]")]
 
 
-class RoadSurface(BaseModel):
-    """The settings of a world with a road surface: its friction."""
+class RoadFrictionSettings(BaseModel):
+    """The settings of a world whose road has a friction (the relief it lies on is
+    `simgap.scenario.relief.Surface`)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     ASSUMPTIONS: ClassVar[Restorations] = {Assumption.FRICTION: {"road_friction": DRY_ROAD_FRICTION}}
@@ -36,7 +37,7 @@ class RoadSurface(BaseModel):
 def road_friction(settings: BaseModel | None) -> float:
     """The friction of a world's road: its setting, or the dry road of a world without one (the
     ideal world's assumption)."""
-    return settings.road_friction if isinstance(settings, RoadSurface) else DRY_ROAD_FRICTION
+    return settings.road_friction if isinstance(settings, RoadFrictionSettings) else DRY_ROAD_FRICTION
 
 
 class TrackingSettings(BaseModel):

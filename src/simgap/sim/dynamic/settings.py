@@ -9,12 +9,12 @@ from pydantic import Field
 
 from simgap.errors import InputError, validated_settings
 from simgap.sim.protocol import BackendEntry
-from simgap.sim.settings import RoadSurface, TrackingSettings
+from simgap.sim.settings import RoadFrictionSettings, TrackingSettings
 
 VEHICLE_MODELS = ("st", "mb")       # CommonRoad's single-track and multi-body models
 
 
-class DynamicSettings(TrackingSettings, RoadSurface):
+class DynamicSettings(TrackingSettings, RoadFrictionSettings):
     """Settings of the ``dynamic`` world (``backend_settings`` of a run)."""
 
     params_id: int = Field(2, ge=1, le=3, description="CommonRoad vehicle parameter set")

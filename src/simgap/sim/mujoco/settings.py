@@ -11,12 +11,12 @@ from simgap.errors import validated_settings
 from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.rates import steps_per_tick
 from simgap.sim.protocol import BackendEntry
-from simgap.sim.settings import RoadFriction, RoadSurface, TrackingSettings
+from simgap.sim.settings import RoadFriction, RoadFrictionSettings, TrackingSettings
 
 PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
 
 
-class WorldSettings(RoadSurface):
+class WorldSettings(RoadFrictionSettings):
     """Settings of the physics world (``backend_settings`` of a run)."""
 
     # a flat twin of the road: no slope on top (the scenario's own relief is the run's ground,
