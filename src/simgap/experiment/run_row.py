@@ -19,7 +19,6 @@ import pyarrow as pa
 
 from simgap.cosim import Outcome
 from simgap.evaluate.closed_loop_score import COMPONENTS
-from simgap.evaluate.errors import comfort
 from simgap.evaluate.run_evaluation import worst_scores
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.job import Job, JobId
@@ -79,7 +78,7 @@ class RunRow:
         agents = evaluation.agents
         times = [a.time_to_goal_s for a in agents if a.time_to_goal_s is not None]
         gaps = [a.min_distance_to_traffic_m for a in agents if a.min_distance_to_traffic_m is not None]
-        peaks = [comfort(a.driven) for a in history.agents]
+        peaks = [a.tracking.comfort for a in agents if a.tracking is not None]     # the evaluation's
         return cls(
             job.id, job.parameters, job.vehicle, "failed" if history.failure else "ok", history.failure or "",
             outcome=Outcome.worst(outcomes), agents=len(agents),
