@@ -153,4 +153,4 @@ def test_simgap_run_takes_an_installed_backend(site, tmp_path):
                            "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
     record = read_run(tmp_path / "run")
-    assert record.history.backend == "counting" and record.agents[0].outcome == "goal_reached"
+    assert record.history.backend == "counting" and record.agents[0].history.outcome == "goal_reached"

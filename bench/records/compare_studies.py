@@ -38,6 +38,7 @@ from simgap.record.values import plain, same
 
 MACHINE = ("time_", "version_", "job_time_s", "wall_time_s", "planning_mean_s", "planning_p95_s", "planning_max_s",
            "run_dir", "format_version")
+HISTORY_FIELDS = ("outcome", "time_to_goal_s", "planner_failures", "planner_exceptions")    # the rest: evaluation's
 AGENT_FIELDS = ("outcome", "time_to_goal_s", "distance_m", "min_distance_to_traffic_m", "max_road_excursion_m",
                 "planner_failures", "planner_exceptions", "planning_calls", "plan_latency_mean_s",
                 "plan_latency_max_s", "score", "score_components", "score_measures", "solution_benchmark",
@@ -92,11 +93,14 @@ def compare(before: Path, after: Path) -> dict[str, Any]:
                                  "after": plain(list(rb.evaluation.criticality))})
         for agent_a, agent_b in zip(ra.agents, rb.agents, strict=True):
             for side, agent in (("before", agent_a), ("after", agent_b)):
-                if agent.planning_calls and agent.planning_mean_s is not None:
-                    planning[side][0] += agent.planning_calls
-                    planning[side][1] += agent.planning_calls * agent.planning_mean_s
+                calls, mean_s = agent.evaluation.planning_calls, agent.evaluation.planning_mean_s
+                if calls and mean_s is not None:
+                    planning[side][0] += calls
+                    planning[side][1] += calls * mean_s
             for name in AGENT_FIELDS:
-                va, vb = plain(getattr(agent_a, name)), plain(getattr(agent_b, name))
+                part_a, part_b = (agent_a.history, agent_b.history) if name in HISTORY_FIELDS else \
+                    (agent_a.evaluation, agent_b.evaluation)
+                va, vb = plain(getattr(part_a, name)), plain(getattr(part_b, name))
                 ok = same(va, vb)
                 (equal if ok else differ)[f"agent.{name}"] += 1
                 if not ok and len(examples) < 20:

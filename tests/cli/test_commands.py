@@ -340,7 +340,7 @@ def test_a_planner_that_calls_sys_exit_fails_its_run_not_the_command(hostile, tm
     assert proc.returncode == 0, proc.stderr
     assert "planner raised SystemExit" in proc.stdout and "Traceback" not in proc.stdout + proc.stderr
     agent = read_run(tmp_path / "a").agents[0]
-    assert agent.outcome == "planner_failure" and agent.planner_exceptions == 10
+    assert agent.history.outcome == "planner_failure" and agent.history.planner_exceptions == 10
     built = simgap("run", str(scenario), "--no-validate", "--planner", f"{planners}:ExitsWhenBuilt",
                    "--out", str(tmp_path / "b"))
     assert built.returncode == 1, built.stderr
@@ -354,7 +354,7 @@ def test_a_planner_that_never_returns_ends_the_run_at_its_timeout(hostile, tmp_p
     assert proc.returncode == 1, proc.stderr
     record = read_run(tmp_path / "r")
     assert record.failure == "timeout: still running after 1 s of wall time in agent 1's planning call at t = 0.0 s"
-    assert record.agents[0].outcome == "timeout"
+    assert record.agents[0].history.outcome == "timeout"
 
 
 @pytest.mark.parametrize("args, fragments", [

@@ -52,7 +52,7 @@ def curve_xml(tmp_path_factory) -> Path:
 
 def outcome(run_dir: Path) -> tuple[str, str]:
     agent = read_run(run_dir).agents[0]
-    return agent.planner, agent.outcome
+    return agent.planner, agent.history.outcome
 
 
 def test_planners_lists_the_installed_planner_with_its_settings(installed):

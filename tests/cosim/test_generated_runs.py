@@ -34,15 +34,15 @@ def run_ideal(concrete, replan_every=1):
 def test_curve_grid_corners_reach_the_goal(radius, angle):
     run = run_ideal(build_scenario("curve", {"radius": radius, "angle": angle}), replan_every=3)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.history.events
-    assert agent.max_road_excursion_m == 0.0
+    assert agent.history.outcome == "goal_reached", run.history.events
+    assert agent.evaluation.max_road_excursion_m == 0.0
 
 
 @pytest.mark.parametrize("logical", ["t-junction", "intersection"])
 def test_three_agents_cross_a_junction_without_collision(logical):
     run = run_ideal(build_scenario(logical, {"agents": 3}))
-    assert [a.outcome for a in run.agents] == ["goal_reached"] * 3, run.history.events
-    assert min(a.min_distance_to_traffic_m for a in run.agents) > 0.0
+    assert [a.history.outcome for a in run.agents] == ["goal_reached"] * 3, run.history.events
+    assert min(a.evaluation.min_distance_to_traffic_m for a in run.agents) > 0.0
     assert not [e for e in run.history.events if e.kind == "collision"]
 
 
@@ -62,5 +62,5 @@ def test_recorded_obstacle_is_traffic_the_planner_avoids():
     scenario.add_objects(obstacle)
     run = run_ideal(concrete)
     (agent,) = run.agents
-    assert agent.outcome != "collision", run.history.events
-    assert 0.0 < agent.min_distance_to_traffic_m < 10.0   # it met the obstacle, and kept clear of it
+    assert agent.history.outcome != "collision", run.history.events
+    assert 0.0 < agent.evaluation.min_distance_to_traffic_m < 10.0   # it met the obstacle, and kept clear of it

@@ -18,7 +18,7 @@ from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
 
 from evaluated import recorded
-from simgap.cosim import CosimSettings, EventKind, simulate
+from simgap.cosim import CosimSettings, EventKind, Outcome, simulate
 from simgap.record import read_run, write_run
 from simgap.cosim.agents import agents_from_problems
 from simgap.scenario.geometry import Straight, centre_line
@@ -81,27 +81,27 @@ def run(problems, planners, settings=None):
 def test_single_agent_reaches_goal_at_the_expected_time():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0)})
     (agent,) = result.agents
-    assert agent.outcome == "goal_reached"
+    assert agent.history.outcome == "goal_reached"
     # the goal rectangle spans x in [145, 155]: from x = 10 at 10 m/s the centre enters it at 13.5 s
-    assert agent.time_to_goal_s == pytest.approx(13.6, abs=0.11)
-    assert agent.distance_m == pytest.approx(136.0, abs=1.1)
+    assert agent.history.time_to_goal_s == pytest.approx(13.6, abs=0.11)
+    assert agent.evaluation.distance_m == pytest.approx(136.0, abs=1.1)
 
 
 def test_head_on_agents_collide():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 190), problem(2, 190, 1.75, math.pi, 10.0, 10)],
                  {1: StraightLine(10.0), 2: StraightLine(10.0)})
-    assert [a.outcome for a in result.agents] == ["collision", "collision"]
+    assert [a.history.outcome for a in result.agents] == ["collision", "collision"]
     ev = [e for e in result.history.events if e.kind == "collision"]
     assert {e.other_id for e in ev} == {1, 2}
-    assert all(a.min_distance_to_traffic_m == 0.0 for a in result.agents)
+    assert all(a.evaluation.min_distance_to_traffic_m == 0.0 for a in result.agents)
 
 
 def test_planner_failure_triggers_emergency_stop():
     settings = CosimSettings(planner_failure_limit=3)
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=5)}, settings)
     (agent,) = result.agents
-    assert agent.outcome == "planner_failure"
-    assert agent.planner_failures == 3
+    assert agent.history.outcome == "planner_failure"
+    assert agent.history.planner_failures == 3
     v = result.history.driven[1].v
     assert v[-1] < v[5]  # it braked
     assert any(e.kind == "planner_no_solution" for e in result.history.events)
@@ -110,9 +110,9 @@ def test_planner_failure_triggers_emergency_stop():
 def test_a_crashing_planner_fails_its_agent_with_the_reason(tmp_path):
     settings = CosimSettings(planner_failure_limit=2)
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0, fail_after=3, crash=True)}, settings)
-    assert result.agents[0].outcome == "planner_failure"
+    assert result.agents[0].history.outcome == "planner_failure"
     assert any("RuntimeError: solver exploded" in e.detail for e in result.history.events)
-    assert [e.kind for e in result.history.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [EventKind.PLANNER_FAILURE]
+    assert [e.kind for e in result.history.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [Outcome.PLANNER_FAILURE]
     write_run(result, tmp_path / "run")
     assert read_run(tmp_path / "run").history.events == result.history.events       # typed again when read
 
@@ -120,8 +120,8 @@ def test_a_crashing_planner_fails_its_agent_with_the_reason(tmp_path):
 def test_leaving_the_road_is_off_road():
     result = run([problem(1, 10, 1.75, 0.2, 10.0, 150)], {1: StraightLine(10.0)})
     (agent,) = result.agents
-    assert agent.outcome == "off_road"
-    assert agent.max_road_excursion_m > 0
+    assert agent.history.outcome == "off_road"
+    assert agent.evaluation.max_road_excursion_m > 0
 
 
 def test_run_record_reloads_equal(tmp_path):
@@ -167,14 +167,14 @@ def test_the_goals_time_window_is_the_deadline_not_a_default_cap():
     # the goal allows 100 s; at 2 m/s the goal box (x in [145, 155]) is reached after about 68 s,
     # beyond the 60 s the loop allows a goal without a time window
     result = run([problem(1, 10, 1.75, 0.0, 2.0, 150, t_end=1000)], {1: StraightLine(2.0)})
-    assert result.agents[0].outcome == "goal_reached"
-    assert result.agents[0].time_to_goal_s == pytest.approx(67.6, abs=0.2)
+    assert result.agents[0].history.outcome == "goal_reached"
+    assert result.agents[0].history.time_to_goal_s == pytest.approx(67.6, abs=0.2)
 
 
 def test_a_timeout_says_why_the_goal_was_missed():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=50)], {1: StraightLine(10.0)})
     (event,) = [e for e in result.history.events if e.kind == "timeout"]
-    assert result.agents[0].outcome == "timeout"
+    assert result.agents[0].history.outcome == "timeout"
     assert "goal not reached by t = 5.0 s: never inside the goal position" in event.detail
 
 
@@ -225,7 +225,7 @@ def test_a_plan_the_loop_cannot_execute_fails_its_cycle_with_the_reason(make, re
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Returns(make, good_cycles=3)},
                  CosimSettings(planner_failure_limit=2))
     (agent,) = result.agents
-    assert agent.outcome == "planner_failure" and agent.planner_failures == 2 and agent.planner_exceptions == 0
+    assert agent.history.outcome == "planner_failure" and agent.history.planner_failures == 2 and agent.history.planner_exceptions == 0
     failed = [e for e in result.history.events if e.kind == "planner_no_solution"]
     assert failed[0].t == pytest.approx(0.3) and "invalid plan: " in failed[0].detail and reason in failed[0].detail
     assert len(result.history.plans[1]) == 3
@@ -237,7 +237,7 @@ def test_plans_are_cut_to_the_horizon_cap():
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=20)],
                  {1: Returns(lambda s, t, dt: line(t, dt, n=1_000_000, x=s.x + 10 * dt * np.arange(1_000_000)))})
     plans = result.history.plans[1]
-    assert len(plans) == 20 and result.agents[0].planner_failures == 0
+    assert len(plans) == 20 and result.agents[0].history.planner_failures == 0
     assert {len(p) for p in plans} == {int(MAX_PLAN_HORIZON_S / DT) + 1}
     assert plans[5].t_end == pytest.approx(0.5 + MAX_PLAN_HORIZON_S)
 
@@ -261,7 +261,7 @@ class OwnBaseException(BaseException):
 def test_a_planner_that_exits_or_interrupts_fails_its_cycles_not_the_process(exc, text):
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: Exits(exc)}, CosimSettings(planner_failure_limit=2))
     (agent,) = result.agents
-    assert agent.outcome == "planner_failure" and agent.planner_exceptions == 2
+    assert agent.history.outcome == "planner_failure" and agent.history.planner_exceptions == 2
     assert f"planner raised {text}" in result.history.events[0].detail
     assert result.history.planner_errors[0].exception == type(exc).__name__
 
@@ -319,7 +319,7 @@ def test_far_away_obstacles_add_no_footprint_checks(monkeypatch):
         scenario = parked_cars(straight_road(), rows)
         result = recorded(simulate(scenario, pps, IdealBackend(), agents_from_problems(pps, DT, load_vehicle("sedan")),
                                    {1: StraightLine(10.0)}), scenario, pps)
-        gaps.append(result.agents[0].min_distance_to_traffic_m)
+        gaps.append(result.agents[0].evaluation.min_distance_to_traffic_m)
         footprints.append(len(built))
     assert gaps[0] == gaps[1] == pytest.approx(100 - 0.9 - 1.75 - load_vehicle("sedan").width / 2, abs=1e-3)
     assert footprints[1] == footprints[0] < 30 * 10          # the other 49 rows: not one footprint

@@ -32,9 +32,9 @@ def test_a_public_opendrive_road_is_driven_to_its_goal(road, backend):
     run, _ = drive(concrete, backend)
     (agent,) = run.agents
     expected = Outcome(route.get(backend, Outcome.GOAL_REACHED.value))
-    assert agent.outcome is expected, (agent.outcome, run.failure)
+    assert agent.history.outcome is expected, (agent.history.outcome, run.failure)
     if expected is Outcome.GOAL_REACHED:
-        assert agent.max_road_excursion_m == 0.0
+        assert agent.evaluation.max_road_excursion_m == 0.0
     if backend != "mujoco":
         return
     attitude = run.history.agent(agent.id).attitudes

@@ -28,8 +28,8 @@ def test_an_ngsim_goal_is_met_inside_its_time_velocity_and_orientation_windows()
     run = run_ego(highway(lanes=1, length=150, segments=1), start(10, 0, 8.0),
                   box_goal(60, 0, (90, 100), (0.0, 3.1), (2.3, 1.8), (-0.2, 0.2)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached"
-    assert 9.0 <= agent.time_to_goal_s <= 10.0
+    assert agent.history.outcome == "goal_reached"
+    assert 9.0 <= agent.history.time_to_goal_s <= 10.0
     assert run.history.driven[1].v[-1] <= 3.1
 
 
@@ -38,7 +38,7 @@ def test_arriving_too_early_slows_down_and_waits():
     run = run_ego(highway(lanes=1, length=150, segments=1), start(10, 0, 8.0),
                   box_goal(40, 0, (150, 160), (0.0, 2.0), (4.0, 2.0)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and 15.0 <= agent.time_to_goal_s <= 16.0
+    assert agent.history.outcome == "goal_reached" and 15.0 <= agent.history.time_to_goal_s <= 16.0
 
 
 def test_an_early_arrival_in_a_long_goal_lanelet_keeps_to_its_velocity_window_until_the_time_window():
@@ -47,7 +47,7 @@ def test_an_early_arrival_in_a_long_goal_lanelet_keeps_to_its_velocity_window_un
     scenario = highway(lanes=1, length=600, segments=2)
     run = run_ego(scenario, start(200, 0, 4.8), lanelet_goal(scenario, 11, (146, 147), (-3.24, 9.76)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and 14.6 <= agent.time_to_goal_s <= 14.7
+    assert agent.history.outcome == "goal_reached" and 14.6 <= agent.history.time_to_goal_s <= 14.7
     driven = run.history.driven[1]
     in_lanelet = driven.x >= 300.0
     assert in_lanelet.any() and driven.v[in_lanelet].max() <= 9.76
@@ -61,7 +61,7 @@ def test_an_early_arrival_with_a_velocity_floor_is_up_to_speed_when_the_window_o
     run = run_ego(highway(lanes=1, length=300, segments=1), start(10, 0, 1.4),
                   box_goal(87, 0, (86, 90), (10.6, 16.6), (4.0, 2.0)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and 8.6 <= agent.time_to_goal_s <= 9.0
+    assert agent.history.outcome == "goal_reached" and 8.6 <= agent.history.time_to_goal_s <= 9.0
     driven = run.history.driven[1]
     assert float(np.interp(8.6, driven.t, driven.v)) >= 10.6
 
@@ -70,7 +70,7 @@ def test_a_goal_lanelet_two_lanes_over_is_reached_by_changing_lanes():
     scenario = highway(lanes=3, length=300, segments=2)
     run = run_ego(scenario, start(10, 0, 10.0), lanelet_goal(scenario, 31, (0, 400)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached"
+    assert agent.history.outcome == "goal_reached"
     assert run.history.driven[1].y[-1] > 2 * 3.5
 
 
@@ -91,8 +91,8 @@ def test_circle_and_set_based_obstacles_are_avoided():
         SetBasedPrediction(1, occupancies)))
     run = run_ego(scenario, start(10, 0, 10.0), box_goal(260, 0, (0, 400)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached"
-    assert agent.min_distance_to_traffic_m > 0.0
+    assert agent.history.outcome == "goal_reached"
+    assert agent.evaluation.min_distance_to_traffic_m > 0.0
 
 
 def test_highway_speed_among_dense_recorded_traffic():
@@ -102,7 +102,7 @@ def test_highway_speed_among_dense_recorded_traffic():
         scenario.add_objects(recorded_car(100 + i, x, lane, v, 250))
     run = run_ego(scenario, start(10, 0, 30.0), box_goal(470, 0, (0, 250), size=(20, 3.5)))
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and agent.planner_failures == 0
+    assert agent.history.outcome == "goal_reached" and agent.history.planner_failures == 0
 
 
 @pytest.mark.parametrize("mode, outcomes", [("replay", {"collision", "planner_failure"}), ("idm", {"goal_reached"})])
@@ -132,7 +132,7 @@ def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():
     goal = GoalRegion([CustomState(time_step=Interval(30, 40))])
     run = run_ego(scenario, start(10, 0, 10.0), goal)
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(3.0)
+    assert agent.history.outcome == "goal_reached" and agent.history.time_to_goal_s == pytest.approx(3.0)
 
 
 def test_a_goal_with_only_a_time_window_waits_where_the_mapped_road_ends():
@@ -142,7 +142,7 @@ def test_a_goal_with_only_a_time_window_waits_where_the_mapped_road_ends():
     goal = GoalRegion([CustomState(time_step=Interval(150, 150))])
     run = run_ego(scenario, start(10, 0, 10.0), goal)
     agent = _only_outcome(run)
-    assert agent.outcome == "goal_reached" and agent.time_to_goal_s == pytest.approx(15.0), run.history.events
+    assert agent.history.outcome == "goal_reached" and agent.history.time_to_goal_s == pytest.approx(15.0), run.history.events
     assert run.history.driven[1].x[-1] < 150.0 - 2.0           # the centre: the front short of the road's end
 
 
@@ -201,4 +201,4 @@ def test_a_2018b_file_with_uncertain_states_and_a_circle_runs_to_its_goal(tmp_pa
     xml.write_text(_scenario_2018b())
     run = execute(RunRequest(scenario=xml, backend="ideal"))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached" and agent.min_distance_to_traffic_m > 0.0
+    assert agent.history.outcome == "goal_reached" and agent.evaluation.min_distance_to_traffic_m > 0.0

@@ -36,4 +36,4 @@ def test_a_scenario_on_a_real_map_reaches_its_goal(tmp_path, name, seed, world):
     write_xml(*built, xml)
     run = execute(RunRequest(scenario=xml, backend=world))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events if e.kind == agent.outcome]
+    assert agent.history.outcome == "goal_reached", [e.detail for e in run.history.events if e.kind == agent.history.outcome]

@@ -46,8 +46,8 @@ def test_delay_compensation_reduces_the_peak_tracking_error(sharp_curve):
     compensated_run, compensated = drive(sharp_curve, settings=late, cosim=EXACT)
     _, prompt = drive(sharp_curve, settings={"realism": "ideal"})
     # measured: naive 0.228 m and off the road; compensated 0.199 m to the goal; no delay 0.02 m
-    assert naive_run.agents[0].outcome == "off_road"
-    assert compensated_run.agents[0].outcome == "goal_reached"
+    assert naive_run.agents[0].history.outcome == "off_road"
+    assert compensated_run.agents[0].history.outcome == "goal_reached"
     assert compensated["max_tracking_lateral_m"] < naive["max_tracking_lateral_m"] - 0.02
     assert prompt["max_tracking_lateral_m"] < 0.5 * compensated["max_tracking_lateral_m"]
 
@@ -56,9 +56,9 @@ def test_a_plain_physical_run_drives_the_real_car_and_says_so(sharp_curve):
     run, _ = drive(sharp_curve)
     assert run.realism is Realism.REAL and run.fidelity.label == "mujoco/sedan"
     assert run.settings.cosim.sensing.profile == "rtk_ins" and run.settings.cosim.latency == "measured"
-    assert run.agents[0].outcome == "goal_reached" and run.agents[0].plan_latency_mean_s > 0
+    assert run.agents[0].history.outcome == "goal_reached" and run.agents[0].evaluation.plan_latency_mean_s > 0
     ideal_car, _ = drive(sharp_curve, settings={"realism": "ideal"})
-    assert ideal_car.fidelity.label == "mujoco/sedan/ideal-car" and ideal_car.agents[0].plan_latency_max_s == 0
+    assert ideal_car.fidelity.label == "mujoco/sedan/ideal-car" and ideal_car.agents[0].evaluation.plan_latency_max_s == 0
     assert ideal_car.fingerprint != run.fingerprint
 
 
@@ -67,8 +67,8 @@ def test_measured_latency_delays_a_slow_planners_plan(sharp_curve):
     prompt, _ = drive(sharp_curve, "dynamic", cosim=exact)
     slow, _ = drive(sharp_curve, "dynamic", cosim=exact, slow=0.12)     # 0.12 s: within 0.2 s on a loaded machine too
     # a plan made within its 0.1 s cycle drives from the next; one that overran it, a cycle later
-    assert prompt.agents[0].plan_latency_mean_s == pytest.approx(0.1)
-    assert slow.agents[0].planning_mean_s > 0.12 and slow.agents[0].plan_latency_mean_s == pytest.approx(0.2)
+    assert prompt.agents[0].evaluation.plan_latency_mean_s == pytest.approx(0.1)
+    assert slow.agents[0].evaluation.planning_mean_s > 0.12 and slow.agents[0].evaluation.plan_latency_mean_s == pytest.approx(0.2)
     assert slow.fingerprint != prompt.fingerprint
     # a planner that keeps its cycle repeats bit for bit
     again, _ = drive(sharp_curve, "dynamic", cosim=exact)

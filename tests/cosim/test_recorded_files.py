@@ -30,9 +30,9 @@ def test_the_agents_own_recorded_vehicle_is_not_traffic(tmp_path):
     write_xml(scenario, problems, xml)
     run = execute(RunRequest(scenario=xml))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
+    assert agent.history.outcome == "goal_reached", [e.detail for e in run.history.events]
     assert agent.recorded_as == 500
-    assert agent.min_distance_to_traffic_m > 1.0          # measured to 501, not to its own recording
+    assert agent.evaluation.min_distance_to_traffic_m > 1.0          # measured to 501, not to its own recording
 
 
 def late_entry(tmp_path):
@@ -105,7 +105,7 @@ def test_a_start_in_a_gap_between_lanelets_runs_without_a_traceback(tmp_path):
     write_xml(scenario, problems, xml)
     run = execute(RunRequest(scenario=xml), out=tmp_path / "run")
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
+    assert agent.history.outcome == "goal_reached", [e.detail for e in run.history.events]
     assert run.evaluation.metrics                          # the run metrics found the route too
 
 
@@ -117,7 +117,7 @@ def test_a_recorded_vehicle_running_into_the_waiting_ego_says_so():
     run = run_ego(scenario, start(40, 0, 0.0), box_goal(46, 0, (150, 200)))
     (agent,) = run.agents
     (event,) = [e for e in run.history.events if e.kind == "collision"]
-    assert agent.outcome == "collision" and event.other_id == 700
+    assert agent.history.outcome == "collision" and event.other_id == 700
     assert event.detail.startswith("rear-ended by recorded road user 700 (15.0 m/s) while the ego was ")
     assert "replayed traffic does not brake for the ego" in event.detail
 
@@ -130,5 +130,5 @@ def test_highway_speed_with_a_car_beside_the_lane_change():
     scenario.add_objects(recorded_car(801, 120.0, 0, 33.0, 250))
     run = run_ego(scenario, start(10, 0, 36.0), lanelet_goal(scenario, 20, (0, 250)))
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", [e.detail for e in run.history.events]
-    assert agent.planner_failures == 0 and agent.min_distance_to_traffic_m > 0.0
+    assert agent.history.outcome == "goal_reached", [e.detail for e in run.history.events]
+    assert agent.history.planner_failures == 0 and agent.evaluation.min_distance_to_traffic_m > 0.0

@@ -37,7 +37,7 @@ def test_lower_friction_gives_a_larger_lateral_error_on_a_sharp_curve(sharp_curv
     assert snow["max_lateral_offset_m"] > dry["max_lateral_offset_m"] + 0.03
     assert snow["peak_grip_use"] > dry["peak_grip_use"]
     # on snow neither car makes the turn the ideal plan asks for
-    assert run.agents[0].outcome != "goal_reached"
+    assert run.agents[0].history.outcome != "goal_reached"
 
 
 def test_friction_on_the_single_track_model_caps_braking():
@@ -95,7 +95,7 @@ def test_bank_pushes_the_car_downhill_and_grade_slows_it():
     _, d = lateral_profile(banked_run.history.driven[1], frame)
     assert d.min() < -0.01 and -d.min() > 5 * max(d.max(), 0.0)    # it falls to the right: the car drifts right
     uphill_run, _ = drive(straight, "mujoco", {"road_grade": 8})
-    assert uphill_run.agents[0].time_to_goal_s > flat_run.agents[0].time_to_goal_s
+    assert uphill_run.agents[0].history.time_to_goal_s > flat_run.agents[0].history.time_to_goal_s
 
 
 def test_knobs_go_where_they_apply():

@@ -23,10 +23,10 @@ def crest(tmp_path_factory):
 
 def test_mujoco_drives_over_the_crest_while_the_ideal_world_stays_flat(crest):
     xml, ideal, mujoco = crest
-    assert ideal.agents[0].outcome == "goal_reached" and mujoco.agents[0].outcome == "goal_reached"
-    assert not ideal.agents[0].attitudes                     # the planner's flat world has no height
-    z = np.array([a.z for a in mujoco.agents[0].attitudes])
-    pitch = np.array([a.pitch for a in mujoco.agents[0].attitudes])
+    assert ideal.agents[0].history.outcome == "goal_reached" and mujoco.agents[0].history.outcome == "goal_reached"
+    assert not ideal.agents[0].history.attitudes                     # the planner's flat world has no height
+    z = np.array([a.z for a in mujoco.agents[0].history.attitudes])
+    pitch = np.array([a.pitch for a in mujoco.agents[0].history.attitudes])
     top = int(np.argmax(z))
     assert z[top] - z[0] > 5.0 and z[top] - z[-1] > 5.0     # up 8 %, over the crest, down 8 %
     assert 0 < top < len(z) - 1

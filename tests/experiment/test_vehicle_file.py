@@ -48,7 +48,7 @@ def test_run_and_report_with_a_vehicle_file(tmp_path, car_file):
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
     recorded = read_run(tmp_path / "runs" / "dynamic")
-    assert recorded.agents[0].vehicle.name == "my_car" and recorded.agents[0].vehicle.length == pytest.approx(4.508)
+    assert recorded.agents[0].history.vehicle.name == "my_car" and recorded.agents[0].history.vehicle.length == pytest.approx(4.508)
     index = build_report(tmp_path / "runs", tmp_path / "report")
     assert "dynamic/my_car" in index.read_text()
 

@@ -49,9 +49,9 @@ def test_reaches_the_goal_of_the_paper_curve(name, radius, backend, sedan):
     run = recorded(simulate(scenario, problems, make_backend(backend), agents, planners,
                             CosimSettings(replan_every=REPLAN_EVERY[name])), scenario, problems)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.history.events
-    assert agent.max_road_excursion_m == 0.0
-    assert agent.planner_failures <= 2          # the reactive planner may miss a cycle where MuJoCo drifts
+    assert agent.history.outcome == "goal_reached", run.history.events
+    assert agent.evaluation.max_road_excursion_m == 0.0
+    assert agent.history.planner_failures <= 2          # the reactive planner may miss a cycle where MuJoCo drifts
 
 
 @pytest.mark.parametrize("name", ["reactive", "idm"])

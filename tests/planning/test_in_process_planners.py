@@ -63,7 +63,7 @@ def test_a_planner_that_changes_folder_moves_no_output(curve_xml, planners, tmp_
     monkeypatch.setenv("WANDER_TO", str(elsewhere))
     monkeypatch.chdir(tmp_path)
     run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{planners}:Wanderer")), Path("r"))
-    assert run.agents[0].outcome == "goal_reached"
+    assert run.agents[0].history.outcome == "goal_reached"
     assert (tmp_path / "r" / "run.json").is_file() and not (elsewhere / "r").exists()
     assert Path.cwd() == tmp_path, "simgap is back in its folder"
 
@@ -71,7 +71,7 @@ def test_a_planner_that_changes_folder_moves_no_output(curve_xml, planners, tmp_
 def test_a_planner_that_calls_os_exit_fails_its_cycles_and_the_run_is_written(curve_xml, planners, tmp_path):
     run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{planners}:Leaver")),
                   tmp_path / "r")
-    assert run.agents[0].outcome == "planner_failure"
+    assert run.agents[0].history.outcome == "planner_failure"
     assert any("os._exit(0) would have ended simgap's process" in e.message for e in run.history.planner_errors)
     assert json.loads((tmp_path / "r" / "run.json").read_text())["history"]["agents"][0]["outcome"] == \
         "planner_failure"

@@ -26,6 +26,6 @@ def test_ideal_run_reaches_the_goal(params):
                 for a in agents}
     run = recorded(simulate(scenario, problems, IdealBackend(), agents, planners), scenario, problems)
     (agent,) = run.agents
-    assert agent.outcome == "goal_reached", run.history.events
-    assert agent.planner_failures == 0
-    assert agent.max_road_excursion_m == 0.0
+    assert agent.history.outcome == "goal_reached", run.history.events
+    assert agent.history.planner_failures == 0
+    assert agent.evaluation.max_road_excursion_m == 0.0

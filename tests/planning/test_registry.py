@@ -144,7 +144,7 @@ def test_the_smallest_planner_has_no_constructor_and_reaches_its_goal(tmp_path):
     planner = load_planner(f"{path}:StraightOn")
     assert planner.arguments == 0 and planner.settings_model is None
     run = execute(RunRequest(scenario=straight, planner=PlannerChoice(planner=f"{path}:StraightOn")))
-    assert [a.outcome for a in run.agents] == [Outcome.GOAL_REACHED]
+    assert [a.history.outcome for a in run.agents] == [Outcome.GOAL_REACHED]
 
 
 def test_a_bad_setting_names_the_file_the_field_and_what_is_allowed(tmp_path):
@@ -187,15 +187,15 @@ def test_a_planner_that_raises_fails_its_cycles_and_the_run_goes_on(curve_xml, f
 
     run = read_run(tmp_path / "run")          # as recorded
     agent = run.agents[0]
-    assert agent.outcome == Outcome.GOAL_REACHED          # the loop's fallback, then the planner again
-    assert agent.planner_exceptions == 5 and agent.planner_failures == 5
+    assert agent.history.outcome == Outcome.GOAL_REACHED          # the loop's fallback, then the planner again
+    assert agent.history.planner_exceptions == 5 and agent.history.planner_failures == 5
     errors = run.history.planner_errors
     assert errors[0].exception == "ValueError" and errors[0].t == pytest.approx(1.0)
     assert "in plan" in errors[0].traceback and "flaky at t = 1.0" in errors[0].traceback
     # (the mean is no invariant below the p95: with cycles of ~2 ms, one slow first call lifts it above)
-    assert agent.planning_calls > 100 and 0 < agent.planning_p95_s <= agent.planning_max_s
-    assert 0 < agent.planning_mean_s <= agent.planning_max_s
-    assert agent.planning_over_budget == 0
+    assert agent.evaluation.planning_calls > 100 and 0 < agent.evaluation.planning_p95_s <= agent.evaluation.planning_max_s
+    assert 0 < agent.evaluation.planning_mean_s <= agent.evaluation.planning_max_s
+    assert agent.evaluation.planning_over_budget == 0
     assert run.settings.planner.name == "Flaky"
     assert run.settings.planner.settings["speed"]["cruise_m_s"] == 10.0      # the full settings
 
@@ -204,7 +204,7 @@ def test_a_planner_raising_in_its_constructor_is_a_recorded_failed_run(curve_xml
     run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{flaky_file}:Unbuildable")),
                   tmp_path / "run")
     assert run.failure and "RuntimeError in its constructor: no map for this road" in run.failure
-    assert run.agents[0].outcome == Outcome.PLANNER_FAILURE
+    assert run.agents[0].history.outcome == Outcome.PLANNER_FAILURE
     assert "raise RuntimeError" in run.history.planner_errors[0].traceback and run.history.planner_errors[0].t is None
     assert (tmp_path / "run" / "run.json").exists()
 
@@ -212,7 +212,7 @@ def test_a_planner_raising_in_its_constructor_is_a_recorded_failed_run(curve_xml
 def test_calls_over_the_planning_budget_are_counted(curve_xml):
     run = execute(RunRequest(scenario=curve_xml, cosim=CosimSettings(planning_budget_s=1e-6, max_time_s=2.0)))
     agent = run.agents[0]
-    assert agent.planning_over_budget == agent.planning_calls == 20
+    assert agent.evaluation.planning_over_budget == agent.evaluation.planning_calls == 20
 
 
 def test_a_planner_per_agent(tmp_path):
@@ -224,7 +224,7 @@ def test_a_planner_per_agent(tmp_path):
     assert [a.planner for a in run.agents] == ["frenet", "TimeGapPlanner", "TimeGapPlanner"]
     assert run.settings.planner.name == "1=frenet,2=TimeGapPlanner,3=TimeGapPlanner"
     assert run.settings.planner.agents[2].settings["time_gap_s"] == 2.0
-    assert all(a.planning_calls == 20 for a in run.agents)
+    assert all(a.evaluation.planning_calls == 20 for a in run.agents)
     with pytest.raises(InputError, match="no planner given for planning problem 3"):
         execute(RunRequest(scenario=xml, planner={1: PlannerChoice(), 2: gap}))
 

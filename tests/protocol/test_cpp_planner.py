@@ -221,13 +221,13 @@ def test_simgap_drives_the_curve_to_its_goal_with_the_cpp_planner(lane_keeper, c
                   tmp_path / "run")
     elapsed = time.perf_counter() - started
     agent = run.agents[0]
-    assert agent.outcome == "goal_reached", (run.failure, run.history.events, run.history.planner_errors)
-    assert read_run(tmp_path / "run").agents[0].outcome == "goal_reached"              # as recorded
-    assert agent.planner_failures == 0 and agent.planning_calls > 100
+    assert agent.history.outcome == "goal_reached", (run.failure, run.history.events, run.history.planner_errors)
+    assert read_run(tmp_path / "run").agents[0].history.outcome == "goal_reached"              # as recorded
+    assert agent.history.planner_failures == 0 and agent.evaluation.planning_calls > 100
     deviation = _max_lateral_deviation(curve, run)
     assert deviation < bound_m
-    print(f"{backend}: {elapsed:.1f} s wall, {agent.planning_calls} planning calls of {agent.planning_mean_s * 1e3:.2f} ms "
-          f"mean, max lateral deviation {deviation:.3f} m, time to goal {agent.time_to_goal_s} s")
+    print(f"{backend}: {elapsed:.1f} s wall, {agent.evaluation.planning_calls} planning calls of {agent.evaluation.planning_mean_s * 1e3:.2f} ms "
+          f"mean, max lateral deviation {deviation:.3f} m, time to goal {agent.history.time_to_goal_s} s")
 
 
 def test_the_readme_command_runs(lane_keeper, curve, tmp_path):
@@ -237,6 +237,6 @@ def test_the_readme_command_runs(lane_keeper, curve, tmp_path):
                           capture_output=True, text=True, timeout=600, env=dict(os.environ, COLUMNS="160"))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     record = read_run(tmp_path / "run")
-    assert (record.agents[0].planner, record.agents[0].outcome) == ("lane_keeper", "goal_reached")
+    assert (record.agents[0].planner, record.agents[0].history.outcome) == ("lane_keeper", "goal_reached")
     process = record.settings.planner.process              # what its Ready said, and how it went
     assert (process["planner"], process["protocol_version"], process["restarts"]) == ("cpp_lane_keeper", "1.0", 0)

@@ -23,7 +23,7 @@ def test_a_planner_late_once_then_silent_fails_its_cycles_and_does_not_hang(curv
     run, took = run_late(curve_xml, tmp_path / "silent", "late_then_silent")
     assert run.failure is None, "the run completes, its agent fails"
     agent = run.agents[0]
-    assert agent.outcome == "planner_failure"
+    assert agent.history.outcome == "planner_failure"
     assert "missed its deadline" in reasons(run)
     assert took < 30, "ten missed deadlines of 0.2 s, not the run's wall-time limit"
 
@@ -31,6 +31,6 @@ def test_a_planner_late_once_then_silent_fails_its_cycles_and_does_not_hang(curv
 def test_every_late_answer_is_a_miss_none_is_accepted(curve_xml, tmp_path):
     run, _ = run_late(curve_xml, tmp_path / "late", "always_late")
     agent = run.agents[0]
-    assert agent.outcome == "planner_failure"
+    assert agent.history.outcome == "planner_failure"
     process = run.settings.planner.process
-    assert process["deadline_misses"] == agent.planner_failures, "every failed cycle is a missed deadline"
+    assert process["deadline_misses"] == agent.history.planner_failures, "every failed cycle is a missed deadline"

@@ -35,13 +35,13 @@ def test_a_planner_of_another_major_version_or_none_is_refused(curve_xml, tmp_pa
 
 def test_a_reply_with_another_id_is_not_a_plan(curve_xml, tmp_path):
     run = run_raw(curve_xml, tmp_path / "run", "id_shift=7")
-    assert run.agents[0].outcome == "planner_failure"
+    assert run.agents[0].history.outcome == "planner_failure"
     assert "invalid plan: a reply with the id" in reasons(run)
 
 
 def test_long_names_and_reasons_are_kept_short(curve_xml, tmp_path):
     run = run_raw(curve_xml, tmp_path / "run", "name_chars=1000000,reason_chars=1000000")
-    assert run.agents[0].outcome == "planner_failure"
+    assert run.agents[0].history.outcome == "planner_failure"
     record = json.loads((tmp_path / "run" / "run.json").read_text())
     assert len(record["settings"]["planner"]["process"]["planner"]) < MAX_NAME + 50
     assert max(len(e["detail"]) for e in record["history"]["events"]) < MAX_REASON + 200
@@ -51,7 +51,7 @@ def test_long_names_and_reasons_are_kept_short(curve_xml, tmp_path):
 def test_a_reply_over_the_size_limit_is_not_read_and_the_run_goes_on(curve_xml, tmp_path):
     started = time.perf_counter()
     run = run_raw(curve_xml, tmp_path / "run", "reason_chars=20000000", deadline_s=0.2)
-    assert run.failure is None and run.agents[0].outcome == "planner_failure"
+    assert run.failure is None and run.agents[0].history.outcome == "planner_failure"
     assert "missed its deadline: no answer within 0.2 s; its connection dropped meanwhile (a reply over 16 MiB drops it" \
         in reasons(run)
     assert time.perf_counter() - started < 40
@@ -94,7 +94,7 @@ def test_what_a_planner_forks_ends_with_it(curve_xml, tmp_path, monkeypatch):
     monkeypatch.setenv("SIMGAP_TEST_PIDS", str(tmp_path))
     run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=server("fork_and_daemon"))),
                   tmp_path / "run")
-    assert run.agents[0].outcome == "goal_reached"
+    assert run.agents[0].history.outcome == "goal_reached"
     assert all_ended(started_pids(tmp_path)), "its forked child and its setsid daemon are ended"
 
 

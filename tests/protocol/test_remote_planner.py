@@ -30,8 +30,8 @@ def run_with(curve_xml: Path, out: Path, planner: str, backend: str = "ideal", *
 def test_a_planner_in_its_own_process_drives_to_the_goal(curve_xml, tmp_path, backend):
     run, record = run_with(curve_xml, tmp_path / backend, server("keep_lane"), backend)
     agent = run.agents[0]
-    assert agent.outcome == "goal_reached"
-    assert agent.planner == "servers" and agent.planner_failures == 0
+    assert agent.history.outcome == "goal_reached"
+    assert agent.planner == "servers" and agent.history.planner_failures == 0
     process = record["settings"]["planner"]["process"]
     assert process["protocol_version"] == "1.0" and process["restarts"] == 0 and process["deadline_misses"] == 0
 
@@ -40,7 +40,7 @@ def test_an_isolated_planner_drives_bit_for_bit_as_in_process(curve_xml, tmp_pat
     in_process = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner="frenet")), tmp_path / "in")
     isolated = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner="frenet", isolate=True)),
                        tmp_path / "isolated")
-    assert isolated.agents[0].outcome == in_process.agents[0].outcome == "goal_reached"
+    assert isolated.agents[0].history.outcome == in_process.agents[0].history.outcome == "goal_reached"
     assert isolated.fingerprint == in_process.fingerprint
 
 
@@ -58,7 +58,7 @@ def test_a_misbehaving_planner_fails_its_agent_with_the_reason(curve_xml, tmp_pa
     run, record = run_with(curve_xml, tmp_path / behaviour, server(behaviour), deadline_s=0.2)
     agent = run.agents[0]
     assert run.failure is None, "the run itself completes"
-    assert agent.outcome == "planner_failure"
+    assert agent.history.outcome == "planner_failure"
     assert fragment in reasons(run)
     assert record["history"]["agents"][0]["outcome"] == "planner_failure"
 
@@ -72,7 +72,7 @@ def test_a_process_that_dies_is_restarted_then_given_up(curve_xml, tmp_path):
 
 def test_a_planner_that_raises_is_recorded_with_its_own_traceback(curve_xml, tmp_path):
     run, _ = run_with(curve_xml, tmp_path / "raise", server("raise"))
-    assert run.agents[0].outcome == "planner_failure" and run.agents[0].planner_exceptions == 10
+    assert run.agents[0].history.outcome == "planner_failure" and run.agents[0].history.planner_exceptions == 10
     error = run.history.planner_errors[0]
     assert error.exception == "RemotePlannerError" and "the planner's own bug" in error.message
     assert "servers.py" in error.traceback and "RuntimeError" in error.traceback
@@ -80,7 +80,7 @@ def test_a_planner_that_raises_is_recorded_with_its_own_traceback(curve_xml, tmp
 
 def test_one_late_answer_fails_one_cycle_and_the_drive_goes_on(curve_xml, tmp_path):
     run, record = run_with(curve_xml, tmp_path / "slow", server("slow_once"), deadline_s=0.5)
-    assert run.agents[0].outcome == "goal_reached"
+    assert run.agents[0].history.outcome == "goal_reached"
     assert record["settings"]["planner"]["process"]["deadline_misses"] >= 1
     assert "missed its deadline" in reasons(run)
 
@@ -106,7 +106,7 @@ def test_a_planner_that_runs_on_its_own_serves_run_after_run(curve_xml, tmp_path
     try:
         for k in range(2):
             run, _ = run_with(curve_xml, tmp_path / f"run{k}", address, startup_timeout_s=20)
-            assert run.agents[0].outcome == "goal_reached"
+            assert run.agents[0].history.outcome == "goal_reached"
         assert process.poll() is None, "a planner on its own is not ended by simgap"
     finally:
         process.kill()
@@ -118,7 +118,7 @@ def test_isolation_keeps_a_planner_that_ends_the_process_from_ending_simgap(curv
     planner.write_text("import os\nclass Exits:\n    def plan(self, observed, t, world):\n        os._exit(7)\n")
     run = execute(RunRequest(scenario=curve_xml, planner=PlannerChoice(planner=f"{planner}:Exits", isolate=True),
                              cosim=CosimSettings()), tmp_path / "run")
-    assert run.agents[0].outcome == "planner_failure"
+    assert run.agents[0].history.outcome == "planner_failure"
     assert "exited with code 7" in reasons(run)
 
 

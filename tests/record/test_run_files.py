@@ -43,7 +43,7 @@ def test_a_run_directory_of_format_1_reads_through_migrate_as_it_was_written(stu
         assert record.machine_fingerprint == old["fingerprint"]    # the same driven states, bit for bit
         assert record.scenario_id == old["scenario_id"] and record.history.backend == old["backend"]
         for agent, was in zip(record.agents, old["agents"], strict=True):
-            assert agent.id == was["id"] and agent.outcome == Outcome(was["outcome"])
+            assert agent.id == was["id"] and agent.history.outcome == Outcome(was["outcome"])
             assert agent.history.vehicle.name == was["vehicle"] and agent.planner == "frenet"
             for name in ("time_to_goal_s", "distance_m", "min_distance_to_traffic_m", "max_road_excursion_m",
                          "planning_calls", "planning_mean_s", "plan_latency_mean_s", "score", "solution_cost",

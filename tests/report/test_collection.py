@@ -30,10 +30,10 @@ def test_runs_are_labelled_compared_and_a_lane_departure_is_measured(runs):
     assert sorted(group.runs) == ["ideal", "mujoco/suv/stanley"]
     suv = group.runs["mujoco/suv/stanley"]
     outcome = suv.run.agents[0]
-    assert outcome.outcome == "off_road"
+    assert outcome.history.outcome == "off_road"
     # leaving the road means leaving the lane first, by at least as much
-    assert outcome.tracking.lane_excursion_m >= outcome.max_road_excursion_m > 0.0
-    assert group.runs["ideal"].run.agents[0].tracking.lane_excursion_m == 0.0
+    assert outcome.evaluation.tracking.lane_excursion_m >= outcome.evaluation.max_road_excursion_m > 0.0
+    assert group.runs["ideal"].run.agents[0].evaluation.tracking.lane_excursion_m == 0.0
     (comparison,) = group.comparisons["mujoco/suv/stanley"]
     assert comparison.lateral_displacement.max > 0.1       # the run ends where it left the road
     assert group.largest_gap() == (comparison.lateral_displacement.max, "mujoco/suv/stanley")

@@ -68,7 +68,8 @@ class RunSettings:
 
 @dataclass(frozen=True)
 class AgentRecord:
-    """One agent's part of a record: its history, its evaluation and its planner."""
+    """One agent's part of a record: its history (what happened: ``history.outcome``, ...), its
+    evaluation (what it scored: ``evaluation.score``, ...), its planner and the road user it replaces."""
 
     history: AgentHistory
     evaluation: AgentEvaluation
@@ -78,16 +79,6 @@ class AgentRecord:
     @property
     def id(self) -> int:
         return self.history.id
-
-    def __getattr__(self, name: str) -> Any:
-        """The agent's facts by name: what happened (`AgentHistory`: outcome, driven, ...), then
-        what it scored (`AgentEvaluation`: distance_m, score, solution_valid, ...)."""
-        if name.startswith("__"):
-            raise AttributeError(name)
-        for part in (self.history, self.evaluation):
-            if hasattr(part, name):
-                return getattr(part, name)
-        raise AttributeError(name)
 
 
 @dataclass(frozen=True)

@@ -224,7 +224,7 @@ def test_controller_drives_the_sharp_curve_in_the_fake_server():
     concrete = build_scenario("curve", {"radius": 10, "angle": 90})
     run, agents = _run(concrete, servers)
     server = servers[0]
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     assert server.closed
     # the body's centre, not the reference node, starts on the agent's initial state
     first = run.history.driven[1][0]
@@ -245,7 +245,7 @@ def test_script_ai_follows_the_plans_waypoints_in_the_fake_server():
     # plans arrive a planning cycle later: test_a_plan_reaches_the_script_ai_after_its_latency)
     run, _ = _run(concrete, servers, driver="script_ai", realism="ideal")
     server = servers[0]
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     assert "control" not in server.calls
     assert len(server.scripts) == len(run.history.plans[1])           # one script per replanned plan
     vid, script = server.scripts[5]
@@ -261,9 +261,9 @@ def test_a_plan_reaches_the_script_ai_after_its_latency():
     servers = []
     run, _ = _run(build_scenario("curve", {"radius": 30, "angle": 90}), servers, driver="script_ai")
     scripts, plans = servers[0].scripts, run.history.plans[1]
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     # the first plan drives at once; each later one from the step after it was made (measured latency: one cycle)
-    assert run.agents[0].plan_latency_max_s == pytest.approx(0.1)
+    assert run.agents[0].evaluation.plan_latency_max_s == pytest.approx(0.1)
     first_waypoints = [(round(s[0]["x"], 6), round(s[0]["y"], 6)) for _, s in scripts]
     assert len(set(first_waypoints)) == len(plans) == len(scripts)
 
@@ -272,7 +272,7 @@ def test_moving_start_is_approached_and_recorded():
     servers = []
     concrete = build_scenario("curve", {"radius": 50, "angle": 45, "initial_speed": 8})
     run, agents = _run(concrete, servers)
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     first = run.history.driven[1][0]
     assert first.v == pytest.approx(8.0, abs=0.05)
     assert (first.x, first.y) == pytest.approx((agents[0].initial_state.x, agents[0].initial_state.y), abs=1e-6)
@@ -310,7 +310,7 @@ def test_real_server_drives_the_sharp_curve(tmp_path, driver):
     run = execute(RunRequest(scenario=path, backend="beamng", vehicles="sedan",
                              backend_settings={"driver": driver}), tmp_path / "run")
     # reaching the goal of a sharp left turn needs the steering sign right
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     driven = run.history.driven[1]
     assert driven[0].v == pytest.approx(0.0, abs=0.2)
     # the steering lock: in the curve, the yaw rate is what the road-wheel angle makes of the speed

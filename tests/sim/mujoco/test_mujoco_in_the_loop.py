@@ -38,8 +38,8 @@ def test_every_vehicle_drives_the_sharp_curve_to_its_goal(sharp_curve, vehicle_n
     run = execute(RunRequest(scenario=sharp_curve, backend="mujoco", vehicles=vehicle_name,
                              backend_settings=backend_settings("mujoco", {"realism": "ideal"})), tmp_path / "run")
     agent = run.agents[0]
-    assert agent.outcome == "goal_reached", run.history.events
-    assert agent.max_road_excursion_m == 0.0
+    assert agent.history.outcome == "goal_reached", run.history.events
+    assert agent.evaluation.max_road_excursion_m == 0.0
     driven = run.history.driven[agent.id]
     assert driven.path_length() > 150.0
     assert run.history.timings["physics"] > 0 and run.history.timings["control"] > 0
@@ -118,7 +118,7 @@ def test_a_blown_up_physics_is_a_failed_run_with_its_reason(sharp_curve, tmp_pat
 
     monkeypatch.setattr(MujocoBackend, "step", exploding_step)
     run = execute(RunRequest(scenario=sharp_curve, backend="mujoco", vehicles="sedan"), tmp_path / "run")
-    assert run.agents[0].outcome == "diverged"
+    assert run.agents[0].history.outcome == "diverged"
     event = next(e for e in run.history.events if e.kind == "diverged")
     assert "no longer finite" in event.detail and event.t == pytest.approx(1.9, abs=1e-6)
     assert (tmp_path / "run" / "run.json").exists()
@@ -143,10 +143,10 @@ def test_a_car_that_flips_is_taken_out_and_the_others_drive_on(tmp_path, monkeyp
     run = execute(RunRequest(scenario=path, backend="mujoco", vehicles="sedan"), tmp_path / "run")
     flipped, other = sorted(run.agents, key=lambda a: a.id)
     assert run.failure is None
-    assert flipped.outcome == "diverged" and other.outcome == "goal_reached", run.history.events
+    assert flipped.history.outcome == "diverged" and other.history.outcome == "goal_reached", run.history.events
     event = next(e for e in run.history.events if e.kind == "diverged")
     assert event.agent_id == flipped.id and "on its side or roof" in event.detail and event.t == pytest.approx(1.0)
-    assert flipped.max_road_excursion_m == 0.0          # parked far beyond the road, not judged there
+    assert flipped.evaluation.max_road_excursion_m == 0.0          # parked far beyond the road, not judged there
 
 
 def test_a_30_hz_recording_runs_at_fitted_controller_and_physics_rates(tmp_path):
@@ -157,7 +157,7 @@ def test_a_30_hz_recording_runs_at_fitted_controller_and_physics_rates(tmp_path)
     concrete.scenario.dt = 1 / 30
     path = write_scenario(concrete, tmp_path, preview=False)
     run = execute(RunRequest(scenario=path, backend="mujoco", vehicles="sedan"), tmp_path / "run")
-    assert run.agents[0].outcome == "goal_reached", run.history.events
+    assert run.agents[0].history.outcome == "goal_reached", run.history.events
     notes = " ".join(run.history.backend_notes)
     assert "controller at 90 Hz" in notes and "physics at 540 Hz" in notes
     backend = MujocoBackend(mujoco_settings({"controller_hz": 100}))
