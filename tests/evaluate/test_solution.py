@@ -269,3 +269,19 @@ def test_the_checker_process_holds_none_of_its_parents_files_and_ends_with_its_p
         os.close(reads)
         os.close(writes)
 
+
+def test_a_cost_that_overflows_is_none_with_its_reason_not_inf(paper_curve_run):
+    # a planner's 1e300 m/s: the acceleration term overflowed to inf, which run.json then held and
+    # every reader refused as a damaged record; numpy's overflow warning reached the user
+    import warnings
+
+    run, run_dir = paper_curve_run
+    scenario, problems = load_scenario(run.settings.scenario_path)
+    solution = CommonRoadSolutionReader.open(str(run_dir / "solution.xml"))
+    for state in solution.planning_problem_solutions[0].trajectory.state_list[10:]:
+        state.velocity = 1e300
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)          # numpy's overflow
+        cost = solution_costs(solution, scenario, problems)[1]
+    assert cost.total is None and cost.partial == {}
+    assert cost.error.startswith("the cost is not finite: its term") and "overflowed" in cost.error
