@@ -2028,8 +2028,26 @@ def _(folder: Path, stock: Stock) -> Outcome:
                   f"exit {p.rc}, {len(p.stderr_lines())} lines, left {left[:3]}: {' '.join(p.stderr_lines())[:100]}")
 
 
-case("render-3d-full-disk", 10)(_disk_case("size=64k", lambda f, s, out: ["render", s.run, "--3d", "--out", out],
-                                           "space"))
+@case("render-3d-full-disk", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    disk, run = folder / "disk", stock.run                  # the run built before the mount
+    with tmpfs(disk, "size=64k") as mounted:
+        if not mounted:
+            return Outcome(SKIPPED, "cannot mount a tmpfs here")
+        p = simgap("render", run, "--3d", "--out", disk / "out", cwd=folder)
+        kept = sorted(str(f.relative_to(disk)) for f in disk.rglob("*"))
+        hidden = [f for f in kept if Path(f).name.startswith(".")]
+        grown = subprocess.run(["mount", "-o", "remount,size=256m", "tmpfs", str(disk)], capture_output=True)
+        again = simgap("render", run, "--3d", "--out", disk / "out", cwd=folder, timeout=300) \
+            if grown.returncode == 0 else None
+    verdict = problem(p) or (again and problem(again))
+    if verdict:
+        return verdict
+    said = p.rc in (1, 2, 3) and len(p.stderr_lines()) == 1 and "space" in p.stderr
+    redone = again is not None and again.rc == 0
+    return expect(p, said and not hidden and redone, f"one line, whole pictures kept ({len(kept)}), the rerun "
+                  "with room drew the rest", LOSS, f"exit {p.rc}, hidden {hidden[:3]}, rerun exit "
+                  f"{again.rc if again else None}: {' '.join((again or p).stderr_lines())[:100]}")
 
 
 @case("sigkill-run-while-checked", 11)
