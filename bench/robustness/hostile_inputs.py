@@ -949,7 +949,7 @@ def _disk_case(options: str, command: Callable[[Path, Stock, Path], list], fragm
         if verdict:
             return verdict
         one_line = len(p.stderr_lines()) == 1 and fragment in p.stderr
-        if p.rc in (1, 2) and one_line:
+        if p.rc in (1, 2, 3) and one_line:          # 3: the machine failed (`simgap.cli.exit_codes`)
             if leftovers and not any(f.endswith("run.json") for f in leftovers):
                 return Outcome(LOSS, f"one line, but left {leftovers[:3]}", p.stderr)
             return Outcome(REFUSAL, p.stderr_lines()[0][:160], p.stderr)
@@ -1464,6 +1464,8 @@ def _r5_recorded_case(how: str, reason: str):
                                        "--out", folder / "r", cwd=folder, timeout=90), folder / "r")
         if outcome.verdict == RECORDED and reason not in outcome.note:     # failed, but not for what was wrong
             outcome.verdict, outcome.note = SILENT, f"accepted, no '{reason}' said; {outcome.note}"
+        return outcome
+    return run
 
 
 # --- round 5, h3-data-safety: damaged records, experiments that lose runs, the user's files, knobs, signals
@@ -1699,6 +1701,8 @@ def _round5_run_refused(arguments: list[str], names: tuple[str, ...]):
         p = simgap("run", stock.scenario, "--no-validate", *arguments, "--out", folder / "r", cwd=folder)
         if (folder / "r").exists():
             return Outcome(LOSS, "a run directory was written for a refused run", p.stderr, p.seconds)
+        return expect_refusal(p, *names)
+    return run
 
 
 for _damage, _names in DAMAGED_RECORD_CASES:
@@ -1932,6 +1936,143 @@ def _(folder: Path, stock: Stock) -> Outcome:
     leftovers = sorted(p.name for p in out.glob(".*.tmp"))
     return expect(again, again.rc == 0 and not leftovers, "the rerun wrote it and removed the killed one's staging",
                   LOSS, f"rerun exit {again.rc}; hidden leftovers {leftovers}")
+
+
+# --- round 5, hostile (issue 54): the kinds the sweep lacked — item 1 a planner's 300 MB on stderr, item 10
+# SIGTERM/SIGKILL of a search's driver, SIGTERM of `simgap run`, `render --3d` on a full disk; and SIGKILL of a run
+# while its solution is checked (the check's process is a fork of simgap's since issue 54 item 11)
+
+@case("r5-planner-stderr-300mb", 1)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "loud.py").write_text("import sys\nfor _ in range(300):\n    sys.stderr.write('x' * (1 << 20))\n"
+                                    "sys.exit(3)\n")
+    p = simgap("run", stock.scenario, "--no-validate", "--planner", f"exec:{sys.executable} {folder / 'loud.py'}",
+               "--out", folder / "r", cwd=folder, timeout=90)
+    reason = _r5_record(folder).get("history", {}).get("planner_errors", [{}])[0].get("message", "")
+    return expect(p, p.max_rss_mb < 600 and "exited with code 3" in reason and len(reason) < 3000,
+                  f"recorded with the end of its output ({len(reason)} characters), peak {p.max_rss_mb:.0f} MB",
+                  OTHER, f"exit {p.rc}, peak {p.max_rss_mb:.0f} MB, a reason of {len(reason)} characters")
+
+
+SEARCH_FOUR_RUNS = ("name: t\nlogical: curve\nparameters: {radius: {min: 10, max: 50}, angle: {min: 30, max: 90}}\n"
+                    "ladder: [{backend: ideal}, {backend: dynamic}]\nstrategies: [grid]\n")
+
+
+def _stopped_search_case(how: signal.Signals):
+    def run(folder: Path, stock: Stock) -> Outcome:
+        (folder / "search.yaml").write_text(SEARCH_FOUR_RUNS)
+        child = Child(["search", folder / "search.yaml", "--budget", "4", "--out", folder / "s", "--workers", "1",
+                       "--probe-runs", "0", "--no-report", "--no-validate"], folder)
+        deadline, workers = time.monotonic() + 300, []
+        while time.monotonic() < deadline and not workers and _alive(child.popen.pid):
+            time.sleep(0.2)
+            workers = _workers_of(child.popen.pid)
+        if not workers:
+            child.kill()
+            return Outcome(OTHER, "no pool worker started", child.wait().stderr)
+        time.sleep(1.0)
+        os.kill(child.popen.pid, how)                     # the driver alone
+        p = child.wait(timeout=30)
+        time.sleep(5.0)                                   # an orphan would finish its run and speak by now
+        orphans = [w for w in workers if _alive(w)]
+        for w in orphans:
+            os.kill(w, signal.SIGKILL)
+        text = child.err_file.read_text(errors="replace")
+        if orphans or "Traceback" in text:
+            return Outcome(LOSS if orphans else TRACEBACK, f"{len(orphans)} worker(s) left running; "
+                           f"stderr: {' '.join(text.split())[:100]}", text)
+        lines = [line for line in text.splitlines() if line.strip()]
+        if how == signal.SIGTERM:
+            return expect(p, p.rc == 128 + signal.SIGTERM and len(lines) == 1, f"exit {p.rc}, one line, no worker left",
+                          OTHER, f"exit {p.rc}: {' '.join(lines)[:120]}")
+        resumed = simgap("search", folder / "search.yaml", "--budget", "4", "--out", folder / "s", "--workers", "1",
+                         "--probe-runs", "0", "--no-report", "--no-validate", cwd=folder, timeout=300)
+        return expect(resumed, resumed.rc in (0, 1), "the worker ended with its driver; the rerun finished the search",
+                      LOSS, f"rerun exit {resumed.rc}: {' '.join(resumed.stderr_lines())[:120]}")
+    return run
+
+
+case("sigterm-search-driver", 10)(_stopped_search_case(signal.SIGTERM))
+case("sigkill-search-driver", 10)(_stopped_search_case(signal.SIGKILL))
+
+R5_SLOW_PLANNER = """
+from pathlib import Path
+import time
+
+from simgap.planning.idm_planner import IdmPlanner
+
+
+class Slow(IdmPlanner):
+    def plan(self, observed, t, world):
+        Path("planning").write_text("1")
+        time.sleep(0.2)
+        return super().plan(observed, t, world)
+"""
+
+
+@case("sigterm-run-says-so", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    (folder / "slow.py").write_text(R5_SLOW_PLANNER)
+    child = Child(["run", stock.scenario, "--no-validate", "--planner", "slow.py:Slow", "--out", folder / "r"], folder)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (folder / "planning").exists():
+        time.sleep(0.05)
+    os.kill(child.popen.pid, signal.SIGTERM)
+    p = child.wait(timeout=30)
+    verdict = problem(p)
+    if verdict:
+        return verdict
+    left = sorted(f.name for f in (folder / "r").glob("*")) if (folder / "r").exists() else []
+    return expect(p, p.rc == 128 + signal.SIGTERM and len(p.stderr_lines()) == 1 and "SIGTERM" in p.stderr
+                  and not left, "exit 143, one line, no half-written run", OTHER,
+                  f"exit {p.rc}, {len(p.stderr_lines())} lines, left {left[:3]}: {' '.join(p.stderr_lines())[:100]}")
+
+
+@case("render-3d-full-disk", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    disk, run = folder / "disk", stock.run                  # the run built before the mount
+    with tmpfs(disk, "size=64k") as mounted:
+        if not mounted:
+            return Outcome(SKIPPED, "cannot mount a tmpfs here")
+        p = simgap("render", run, "--3d", "--out", disk / "out", cwd=folder)
+        kept = sorted(str(f.relative_to(disk)) for f in disk.rglob("*"))
+        hidden = [f for f in kept if Path(f).name.startswith(".")]
+        grown = subprocess.run(["mount", "-o", "remount,size=256m", "tmpfs", str(disk)], capture_output=True)
+        again = simgap("render", run, "--3d", "--out", disk / "out", cwd=folder, timeout=300) \
+            if grown.returncode == 0 else None
+    verdict = problem(p) or (again and problem(again))
+    if verdict:
+        return verdict
+    said = p.rc in (1, 2, 3) and len(p.stderr_lines()) == 1 and "space" in p.stderr
+    redone = again is not None and again.rc == 0
+    return expect(p, said and not hidden and redone, f"one line, whole pictures kept ({len(kept)}), the rerun "
+                  "with room drew the rest", LOSS, f"exit {p.rc}, hidden {hidden[:3]}, rerun exit "
+                  f"{again.rc if again else None}: {' '.join((again or p).stderr_lines())[:100]}")
+
+
+@case("sigkill-run-while-checked", 11)
+def _(folder: Path, stock: Stock) -> Outcome:
+    out = folder / "r"
+    child = Child(["run", stock.scenario, "--out", out], folder, env={"SIMGAP_CACHE_DIR": str(folder / "cache")})
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (out / "run.json").exists():
+        time.sleep(0.02)
+    time.sleep(0.3)                                       # the run saved, its check under way
+    checkers = [c for task in Path(f"/proc/{child.popen.pid}/task").glob("*")
+                for c in (task / "children").read_text().split()] if _alive(child.popen.pid) else []
+    child.kill()
+    child.wait()
+    time.sleep(2.0)
+    left = [int(c) for c in checkers if _alive(int(c))]
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    again = simgap("run", stock.scenario, "--out", out, cwd=folder, env={"SIMGAP_CACHE_DIR": str(folder / "cache")},
+                   timeout=300)
+    record = run_record(out) or {}
+    valid = [a.get("solution_valid") for a in record.get("agents", [])]
+    return expect(again, not left and again.rc == 0 and valid == [True],
+                  f"{len(checkers)} checker process(es) ended with simgap; the rerun checked the run (valid)",
+                  LOSS, f"{len(left)} process(es) left; rerun exit {again.rc}, verdicts {valid}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,6 +6,7 @@ trajectory is CostFunctionEvaluator's own for the same solution file; an invalid
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -242,3 +243,45 @@ def test_a_footprint_at_the_road_edge_is_left_to_the_library_and_overlapping_lan
     assert check.valid is False and check.reason.startswith("leaves the road boundary"), check.reason
     junction = build_scenario("intersection", {}).scenario               # its lanelets overlap where they cross
     assert solution_check._road_interior(junction) is None
+
+
+def test_the_checker_process_holds_none_of_its_parents_files_and_ends_with_its_pipe(paper_curve_run, tmp_path):
+    # the check's process is a fork of simgap's: a file simgap has open (its stdout, a planner's pipe,
+    # the pipe a caller reads simgap's output from) must not be kept open by it, nor outlive simgap
+    from simgap.evaluate.validity import CheckerProcess
+
+    run, run_dir = paper_curve_run
+    scenario, problems = load_scenario(run.settings.scenario_path)
+    solution = CommonRoadSolutionReader.open(str(run_dir / "solution.xml"))
+    reads, writes = os.pipe()             # one end the parent keeps open while the check runs
+    checker = CheckerProcess()
+    try:
+        checks = checker.check(run.settings.scenario_path, solution_xml(solution), [1])
+        assert checks == {1: SolutionCheck(True)}
+        fds = {int(fd): os.readlink(f"/proc/{checker._pid}/fd/{fd}") for fd in os.listdir(f"/proc/{checker._pid}/fd")}
+        assert [fds[fd] for fd in (0, 1, 2)] == [os.devnull] * 3
+        assert len(fds) == 5 and all(target.startswith("pipe:") for fd, target in fds.items() if fd > 2)
+        assert os.readlink(f"/proc/self/fd/{writes}") not in fds.values()
+        pid = checker._pid
+        checker._send.close()             # as when simgap ends, however it ends
+        assert os.waitpid(pid, 0)[1] == 0
+    finally:
+        os.close(reads)
+        os.close(writes)
+
+
+def test_a_cost_that_overflows_is_none_with_its_reason_not_inf(paper_curve_run):
+    # a planner's 1e300 m/s: the acceleration term overflowed to inf, which run.json then held and
+    # every reader refused as a damaged record; numpy's overflow warning reached the user
+    import warnings
+
+    run, run_dir = paper_curve_run
+    scenario, problems = load_scenario(run.settings.scenario_path)
+    solution = CommonRoadSolutionReader.open(str(run_dir / "solution.xml"))
+    for state in solution.planning_problem_solutions[0].trajectory.state_list[10:]:
+        state.velocity = 1e300
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)          # numpy's overflow
+        cost = solution_costs(solution, scenario, problems)[1]
+    assert cost.total is None and cost.partial == {}
+    assert cost.error.startswith("the cost is not finite: its term") and "overflowed" in cost.error

@@ -4,7 +4,10 @@ leaves no empty picture folder."""
 
 from __future__ import annotations
 
+import errno
 import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -68,3 +71,46 @@ def test_a_corrupt_run_leaves_no_picture_folder(runs, tmp_path):
         render_run(corrupt, tmp_path / "pictures")
     assert err.value.file == str(corrupt / "run.json")
     assert not (tmp_path / "pictures").exists()
+
+
+FILE_LIMITED = '''
+import resource, signal, sys
+from pathlib import Path
+import numpy as np
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)        # a write past the limit fails (EFBIG), as on a full disk
+resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[1]), int(sys.argv[1])))
+from simgap.report.scene2d import render_run
+from simgap.report.scene3d import write_video
+try:
+    if sys.argv[2] == "video":
+        write_video(Path(sys.argv[3]) / "v.mp4", (np.random.default_rng(k).integers(0, 255, (240, 320, 3),
+                    dtype=np.uint8) for k in range(20)), 10)
+    else:
+        render_run(sys.argv[2], sys.argv[3], animation=True)
+except OSError as exc:
+    print("OSError", exc.errno)
+'''
+
+
+def _file_limited(limit: int, *args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", FILE_LIMITED, str(limit), *map(str, args)], capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_an_animation_the_disk_cannot_hold_fails_once_and_leaves_nothing(runs, tmp_path):
+    # imageio's writer flushed the GIF as it closed and again as it was collected: the second failure
+    # reached the user as a traceback after simgap's one line
+    whole = render_run(next(runs.glob("*/ideal")), tmp_path / "whole", animation=True)
+    png, gif = (p.stat().st_size for p in whole)
+    assert gif > png + 4096
+    done = _file_limited(png + 1024, next(runs.glob("*/ideal")), tmp_path / "limited")
+    assert done.stdout.split() == ["OSError", str(errno.EFBIG)]
+    assert "Traceback" not in done.stderr and "Exception ignored" not in done.stderr
+    assert sorted(p.name for p in (tmp_path / "limited").iterdir()) == ["scene.png"]
+
+
+def test_a_video_ffmpeg_could_not_finish_is_an_error_not_a_short_file(tmp_path):
+    done = _file_limited(64 * 1024, "video", tmp_path)
+    assert done.stdout.split() == ["OSError", str(errno.EIO)]     # not ENOSPC: this disk has room
+    assert done.stderr == ""                                       # nor ffmpeg's own lines
+    assert list(tmp_path.iterdir()) == []

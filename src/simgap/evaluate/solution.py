@@ -117,7 +117,8 @@ def solution_costs(solution: Solution, scenario: Scenario, problems: PlanningPro
     """Each agent's cost by `CostFunctionEvaluator`. Where the evaluator fails — its route matching
     on a trajectory it cannot place on a lane; the distance-to-obstacles term (D, in SA1, WX1 and
     TR1), which commonroad-drivability-checker 2025.3.1 computes with ``np.math``, gone in numpy 2 —
-    the cost is None and the error says why."""
+    the cost is None and the error says why; so too where a term overflows (a planner's speeds or
+    accelerations out of any physical range), which numpy would otherwise only warn of."""
     from commonroad_dc.costs.evaluation import CostFunctionEvaluator
 
     out = {}
@@ -125,11 +126,20 @@ def solution_costs(solution: Solution, scenario: Scenario, problems: PlanningPro
         evaluator = CostFunctionEvaluator(pps.cost_function, pps.vehicle_type)
         bid = benchmark_id(solution, pps)
         try:
-            result = evaluator.evaluate_pp_solution(scenario, problems.planning_problem_dict[pps.planning_problem_id],
-                                                    pps.trajectory)
+            with np.errstate(all="ignore"):
+                result = evaluator.evaluate_pp_solution(scenario,
+                                                        problems.planning_problem_dict[pps.planning_problem_id],
+                                                        pps.trajectory)
         except Exception as exc:     # the library's own failure: this agent has no cost, the run goes on
             cause = f" ({type(exc.__cause__).__name__}: {exc.__cause__})" if exc.__cause__ else ""
             out[pps.planning_problem_id] = SolutionCost(bid, None, {}, f"{exc}{cause}")
+            continue
+        overflowed = [p.value for p, c in result.partial_costs.items() if not np.isfinite(c)]
+        if overflowed or not np.isfinite(result.total_costs):
+            out[pps.planning_problem_id] = SolutionCost(
+                bid, None, {}, f"the cost is not finite: its term{'s' * (len(overflowed) > 1)} "
+                               f"{', '.join(overflowed) or 'total'} overflowed (speeds or accelerations out of any "
+                               f"physical range)")
             continue
         out[pps.planning_problem_id] = SolutionCost(
             bid, float(result.total_costs),

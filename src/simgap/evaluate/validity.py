@@ -10,24 +10,29 @@ boundary, dies of a segmentation fault on some roads (of the paper's 78 curves, 
 ±150° and 60°, r = 20 m and 30 m at ±120°). In a process of its own a crash costs the run its verdict
 (``solution_valid`` None, the reason naming the check it crashed in), not the run, the worker or the
 experiment. One process serves every check of its parent: started at the first, again after a
-crash, gone when the parent is. It is sent the scenario file and the solution XML over pipes of its
-own (its output stays off the parent's stdout, which ``simgap run --json`` prints on) and answers
-with each check as it starts, each agent's verdict, and the end.
+crash, gone when the parent is. It is a fork of its parent, which has imported by then nearly all
+the checker needs (commonroad-io, scipy, matplotlib, commonroad_dc's collision checker): a new
+interpreter would import them again, about 2 s of a single `simgap run`'s 7–9 s. The fork keeps
+none of its parent's files open but its two pipes (its output goes to /dev/null, off the parent's
+stdout, which ``simgap run --json`` prints on), never runs its parent's exit handlers, and is sent
+the scenario file and the solution XML; it answers with each check as it starts, each agent's
+verdict, and the end.
 """
 
 from __future__ import annotations
 
+import atexit
+import gc
 import hashlib
 import importlib.metadata
 import json
 import os
-import subprocess
-import sys
+import signal
 import tempfile
 from dataclasses import asdict
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, NoReturn
 
 import numpy as np
 from commonroad.common.solution import CommonRoadSolutionReader, Solution
@@ -95,7 +100,8 @@ class CheckerProcess:
     _shared: ClassVar["CheckerProcess | None"] = None
 
     def __init__(self) -> None:
-        self._process: subprocess.Popen | None = None
+        self._pid: int | None = None
+        self._status: int | None = None      # its wait status, once reaped
         self._send: Connection | None = None
         self._receive: Connection | None = None
 
@@ -103,33 +109,48 @@ class CheckerProcess:
     def shared(cls) -> "CheckerProcess":
         if cls._shared is None:
             cls._shared = cls()
+            atexit.register(cls._shared._stop)      # none left behind when simgap ends
         return cls._shared
 
     def _start(self) -> None:
         child_reads, parent_writes = os.pipe()
         parent_reads, child_writes = os.pipe()
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-        self._process = subprocess.Popen(
-            [sys.executable, "-m", "simgap.evaluate.validity", str(child_reads), str(child_writes)],
-            pass_fds=(child_reads, child_writes), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL, env=env)
+        pid = os.fork()
+        if pid == 0:
+            _serve_forked(child_reads, child_writes)
         os.close(child_reads)
         os.close(child_writes)
+        self._pid, self._status = pid, None
         self._send = Connection(parent_writes, readable=False)
         self._receive = Connection(parent_reads, writable=False)
+
+    def _running(self) -> bool:
+        if self._pid is None or self._status is not None:
+            return False
+        pid, status = os.waitpid(self._pid, os.WNOHANG)
+        if pid:
+            self._status = status
+        return not pid
+
+    def _wait(self) -> int:
+        """Its exit code, as `subprocess` gives one (-N: ended by signal N)."""
+        if self._status is None:
+            self._status = os.waitpid(self._pid, 0)[1]
+        return os.waitstatus_to_exitcode(self._status)
 
     def _stop(self) -> None:
         for conn in (self._send, self._receive):
             if conn is not None:
                 conn.close()
-        if self._process is not None and self._process.poll() is None:
-            self._process.kill()
-            self._process.wait()
-        self._process = self._send = self._receive = None
+        if self._running():
+            os.kill(self._pid, signal.SIGKILL)
+        if self._pid is not None:
+            self._wait()
+        self._pid = self._status = self._send = self._receive = None
 
     def check(self, scenario_file: str | Path, solution_xml: str, agent_ids: list[int]) -> dict[int, SolutionCheck]:
         """Each agent's verdict (None, with the reason, for those the process did not live to give)."""
-        if self._process is None or self._process.poll() is not None:
+        if not self._running():
             self._stop()
             self._start()
         verdicts: dict[int, SolutionCheck] = {}
@@ -147,11 +168,34 @@ class CheckerProcess:
                 else:
                     return verdicts
         except (EOFError, OSError):
-            code = self._process.wait()
+            code = self._wait()
             self._stop()
             how = f"signal {-code}" if code < 0 else f"exit status {code}"
             reason = f"the drivability checker crashed ({how}) in {stage}"
             return verdicts | {aid: SolutionCheck(None, reason) for aid in agent_ids if aid not in verdicts}
+
+
+def _serve_forked(receive_fd: int, send_fd: int) -> NoReturn:
+    """The forked process: its parent's signals back to their defaults, every file but its two
+    pipes closed (standard input and output on /dev/null), its parent's objects never collected
+    (their finalisers would act on files it no longer has), `serve`, then out without its parent's
+    exit handlers."""
+    status = 1
+    try:
+        for signum in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+            signal.signal(signum, signal.SIG_DFL)
+        gc.freeze()
+        devnull = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(devnull, fd)
+        low, high = sorted((receive_fd, send_fd))
+        os.closerange(3, low)
+        os.closerange(low + 1, high)
+        os.closerange(high + 1, os.sysconf("SC_OPEN_MAX"))
+        serve(Connection(receive_fd), Connection(send_fd))
+        status = 0
+    finally:
+        os._exit(status)
 
 
 def checked_solution(solution: Solution, scenario: Scenario, problems: PlanningProblemSet,
@@ -204,7 +248,3 @@ def serve(receive: Connection, send: Connection) -> None:
             check = check_agent(pps, solution, scenario, problems, lambda stage: send.send(("stage", stage)))
             send.send(("agent", pps.planning_problem_id, check.valid, check.reason))
         send.send(("done",))
-
-
-if __name__ == "__main__":
-    serve(Connection(int(sys.argv[1])), Connection(int(sys.argv[2])))

@@ -87,6 +87,8 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
         rnd.f.canvas.draw()
         frames.append(np.asarray(rnd.f.canvas.buffer_rgba())[..., :3].copy())
         plt.close(rnd.f)
-    atomic_write(gif, lambda tmp: imageio.mimsave(tmp, frames, duration=1000.0 * frame_every * run.history.dt, loop=0),
-                 keep_suffix=True)
+    # encoded in memory, then written: imageio's writer flushes a file as it closes and, on a full disk,
+    # again as it is collected, where the error reaches the user as a traceback after simgap's own line
+    data = imageio.mimwrite("<bytes>", frames, format="GIF", duration=1000.0 * frame_every * run.history.dt, loop=0)
+    atomic_write(gif, lambda tmp: tmp.write_bytes(data))
     return [png, gif]

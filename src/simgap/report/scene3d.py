@@ -13,6 +13,8 @@ pictures and a backend (`Replay3D`): the caller hands it over — the command li
 from __future__ import annotations
 
 import copy
+import errno
+import os
 from pathlib import Path
 from typing import Callable, Iterator, Mapping, Protocol, Sequence
 
@@ -93,8 +95,8 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
 
     chase, birdseye = replay.stills(step, first, STILL)
     for name, image in zip(PICTURES[:2], (chase, birdseye)):      # each whole or not at all (a kill, a full disk)
-        written.append(atomic_write(out_dir / name, lambda tmp, image=image: imageio.imwrite(tmp, image),
-                                    keep_suffix=True))
+        data = imageio.imwrite("<bytes>", image, format="PNG")      # in memory: see `scene2d.render_run`
+        written.append(atomic_write(out_dir / name, lambda tmp, data=data: tmp.write_bytes(data)))
 
     duration = (max(len(t) for t in run.history.driven.values()) - 1) * run.history.dt
     times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
@@ -114,16 +116,48 @@ def _counted(frames: Iterator[np.ndarray], total: int, on_frame: Callable[[int, 
 
 
 def write_video(path: Path, frames: Iterator[np.ndarray], fps: int) -> Path:
-    """An MP4 (H.264, yuv420p: what browsers play) of ``frames``, written whole or not at all."""
+    """An MP4 (H.264, yuv420p: what browsers play) of ``frames``, written whole or not at all.
+    ffmpeg says nothing (simgap says what failed); imageio does not look at how ffmpeg ended, so
+    the file is read back: a file ffmpeg could not finish (a full disk) raises `OSError`."""
     def encode(tmp: Path) -> None:
-        with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=None,
-                                pixelformat="yuv420p", macro_block_size=16,
-                                output_params=["-crf", str(VIDEO_QUALITY), "-preset", "veryfast",
-                                               "-movflags", "+faststart"]) as video:
-            for frame in frames:
-                video.append_data(frame)
+        try:
+            with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=None,
+                                    pixelformat="yuv420p", macro_block_size=16, ffmpeg_log_level="quiet",
+                                    output_params=["-crf", str(VIDEO_QUALITY), "-preset", "veryfast",
+                                                   "-movflags", "+faststart"]) as video:
+                for frame in frames:
+                    video.append_data(frame)
+            finished = _whole_mp4(tmp)
+        except OSError as exc:
+            if exc.errno is not None:
+                raise
+            finished = False             # imageio's own: ffmpeg ended before it had every frame
+        if not finished:
+            space = os.statvfs(tmp.parent)
+            full = space.f_bavail * space.f_frsize < 1 << 20
+            raise OSError(errno.ENOSPC if full else errno.EIO, "ffmpeg did not finish the video", str(path))
 
     return atomic_write(path, encode, keep_suffix=True)
+
+
+def _whole_mp4(path: Path) -> bool:
+    """The file is a sequence of MP4 boxes that ends where the file does and holds the movie's
+    index (``moov``) and its media (``mdat``): what a finished ffmpeg leaves."""
+    names, size, at = set(), path.stat().st_size, 0
+    with path.open("rb") as fh:
+        while at < size:
+            fh.seek(at)
+            head = fh.read(16)
+            if len(head) < 8:
+                return False
+            length, name = int.from_bytes(head[:4], "big"), head[4:8]
+            if length == 1 and len(head) == 16:          # a 64-bit size follows the name
+                length = int.from_bytes(head[8:16], "big")
+            if length < 8:
+                return False
+            names.add(name)
+            at += length
+    return at == size and {b"moov", b"mdat"} <= names
 
 
 def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: RunRecord, step: int) -> Path:
