@@ -93,8 +93,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
 
     chase, birdseye = replay.stills(step, first, STILL)
     for name, image in zip(PICTURES[:2], (chase, birdseye)):      # each whole or not at all (a kill, a full disk)
-        written.append(atomic_write(out_dir / name, lambda tmp, image=image: imageio.imwrite(tmp, image),
-                                    keep_suffix=True))
+        written.append(atomic_write(out_dir / name, _image_writer(image), keep_suffix=True))
 
     duration = (max(len(t) for t in run.history.driven.values()) - 1) * run.history.dt
     times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
@@ -140,3 +139,10 @@ def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: RunRec
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110), keep_suffix=True)
     plt.close(fig)
     return path
+
+
+def _image_writer(image: np.ndarray) -> Callable[[Path], None]:
+    """A writer of ``image`` for `atomic_write` (the format by the file's suffix)."""
+    def write(tmp: Path) -> None:
+        imageio.imwrite(tmp, image)
+    return write
