@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 
@@ -84,6 +84,15 @@ class Trajectory:
     """
 
     __slots__ = ("dt", "_data")
+    if TYPE_CHECKING:               # the columns, read by __getattr__ (one per STATE_FIELDS)
+        t: np.ndarray
+        x: np.ndarray
+        y: np.ndarray
+        yaw: np.ndarray
+        v: np.ndarray
+        a: np.ndarray
+        yaw_rate: np.ndarray
+        steer: np.ndarray
 
     def __init__(self, dt: float, **columns: Iterable[float]):
         data = _read_only_columns(STATE_FIELDS, columns, "trajectory")
@@ -156,6 +165,12 @@ class ControlTrace:
     Immutable like a `Trajectory`: the arrays are read-only."""
 
     __slots__ = ("_data",)
+    if TYPE_CHECKING:               # the columns, read by __getattr__ (one per CONTROL_FIELDS)
+        t: np.ndarray
+        steer_requested: np.ndarray
+        steer_at_wheels: np.ndarray
+        accel_requested: np.ndarray
+        accel_achieved: np.ndarray
 
     def __init__(self, **columns: Iterable[float]):
         self._data = _read_only_columns(CONTROL_FIELDS, columns, "control trace")

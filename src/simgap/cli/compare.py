@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import typer
 from rich.console import Console
@@ -119,11 +119,11 @@ def compare(
     frames = {aid: route_centre(network, by_id[aid]) if aid in by_id else None
               for aid in {x.id for x in a.history.agents} | {x.id for x in b.history.agents}}
     places = {side: event_places(run.history.events, frames) for side, run in (("a", a), ("b", b))}
-    result = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
-              "agents": [c.as_dict() for c in comparisons], "scores": score_comparison(a, b),
-              "events": {side: event_rows(p) for side, p in places.items()},
-              "criticality": {"a": [asdict(c) for c in a.evaluation.criticality],
-                              "b": [asdict(c) for c in b.evaluation.criticality]}}
+    result: dict[str, Any] = {"scenario_id": a.scenario_id, "a": _label(a, run_a), "b": _label(b, run_b),
+                              "agents": [c.as_dict() for c in comparisons], "scores": score_comparison(a, b),
+                              "events": {side: event_rows(p) for side, p in places.items()},
+                              "criticality": {"a": [asdict(c) for c in a.evaluation.criticality],
+                                              "b": [asdict(c) for c in b.evaluation.criticality]}}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for c in comparisons:

@@ -68,7 +68,8 @@ def generate(
     spec = load_logical(logical)
     pins = spec.pinned(_parse_sets(set_))
     combos = list(spec.grid(pins))
-    written, warned = [], set()
+    written: list[Path] = []
+    warned: set[str] = set()
     steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
     where = logical if logical.endswith((".yaml", ".yml")) else None
     with files_out(out, "generate", _scenario_files([spec.scenario_name(p) for p in combos], preview), overwrite):
@@ -102,13 +103,16 @@ def _from_opendrive(console: Console, road: Path, start: str | None, goal: str |
         if value is None:
             raise InputError(f"an OpenDRIVE road needs {option}", field=option,
                              allowed=PLACE_FORMS if option != "--out" else "a directory to write into")
+    assert start is not None and goal is not None and out is not None       # each refused above when missing
     started = time.perf_counter()
     concrete = opendrive_scenario(road, start, goal, pins)
     _warn(concrete.warnings, set())
     with files_out(out, "generate", _scenario_files([concrete.name], preview), overwrite):
         xml = write_scenario(concrete, out, preview=preview)
     problem = next(iter(concrete.problems.planning_problem_dict.values()))
-    console.print(f"wrote [bold]{xml}[/bold]: {len(concrete.opendrive.lanelets)} lanelets from {road.name} "
+    origin = concrete.opendrive
+    assert origin is not None, "a scenario on an OpenDRIVE road keeps its origin"
+    console.print(f"wrote [bold]{xml}[/bold]: {len(origin.lanelets)} lanelets from {road.name} "
                   f"({time.perf_counter() - started:.2f} s), one agent from "
                   f"({problem.initial_state.position[0]:.1f}, {problem.initial_state.position[1]:.1f})")
 

@@ -9,6 +9,7 @@ import signal
 import sys
 import tempfile
 import traceback
+from typing import NoReturn
 
 import typer
 
@@ -74,7 +75,7 @@ def main() -> None:
         _internal_failure(err)
 
 
-def _internal_failure(err: BaseException) -> None:
+def _internal_failure(err: BaseException) -> NoReturn:
     """Say in one line that simgap failed and where its traceback is (a file in the temporary
     folder, for a bug report), and exit with `ExitCode.INTERNAL_FAILURE`."""
     text = "".join(traceback.format_exception(err))

@@ -30,8 +30,11 @@ class DelayCompensation:
         self.wheelbase, self.rear_axle_to_center = wheelbase, rear_axle_to_center
         steering = actuators.steering
         self.dead_ticks = int(round(steering.dead_time / self.period))
-        lag = steering.time_constant if steering.order == 1 else \
-            2.0 * steering.damping_ratio / steering.natural_frequency if steering.order == 2 else 0.0
+        if steering.order == 2:
+            wn, zeta = steering.second_order_lag()
+            lag = 2.0 * zeta / wn
+        else:
+            lag = steering.time_constant if steering.order == 1 else 0.0
         self.lag_ticks = int(round(lag / self.period))
         self.horizon = (self.dead_ticks + self.lag_ticks) * self.period
         self._steering = steering.response(self.period)

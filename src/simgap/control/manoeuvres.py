@@ -141,7 +141,7 @@ def lane_changes(vehicle, speed: float, shifts: list[LateralShift], name: str,
 
     def lateral(xr: float) -> tuple[float, float, float]:
         parts = [shift.lateral(xr) for shift in shifts]
-        return tuple(sum(p[k] for p in parts) for k in range(3))
+        return (sum((p[0] for p in parts), 0.0), sum((p[1] for p in parts), 0.0), sum((p[2] for p in parts), 0.0))
 
     # Parametrise the rear axle path by its x coordinate; convert arc length to time.
     xs = np.linspace(0.0, end + speed * 60.0, 20001)

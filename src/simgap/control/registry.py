@@ -19,7 +19,7 @@ Keys are validated against the controller's gains model; a wrong key or value is
 from __future__ import annotations
 
 import inspect
-from typing import Any, Mapping
+from typing import Any, Mapping, Protocol
 
 from pydantic import BaseModel, ValidationError
 
@@ -37,19 +37,29 @@ BUILTIN_CONTROLLERS: dict[str, str] = {
 DEFAULT_CONTROLLER = "pure_pursuit"     # every physics backend's, unless told otherwise
 
 
-def _controller_class(obj: Any, name: str) -> type:
+class ControllerClass(Protocol):
+    """What a controller name names: a class with a pydantic ``Gains`` model, built as
+    ``cls(vehicle, gains, rate_hz)``."""
+
+    Gains: type[BaseModel]
+
+    def __call__(self, vehicle: Any, gains: BaseModel, rate_hz: float) -> Controller: ...
+
+
+def _controller_class(obj: Any, name: str) -> ControllerClass:
     """``obj`` if it is a controller class: ``command`` and ``reset``, and a pydantic ``Gains``."""
+    controller_class: ControllerClass = obj       # what the checks below make sure of
     gains = getattr(obj, "Gains", None)
     if not (inspect.isclass(obj) and callable(getattr(obj, "command", None))
             and callable(getattr(obj, "reset", None)) and isinstance(gains, type) and issubclass(gains, BaseModel)):
         raise InputError(f"controller '{name}' is not a controller class", field="controller",
                          allowed="a class with command(measured, plan, t), reset(state) and a pydantic Gains "
                                  "model, built as cls(vehicle, gains, rate_hz)")
-    return obj
+    return controller_class
 
 
 #: the controllers by name: the built-ins, then those installed in the entry-point group
-CONTROLLERS: Registry[type] = Registry("controller", "simgap.controllers", BUILTIN_CONTROLLERS, _controller_class)
+CONTROLLERS: Registry[ControllerClass] = Registry("controller", "simgap.controllers", BUILTIN_CONTROLLERS, _controller_class)
 
 
 def controller_names() -> list[str]:

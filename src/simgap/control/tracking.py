@@ -77,10 +77,10 @@ class TrackingController:
         self.max_steer = float(vehicle.limits.max_steer)
         self.pedal_map = LongitudinalMap.for_vehicle(vehicle)
         physics = vehicle.physics if isinstance(vehicle.physics, VehiclePhysics) else None
-        self.understeer_gradient = gains.understeer_gradient
-        if self.understeer_gradient is None:
-            self.understeer_gradient = (physics.understeer_gradient(vehicle.wheelbase, vehicle.rear_axle_to_center)
-                                        if physics is not None else 0.0)
+        self.understeer_gradient: float = (
+            gains.understeer_gradient if gains.understeer_gradient is not None
+            else physics.understeer_gradient(vehicle.wheelbase, vehicle.rear_axle_to_center) if physics is not None
+            else 0.0)
         # heading of a real car in a steady turn minus the kinematic model's, per v^2 kappa: its
         # tyres slip, so it runs with less sideslip (beta_kin - beta = m a v^2 kappa / (L C_r))
         self._sideslip_gain = 0.0

@@ -19,7 +19,7 @@ import os
 import signal
 import threading
 from contextlib import contextmanager
-from typing import Iterator
+from typing import Iterator, NoReturn
 
 PLANNER_CRASHES = BaseException     # what a planner may raise: its cycle fails (after RUN_STOPS are let through)
 DEFAULT_RUN_TIMEOUT_S = 600.0   # wall time a run may take unless told otherwise [s] (simgap run, experiments)
@@ -50,10 +50,10 @@ def _exit_refused() -> Iterator[None]:
     """Inside, in this process (not in one forked from it), ``os._exit`` raises `ProcessExitRefused`."""
     own_exit, owner = os._exit, os.getpid()
 
-    def refused(code: int) -> None:
+    def refused(status: int) -> NoReturn:
         if os.getpid() != owner:
-            own_exit(code)
-        raise ProcessExitRefused(code)
+            own_exit(status)
+        raise ProcessExitRefused(status)
 
     os._exit = refused
     try:
@@ -79,14 +79,17 @@ def _signals(wall_time_limit_s: float | None) -> Iterator[None]:
     def interrupted(signum, frame) -> None:
         raise RunInterrupted()
 
-    def timed_out(signum, frame) -> None:
-        raise WallClockExceeded(wall_time_limit_s)
-
     own_sigint = signal.getsignal(signal.SIGINT) is signal.default_int_handler
     if own_sigint:
         signal.signal(signal.SIGINT, interrupted)
-    previous_alarm = signal.signal(signal.SIGALRM, timed_out) if wall_time_limit_s is not None else None
+    previous_alarm = None
     if wall_time_limit_s is not None:
+        limit_s = wall_time_limit_s
+
+        def timed_out(signum, frame) -> None:
+            raise WallClockExceeded(limit_s)
+
+        previous_alarm = signal.signal(signal.SIGALRM, timed_out)
         signal.setitimer(signal.ITIMER_REAL, wall_time_limit_s)
     try:
         yield

@@ -81,11 +81,11 @@ class LaneOccupancy:
         when the value carries one (``50kmh``, as some converted maps write it)."""
         out = np.full(len(lanes), np.nan)
         for lanelet_id in set(lanes.tolist()) - {NO_LANELET}:
-            limits = [_speed(value) for sign_id in self.network.find_lanelet_by_id(int(lanelet_id)).traffic_signs
-                      for element in self.network.find_traffic_sign_by_id(sign_id).traffic_sign_elements
-                      if element.traffic_sign_element_id.name == "MAX_SPEED" and element.additional_values
-                      for value in element.additional_values[:1]]
-            limits = [v for v in limits if v is not None]
+            read = [_speed(value) for sign_id in self.network.find_lanelet_by_id(int(lanelet_id)).traffic_signs
+                    for element in self.network.find_traffic_sign_by_id(sign_id).traffic_sign_elements
+                    if element.traffic_sign_element_id.name == "MAX_SPEED" and element.additional_values
+                    for value in element.additional_values[:1]]
+            limits = [v for v in read if v is not None]
             if limits:
                 out[lanes == lanelet_id] = min(limits)
         return out

@@ -79,6 +79,7 @@ def run_metrics(history: History, scenario: Scenario, problems: PlanningProblemS
         if route.frame is not None and len(driven):
             _, d = lateral_profile(driven, route.frame)
             values["max_lateral_offset_m"] = float(np.max(np.abs(d)))
+            assert route.tracking is not None, "measured with the frame (route_measures)"
             lateral = route.tracking.lateral
             values["max_tracking_lateral_m"] = float(np.max(np.abs(lateral))) if len(lateral) else 0.0
             values["max_lane_excursion_m"] = route.lane_excursion_m

@@ -50,7 +50,7 @@ def _chosen(root: Path, rows: list[RunRow], spec: ExplainSpec) -> list[tuple[Run
         twin = ideal.get((row.id.scenario, row.id.planner, row.id.repeat)) or \
             ideal.get((row.id.scenario, row.id.planner, None))
         gap = _gap(root, row, twin) if spec.gap_above_m is not None and twin is not None else math.nan
-        if failed or (math.isfinite(gap) and gap > spec.gap_above_m):
+        if failed or (spec.gap_above_m is not None and math.isfinite(gap) and gap > spec.gap_above_m):
             chosen.append((row, gap))
     return sorted(chosen, key=lambda c: (c[0].outcome == Outcome.GOAL_REACHED,
                                          -(c[1] if math.isfinite(c[1]) else 0.0), c[0].id.key))

@@ -55,7 +55,7 @@ def _make_probe() -> Callable[[], dict[str, Any]]:
         try:
             versions = importlib.import_module("simgap.experiment.single_run").software_versions()
             error = None
-            package = Path(importlib.import_module("simgap").__file__).parent
+            package = Path(importlib.import_module("simgap").__path__[0])
             for path in sorted(package.rglob("*.py")):
                 digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
         except Exception as exc:            # noqa: BLE001 - reported, whatever it is

@@ -297,15 +297,18 @@ def fit_road(piece: RoadPiece) -> RoadFit:
     xy, heading = _reference_polyline(piece)
     clothoids = fit_reference(xy, heading)
     pieces = tuple(Piece(c.XStart, c.YStart, c.ThetaStart, c.length, c.KappaStart, c.KappaEnd) for c in clothoids)
-    s, pts, hdg, s0 = [], [], [], 0.0
+    s_at: list[float] = []
+    points: list[tuple[float, float]] = []
+    headings: list[float] = []
+    s0 = 0.0
     for c in clothoids:
         n = max(2, math.ceil(c.length / SAMPLE_M) + 1)
-        for u in np.linspace(0.0, c.length, n)[(1 if s else 0):]:
-            s.append(s0 + u)
-            pts.append((c.X(u), c.Y(u)))
-            hdg.append(c.Theta(u))
+        for u in np.linspace(0.0, c.length, n)[(1 if s_at else 0):]:
+            s_at.append(s0 + u)
+            points.append((c.X(u), c.Y(u)))
+            headings.append(c.Theta(u))
         s0 += c.length
-    s, pts, hdg = np.asarray(s), np.asarray(pts), np.asarray(hdg)
+    s, pts, hdg = np.asarray(s_at), np.asarray(points), np.asarray(headings)
     keep = np.concatenate([s[:-1] < s[-1] - 1e-6, [True]]) & np.concatenate([[True], np.diff(s) > 1e-6])
     s, pts, hdg = s[keep], pts[keep], hdg[keep]
     normals = np.column_stack([-np.sin(hdg), np.cos(hdg)])

@@ -156,8 +156,8 @@ def split(lanelets: list[Lanelet]) -> Split:
         if rel is not None:
             cluster[root(rel[0])] = root(i)
 
-    def shared(i: int, side: str, cut: bool) -> bool:
-        other, same = neighbours[(i, side)]
+    def shared(i: int, side: str, rel: tuple[int, bool], cut: bool) -> bool:
+        other, same = rel
         mine = pieces[i] if cut else [_Piece(i, by_id[i].left_vertices, by_id[i].right_vertices, by_id[i].center_vertices)]
         theirs = pieces[other] if cut else [_Piece(other, by_id[other].left_vertices, by_id[other].right_vertices,
                                                    by_id[other].center_vertices)]
@@ -167,7 +167,7 @@ def split(lanelets: list[Lanelet]) -> Split:
     gain: dict[int, int] = {}
     for (i, side), rel in neighbours.items():
         if rel is not None:
-            gain[root(i)] = gain.get(root(i), 0) + shared(i, side, True) - shared(i, side, False)
+            gain[root(i)] = gain.get(root(i), 0) + shared(i, side, rel, True) - shared(i, side, rel, False)
     for i in by_id:
         if gain.get(root(i), 0) <= 0 and len(pieces[i]) > 1:
             l = by_id[i]
@@ -192,16 +192,16 @@ def split(lanelets: list[Lanelet]) -> Split:
             out.append(l)                       # neither it nor any lanelet next to it was cut
             continue
         for k, (pid, piece) in enumerate(zip(ids[i], pieces[i])):
-            first, last = k == 0, k == len(pieces[i]) - 1
-            predecessor = [ids[p][-1] for p in l.predecessor if p in ids] if first else [ids[i][k - 1]]
-            successor = [ids[s][0] for s in l.successor if s in ids] if last else [ids[i][k + 1]]
-            adj = {}
+            is_first, is_last = k == 0, k == len(pieces[i]) - 1
+            predecessor = [ids[p][-1] for p in l.predecessor if p in ids] if is_first else [ids[i][k - 1]]
+            successor = [ids[s][0] for s in l.successor if s in ids] if is_last else [ids[i][k + 1]]
+            adj: dict[str, tuple[int | None, bool | None]] = {}
             for side in ("left", "right"):
                 rel = neighbours[(i, side)]
                 adj[side] = (None, None)
-                other, same = _facing(l, side)
-                if other is not None and other in ids and len(ids[other]) == 1 and len(ids[i]) == 1:
-                    adj[side] = (other, same)           # neither cut: as the source has it
+                facing, facing_same = _facing(l, side)
+                if facing is not None and facing in ids and len(ids[facing]) == 1 and len(ids[i]) == 1:
+                    adj[side] = (facing, facing_same)   # neither cut: as the source has it
                     continue
                 if rel is None:                         # one-sided: not carried over to pieces
                     continue

@@ -95,7 +95,8 @@ def check(path: str | Path, timeout_s: float = 600.0) -> QualityReport:
 
 
 def _report(path: Path, bundle: str, root: ET.Element) -> QualityReport:
-    checkers, rules = [], {}
+    checkers: list[CheckerResult] = []
+    rules: dict[str, int] = {}
     for checker in root.iter("Checker"):
         levels = [_LEVELS.get(issue.get("level", ""), "information") for issue in checker.iter("Issue")]
         for issue in checker.iter("Issue"):

@@ -86,7 +86,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
     ideal = None if ideal_dir is None else read_run(ideal_dir)
     if ideal is not None and ideal.scenario_id != run.scenario_id:
         raise InputError(f"the ideal twin ran scenario '{ideal.scenario_id}', the run '{run.scenario_id}'",
-                         file=Path(ideal_dir), field="--ideal", allowed="a run of the same scenario")
+                         file=ideal_dir, field="--ideal", allowed="a run of the same scenario")
     scenario_xml, scenario, _ = read_driven_scenario(run_dir, run)
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     path = recording_path(Path(out), name)
@@ -215,12 +215,12 @@ class _Log:
 
     def plans(self, path: str, plans: tuple[Trajectory, ...], colour) -> None:
         """Each plan at the time it was made (its first state's)."""
-        plans = [p for p in plans if len(p)]
-        if not plans:
+        made = [p for p in plans if len(p)]
+        if not made:
             return
-        strips = self.rr.LineStrips3D.columns(strips=[self._points(p.x, p.y) for p in plans],
-                                              colors=[colour] * len(plans), radii=[0.04] * len(plans))
-        self.columns(path, [float(p.t[0]) for p in plans], strips)
+        strips = self.rr.LineStrips3D.columns(strips=[self._points(p.x, p.y) for p in made],
+                                              colors=[colour] * len(made), radii=[0.04] * len(made))
+        self.columns(path, [float(p.t[0]) for p in made], strips)
 
     def observed(self, path: str, observed: Trajectory, colour) -> None:
         points = self.rr.Points3D.columns(positions=self._points(observed.x, observed.y),

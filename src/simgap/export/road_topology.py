@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -461,7 +462,7 @@ def _heading_at(strip: Strip, end: str) -> float:
     return _mean_heading([_direction(c, end == "end") for c in strip.centres])
 
 
-def _place_joint(ends: list[tuple[Strip, str]], pairs: list[tuple[int, int]] = ()) -> Joint:
+def _place_joint(ends: list[tuple[Strip, str]], pairs: Sequence[tuple[int, int]] = ()) -> Joint:
     """The joint of road ends (strip, "start" | "end"), with the borders of linked lanelets
     (predecessor, successor) made one; its heading that of the first road end's road there."""
     slots = _Slots()
@@ -555,7 +556,9 @@ def topology(network: LaneletNetwork) -> Topology:
     def enters(i: int) -> RoadEnd:
         return road_of[i], "start" if lane_of[i][1] < 0 else "end"
 
-    relations, unjoined, gaps = [], [], {}
+    relations: list[tuple[int, int]] = []
+    unjoined: list[tuple[int, int]] = []
+    gaps: dict[tuple[int, int], float] = {}
     for a in sorted(by_id):
         for b in by_id[a].successor or []:
             if b not in by_id:
@@ -580,7 +583,9 @@ def topology(network: LaneletNetwork) -> Topology:
     for a, b in relations:
         at_place[root(leaves(a))].append((a, b))
     joints: dict[RoadEnd, Joint] = {}
-    links, connections, junction_ends, cut_at = [], [], {}, {}
+    links, connections = [], []
+    junction_ends: dict[RoadEnd, int] = {}
+    cut_at: dict[RoadEnd, float] = {}
     junction_relations = []
     for key, rels in sorted(at_place.items()):
         ends = sorted({leaves(a) for a, _ in rels} | {enters(b) for _, b in rels})

@@ -196,9 +196,9 @@ class CostOrder:
     def _next_floor(self) -> float:
         return float(self._floor[self._order[self._next]]) if self._next < len(self._order) else math.inf
 
-    def take(self, n: int) -> list:
+    def take(self, n: int) -> list[object]:
         """The next ``n`` feasible samples in cost order (fewer when none are left)."""
-        out = []
+        out: list[object] = []
         while len(out) < n:
             while self._next < len(self._order) and (not self._ready or self._ready[0][0] > self._next_floor
                                                      or self.floor_misses):

@@ -571,7 +571,9 @@ class FrenetPlanner:
         choice: Choice = final(state)
         if choice.pick is not None:
             cycle.choice = choice.kind
-            return _row(batches[choice.pick.chunk], choice.pick.row)
+            picked = batches[choice.pick.chunk]
+            assert picked is not None, "a pick is from a checked chunk"
+            return _row(picked, choice.pick.row)
         return self.second_look([b for b in batches if b is not None], start, traffic, leeway, cycle)
 
     def second_look(self, checked: list[CartesianBatch], start: Start, traffic: TrafficPrediction,

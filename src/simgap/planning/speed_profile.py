@@ -111,7 +111,8 @@ class GoalApproach:
         self.deceleration = deceleration
         self.top_speed = top_speed
         self.road_end = road_end if self.stretch is None and time is not None else None
-        self.window_opens = time.lo if time is not None else None     # a time window alone is met then
+        # a time window alone is met then (inf: no time window; `road_end` is None then)
+        self.window_opens = time.lo if time is not None else math.inf
 
     def distance_to_goal(self, s: float) -> float:
         """Arc length from ``s`` to the goal's stretch (0 inside it; inf: no goal on the path, or passed)."""

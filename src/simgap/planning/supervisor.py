@@ -134,10 +134,10 @@ def main(argv: list[str]) -> None:
         end_all()
         shutil.rmtree(folder, ignore_errors=True)
     if status is None or os.WIFSIGNALED(status):                # end as the planner did: by its signal …
-        signum = signal.SIGTERM if status is None else os.WTERMSIG(status)
-        if signum != signal.SIGKILL:
-            signal.signal(signum, signal.SIG_DFL)
-        os.kill(os.getpid(), signum)
+        ended_by: int = signal.SIGTERM if status is None else os.WTERMSIG(status)
+        if ended_by != signal.SIGKILL:
+            signal.signal(ended_by, signal.SIG_DFL)
+        os.kill(os.getpid(), ended_by)
         time.sleep(1)
     sys.exit(os.waitstatus_to_exitcode(status) if status is not None else 1)   # … or with its code
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import statistics
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import matplotlib
 
@@ -21,6 +21,9 @@ from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
 from simgap.report.plots import COLOURS, STYLES  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
+
+if TYPE_CHECKING:
+    from simgap.cosim.history import History
 
 HEATMAP_CMAP = "cividis"
 PHASE_ORDER = ("planning", "execution", "control", "physics", "monitoring", "io")
@@ -75,7 +78,7 @@ def heatmap_colour(value: float, lo: float, hi: float) -> tuple[str, str]:
     return f"#{int(r * 255):02x}{int(g * 255):02x}{int(b * 255):02x}", text
 
 
-def plot_paths_from_above(scenario, runs: Mapping[str, object], path: Path, title: str) -> Path:
+def plot_paths_from_above(scenario, runs: Mapping[str, History], path: Path, title: str) -> Path:
     """The road from above with, per fidelity, every agent's driven path (solid, thick) and the
     first plan of every tenth planning cycle (thin)."""
     limits = plot_limits(scenario, margin=8.0)

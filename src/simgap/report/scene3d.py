@@ -174,3 +174,4 @@ def _side_by_side(path: Path, image: np.ndarray, scenario, problems, run: RunRec
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110), keep_suffix=True)
     plt.close(fig)
     return path
+

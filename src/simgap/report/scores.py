@@ -6,7 +6,7 @@ solution is invalid)."""
 from __future__ import annotations
 
 import math
-from collections import Counter
+from collections import Counter, defaultdict
 from typing import Sequence
 
 import numpy as np
@@ -26,6 +26,11 @@ SCORES_NOTE = ("<p>score: the closed-loop score (built like nuPlan's CLS: the mu
                "that would give most of it back; cost: the driven trajectory's cost as a CommonRoad solution (its "
                "benchmark's cost function); valid: by commonroad-drivability-checker, with the first reason when "
                "not.</p>")
+
+
+def _largest(totals: dict[str, float], n: int) -> list[tuple[str, float]]:
+    """The ``n`` largest totals, largest first (ties in the order they were added)."""
+    return sorted(totals.items(), key=lambda item: item[1], reverse=True)[:n]
 
 
 def _weights(entry) -> ScoreWeights:
@@ -62,7 +67,8 @@ def score_rows(groups: Sequence[ScenarioGroup], variants: list[tuple[str, str]])
         scores = [a.score for a in agents if a.score is not None]
         costs = [a.solution_cost for a in agents if a.solution_cost is not None]
         checked = [a for a in agents if a.solution_valid is not None]
-        drops, lost = [], Counter()
+        drops: list[float] = []
+        lost: defaultdict[str, float] = defaultdict(float)      # score lost per component
         for g in mine:
             for _, drop, losses in agent_drops(g, fidelity):
                 if math.isfinite(drop):
@@ -73,12 +79,12 @@ def score_rows(groups: Sequence[ScenarioGroup], variants: list[tuple[str, str]])
         row = {"planner": planner, "fidelity": fidelity, "agents": len(agents),
                "mean score": float(np.mean(scores)) if scores else "—",
                "lowest score": min(scores) if scores else "—"}
-        top = lost.most_common(1)
+        top = _largest(lost, 1)
         row |= {"mean drop": float(np.mean(drops)) if drops else "—",
                 "largest drop": max(drops) if drops else "—",
                 "lost most on": top[0][0] if top and top[0][1] > 1e-9 else "—"}
         row |= {"mean cost": float(np.mean(costs)) if costs else "—",
-                "valid solutions": f"{sum(a.solution_valid for a in checked)}/{len(checked)}" if checked else "—",
+                "valid solutions": f"{sum(a.solution_valid is True for a in checked)}/{len(checked)}" if checked else "—",
                 "invalid because": ", ".join(f"{k} ({n})" for k, n in reasons.most_common()) or "—"}
         rows.append(row)
     return rows
@@ -155,7 +161,8 @@ def store_score_rows(rows: list[RunRow]) -> list[dict]:
         pairs = [(a, b) for a, b in pairs if _known(a.score) and _known(b.score)]
         if not pairs:
             continue
-        drops, lost = [], Counter()
+        drops: list[float] = []
+        lost: defaultdict[str, float] = defaultdict(float)      # score lost per component
         for a, b in pairs:
             drop, losses = score_drop(_scored(a), _scored(b), ScoreWeights())
             drops.append(drop)
@@ -163,7 +170,7 @@ def store_score_rows(rows: list[RunRow]) -> list[dict]:
                 lost[c.name] += c.regained
         broken = [b for a, b in pairs if a.solution_valid is True and b.solution_valid is False]
         reasons = Counter(_reason_kind(b.solution_reason or "") for b in broken)
-        top = [(name, total) for name, total in lost.most_common(2) if total > 1e-9]
+        top = [(name, total) for name, total in _largest(lost, 2) if total > 1e-9]
         out.append({"planner": planner, "fidelity": fidelity, "runs": len(pairs),
                     "ideal score": float(np.mean([a.score for a, _ in pairs])),
                     "score": float(np.mean([b.score for _, b in pairs])),

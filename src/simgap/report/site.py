@@ -351,10 +351,11 @@ def _comparison_page(scenario_id: str, groups: list[ScenarioGroup], out: Path, a
             agents = entry.run.evaluation.agents
             gaps = g.comparisons.get(fidelity, [])
             times = [a.time_to_goal_s for a in agents]
+            reached = [t for t in times if t is not None]
             rows.append({"planner": Raw(f"<a href='{_slug(g.name)}.html'>{html.escape(g.planner)}</a>"),
                          "fidelity": fidelity,
                          "outcomes": ", ".join(sorted({a.outcome for a in entry.run.history.agents})),
-                         "time to goal [s]": max(times) if times and None not in times else "—",
+                         "time to goal [s]": max(reached) if reached and len(reached) == len(times) else "—",
                          "beyond road [m]": max((a.max_road_excursion_m for a in agents), default="—"),
                          "max |d| against its ideal [m]": max((c.lateral_displacement.max for c in gaps), default="—"),
                          "rms |d| against its ideal [m]": max((c.lateral_displacement.rms for c in gaps), default="—"),
@@ -444,7 +445,7 @@ def _agent_figures(group: ScenarioGroup, aid: int, frame: PathFrame | None, adir
     problem = group.problems.planning_problem_dict.get(aid)
     curves = {f: lateral_profile(e.run.history.driven[aid], frame) for f, e in group.runs.items()
               if frame is not None and aid in e.run.history.driven}
-    if curves:
+    if curves and frame is not None:
         shading = _section_shading([group], aid)
         sorted_curves = {k: (s[np.argsort(s)], d[np.argsort(s)]) for k, (s, d) in curves.items()}
         events = {f: event_places([ev for ev in e.run.history.events if ev.agent_id == aid], {aid: frame})

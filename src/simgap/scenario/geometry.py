@@ -71,7 +71,7 @@ class CentreLine:
 def curvature_pieces(segments: Sequence[Segment]) -> list[tuple[SectionKind, float, float, float]]:
     """(kind, length, curvature at start, curvature at end) of each piece of constant or linear
     curvature: a straight, an arc or a clothoid."""
-    pieces = []
+    pieces: list[tuple[SectionKind, float, float, float]] = []
     for seg in segments:
         if isinstance(seg, Straight):
             pieces.append(("straight", seg.length, 0.0, 0.0))
@@ -125,7 +125,11 @@ def centre_line(segments: Sequence[Segment], start=(0.0, 0.0), heading: float = 
             y += ds / (6 * sub) * float(np.dot(w, np.sin(hv)))
             h = head(ds)
             s += ds
-            xs.append(x), ys.append(y), hs.append(h), ks.append(kb), ss.append(s)
+            xs.append(x)
+            ys.append(y)
+            hs.append(h)
+            ks.append(kb)
+            ss.append(s)
         if sections and sections[-1].kind == kind:
             sections[-1] = Section(kind, sections[-1].s_start, s)
         else:

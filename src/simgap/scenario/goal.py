@@ -224,8 +224,8 @@ def _judged(gs: GoalState, driven: Sequence[State]) -> tuple[tuple[int, float], 
                                     f"in the time window {window})")
         where = "outside the goal position:" if "position" in missed else "inside the goal position but"
         return rank, f"in the time window {window} at t = {st.t:.1f} s {where} {gs.describe_misses(st, missed)}"
-    inside = [st for st in driven if "position" not in gs.misses(st)]
-    if not inside:
+    in_position = [st for st in driven if "position" not in gs.misses(st)]
+    if not in_position:
         return None
-    rank, st, missed = closest(inside, "")
+    rank, st, missed = closest(in_position, "")
     return rank, f"inside the goal position at t = {st.t:.1f} s but {gs.describe_misses(st, missed)}"

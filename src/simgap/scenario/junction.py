@@ -15,7 +15,7 @@ import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletType, LineMarking
 
 from simgap.errors import InputError
-from simgap.scenario.geometry import MAX_ROAD_LENGTH_M
+from simgap.scenario.geometry import MAX_ROAD_LENGTH_M, SectionKind
 
 
 @dataclass
@@ -30,7 +30,7 @@ class Junction:
     arms: list[Arm]
     lanelets: list[Lanelet] = field(default_factory=list)
     connectors: dict[tuple[int, int], int] = field(default_factory=dict)  # (from arm, to arm) -> id
-    section_by_id: dict[int, str] = field(default_factory=dict)
+    section_by_id: dict[int, SectionKind] = field(default_factory=dict)
 
 
 def _unit(angle_deg: float) -> np.ndarray:

@@ -191,7 +191,7 @@ def recorded_egos(scenario: Scenario, problems: PlanningProblemSet) -> dict[int,
 
     Recorded datasets converted to CommonRoad (inD, MONA, highD, exiD with the ego kept) carry the
     ego's recorded vehicle as an obstacle; left in the traffic it would overlap the agent from t = 0."""
-    found = {}
+    found: dict[int, int] = {}
     for pid, problem in problems.planning_problem_dict.items():
         initial = problem.initial_state
         position = np.asarray(exact(initial.position), dtype=float)

@@ -83,7 +83,8 @@ class Route:
 def random_route(network: LaneletNetwork, rng: np.random.Generator, length: float, first: int | None = None) -> Route | None:
     """Successive lanelets from ``first`` (or a random lanelet) until ``length`` metres."""
     lanelet = network.find_lanelet_by_id(first) if first else rng.choice(network.lanelets)
-    points, ids = [], []
+    points: list[np.ndarray] = []
+    ids: list[int] = []
     while lanelet is not None and len(ids) < 30:
         centre = np.asarray(lanelet.center_vertices, dtype=float)
         points.append(centre if not points else centre[1:])

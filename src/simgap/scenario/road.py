@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletType, LineMarking
 
-from simgap.scenario.geometry import CentreLine
+from simgap.scenario.geometry import CentreLine, SectionKind
 
 
 @dataclass(frozen=True)
@@ -44,10 +44,10 @@ class Road:
     def lanelets(self) -> list[Lanelet]:
         return [l for lane in self.forward + self.backward for l in lane]
 
-    section_by_id: dict[int, str] = field(default_factory=dict)    # lanelet id -> road section kind
+    section_by_id: dict[int, SectionKind] = field(default_factory=dict)    # lanelet id -> road section kind
 
 
-def _split_indices(centre: CentreLine) -> list[tuple[int, int, str]]:
+def _split_indices(centre: CentreLine) -> list[tuple[int, int, SectionKind]]:
     """(first, last) sample index of each section (inclusive, sharing the boundary sample)."""
     out = []
     for sec in centre.sections:

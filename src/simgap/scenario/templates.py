@@ -31,8 +31,8 @@ from pydantic import TypeAdapter, ValidationError
 
 from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
-from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, Segment, Straight, centre_line, curvature_pieces,
-                                     self_intersects)
+from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, SectionKind, Segment, Straight, centre_line,
+                                     curvature_pieces, self_intersects)
 from simgap.scenario.opendrive.origin import OpenDriveOrigin
 from simgap.scenario.physical_bounds import MIN_LANE_WIDTH
 from simgap.scenario.problem import planning_problem
@@ -130,7 +130,7 @@ def _road_relief(p: dict[str, Any], segments: list[Segment]) -> ReliefProfile | 
     return None if profile.flat else profile
 
 
-def _banked_curves(pieces: list[tuple[str, float, float, float]], bank: float, transition: float) -> tuple[BankKnot, ...]:
+def _banked_curves(pieces: list[tuple[SectionKind, float, float, float]], bank: float, transition: float) -> tuple[BankKnot, ...]:
     """Superelevation knots: ``bank`` on every arc, falling towards its inside (OpenDRIVE's sign: a
     left turn's road falls to the left, negative), none on the straights, linear in between — over
     the clothoids, or over ``transition`` of the straight next to an arc (less on a straight shorter
@@ -197,7 +197,7 @@ CURVE_LENGTH_FIELDS = "straight_length, radius, angle, transition"
 
 def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
     """The paper's: straight, a turn of ``radius`` and ``angle`` (positive = left), straight."""
-    segments = [Straight(length=p.get("straight_length", 100.0)),
+    segments: list[Segment] = [Straight(length=p.get("straight_length", 100.0)),
                 Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
                 Straight(length=p.get("straight_length", 100.0))]
     return road_scenario(name, logical, p, segments, CURVE_LENGTH_FIELDS)
@@ -205,7 +205,7 @@ def curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
 
 def s_curve(name: str, logical: str, p: dict[str, Any]) -> ConcreteScenario:
     """Straight, a turn, the opposite turn, straight."""
-    segments = [Straight(length=p.get("straight_length", 50.0)),
+    segments: list[Segment] = [Straight(length=p.get("straight_length", 50.0)),
                 Arc(radius=p["radius"], angle=p["angle"], transition=p.get("transition", 0.0)),
                 Arc(radius=p["radius"], angle=-p["angle"], transition=p.get("transition", 0.0)),
                 Straight(length=p.get("straight_length", 50.0))]

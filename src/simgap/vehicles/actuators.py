@@ -50,6 +50,12 @@ class ActuatorChannel(BaseModel):
                              "(second order), not both")
         return self
 
+    def second_order_lag(self) -> tuple[float, float]:
+        """The natural frequency [rad/s] and damping ratio of a second-order channel (``order`` 2)."""
+        if self.natural_frequency is None or self.damping_ratio is None:
+            raise ValueError("not a second-order lag")
+        return self.natural_frequency, self.damping_ratio
+
     @property
     def order(self) -> int:
         return 2 if self.natural_frequency is not None else 1 if self.time_constant > 0 else 0
@@ -108,7 +114,7 @@ class ChannelResponse:
         self._queue: deque[float] = deque([initial] * self.delay_ticks)
         self._y, self._rate = float(initial), 0.0        # output and its rate (plain floats: a hot path)
         if self.order == 2:
-            wn, zeta = channel.natural_frequency, channel.damping_ratio
+            wn, zeta = channel.second_order_lag()
             phi, gamma = _zero_order_hold(np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]]),
                                           np.array([0.0, wn * wn]), period)
             self._phi = tuple(float(v) for v in phi.ravel())

@@ -80,9 +80,10 @@ class Tyres(BaseModel):
 
     def cornering_stiffness(self, load: float) -> float:
         """dF_y/dalpha at zero slip [N/rad] (negative, PAC2002 sign) at tyre load ``load`` [N]."""
-        mf = self.magic_formula
+        mf, f_z0 = self.magic_formula, self.nominal_load
         if mf.p_ky2 is not None:
-            return mf.p_ky1 * self.nominal_load * math.sin(2.0 * math.atan(load / (mf.p_ky2 * self.nominal_load)))
+            assert f_z0 is not None, "the validator requires nominal_load with p_ky2"
+            return mf.p_ky1 * f_z0 * math.sin(2.0 * math.atan(load / (mf.p_ky2 * f_z0)))
         return mf.p_ky1 * load
 
     @property

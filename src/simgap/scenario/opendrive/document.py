@@ -284,7 +284,8 @@ class _Reader:
     def section(self, el: etree._Element) -> LaneSection:
         if el.get("singleSide", "false") == "true":
             raise self.refuse(el, "a single-sided lane section", "lane sections for both sides (singleSide false)")
-        lanes, centre_marks = [], ()
+        lanes: list[Lane] = []
+        centre_marks: tuple[RoadMark, ...] = ()
         for side in self.children(el):
             for lane in side:
                 if not isinstance(lane.tag, str) or lane.tag in _EVERYWHERE:

@@ -26,7 +26,7 @@ VERTEX_TOLERANCE_M = 0.01        # no border of the dense sampling lies farther 
 MAX_VERTEX_SPACING_M = 1.0       # ... which are at most this far apart (simgap's own roads: 1 m)
 MIN_PIECE_M = 1.0                # a shorter piece of geometry joins the one before it in its lane section
 STRAIGHT_CURVATURE = 1e-4        # a polynomial geometry that curves less than this [1/m] is a straight
-_KIND = {"line": "straight", "arc": "curve", "spiral": "clothoid"}
+_KIND: dict[str, SectionKind] = {"line": "straight", "arc": "curve", "spiral": "clothoid"}
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,9 @@ _MARKS = {"solid": LineMarking.SOLID, "broken": LineMarking.DASHED, "solid solid
           "broken broken": LineMarking.DASHED_DASHED, "solid broken": LineMarking.SOLID_DASHED,
           "broken solid": LineMarking.DASHED_SOLID, "curb": LineMarking.CURB, "none": LineMarking.NO_MARKING}
 
-LaneEnd = tuple[str, int, int, str]         # road, lane section, lane id, "start" or "end" (along the road)
+LaneEnd = tuple[str, int, int, str | None]  # road, lane section, lane id, "start" or "end" (along the road;
+                                            # None: a road link without a contact point)
+DraftKey = tuple[str, int, int, int]        # a lanelet to be: road, lane section, lane id, piece of the section
 
 
 @dataclass(frozen=True)
@@ -189,7 +191,7 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
     document = read_document(path)
     check_roads(document)
     document, dropped = without_broken_links(document)
-    drafts: dict[tuple[str, int, int, int], _Draft] = {}     # (road, section, lane, piece)
+    drafts: dict[DraftKey, _Draft] = {}
     pieces_in: dict[tuple[str, int], int] = {}                # (road, section) -> number of pieces
     for road in document.roads.values():
         for piece in road_pieces(road):
@@ -203,7 +205,7 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
                     _border_marks(road, piece.section, strip.lane, piece.s_start - section_start), [], [])
     ids = {key: FIRST_LANELET_ID + k for k, key in enumerate(drafts)}
 
-    def join(a: tuple, a_end: str, b: tuple, b_end: str) -> bool:
+    def join(a: DraftKey, a_end: str | None, b: DraftKey, b_end: str | None) -> bool:
         """A successor relation where ``a``'s exit meets ``b``'s entry (or the other way round)."""
         for x, x_end, y, y_end in ((a, a_end, b, b_end), (b, b_end, a, a_end)):
             if drafts[x].exit_end() == x_end and drafts[y].exit_end() != y_end:
@@ -212,14 +214,14 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
                 return True
         return False
 
-    for (road, section, lane, piece) in drafts:             # the pieces of one lane section, end to end
-        if (road, section, lane, piece + 1) in drafts:
-            join((road, section, lane, piece), "end", (road, section, lane, piece + 1), "start")
+    for (road_id, section, lane, index) in drafts:          # the pieces of one lane section, end to end
+        if (road_id, section, lane, index + 1) in drafts:
+            join((road_id, section, lane, index), "end", (road_id, section, lane, index + 1), "start")
 
-    def lanelet_at(end: LaneEnd) -> tuple | None:
-        road, section, lane, which = end
-        piece = 0 if which == "start" else pieces_in.get((road, section), 0) - 1
-        key = (road, section, lane, piece)
+    def lanelet_at(end: LaneEnd) -> DraftKey | None:
+        road_id, section, lane, which = end
+        index = 0 if which == "start" else pieces_in.get((road_id, section), 0) - 1
+        key = (road_id, section, lane, index)
         return key if key in drafts else None
 
     source = kept = 0
@@ -233,19 +235,19 @@ def opendrive_network(path: str | Path) -> OpenDriveNetwork:
         source += 1
         kept += join(a, ends[0][3], b, ends[1][3])
 
-    for (road, section, lane, piece), draft in drafts.items():   # neighbours: lanes side by side
+    for (road_id, section, lane, index), draft in drafts.items():   # neighbours: lanes side by side
         order = sorted(l.id for l in draft.road.sections[section].lanes)
         k = order.index(lane)
-        if k + 1 < len(order) and (higher := drafts.get((road, section, order[k + 1], piece))) is not None:
+        if k + 1 < len(order) and (higher := drafts.get((road_id, section, order[k + 1], index))) is not None:
             same = draft.forward == higher.forward
             if draft.forward:
-                draft.left = (ids[(road, section, order[k + 1], piece)], same)
+                draft.left = (ids[(road_id, section, order[k + 1], index)], same)
             else:
-                draft.right = (ids[(road, section, order[k + 1], piece)], same)
+                draft.right = (ids[(road_id, section, order[k + 1], index)], same)
             if higher.forward:
-                higher.right = (ids[(road, section, lane, piece)], same)
+                higher.right = (ids[(road_id, section, lane, index)], same)
             else:
-                higher.left = (ids[(road, section, lane, piece)], same)
+                higher.left = (ids[(road_id, section, lane, index)], same)
 
     relief = {road.id for road in document.roads.values() if _has_relief(road)}
     lanelets = [draft.lanelet(ids[key]) for key, draft in drafts.items()]

@@ -100,6 +100,7 @@ class BeamngWorld:
 
     def reset(self, t0: float) -> None:
         s, cfg = self.session, self.settings
+        assert s is not None, "load() comes first"
         self._offset: dict[str, np.ndarray] = {}
         for vid in [_vid(a.id) for a in self._agents] + [_obstacle_vid(o.id) for o in self._traffic]:
             p = s.poll(vid)
@@ -132,27 +133,39 @@ class BeamngWorld:
         a step serves the first period of the next)."""
         last = self._measured[agent_id]
         if abs(last.t - t) > 1e-9:
-            last = self._measured[agent_id] = self._read(agent_id, self.session.poll(_vid(agent_id)), t)
+            s = self.session
+            assert s is not None, "load() comes first"
+            last = self._measured[agent_id] = self._read(agent_id, s.poll(_vid(agent_id)), t)
         return last
 
     def actuate(self, agent_id: int, command: Command, period: float) -> None:
         lock = self._models[agent_id].steer_lock
-        self.session.control(_vid(agent_id), steering_input(command.steer, lock),
+        s = self.session
+        assert s is not None, "load() comes first"
+        s.control(_vid(agent_id), steering_input(command.steer, lock),
                              min(max(command.throttle, 0.0), 1.0), min(max(command.brake, 0.0), 1.0))
 
     def advance(self, t: float, period: float) -> None:
         self._move_traffic(t)
         start = time.perf_counter()
-        self.session.step(self._steps_per_tick)
+        s = self.session
+        assert s is not None, "load() comes first"
+        s.step(self._steps_per_tick)
         self.timings["physics"] += time.perf_counter() - start
         if t + period >= self._step_end - 1e-9:            # the end of a scenario step: read every car
-            polls = {a.id: self.session.poll(_vid(a.id)) for a in self._agents}
+            polls = {a.id: s.poll(_vid(a.id)) for a in self._agents}
             self._measured = {aid: self._read(aid, p, self._step_end) for aid, p in polls.items()}
             self._collisions(polls, self._step_end)
 
+    def enter(self, agent_id: int, t: float) -> None:
+        """Never needed: `load` refuses a car that enters after the start (every car is spawned then)."""
+        raise NotImplementedError("the beamng backend spawns every car at the start")
+
     def follow(self, agent_id: int, plan: Trajectory, now: float) -> None:
         """Hand ``plan`` from ``now`` on to BeamNG's script AI of the agent's car."""
-        self.session.set_script(_vid(agent_id), self._script(agent_id, plan, now))
+        s = self.session
+        assert s is not None, "load() comes first"
+        s.set_script(_vid(agent_id), self._script(agent_id, plan, now))
 
     def attitude(self, agent_id: int) -> Attitude | None:
         return None
@@ -168,12 +181,15 @@ class BeamngWorld:
     # --- helpers ------------------------------------------------------------------------------
     def _place(self, vid: str, state: State, reset: bool) -> None:
         pos = reference_position(state.x, state.y, 0.0, state.yaw, self._offset[vid])
-        self.session.teleport(vid, pos, quat_from_yaw(state.yaw), reset)
+        s = self.session
+        assert s is not None, "load() comes first"
+        s.teleport(vid, pos, quat_from_yaw(state.yaw), reset)
 
     def _run_up(self, moving: list[Agent]) -> None:
         """Push the ``moving`` cars to their initial speeds (the others hold still on the brake),
         then put every car back on its initial pose; only the moving ones keep their velocity."""
         s, cfg = self.session, self.settings
+        assert s is not None, "load() comes first"
         running = {a.id for a in moving}
         for a in self._agents:
             if a.id in running:
@@ -240,6 +256,8 @@ class BeamngBackend(TrackedBackend):
     """The ``beamng`` backend: `BeamngWorld` under simgap's tracking controllers, or with each car
     driven by BeamNG's script AI on its plan's waypoints (``driver: script_ai``)."""
 
+    physics: BeamngWorld
+
     def __init__(self, settings: BeamngSettings | None = None,
                  session_factory: Callable[[BeamngSettings], Session] | None = None):
         self.settings = settings or load_settings({})
@@ -261,7 +279,8 @@ class BeamngBackend(TrackedBackend):
         if self.settings.driver == "script_ai":        # a plan goes to the script AI when it reaches the car
             now = self._step * self._dt
             for a in self._agents:
-                plan = plans[a.id] if isinstance(plans[a.id], Trajectory) else plans[a.id].plan
+                in_force = plans[a.id]
+                plan = in_force if isinstance(in_force, Trajectory) else in_force.plan
                 if self._scripted.get(a.id) is not plan:
                     self.physics.follow(a.id, plan, now)
                     self._scripted[a.id] = plan

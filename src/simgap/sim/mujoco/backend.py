@@ -70,23 +70,24 @@ class MujocoPhysics:
     def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
-        self.world = build_world(scenario, agents, self.settings, relief, looks=False)
+        self.world = world = build_world(scenario, agents, self.settings, relief, looks=False)
         bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
         self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
-        cars = [self.world.cars[a.id] for a in agents]
+        cars = [world.cars[a.id] for a in agents]
         self._wheel_bodies = np.array([b for car in cars for b in car.wheel_bodies], dtype=int)
-        self._steer_limit = {a.id: max_single_track_angle(self.world.cars[a.id].physics, a.vehicle.wheelbase)
+        self._steer_limit = {a.id: max_single_track_angle(world.cars[a.id].physics, a.vehicle.wheelbase)
                              for a in agents}
-        model = self.world.model
+        model = world.model
         self._owner = np.full(model.ngeom, -1, dtype=int)
-        for geom, aid in self.world.owner.items():
+        for geom, aid in world.owner.items():
             self._owner[geom] = aid
         self._traffic_owner = np.full(model.ngeom, -1, dtype=int)
-        for geom, oid in self.world.traffic_geoms.items():
+        for geom, oid in world.traffic_geoms.items():
             self._traffic_owner[geom] = oid
 
     def reset(self, t0: float) -> None:
         w = self.world
+        assert w is not None, "load() comes first"
         mujoco.mj_resetData(w.model, w.data)
         for k, a in enumerate(self._agents):
             w.place(a.id, a.initial_state if enters_at(a, t0, self._dt) else self._parked(k, t0))
@@ -110,6 +111,7 @@ class MujocoPhysics:
     def _parked(self, k: int, t: float) -> State:
         """Where the ``k``-th car waits until it enters the world: at rest on the ground plane,
         `PARKING_M` beyond the road's corner, one car length apart from the next."""
+        assert self.world is not None, "load() comes first"
         x0, y0, x1, _ = self.world.road_bounds
         return State(t=t, x=x1 + PARKING_M + 8.0 * k, y=y0 - PARKING_M, yaw=0.0, v=0.0)
 
@@ -119,6 +121,7 @@ class MujocoPhysics:
     def _place_settled(self, k: int, state: State) -> None:
         """Put the ``k``-th car at ``state``, its tyres settled to its motion."""
         w = self.world
+        assert w is not None, "load() comes first"
         w.place(self._agents[k].id, state)
         mujoco.mj_forward(w.model, w.data)
         w.tyres.settle(slice(4 * k, 4 * k + 4))
@@ -145,6 +148,7 @@ class MujocoPhysics:
         """Traffic and surface friction for the period, the physics sub-steps (tyre forces every
         one), then the checks and contacts at its end."""
         w = self.world
+        assert w is not None, "load() comes first"
         start, tyres_before = time.perf_counter(), w.tyres.seconds
         if w.traffic:
             w.move_traffic(t)
@@ -168,7 +172,9 @@ class MujocoPhysics:
         """The car's state in the `State` convention (centre, yaw from +x, speed, yaw rate,
         single-track steering angle). The acceleration is the speed's rate of change between
         measurements, low-pass filtered (`SpeedRate`)."""
-        w, car = self.world, self.world.cars[agent_id]
+        w = self.world
+        assert w is not None, "load() comes first"
+        car = w.cars[agent_id]
         q, v = w.data.qpos, w.data.qvel
         x, y = float(q[car.qpos]), float(q[car.qpos + 1])
         quat = q[car.qpos + 3:car.qpos + 7]
@@ -187,15 +193,19 @@ class MujocoPhysics:
 
     def attitude(self, agent_id: int) -> Attitude:
         """The chassis' height (of the centre of gravity), pitch and roll."""
-        q = self.world.data.qpos[self.world.cars[agent_id].qpos:]
-        w, x, y, z = q[3:7]
-        return Attitude(z=float(q[2]), pitch=math.asin(min(max(2.0 * (x * z - w * y), -1.0), 1.0)),
-                        roll=math.atan2(2.0 * (y * z + w * x), up_z(q[3:7])))
+        w = self.world
+        assert w is not None, "load() comes first"
+        q = w.data.qpos[w.cars[agent_id].qpos:]
+        qw, x, y, z = q[3:7]
+        return Attitude(z=float(q[2]), pitch=math.asin(min(max(2.0 * (x * z - qw * y), -1.0), 1.0)),
+                        roll=math.atan2(2.0 * (y * z + qw * x), up_z(q[3:7])))
 
     def actuate(self, agent_id: int, command: Command, period: float) -> None:
         if agent_id in self._retired:
             command = PARKED
-        w, car = self.world, self.world.cars[agent_id]
+        w = self.world
+        assert w is not None, "load() comes first"
+        car = w.cars[agent_id]
         ph, d, m = car.physics, w.data, w.model
         # steering: rate, then angle limit of the steering system; Ackermann at the wheels
         limit = self._steer_limit[agent_id]
@@ -245,6 +255,7 @@ class MujocoPhysics:
         """Give every tyre the friction of the surface it stands on: road or verge (a factor on
         the tyre's own peak friction)."""
         w = self.world
+        assert w is not None, "load() comes first"
         xy = w.data.xpos[self._wheel_bodies, :2]
         on_road = w.surface.on_road(xy[:, 0], xy[:, 1])
         w.tyres.mu[:] = np.where(on_road, w.settings.road_friction, w.settings.offroad_friction)
@@ -252,6 +263,7 @@ class MujocoPhysics:
     # --- events --------------------------------------------------------------------------------
     def check(self, t: float) -> None:
         w = self.world
+        assert w is not None, "load() comes first"
         d = w.data
         finite = np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()
         if not finite or d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
@@ -263,9 +275,10 @@ class MujocoPhysics:
                 self._events.append(BackendEvent(t, a.id, Outcome.DIVERGED, f"chassis on its side or roof at t = {t:.2f} s, "
                                                  f"x = {q[0]:.1f} m, y = {q[1]:.1f} m"))
 
-    def _collect_contacts(self, t: float, seen: set) -> None:
+    def _collect_contacts(self, t: float, seen: set[tuple[int, int | None]]) -> None:
         """Contacts between two cars, or a car and recorded traffic, become collision events
         (each pair once per step)."""
+        assert self.world is not None, "load() comes first"
         d = self.world.data
         if d.ncon == 0:
             return
@@ -289,6 +302,8 @@ class MujocoPhysics:
 
 class MujocoBackend(TrackedBackend):
     """The ``mujoco`` backend: `MujocoPhysics` under a tracking controller per car."""
+
+    physics: MujocoPhysics
 
     def __init__(self, settings: MujocoSettings | None = None):
         cfg = self.settings = settings or MujocoSettings()

@@ -120,8 +120,10 @@ class CarIndex:
         self.chassis_body = model.body(f"{p}chassis").id
         jnt = model.joint(f"{p}free")
         self.qpos, self.qvel = int(jnt.qposadr[0]), int(jnt.dofadr[0])
-        self.steer_qpos = tuple(int(model.joint(f"{p}steer_{c}").qposadr[0]) for c in CORNERS[:2])
-        self.steer_actuators = tuple(model.actuator(f"{p}steer_{c}").id for c in CORNERS[:2])
+        left, right = CORNERS[:2]
+        self.steer_qpos = (int(model.joint(f"{p}steer_{left}").qposadr[0]),
+                           int(model.joint(f"{p}steer_{right}").qposadr[0]))
+        self.steer_actuators = (model.actuator(f"{p}steer_{left}").id, model.actuator(f"{p}steer_{right}").id)
         self.spin_dofs = [int(model.joint(f"{p}spin_{c}").dofadr[0]) for c in CORNERS]
         self.spin_qpos = [int(model.joint(f"{p}spin_{c}").qposadr[0]) for c in CORNERS]
         self.suspension_qpos = [int(model.joint(f"{p}suspension_{c}").qposadr[0]) for c in CORNERS]
