@@ -96,6 +96,10 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_text(text))
 
 
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    return atomic_write(path, lambda tmp: tmp.write_bytes(data))
+
+
 def replace_directory(path: str | Path, build: Callable[[Path], Any]) -> Path:
     """Call ``build`` on an empty hidden directory next to ``path``, then swap it into place: the
     old directory (if any) is renamed aside, the new one renamed in, the old one deleted. A reader

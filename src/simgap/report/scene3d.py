@@ -29,7 +29,7 @@ from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
 from simgap.cosim.history import AGENT_ID_OFFSET  # noqa: E402
 from simgap.record import RunRecord  # noqa: E402
-from simgap.files import atomic_write  # noqa: E402
+from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
 from simgap.scenario import read_metadata  # noqa: E402
 from simgap.scenario.ground import ground_of  # noqa: E402
@@ -95,8 +95,8 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
 
     chase, birdseye = replay.stills(step, first, STILL)
     for name, image in zip(PICTURES[:2], (chase, birdseye)):      # each whole or not at all (a kill, a full disk)
-        data = imageio.imwrite("<bytes>", image, format="PNG")      # in memory: see `scene2d.render_run`
-        written.append(atomic_write(out_dir / name, lambda tmp, data=data: tmp.write_bytes(data)))
+        data: bytes = imageio.imwrite("<bytes>", image, format="PNG")      # in memory: see `scene2d.render_run`
+        written.append(atomic_write_bytes(out_dir / name, data))
 
     duration = (max(len(t) for t in run.history.driven.values()) - 1) * run.history.dt
     times = np.arange(0.0, duration + 0.5 / fps, 1.0 / fps)
