@@ -56,10 +56,12 @@ def many_roads_xml(path: Path, roads: int) -> Path:
 
 
 def last_bars(stderr: str) -> list[str]:
-    """The bars as they were drawn last (each phase's line), escape codes removed."""
-    frames = [_ESCAPE.sub("", frame) for frame in stderr.replace("\r", "\n\x00").split("\x00")]
-    drawn = [f for f in frames if "elapsed," in f]
-    return [line.strip() for line in drawn[-1].splitlines() if "elapsed," in line] if drawn else []
+    """Each phase's bar as it was drawn last, escape codes removed, in the order the phases began."""
+    last: dict[str, str] = {}
+    for line in _ESCAPE.sub("", stderr).replace("\r", "\n").splitlines():
+        if "elapsed," in line:
+            last[line.split("  ")[0].split(" ━")[0].strip()] = " ".join(line.split())
+    return list(last.values())
 
 
 def export(xml: Path, out: Path, bars: bool, stderr_file: Path) -> dict:

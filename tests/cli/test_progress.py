@@ -1,4 +1,4 @@
-"""Progress and quiet: the long commands (export, render, report, experiment run) draw progress bars
+"""Progress and quiet: the long commands (export, render, report, experiment run, generate) draw progress bars
 with the time left on standard error, forced on here with ``SIMGAP_PROGRESS=always`` so that they
 draw into the captured stream; what they print on standard output is the same as without bars;
 without a terminal and without the variable they draw none. Notes alike but for their numbers
@@ -154,3 +154,11 @@ def test_experiment_run_and_report_show_their_runs_and_pages(tmp_path):
     for phase in ("reading runs", "comparing runs with their ideal run", "scenario pages"):
         assert_finished(bars, phase, total=2)
     same_stdout(report.stdout.replace(str(tmp_path / "r1"), "OUT"), plain.stdout.replace(str(tmp_path / "r2"), "OUT"))
+
+
+def test_generate_of_many_scenarios_shows_them_and_prints_the_same(tmp_path):
+    shown = simgap("generate", "curve", "--set", "radius=50", "--no-preview", "--out", tmp_path / "a", bars=True)
+    plain = simgap("generate", "curve", "--set", "radius=50", "--no-preview", "--out", tmp_path / "b", bars=False)
+    written = len(list((tmp_path / "a").glob("*.xml")))
+    assert written > 4 and drawn(shown.stderr)["generating curve"][-1]["counts"] == f"{written}/{written}"
+    same_stdout(shown.stdout.replace(str(tmp_path / "a"), "OUT"), plain.stdout.replace(str(tmp_path / "b"), "OUT"))
