@@ -7,7 +7,7 @@ import re
 
 ESCAPES = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 TIMES = re.compile(r"\d+(?:\.\d+)? s\b")                     # a command's own wall times on stdout
-BAR = re.compile(r"^(?P<phase>.+?) +[━╸╺ ]+ (?P<counts>.+?) (?P<elapsed>\d+:\d\d:\d\d) elapsed, "
+BAR = re.compile(r"^(?P<phase>.+?) +[━╸╺ ]+ (?P<counts>.+?) +(?P<elapsed>\d+:\d\d:\d\d) elapsed, "
                  r"(?P<left>\d+:\d\d:\d\d|-:--:--) left$")
 
 
