@@ -1963,7 +1963,7 @@ def _(folder: Path, stock: Stock) -> Outcome:
         if first is None and "elapsed," in text:
             first = time.monotonic() - child.start
         bars = [line for line in text.splitlines() if line.startswith("fitting roads") and "-:--:-- left" not in line]
-        fitting = " ".join(bars[-1].split()[2:]) if bars else None
+        fitting = " ".join(w for w in bars[-1].split()[2:] if w.strip("━╸╺")) if bars else None
     seconds = time.monotonic() - child.start
     child.kill()
     p = child.wait()
