@@ -37,9 +37,11 @@ class ProgressBars:
         console = Console(stderr=True, force_terminal=True if wanted == "always" else None)
         self.shown = shown and wanted != "never" and console.is_terminal
         self._tasks: dict[str, int] = {}
+        redraws = 10 if Console(stderr=True).is_terminal else 1      # forced into a log: a frame a second
         self._bars = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
                               TimeElapsedColumn(), TextColumn("elapsed,"), TimeRemainingColumn(), TextColumn("left"),
-                              console=console, redirect_stdout=False, get_time=get_time) if self.shown else None
+                              console=console, redirect_stdout=False, get_time=get_time,
+                              refresh_per_second=redraws) if self.shown else None
 
     def __enter__(self) -> ProgressBars:
         return self
