@@ -35,7 +35,9 @@ and not the machine's other work.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
+import re
 import resource
 import shutil
 import signal
@@ -2074,6 +2076,44 @@ def _(folder: Path, stock: Stock) -> Outcome:
                   f"{len(checkers)} checker process(es) ended with simgap; the rerun checked the run (valid)",
                   LOSS, f"{len(left)} process(es) left; rerun exit {again.rc}, verdicts {valid}")
 
+
+# -- a long export speaks (issue 54, item 10): a 20 000-road scenario (bench/export/many_roads.py) exported with its
+# bars forced onto standard error; the case waits until a bar of its per-road fitting says how long is left, or
+# the time limit, and stops the export there (the whole export takes long: bench/export/many_roads.py times it)
+MANY_ROADS = 20_000
+_DRAWING = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def _many_roads_xml(path: Path, roads: int) -> Path:
+    spec = importlib.util.spec_from_file_location("many_roads", REPO / "bench" / "export" / "many_roads.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.many_roads_xml(path, roads)
+
+
+@case(f"export-{MANY_ROADS}-roads-progress", 10)
+def _(folder: Path, stock: Stock) -> Outcome:
+    xml = _many_roads_xml(folder / "roads.xml", MANY_ROADS)
+    child = Child(["export", xml, "--format", "opendrive", "--out", folder / "out"], folder,
+                  env={"SIMGAP_PROGRESS": "always", "COLUMNS": "150"})
+    first, fitting = None, None
+    while time.monotonic() - child.start < TIMEOUT_S and child.popen.poll() is None and fitting is None:
+        time.sleep(0.5)
+        text = _DRAWING.sub("", child.err_file.read_text(errors="replace")).replace("\r", "\n")
+        if first is None and "elapsed," in text:
+            first = time.monotonic() - child.start
+        bars = [line for line in text.splitlines() if line.startswith("fitting roads") and "-:--:-- left" not in line]
+        fitting = " ".join(w for w in bars[-1].split()[2:] if w.strip("━╸╺")) if bars else None
+    seconds = time.monotonic() - child.start
+    child.kill()
+    p = child.wait()
+    if first is None:
+        return Outcome(SILENT, f"nothing on stderr for {seconds:.0f} s", p.stderr, seconds)
+    if fitting is None:
+        return Outcome(OTHER, f"first bar after {first:.0f} s, no per-road fitting bar with the time left within "
+                       f"{seconds:.0f} s", "", seconds)
+    return Outcome(HANDLED, f"first bar after {first:.0f} s; after {seconds:.0f} s: fitting roads {fitting}", "",
+                   seconds)
 
 def main(argv: list[str] | None = None) -> int:
     global TIMEOUT_S

@@ -21,6 +21,7 @@ from commonroad.planning.planning_problem import PlanningProblem, PlanningProble
 from commonroad.scenario.obstacle import ObstacleType, StaticObstacle
 from commonroad.scenario.state import InitialState
 
+from drawn_bars import drawn, same_stdout
 from real_like import box_goal, highway, recorded_car, start
 from simgap.record import RunRecord, read_run
 from simgap.experiment.search import Budget, run_search
@@ -236,10 +237,17 @@ def test_a_search_exports_one_folder_per_distinct_violation(tmp_path):
         "strategies": ["random"], "run_timeout_s": 120}))
     (result,) = run_search(spec, tmp_path / "search", Budget(runs=4), workers=2)
     assert result.distinct >= 1
-    env = dict(os.environ, COLUMNS="200")
+    env = dict(os.environ, COLUMNS="200", SIMGAP_PROGRESS="always")          # its bars drawn into the captured stderr
     proc = subprocess.run(SIMGAP + ["export", str(tmp_path / "search"), "--violations", "--out", str(tmp_path / "found")],
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
+    bars = drawn(proc.stderr)
+    assert bars["violations"][-1]["counts"] == f"{result.distinct}/{result.distinct}"
+    assert {"fitting roads", "checking against the schema"} <= set(bars) or {"checking lane centres"} <= set(bars)
+    plain = subprocess.run(SIMGAP + ["export", str(tmp_path / "search"), "--violations", "--out", str(tmp_path / "again")],
+                           capture_output=True, text=True, env=env | {"SIMGAP_PROGRESS": "never"}, timeout=300)
+    assert drawn(plain.stderr) == {}
+    same_stdout(proc.stdout.replace(str(tmp_path / "found"), "OUT"), plain.stdout.replace(str(tmp_path / "again"), "OUT"))
     folders = sorted(p for p in (tmp_path / "found").iterdir() if not p.name.startswith("."))   # (and the list of them)
     assert len(folders) == result.distinct and f"{result.distinct} distinct violation" in proc.stdout
     for folder in folders:

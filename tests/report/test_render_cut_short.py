@@ -22,7 +22,7 @@ IDEAL_RUN = next(p.parent for p in (Path(__file__).parents[1] / "data" / "format
 def test_a_render_cut_short_by_a_full_disk_is_drawn_again_by_its_rerun(tmp_path, monkeypatch):
     run, pictures = Path(shutil.copytree(IDEAL_RUN, tmp_path / "run")), tmp_path / "pictures"
 
-    def full_disk(run_dir, out, frame_every):           # the first picture drawn, then the disk is full
+    def full_disk(run_dir, out, frame_every, on_frame):  # the first picture drawn, then the disk is full
         atomic_write(Path(out) / scene2d.PICTURES[0], lambda tmp: tmp.write_bytes(b"a whole picture"))
         raise OSError(errno.ENOSPC, "No space left on device")
 

@@ -10,10 +10,9 @@ from typing import TYPE_CHECKING, Optional
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.evaluate.odds import Odds
@@ -61,22 +60,14 @@ def run_cmd(
 
     check = OutcomeCheck.of_options(fail_on, min_score)
     console = output_console()
-    bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
-                   TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console)
-    task = bar.add_task("runs", total=None, counts="")
+    with ProgressBars() as bars:
+        def show(p) -> None:
+            bars.update("runs", p.done + p.failed + p.skipped, p.total,
+                        f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} to run")
 
-    def show(p) -> None:
-        bar.start()                     # on the first progress: an error before it shows no bar
-        bar.update(task, total=p.total, completed=p.done + p.failed + p.skipped,
-                   counts=f"{p.done} done, {p.failed} failed, {p.skipped} earlier, {p.remaining} left")
-
-    try:
         result = run_experiment(spec, out, workers, executor, address, on_progress=show, retry_failed=retry_failed,
                                 validate=not no_validate)
-    finally:
-        if bar.live.is_started:
-            bar.stop()
-    report = None if no_report else build_experiment_report(out)
+        report = None if no_report else build_experiment_report(out, bars.update)
     _say_unusable_rows(console, result.unusable_rows, "ran again")
     console.print(f"{result.total} runs: {result.ran} ran now ({result.failed} failed), "
                   f"{result.skipped} finished earlier; {result.wall_time_s:.1f} s")

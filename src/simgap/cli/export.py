@@ -12,7 +12,7 @@ from typing import Optional
 import typer
 from rich.console import Console
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console, print_notes
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, files_out, record_files
 from simgap.errors import InputError
@@ -101,8 +101,9 @@ def export_cmd(
         if chosen is Format.OPENDRIVE:
             raise InputError("a search's findings are runs: they export as openscenario", field="--format",
                              allowed="openscenario")
-        with files_out(out, "export", [], overwrite):
-            exports = _violations(console, source, out, osc_version)
+        with files_out(out, "export", [], overwrite), ProgressBars() as bars:
+            exports = _violations(source, out, osc_version, bars)
+        _show_violations(console, source, exports)
         record_files(out, "export", [p.parent.name for e in exports for p in e.files])
         return
     if (source / "run.json").is_file():
@@ -111,8 +112,8 @@ def export_cmd(
                              file=source, field="--format", allowed="openscenario")
         from simgap.export.write import export_run
 
-        with files_out(out, "export", [], overwrite):
-            exported = export_run(source, out, osc_version)
+        with files_out(out, "export", [], overwrite), ProgressBars() as bars:
+            exported = export_run(source, out, osc_version, on_progress=bars.update)
         record_files(out, "export", [p.name for p in exported.files])
         _show(console, [exported])
     elif source.is_file() and source.suffix == ".xml":
@@ -121,8 +122,8 @@ def export_cmd(
                              field="--format", allowed="opendrive (or give a run directory)")
         from simgap.export.write import export_road
 
-        with files_out(out, "export", [], overwrite):
-            exported = export_road(source, out)
+        with files_out(out, "export", [], overwrite), ProgressBars() as bars:
+            exported = export_road(source, out, on_progress=bars.update)
         record_files(out, "export", [p.name for p in exported.files])
         _show(console, [exported])
     else:
@@ -130,7 +131,7 @@ def export_cmd(
                          allowed="a run directory, a .xml scenario, or a search directory with --violations")
 
 
-def _violations(console: Console, search_dir: Path, out: Path, version) -> list:
+def _violations(search_dir: Path, out: Path, version, bars: ProgressBars) -> list:
     """One folder per distinct violation: its high-fidelity run as .xosc + .xodr, the CommonRoad
     scenario and violation.json (what made it one); each folder built aside, then moved in."""
     from simgap.experiment.search.results import search_results
@@ -140,11 +141,13 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> list:
     results = search_results(search_dir)
     found = [v for strategy in results.strategies for v in strategy.found]
     exports = []
+    bars.update("violations", 0, len(found))
     for v in found:
         folder = f"{v.strategy}_{v.scenario}"
 
         def write(staged: Path, v=v, folder=folder) -> None:
-            exports.append(export_run(v.run_dir, staged, version, scenario_xml=v.scenario_xml, name=folder))
+            exports.append(export_run(v.run_dir, staged, version, scenario_xml=v.scenario_xml, name=folder,
+                                      on_progress=bars.update))
             if v.scenario_xml is not None:
                 shutil.copyfile(v.scenario_xml, staged / f"{folder}.xml")
             facts = v.facts(results.spec) | {"run_dir": str(v.run_dir), "files": sorted(p.name for p in staged.iterdir())
@@ -153,10 +156,14 @@ def _violations(console: Console, search_dir: Path, out: Path, version) -> list:
 
         replace_directory(out / folder, write)
         exports[-1].files = [out / folder / p.name for p in exports[-1].files]
-    console.print(f"{len(found)} distinct violation{'s' if len(found) != 1 else ''} in {search_dir}")
+        bars.update("violations", len(exports), len(found))
+    return exports
+
+
+def _show_violations(console: Console, search_dir: Path, exports: list) -> None:
+    console.print(f"{len(exports)} distinct violation{'s' if len(exports) != 1 else ''} in {search_dir}")
     if exports:
         _show(console, exports)
-    return exports
 
 
 def _show_recording(console: Console, recording) -> None:
@@ -171,8 +178,7 @@ def _show_recording(console: Console, recording) -> None:
                   f"({recording.seconds:.2f} s)")
     console.print(f"  {recording.path}  {recording.path.stat().st_size / 1e6:.2f} MB; open it with: "
                   f"rerun {recording.path}", soft_wrap=True)
-    for note in recording.notes:
-        console.print(f"note: {note}", soft_wrap=True)
+    print_notes(console, recording.notes)
 
 
 def _show(console: Console, exports) -> None:
@@ -195,5 +201,4 @@ def _show(console: Console, exports) -> None:
             elif e.trajectory_error_m is not None:
                 line += f"; every trajectory vertex parses back within {e.trajectory_error_m:.1e} m"
             console.print(line, soft_wrap=True)
-    for note in dict.fromkeys(n for e in exports for n in e.notes):
-        console.print(f"note: {note}", soft_wrap=True)
+    print_notes(console, [n for e in exports for n in e.notes])

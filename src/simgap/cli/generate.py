@@ -9,10 +9,9 @@ from typing import List, Optional
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import track
 from rich.table import Table
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, files_out
 from simgap.errors import InputError
@@ -70,10 +69,10 @@ def generate(
     combos = list(spec.grid(pins))
     written: list[Path] = []
     warned: set[str] = set()
-    steps = track(combos, description=f"generating {spec.name}", console=console) if len(combos) > 4 else combos
     where = logical if logical.endswith((".yaml", ".yml")) else None
-    with files_out(out, "generate", _scenario_files([spec.scenario_name(p) for p in combos], preview), overwrite):
-        for params in steps:
+    with (files_out(out, "generate", _scenario_files([spec.scenario_name(p) for p in combos], preview), overwrite),
+          ProgressBars(shown=len(combos) > 4) as bars):
+        for params in combos:
             try:
                 concrete = spec.build(params)
             except InputError as err:       # a template's bound: name the logical scenario's file
@@ -82,6 +81,7 @@ def generate(
                 raise
             _warn(concrete.warnings, warned)
             written.append(write_scenario(concrete, out, preview=preview))
+            bars.update(f"generating {spec.name}", len(written), len(combos))
     console.print(f"wrote {len(written)} scenario{'s' * (len(written) != 1)} of '{spec.name}' to [bold]{out}[/bold]")
     for path in written[:5]:
         console.print(f"  {path.name}")

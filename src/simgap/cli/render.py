@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_pictures_out, record_pictures
 from simgap.files import writable_directory
@@ -44,12 +44,14 @@ def render(
     # said before any is drawn: a render cut short (a kill, a full disk) leaves a folder its rerun draws into again
     record_pictures(folder, run_dir, [folder / name for name in pictures])
     console = output_console()
-    with console.status("rendering the 2D scene"):
-        written = scene2d.render_run(run_dir, out, frame_every)
-    if three_d:
-        with console.status("rendering the 3D world offscreen") as status:
+    with ProgressBars() as bars:
+        bars.update("2D animation: frames", 0, None)       # the scene's picture comes first
+        written = scene2d.render_run(run_dir, out, frame_every,
+                                     on_frame=lambda done, total: bars.update("2D animation: frames", done, total))
+        if three_d:
+            bars.update("3D video offscreen: frames", 0, None)    # the world is built and the stills taken first
             written += scene3d.render_run_3d(
                 run_dir, out, MujocoReplay,
-                on_frame=lambda done, total: status.update(f"rendering the 3D video offscreen: frame {done} of {total}"))
+                on_frame=lambda done, total: bars.update("3D video offscreen: frames", done, total))
     for path in written:
         console.print(f"wrote [bold]{path}[/bold]")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_report_out
 from simgap.files import writable_directory
@@ -29,6 +29,6 @@ def report(
     check_report_out(out, overwrite)
     console = output_console()
     start = time.perf_counter()
-    with console.status("building the report") as status:
-        index = build_report(runs, out, say=lambda text: status.update(f"building the report: {text}"))
+    with ProgressBars() as bars:
+        index = build_report(runs, out, on_progress=bars.update)
     console.print(f"report written to [bold]{index}[/bold] in {time.perf_counter() - start:.1f} s")

@@ -9,10 +9,9 @@ from typing import Optional
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
@@ -68,26 +67,15 @@ def search_cmd(
     limit = parse_budget(budget)
     check = OutcomeCheck.of_options(fail_on, min_score)
     console = output_console()
-    bar = Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.fields[counts]}"),
-                   TimeElapsedColumn(), console=console)
-    tasks: dict[str, int] = {}
-
-    def show(p) -> None:
-        bar.start()                     # on the first progress: an error before it shows no bar
-        if p.strategy not in tasks:          # its share of the budget
+    with ProgressBars() as bars:
+        def show(p) -> None:             # each strategy against its share of the budget
             total = p.budget.seconds if p.budget.seconds is not None else p.budget.runs
-            tasks[p.strategy] = bar.add_task(p.strategy, total=total, counts="")
-        done = p.elapsed_s if p.budget.seconds is not None else p.runs
-        bar.update(tasks[p.strategy], completed=min(done, bar.tasks[tasks[p.strategy]].total or done),
-                   counts=f"{p.runs} runs, {p.high_failures} high-fidelity failures")
+            done = p.elapsed_s if p.budget.seconds is not None else p.runs
+            bars.update(p.strategy, min(done, total), total, f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
-    try:
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
                              validate=not no_validate, probe_runs=probe_runs, repeats=repeats,
                              explain_worst=explain_worst)
-    finally:
-        if bar.live.is_started:
-            bar.stop()
     _print(console, results)
     _print_findings(console, results)
     if not no_report:

@@ -18,6 +18,7 @@ import math
 import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import shapely
@@ -107,19 +108,24 @@ def trajectory_error(path: str | Path, expected: dict[str, Trajectory]) -> float
     return worst
 
 
-def lane_centre_deviation(samples: list[RoadSamples], network: RoadNetwork,
-                          lanelets: LaneletNetwork) -> dict[int, np.ndarray]:
+CHECKING_LANES = "checking lane centres"     # the phase, as an export's progress names it
+
+
+def lane_centre_deviation(samples: list[RoadSamples], network: RoadNetwork, lanelets: LaneletNetwork,
+                          on_progress: Callable[[str, int, int], None] = lambda *_: None) -> dict[int, np.ndarray]:
     """Per road of a written OpenDRIVE file (``samples``: its roads read back): the distance [m]
     of each lane centre sample from the centre line of the lanelets that lane stands for (continued
     straight past its ends: a lane ends square to its road, a lanelet may end askew, and the
-    distance is measured across the lane, not along it)."""
+    distance is measured across the lane, not along it). ``on_progress(phase, done, total)`` after
+    each lane."""
     by_road = {r.road: r for r in samples}
     out: dict[int, list[np.ndarray]] = defaultdict(list)
-    for lane in network.lanes:
+    for done, lane in enumerate(network.lanes, 1):
         road = by_road[lane.road]
         centre = extended(np.vstack([lanelets.find_lanelet_by_id(i).center_vertices for i in lane.lanelets]),
                           CENTRE_REACH_M)
         out[lane.road].append(shapely.distance(LineString(centre), shapely.points(road.lane_centres[lane.lane])))
+        on_progress(CHECKING_LANES, done, len(network.lanes))
     return {road: np.concatenate(d) for road, d in out.items()}
 
 

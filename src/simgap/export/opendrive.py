@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Callable
 
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking
@@ -49,6 +50,8 @@ from simgap.scenario.markings import MARKING_STYLE
 from simgap.scenario.relief import ReliefProfile
 
 OPENDRIVE_VERSION = (1, 7)          # the version written (its schema ships with scenariogeneration)
+FINDING_ROADS = "grouping lanelets into roads"     # the phases of a fitted export, as its progress names them
+FITTING_ROADS = "fitting roads"
 
 _MARK_TYPE = {
     LineMarking.SOLID: xodr.RoadMarkType.solid, LineMarking.DASHED: xodr.RoadMarkType.broken,
@@ -101,8 +104,10 @@ class RoadNetwork:
 
 
 def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | JunctionBlueprint | None,
-                 surface: UniformRoad = UniformRoad()) -> RoadNetwork:
-    """``network`` as OpenDRIVE: exact when ``blueprint`` rebuilds it, fitted otherwise."""
+                 surface: UniformRoad = UniformRoad(), on_progress: Callable[[str, int, int], None] = lambda *_: None
+                 ) -> RoadNetwork:
+    """``network`` as OpenDRIVE: exact when ``blueprint`` rebuilds it, fitted otherwise (saying
+    ``on_progress(phase, done, total)`` after each road it fits)."""
     notes = []
     if blueprint is not None:
         if _rebuilds(blueprint, network):
@@ -111,7 +116,7 @@ def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | 
             result.notes += _surface_notes(result, surface)
             return result
         notes.append("the scenario's lanelets differ from its recorded blueprint: the road network is fitted")
-    result = _fitted(network, name, surface)
+    result = _fitted(network, name, surface, on_progress)
     result.notes = notes + _surface_notes(result, surface)
     return result
 
@@ -355,13 +360,17 @@ def _way(end: str) -> str:
     return "successor" if end == "end" else "predecessor"
 
 
-def _fitted(network: LaneletNetwork, name: str, surface: UniformRoad) -> RoadNetwork:
+def _fitted(network: LaneletNetwork, name: str, surface: UniformRoad,
+            on_progress: Callable[[str, int, int], None]) -> RoadNetwork:
     """Roads of laterally adjacent lanelets between shared cross-sections, direct links and
     junctions (`simgap.export.road_topology`), each road's geometry fitted (`lanelet_fit`)."""
     odr = _opendrive(name)
     result = RoadNetwork(odr, Method.FITTED, [])
+    on_progress(FINDING_ROADS, 0, 1)
     parts = split(network.lanelets)          # lanelets cut where their neighbours begin and end
     top = topology(parts)
+    on_progress(FINDING_ROADS, 1, 1)
+    fitted, to_fit = 0, len(top.pieces) + len(top.connections)
     by_id = {l.lanelet_id: l for l in parts.lanelets}
     source = parts.origin                    # a piece -> the source's lanelet its lane stands for
     lane_of = {i: lane for i, (_, lane) in top.lane_of.items()}
@@ -374,6 +383,8 @@ def _fitted(network: LaneletNetwork, name: str, surface: UniformRoad) -> RoadNet
         roads.append(road)
         result.lanes += [LaneOfLanelets(road.id, lane_of[i], (source[i],)) for i in piece.lanelets]
         result.fit_deviation_m[road.id] = fit.deviation_m
+        fitted += 1
+        on_progress(FITTING_ROADS, fitted, to_fit)
     for link in top.links:
         (r1, e1), (r2, e2) = link.ends
         getattr(roads[r1], f"add_{_way(e1)}")(xodr.ElementType.road, roads[r2].id, xodr.ContactPoint[e2])
@@ -402,6 +413,8 @@ def _fitted(network: LaneletNetwork, name: str, surface: UniformRoad) -> RoadNet
         junctions[c.junction].add_connection(connection)
         result.lanes.append(LaneOfLanelets(road.id, -1, tuple(source[i] for i in c.lanelets)))
         result.fit_deviation_m[road.id] = fit.deviation_m
+        fitted += 1
+        on_progress(FITTING_ROADS, fitted, to_fit)
     for j in sorted(junctions):
         odr.add_junction(junctions[j])
     if top.unjoined:

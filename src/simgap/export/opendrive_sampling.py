@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -44,10 +45,16 @@ def reference_ends(path: str | Path) -> dict[int, tuple[tuple[float, float, floa
     return out
 
 
-def sample_roads(path: str | Path, step: float = 0.1) -> list[RoadSamples]:
-    """Every road of the OpenDRIVE file at ``path``, sampled every ``step`` metres (and at its end)."""
+SAMPLING_ROADS = "reading roads back"     # the phase, as an export's progress names it
+
+
+def sample_roads(path: str | Path, step: float = 0.1,
+                 on_progress: Callable[[str, int, int], None] = lambda *_: None) -> list[RoadSamples]:
+    """Every road of the OpenDRIVE file at ``path``, sampled every ``step`` metres (and at its end);
+    ``on_progress(phase, done, total)`` after each road."""
     out = []
-    for road in read_document(path).roads.values():
+    roads = read_document(path).roads
+    for road in roads.values():
         s_all = np.unique(np.concatenate([np.arange(0.0, road.length, step), [road.length]]))
         poses = reference_poses(road.geometries, s_all)
         centres: dict[int, list[np.ndarray]] = {}
@@ -65,4 +72,5 @@ def sample_roads(path: str | Path, step: float = 0.1) -> list[RoadSamples]:
         out.append(RoadSamples(int(road.id), s_all, np.column_stack([poses.x, poses.y]),
                                {k: np.vstack(v) for k, v in centres.items()},
                                {k: np.vstack(v) for k, v in borders.items()}))
+        on_progress(SAMPLING_ROADS, len(out), len(roads))
     return out

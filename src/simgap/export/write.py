@@ -13,6 +13,7 @@ import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
@@ -33,6 +34,14 @@ from simgap.sim.settings import DRY_ROAD_FRICTION
 EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
 FITTED_TOLERANCE_M = 0.05        # a fitted road's lane centres, read back, beyond the fit's own deviation (sampled elsewhere)
 TRAJECTORY_TOLERANCE_M = 0.01    # a trajectory vertex, parsed back
+READING = "reading the scenario"                # phases of an export, as its progress names them
+WRITING = "writing the road network"
+VALIDATING = "checking against the schema"
+Progress = Callable[[str, int, int], None]      # on_progress(phase, done, total): how far an export is
+
+
+def _silent(phase: str, done: int, total: int) -> None:
+    """No progress is shown."""
 
 
 @dataclass
@@ -69,13 +78,15 @@ def _blueprint(scenario_xml: Path | None):
     return blueprint_of(read_metadata(scenario_xml))
 
 
-def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformRoad, staged: Path
-                ) -> tuple[RoadNetwork, Path, list[RoadSamples]]:
+def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformRoad, staged: Path,
+                on_progress: Progress) -> tuple[RoadNetwork, Path, list[RoadSamples]]:
     """The road network written to ``staged``, its header's bounds those of its lanes as read back."""
-    roads = road_network(network, name, blueprint, surface)
+    roads = road_network(network, name, blueprint, surface, on_progress)
     path = staged / f"{name}.xodr"
+    on_progress(WRITING, 0, 1)
     roads.opendrive.write_xml(str(path))
-    samples = sample_roads(path)
+    on_progress(WRITING, 1, 1)
+    samples = sample_roads(path, on_progress=on_progress)
     points = np.vstack([r.reference for r in samples] + [b for r in samples for b in r.lane_borders.values()])
     tree = ET.parse(path)
     header = tree.getroot().find("header")
@@ -87,14 +98,16 @@ def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformR
 
 
 def _check_road(roads: RoadNetwork, path: Path, samples: list[RoadSamples], network: LaneletNetwork,
-                result: Export) -> None:
+                result: Export, on_progress: Progress) -> None:
+    on_progress(VALIDATING, 0, 1)
     result.schemas[path.name], errors = checks.schema_errors(path)
+    on_progress(VALIDATING, 1, 1)
     if errors:
         raise checks.CheckFailed(f"{path.name} does not validate against {result.schemas[path.name]}: {errors[0]}")
     result.links = checks.links_kept(path, roads, network)
     for lane in roads.lanes:
         result.road_lanelets[lane.road] = result.road_lanelets.get(lane.road, ()) + tuple(lane.lanelets)
-    deviations = checks.lane_centre_deviation(samples, roads, network)
+    deviations = checks.lane_centre_deviation(samples, roads, network, on_progress)
     result.lane_deviation_m = {road: float(d.max()) for road, d in deviations.items()}
     result.lane_deviation_p99_m = float(np.percentile(np.concatenate(list(deviations.values())), 99))
     for road, deviation in result.lane_deviation_m.items():
@@ -104,16 +117,21 @@ def _check_road(roads: RoadNetwork, path: Path, samples: list[RoadSamples], netw
                                      f"lanelets (at most {bound:.3f} m allowed)")
 
 
-def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = None) -> Export:
-    """The road network of a CommonRoad scenario as ``NAME.xodr`` in ``out``."""
+def export_road(scenario_xml: str | Path, out: str | Path, name: str | None = None,
+                on_progress: Progress = _silent) -> Export:
+    """The road network of a CommonRoad scenario as ``NAME.xodr`` in ``out``; ``on_progress`` is
+    told how far each long phase is (per road)."""
     started = time.perf_counter()
     scenario_xml, out = Path(scenario_xml), Path(out)
+    on_progress(READING, 0, 1)
     scenario, _ = load_scenario(scenario_xml, needs_problems=False)
+    on_progress(READING, 1, 1)
     name = safe_name(name or scenario_xml.stem)
     with staged_directory(out, name) as staged:
-        roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), UniformRoad(), staged)
+        roads, path, samples = _write_road(scenario.lanelet_network, name, _blueprint(scenario_xml), UniformRoad(), staged,
+                                           on_progress)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
-        _check_road(roads, path, samples, scenario.lanelet_network, result)
+        _check_road(roads, path, samples, scenario.lanelet_network, result, on_progress)
         result.files = publish(staged, out, [path.name])
     result.seconds = time.perf_counter() - started
     return result
@@ -134,15 +152,18 @@ def read_driven_scenario(run_dir: Path, run: RunRecord) -> tuple[Path, Scenario,
 
 
 def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersion = DEFAULT_VERSION,
-               scenario_xml: str | Path | None = None, name: str | None = None) -> Export:
+               scenario_xml: str | Path | None = None, name: str | None = None,
+               on_progress: Progress = _silent) -> Export:
     """A run directory as ``NAME.xodr`` and ``NAME.xosc`` in ``out`` (NAME: the scenario and the
     world that ran it). ``scenario_xml``: the scenario file whose sidecar holds the road's
-    blueprint (default: the one the run names)."""
+    blueprint (default: the one the run names); ``on_progress`` is told how far each long phase is."""
     started = time.perf_counter()
     run_dir, out = Path(run_dir), Path(out)
+    on_progress(READING, 0, 1)
     run = read_run(run_dir)
     scenario_path = run.settings.scenario_path
     _, scenario, problems = read_driven_scenario(run_dir, run)
+    on_progress(READING, 1, 1)
     backend = run.settings.backend
     surface = UniformRoad(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
                       float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
@@ -150,11 +171,12 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
                            (Path(scenario_path) if scenario_path else None))
     with staged_directory(out, name) as staged:
-        roads, road_path, samples = _write_road(scenario.lanelet_network, name, blueprint, surface, staged)
+        roads, road_path, samples = _write_road(scenario.lanelet_network, name, blueprint, surface, staged,
+                                                on_progress)
         result = Export(name, [], roads.method, {}, dict(roads.fit_deviation_m), notes=list(roads.notes))
         if blueprint is None:
             result.notes.append("no blueprint beside the scenario: the road network is fitted")
-        _check_road(roads, road_path, samples, scenario.lanelet_network, result)
+        _check_road(roads, road_path, samples, scenario.lanelet_network, result, on_progress)
         users = road_users(run, scenario)
         osc = openscenario(run, users, problems, road_path.name, version, description(run, users, result.notes),
                            surface.friction)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Callable
 
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
@@ -81,13 +82,20 @@ def _scenario_of(entry: RunEntry) -> tuple[Scenario, PlanningProblemSet]:
     return load_scenario(xml)
 
 
-def collect(root: Path) -> list[ScenarioGroup]:
+READING_RUNS = "reading runs"        # phases of the report, as its progress names them
+COMPARING_RUNS = "comparing runs with their ideal run"
+
+
+def collect(root: Path, on_progress: Callable[[str, int, int], None] = lambda *_: None) -> list[ScenarioGroup]:
     """Every run below ``root``, grouped by scenario and planner, each physics run compared with its
     scenario's reference run (`simgap.evaluate.compare`). Runs of one scenario, planner and fidelity
     that differ in their settings (a knob, the latency, the seed of a repeat) sit side by side, each
-    labelled with what differs (`variant_labels`); runs that differ in nothing are refused, all at once."""
+    labelled with what differs (`variant_labels`); runs that differ in nothing are refused, all at once.
+    ``on_progress(phase, done, total)`` after each run read and each run compared."""
     by_group: dict[tuple[str, str], list[RunEntry]] = {}
-    for run_dir in find_run_dirs(root):
+    run_dirs = find_run_dirs(root)
+    for done, run_dir in enumerate(run_dirs, 1):
+        on_progress(READING_RUNS, done - 1, len(run_dirs))
         run = read_run(run_dir)
         by_group.setdefault((run.scenario_id, run.planner), []).append(
             RunEntry(run_dir, run, run.fidelity.label, read_explanation(run_dir)))
@@ -108,15 +116,16 @@ def collect(root: Path) -> list[ScenarioGroup]:
                          f"seed): {'; '.join(twins)}", file=root, field="runs",
                          allowed="runs that differ in their scenario, planner, fidelity or settings; move the "
                                  "copies away")
-    for group in groups.values():
+    on_progress(READING_RUNS, len(run_dirs), len(run_dirs))
+    for done, group in enumerate(groups.values(), 1):
         group.runs = dict(sorted(group.runs.items(), key=lambda kv: (kv[0] != REFERENCE, kv[0])))   # ideal first
         ref = group.reference
-        if ref is None:
-            continue
-        for fidelity, entry in group.runs.items():
-            if fidelity != REFERENCE:
-                group.comparisons[fidelity] = compare_histories(ref.run.history, entry.run.history, group.scenario,
-                                                                group.problems, group.sections)
+        if ref is not None:
+            for fidelity, entry in group.runs.items():
+                if fidelity != REFERENCE:
+                    group.comparisons[fidelity] = compare_histories(ref.run.history, entry.run.history,
+                                                                    group.scenario, group.problems, group.sections)
+        on_progress(COMPARING_RUNS, done, len(groups))
     return sorted(groups.values(), key=lambda g: (g.scenario_id, g.planner))
 
 

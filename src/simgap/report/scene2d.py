@@ -4,6 +4,7 @@ animation of the run, drawn with commonroad-io's renderer from the run's ``drive
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 import matplotlib
 
@@ -16,7 +17,7 @@ from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from commonroad.visualization.draw_params import MPDrawParams  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
-from simgap.files import atomic_write  # noqa: E402
+from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
 from simgap.record import RunRecord, read_run  # noqa: E402
 from simgap.errors import InputError  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
@@ -59,9 +60,10 @@ def draw_scene(rnd: MPRenderer, scenario, problems, run: RunRecord, step: int, t
 
 
 def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_every: int = 3,
-               animation: bool = True) -> list[Path]:
+               animation: bool = True, on_frame: Callable[[int, int], None] = lambda done, total: None) -> list[Path]:
     """Write ``scene.png`` (final scene and driven paths) and, with ``animation``, ``run.gif``
-    (real time, one frame every ``frame_every`` steps) into ``out_dir``."""
+    (real time, one frame every ``frame_every`` steps) into ``out_dir``; ``on_frame(done, total)``
+    after each frame of the animation."""
     run_dir = Path(run_dir)
     out_dir = Path(out_dir or run_dir)
     scenario, problems, run = load_driven(run_dir)
@@ -81,14 +83,16 @@ def render_run(run_dir: str | Path, out_dir: str | Path | None = None, frame_eve
 
     gif = out_dir / PICTURES[1]
     frames = []
-    for step in list(range(0, last, frame_every)) + [last]:
+    steps = list(range(0, last, frame_every)) + [last]
+    for step in steps:
         rnd = MPRenderer(plot_limits=limits, figsize=(size[0] * 0.7, size[1] * 0.7))
         draw_scene(rnd, scenario, problems, run, step, f"{run.scenario_id} — {run.history.backend}, t = {step * run.history.dt:.1f} s")
         rnd.f.canvas.draw()
         frames.append(np.asarray(rnd.f.canvas.buffer_rgba())[..., :3].copy())
         plt.close(rnd.f)
+        on_frame(len(frames), len(steps))
     # encoded in memory, then written: imageio's writer flushes a file as it closes and, on a full disk,
     # again as it is collected, where the error reaches the user as a traceback after simgap's own line
     data = imageio.mimwrite("<bytes>", frames, format="GIF", duration=1000.0 * frame_every * run.history.dt, loop=0)
-    atomic_write(gif, lambda tmp: tmp.write_bytes(data))
+    atomic_write_bytes(gif, data)
     return [png, gif]

@@ -146,6 +146,7 @@ def video(src: str, caption: str, half: bool = False) -> str:
 
 
 GENERATOR = "<meta name='generator' content='simgap'>"       # marks every page simgap writes
+SCENARIO_PAGES = "scenario pages"           # a phase of the report, as its progress names it
 
 
 def page(path: Path, title: str, body: Sequence[str], root: str) -> Path:
@@ -541,22 +542,22 @@ def _store_section(rows: list[RunRow]) -> list[str]:
     return body
 
 
-def build_report(root: Path, out: Path, say: Callable[[str], None] = lambda _: None,
+def build_report(root: Path, out: Path, on_progress: Callable[[str, int, int], None] = lambda *_: None,
                  store_rows: list[RunRow] | None = None) -> Path:
     """Write the report of every run below ``root`` as the directory ``out``; returns
     ``out/index.html``. ``store_rows`` (an experiment's results store) adds what the store holds,
-    failures included. The report is built beside ``out`` and swapped into its place whole
+    failures included; ``on_progress(phase, done, total)`` after each run read and each page drawn. The report is built beside ``out`` and swapped into its place whole
     (`simgap.files.replace_directory`), so a report killed half-way leaves the previous one."""
     root, out = Path(root), Path(out)
     if out.resolve() == root.resolve() or out.resolve() in root.resolve().parents:
         raise InputError("the report would replace the runs it draws", file=out,
                          allowed="a folder outside the runs' folder, e.g. a sibling 'report'")
-    groups = collect(root)
-    replace_directory(out, lambda tmp: _write_report(root, groups, tmp, say, store_rows))
+    groups = collect(root, on_progress)
+    replace_directory(out, lambda tmp: _write_report(root, groups, tmp, on_progress, store_rows))
     return out / "index.html"
 
 
-def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Callable[[str], None],
+def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, on_progress: Callable[[str, int, int], None],
                   store_rows: list[RunRow] | None) -> None:
     assets = out / "assets"
     assets.mkdir(parents=True, exist_ok=True)
@@ -565,9 +566,10 @@ def _write_report(root: Path, groups: list[ScenarioGroup], out: Path, say: Calla
     by_scenario: dict[str, list[ScenarioGroup]] = {}
     for group in groups:
         by_scenario.setdefault(group.scenario_id, []).append(group)
+    on_progress(SCENARIO_PAGES, 0, len(groups))
     for i, group in enumerate(groups):
-        say(f"scenario {i + 1}/{len(groups)}: {group.scenario_id}")
         _scenario_page(group, out, assets, compared=len(by_scenario[group.scenario_id]) > 1)
+        on_progress(SCENARIO_PAGES, i + 1, len(groups))
     for scenario_id, mine in by_scenario.items():
         if len(mine) > 1:
             _comparison_page(scenario_id, mine, out, assets)
@@ -742,10 +744,11 @@ def _ranking_rows(groups: list[ScenarioGroup], params: list[str]) -> list[dict]:
     return rows
 
 
-def build_experiment_report(root: Path, say: Callable[[str], None] = lambda _: None) -> Path | None:
+def build_experiment_report(root: Path, on_progress: Callable[[str, int, int], None] = lambda *_: None
+                            ) -> Path | None:
     """Write ``root/report`` for the experiment in ``root`` (its runs and its results store);
     None when no run left a run directory (every run failed: nothing to draw)."""
     root = Path(root)
     if not any((root / "runs").rglob("run.json")):
         return None
-    return build_report(root / "runs", root / "report", say, store_rows=ResultsStore(root).run_rows())
+    return build_report(root / "runs", root / "report", on_progress, store_rows=ResultsStore(root).run_rows())
