@@ -34,9 +34,9 @@ A started planner runs below `simgap.planning.supervisor`, which ends whatever t
 (forked children, ``setsid`` daemons) and removes its temporary folder, when simgap closes it and
 when simgap's process ends, however it ends.
 
-`IsolatedPlannerClass` runs a Python planner class of simgap's registry the same way, in a child
-process of simgap's own interpreter (`simgap.planning.isolated`): a hang or a segfault in a
-plugin costs its agent, never the batch.
+`simgap.planning.registry.IsolatedPlannerClass` runs a Python planner class of simgap's registry
+the same way, in a child process of simgap's own interpreter (`simgap.planning.isolated`): a hang
+or a segfault in a plugin costs its agent, never the batch.
 """
 
 from __future__ import annotations
@@ -60,10 +60,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-import numpy as np
 import zmq
-from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict, Field
 from simgap_planner import simgap_planner_pb2 as pb
 from simgap_planner.messages import (
@@ -75,9 +72,7 @@ from simgap_planner.messages import (
 from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
-from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
-from simgap.planning.route import route_centre_line
-from simgap.scenario.files import scenario_xml
+from simgap.planning.protocol import Planner, PlannerReport, PlannerSetup, PlannerUnavailable, World
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
 
 EXEC_PREFIX = "exec:"
@@ -173,13 +168,6 @@ class _Gone(Exception):
     """The started planner's process has ended."""
 
 
-def _setup_xml(setup: PlannerSetup) -> str:
-    """The CommonRoad XML of the setup's lanelet network and planning problem."""
-    scenario = Scenario(setup.dt)
-    scenario.add_objects(setup.lanelet_network)
-    return scenario_xml(scenario, PlanningProblemSet([setup.planning_problem]))
-
-
 def initialize_message(setup: PlannerSetup, settings_json: str):
     """The Initialize request of ``setup`` (the planner's settings as a JSON object)."""
     request = pb.Request()
@@ -195,11 +183,8 @@ def initialize_message(setup: PlannerSetup, settings_json: str):
         limits.max_accel, limits.max_speed, limits.v_switch
     init.vehicle.commonroad_vehicle_type = v.commonroad_vehicle_type or 0
     init.vehicle.json = v.model_dump_json()
-    init.commonroad_xml = _setup_xml(setup)
-    try:
-        route, _ = route_centre_line(setup.lanelet_network, setup.planning_problem)
-    except Exception:           # no route to the goal: the planner gets the map and the problem alone
-        route = np.zeros((0, 2))
+    init.commonroad_xml = setup.commonroad_xml
+    route = setup.route
     init.route.x, init.route.y = column_bytes(route[:, 0]), column_bytes(route[:, 1])
     init.settings_json = settings_json
     return request
@@ -378,7 +363,7 @@ class _Connection:
             shutil.rmtree(self.folder, ignore_errors=True)
 
 
-class RemotePlanner:
+class RemotePlanner(Planner):
     """A planner in a process of its own (see the module): the loop's `Planner` on the protocol."""
 
     def __init__(self, setup: PlannerSetup, target: PlannerTarget, settings_json: str = "{}",
@@ -503,11 +488,10 @@ class RemotePlanner:
             self._connection.close(request)
             self._connection = None
 
-    def record(self) -> dict[str, Any]:
+    def report(self) -> PlannerReport:
         """What run.json keeps of the planner's process."""
-        return {"target": self.where, "planner": self.name, "protocol_version": self.protocol_version,
-                "deadline_s": self.limits.deadline_s, "deadline_misses": self.deadline_misses,
-                "restarts": self.restarts}
+        return PlannerReport(self.where, self.name, self.protocol_version, self.limits.deadline_s,
+                             self.deadline_misses, self.restarts)
 
 
 def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
@@ -563,33 +547,3 @@ class RemotePlannerClass:
 
     def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
         return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
-
-
-@dataclass(frozen=True)
-class IsolatedPlannerClass:
-    """A planner class of the registry run in a child process of simgap's interpreter: its
-    settings are checked here by its ``Settings`` model (a bad field fails before any run), its
-    planners are built and asked over the protocol (`simgap.planning.isolated`)."""
-
-    planner: Any                     # the registry's PlannerClass
-    limits: ProcessLimits = ProcessLimits()
-
-    @property
-    def ref(self) -> str:
-        return self.planner.ref
-
-    @property
-    def origin(self) -> str:
-        return f"{self.planner.origin}, isolated"
-
-    @property
-    def description(self) -> str:
-        return self.planner.description
-
-    def settings(self, values: Mapping[str, Any] | None, **kwargs: Any):
-        return self.planner.settings(values, **kwargs)
-
-    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> RemotePlanner:
-        target = PlannerTarget(command=(sys.executable, "-m", "simgap.planning.isolated", self.planner.ref))
-        settings_json = settings.model_dump_json() if settings is not None else "{}"
-        return RemotePlanner(setup, target, settings_json, self.limits)
