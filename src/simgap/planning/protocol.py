@@ -135,6 +135,15 @@ class PlannerUnavailable(Exception):
     restarted): the loop gives the agent up as a planner failure, with this reason."""
 
 
+class RemotePlannerError(RuntimeError):
+    """A planner in a process of its own answered a planning request with an error;
+    ``remote_traceback`` is its own."""
+
+    def __init__(self, kind: str, message: str, remote_traceback: str):
+        super().__init__(f"{kind}: {message}" if message else kind)
+        self.kind, self.remote_traceback = kind, remote_traceback
+
+
 @dataclass(frozen=True)
 class PlannerSetup:
     """What a planner is built from, once per agent, before the first cycle.

@@ -72,7 +72,8 @@ from simgap_planner.messages import (
 from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
-from simgap.planning.protocol import Planner, PlannerReport, PlannerSetup, PlannerUnavailable, World
+from simgap.planning.protocol import (Planner, PlannerReport, PlannerSetup, PlannerUnavailable, RemotePlannerError,
+                                     World)
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
 
 EXEC_PREFIX = "exec:"
@@ -150,14 +151,6 @@ def capped(text: str, size: int) -> str:
 
 class PlannerStartFailed(RuntimeError):
     """The planner did not become ready: it could not be started, did not answer, or refused."""
-
-
-class RemotePlannerError(RuntimeError):
-    """The planner answered a planning request with an error; ``remote_traceback`` is its own."""
-
-    def __init__(self, kind: str, message: str, remote_traceback: str):
-        super().__init__(f"{kind}: {message}" if message else kind)
-        self.kind, self.remote_traceback = kind, remote_traceback
 
 
 class _NoAnswer(Exception):
