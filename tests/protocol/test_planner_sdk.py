@@ -35,12 +35,14 @@ def documented(sdk_type: type) -> list[str]:
 
 def test_the_docs_example_drives_the_same_run_in_process_and_in_its_own(curve_xml, tmp_path):
     cosim = CosimSettings(latency=0.1)          # fixed: the planner's compute time does not move the car
+    settings = {"speed_m_s": 6.0}               # read from setup.settings both ways
     runs = {how: execute(RunRequest(scenario=curve_xml, backend="dynamic", cosim=cosim,
-                                    planner=PlannerChoice(planner=planner)), tmp_path / how)
+                                    planner=PlannerChoice(planner=planner, settings=settings)), tmp_path / how)
             for how, planner in (("in_process", f"{KEEP_LANE}:KeepLane"),
                                  ("own_process", f"exec:{sys.executable} {KEEP_LANE}"))}
     in_process, own_process = runs["in_process"], runs["own_process"]
     assert in_process.agents[0].outcome == own_process.agents[0].outcome == "goal_reached"
+    assert 5.0 < max(in_process.agents[0].driven.v) < 6.5, "it cruises at the speed its settings give"
     assert in_process.settings.planner.process is None
     assert own_process.settings.planner.process.protocol_version == simgap_planner.PROTOCOL_VERSION
     assert own_process.agents[0].planner_failures == 0 and len(own_process.agents[0].driven) > 20

@@ -27,6 +27,7 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
+import json
 import re
 import sys
 from dataclasses import dataclass
@@ -38,7 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.errors import InputError, validated
 from simgap.planning.protocol import Planner, PlannerSetup, as_planner
-from simgap.planning.remote import PlannerTarget, ProcessLimits, RemotePlanner, RemotePlannerClass
+from simgap.planning.remote import PlannerTarget, ProcessLimits, RemotePlanner, RemotePlannerClass, json_settings
 from simgap.registry import Registry
 
 BUILTIN_PLANNERS: dict[str, str] = {
@@ -74,20 +75,21 @@ class PlannerClass:
         return " ".join(doc.split("\n\n")[0].split())
 
     def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
-                 prefix: str | None = None) -> BaseModel | None:
-        """``values`` validated by the class's ``Settings`` (None for a class without one)."""
+                 prefix: str | None = None) -> BaseModel | dict[str, Any]:
+        """``values`` validated by the class's ``Settings``; for a class without one, as they are
+        once they are sure to be a JSON object (its planners read them in ``setup.settings``, as
+        a planner in its own process does)."""
         model = self.settings_model
         if model is None:
-            if values:
-                raise InputError(f"planner '{self.ref}' takes no settings", file=file, field=prefix or "settings",
-                                 allowed="none (its class declares no Settings model)")
-            return None
+            return json_settings(values, file=file, prefix=prefix)
         return validated(model, values, file=file, prefix=prefix)
 
-    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> Planner:
+    def build(self, setup: PlannerSetup, settings: BaseModel | Mapping[str, Any] | None) -> Planner:
         """One planner: ``cls(setup, settings)``, ``cls(setup)`` or ``cls()``, as it is constructed
-        (with the whole `Planner` contract: `as_planner`)."""
-        return as_planner(self.cls(*(setup, settings)[:self.arguments]))
+        (``settings`` its ``Settings`` model's, None for a class without one; with the whole
+        `Planner` contract: `as_planner`)."""
+        model = settings if isinstance(settings, BaseModel) else None
+        return as_planner(self.cls(*(setup, model)[:self.arguments]))
 
 
 @dataclass(frozen=True)
@@ -112,12 +114,13 @@ class IsolatedPlannerClass:
         return self.planner.description
 
     def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
-                 prefix: str | None = None) -> BaseModel | None:
+                 prefix: str | None = None) -> BaseModel | dict[str, Any]:
         return self.planner.settings(values, file=file, prefix=prefix)
 
-    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> RemotePlanner:
+    def build(self, setup: PlannerSetup, settings: BaseModel | Mapping[str, Any] | None) -> RemotePlanner:
         target = PlannerTarget(command=(sys.executable, "-m", "simgap.planning.isolated", self.planner.ref))
-        settings_json = settings.model_dump_json() if settings is not None else "{}"
+        settings_json = settings.model_dump_json() if isinstance(settings, BaseModel) else \
+            json.dumps(dict(settings or {}))
         return RemotePlanner(setup, target, settings_json, self.limits)
 
 

@@ -511,6 +511,21 @@ def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
     return path, f"{value} (a {type(value).__name__}) is not a JSON value"
 
 
+def json_settings(values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                  prefix: str | None = None) -> dict[str, Any]:
+    """A planner's settings as they are, once they are sure to be a JSON object: what a planner
+    without a settings model gets in ``setup.settings`` (in its own process: sent as JSON)."""
+    settings = dict(values or {})
+    problem = not_json(settings)
+    if problem is not None:
+        path, what = problem
+        raise InputError(f"{what}: the settings of a planner without a settings model are a JSON object", file=file,
+                         field=".".join(p for p in (prefix, path) if p) or "settings",
+                         allowed="finite numbers, strings, true/false, null, lists and mappings "
+                         "(quote a date: '2024-01-01')")
+    return settings
+
+
 @dataclass(frozen=True)
 class RemotePlannerClass:
     """An out-of-process planner as the registry hands it out: ``build`` starts (or connects to)
@@ -528,15 +543,7 @@ class RemotePlannerClass:
     def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
                  prefix: str | None = None, **_: Any) -> dict[str, Any]:
         """``values`` as they are, once they are sure to be JSON (what the planner and run.json get)."""
-        settings = dict(values or {})
-        problem = not_json(settings)
-        if problem is not None:
-            path, what = problem
-            raise InputError(f"{what}: the settings of a planner in its own process are sent as JSON", file=file,
-                             field=".".join(p for p in (prefix, path) if p) or "settings",
-                             allowed="finite numbers, strings, true/false, null, lists and mappings "
-                             "(quote a date: '2024-01-01')")
-        return settings
+        return json_settings(values, file=file, prefix=prefix)
 
     def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
         return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
