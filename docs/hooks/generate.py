@@ -7,6 +7,8 @@ A page asks for a generated table with an HTML comment on a line of its own:
   flattened to dotted names (type, default, range, unit, description);
 - ``<!-- gen:backends -->``: each backend's settings model;
 - ``<!-- gen:knobs -->``, ``<!-- gen:sensing -->``: the reality knobs and the sensing profiles;
+- ``<!-- gen:planner_sdk -->``: every field of every type a planner sees (the planner SDK's,
+  `simgap_planner`, and simgap's in-process type of the same field names);
 - ``<!-- gen:include PATH -->``: a Markdown file of the repository (PATH from its root) as it is, the
   files it links beside it appended as code blocks (the planner protocol's specification and its
   ``.proto``), so the text lives once, where its code is.
@@ -226,6 +228,47 @@ def include(path: str) -> str:
     return text
 
 
+# the planner SDK's types (simgap_planner) and the type simgap hands a planner in its own process
+SDK_TYPES = {"Setup": "simgap.planning.PlannerSetup", "Vehicle": "simgap.vehicles.Vehicle",
+             "VehicleLimits": "simgap.vehicles.catalogue.VehicleLimits", "State": "simgap.trajectory.State",
+             "Trajectory": "simgap.trajectory.Trajectory", "World": "simgap.planning.World",
+             "Participant": "simgap.planning.TrafficParticipant"}
+
+
+def _first_line(doc: str | None) -> str:
+    return " ".join((doc or "").strip().split("\n\n")[0].split())
+
+
+def planner_sdk_reference() -> str:
+    """One table per type a planner sees: each field the SDK documents (``metadata={"doc": ...}``)
+    and each documented property, with its type and meaning."""
+    import dataclasses
+
+    import simgap_planner
+
+    out = []
+    for name, ours in SDK_TYPES.items():
+        sdk_type = getattr(simgap_planner, name)
+        rows = []
+        if dataclasses.is_dataclass(sdk_type):
+            rows += [(f.name, str(f.type), f.metadata["doc"]) for f in dataclasses.fields(sdk_type)
+                     if "doc" in f.metadata]
+        rows += [(attr, str(getattr(value.fget, "__annotations__", {}).get("return", "")), _first_line(value.__doc__))
+                 for attr, value in vars(sdk_type).items()
+                 if isinstance(value, property) and value.__doc__ and not attr.startswith("_")]
+        if name == "Trajectory":
+            rows += [("dt", "float", "the time step of its grid [s]")]
+            rows += [(f.name, "numpy array", f"one value per state: {f.metadata['doc']}")
+                     for f in dataclasses.fields(simgap_planner.State)]
+        if not rows:
+            raise ValueError(f"the planner SDK's {name} documents no field")
+        table = "| field | type | meaning |\n|---|---|---|\n" + "\n".join(
+            f"| {_code(field)} | {_cell(kind)} | {_cell(doc)} |" for field, kind, doc in rows)
+        out.append(f"### `{name}`\n\n{_cell(_first_line(sdk_type.__doc__))} In simgap's process: "
+                   f"`{ours}`.\n\n{table}\n")
+    return "\n".join(out)
+
+
 def _anchor(name: str) -> str:
     return "file-" + re.sub(r"[^\w-]", "-", name)
 
@@ -251,6 +294,8 @@ def render(kind: str, arg: str | None) -> str:
         return profile_table()
     if kind == "validation":
         return _validation().render_results(arg)
+    if kind == "planner_sdk":
+        return planner_sdk_reference()
     raise ValueError(f"unknown generated table gen:{kind}")
 
 

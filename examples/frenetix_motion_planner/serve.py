@@ -144,12 +144,13 @@ class FrenetixPlanner:
         self.dt, self.agent_id = setup.dt, setup.agent_id
         self.rear_to_centre = setup.vehicle.rear_axle_to_center
 
-        v = setup.vehicle
+        v, limits = setup.vehicle, setup.vehicle.limits
         vehicle = {"cr_vehicle_id": v.commonroad_vehicle_type or 2, "length": v.length, "width": v.width,
                    "wheelbase": v.wheelbase, "wb_rear_axle": v.rear_axle_to_center,
-                   "wb_front_axle": v.wheelbase - v.rear_axle_to_center, "a_max": v.max_accel,
-                   "v_max": v.max_speed, "v_switch": v.v_switch, "delta_min": -v.max_steer,
-                   "delta_max": v.max_steer, "v_delta_min": -v.max_steer_rate, "v_delta_max": v.max_steer_rate}
+                   "wb_front_axle": v.wheelbase - v.rear_axle_to_center, "a_max": limits.max_accel,
+                   "v_max": limits.max_speed, "v_switch": limits.v_switch, "delta_min": -limits.max_steer,
+                   "delta_max": limits.max_steer, "v_delta_min": -limits.max_steer_rate,
+                   "v_delta_max": limits.max_steer_rate}
         mass = v.data.get("physics", {}).get("mass")
         if mass:
             vehicle["mass"] = mass

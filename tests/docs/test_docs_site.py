@@ -106,6 +106,25 @@ def test_the_protocol_specification_is_a_page_included_from_its_one_copy(site):
     assert (ROOT / "docs" / "reference" / "planner-protocol.md").read_text().strip().startswith("<!-- gen:include")
 
 
+def test_the_api_page_lists_every_field_a_planner_sees(site):
+    import dataclasses
+
+    import simgap_planner
+
+    article = (site / "reference/api.html").read_text().split('class="md-content"')[1]
+    page = html.unescape(re.sub(r"<[^>]+>", "", article))
+    section = page.split("Every field a planner sees")[1].split("\nPlanners")[0]
+    for name, ours in generate.SDK_TYPES.items():
+        sdk_type = getattr(simgap_planner, name)
+        assert f"{name}" in section and ours in section, name
+        documented = [f.name for f in dataclasses.fields(sdk_type) if "doc" in f.metadata] \
+            if dataclasses.is_dataclass(sdk_type) else list(simgap_planner.STATE_FIELDS)
+        documented += [n for n, v in vars(sdk_type).items() if isinstance(v, property) and v.__doc__]
+        for field in documented:
+            assert re.search(rf"^{re.escape(field)}$", section, re.M), f"{name}.{field} is not listed"
+    assert "max_steer\nfloat\nlargest road-wheel steering angle [rad]" in section     # a row: name, type, meaning
+
+
 def test_the_loop_page_draws_the_loop_and_names_stay_whole(site):
     page = (site / "concepts/fidelities.html").read_text()
     assert '<img alt="The co-simulation loop' in page and (site / "images" / "loop.png").stat().st_size > 10_000

@@ -10,6 +10,7 @@ from simgap.cosim import CosimSettings, Outcome
 from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute, parse_planners
 from simgap.planning.frenet import FrenetPlanner, FrenetSettings
+from simgap.planning.protocol import Planner
 from simgap.planning.registry import PlannerChoice, load_planner, planner_names
 from simgap.scenario import build_scenario, write_scenario
 
@@ -133,7 +134,10 @@ def test_classes_not_matching_the_protocol_are_refused(flaky_file):
 
 def test_a_constructor_takes_what_its_signature_says(flaky_file):
     setup = object()
-    assert load_planner(f"{flaky_file}:OneArgument").build(setup, None).setup is setup
+    built = load_planner(f"{flaky_file}:OneArgument").build(setup, None)
+    assert built.planner.setup is setup, "a class with plan alone is built into the Planner contract"
+    assert isinstance(built, Planner) and built.failure_reason == "" and built.report() is None
+    built.close()                                   # it has no close: closing it does nothing
     assert load_planner("frenet").arguments == 2
 
 

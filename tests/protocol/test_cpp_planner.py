@@ -239,4 +239,4 @@ def test_the_readme_command_runs(lane_keeper, curve, tmp_path):
     record = read_run(tmp_path / "run")
     assert (record.agents[0].planner, record.agents[0].history.outcome) == ("lane_keeper", "goal_reached")
     process = record.settings.planner.process              # what its Ready said, and how it went
-    assert (process["planner"], process["protocol_version"], process["restarts"]) == ("cpp_lane_keeper", "1.0", 0)
+    assert (process.planner, process.protocol_version, process.restarts) == ("cpp_lane_keeper", "1.0", 0)

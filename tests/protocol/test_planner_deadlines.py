@@ -33,4 +33,4 @@ def test_every_late_answer_is_a_miss_none_is_accepted(curve_xml, tmp_path):
     agent = run.agents[0]
     assert agent.history.outcome == "planner_failure"
     process = run.settings.planner.process
-    assert process["deadline_misses"] == agent.history.planner_failures, "every failed cycle is a missed deadline"
+    assert process.deadline_misses == agent.history.planner_failures, "every failed cycle is a missed deadline"

@@ -167,3 +167,13 @@ def test_experiments_stored_before_planners_had_process_settings_still_resume(tm
     assert load_spec(spec).spec.results_hash() == "ab73a6ac35f8f042"     # as stored by simgap before them
     spec.write_text(body + "  - {planner: frenet, isolate: true}\n  - {planner: idm, label: traffic}\n")
     assert load_spec(spec).spec.results_hash() != "ab73a6ac35f8f042"
+
+
+def test_a_planner_process_s_own_traceback_is_kept_with_the_error():
+    from simgap.cosim import PlannerError
+    from simgap.planning.remote import RemotePlannerError
+
+    error = PlannerError.of(RemotePlannerError("KeyError", "'lane'", "File planner.py, line 3: KeyError"), 1, 0.5)
+    assert (error.exception, error.message) == ("RemotePlannerError", "KeyError: 'lane'")
+    assert error.traceback.endswith("The planner's process reported:\nFile planner.py, line 3: KeyError")
+    assert "reported" not in PlannerError.of(ValueError("x"), 1, 0.5).traceback

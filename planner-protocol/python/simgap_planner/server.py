@@ -32,8 +32,9 @@ class Adapter:
     def observed(self, message: pb.State) -> Any:
         return state_of(message)
 
-    def world(self, message: pb.PlanRequest, dt: float, session: Any) -> Any:
-        return world_of(message, dt)
+    def world(self, message: pb.PlanRequest, dt: float, setup: Any) -> Any:
+        """The world of a planning request (``setup``: what `setup` made of the session's Initialize)."""
+        return world_of(message, dt, setup)
 
 
 def compatible(version: str) -> bool:
@@ -58,7 +59,7 @@ def serve(factory: Callable[[Any], Any], endpoint: Optional[str] = None, *, name
     socket = context.socket(zmq.REP)
     socket.setsockopt(zmq.LINGER, 0)
     socket.bind(endpoint)
-    sessions: Dict[int, Tuple[Any, float]] = {}
+    sessions: Dict[int, Tuple[Any, float, Any]] = {}
     served = 0
     try:
         while True:
@@ -71,7 +72,7 @@ def serve(factory: Callable[[Any], Any], endpoint: Optional[str] = None, *, name
         socket.close(linger=0)
 
 
-def _answer(raw: bytes, factory: Callable[[Any], Any], adapter: Adapter, sessions: Dict[int, Tuple[Any, float]],
+def _answer(raw: bytes, factory: Callable[[Any], Any], adapter: Adapter, sessions: Dict[int, Tuple[Any, float, Any]],
             next_session: int, name: str) -> pb.Reply:
     reply = pb.Reply()
     try:
@@ -86,7 +87,8 @@ def _answer(raw: bytes, factory: Callable[[Any], Any], adapter: Adapter, session
             if not compatible(init.protocol_version):
                 return _error(reply, "ProtocolVersion", f"simgap speaks protocol {init.protocol_version}, "
                               f"this planner {PROTOCOL_VERSION}")
-            sessions[next_session] = (factory(adapter.setup(init)), init.dt)
+            setup = adapter.setup(init)
+            sessions[next_session] = (factory(setup), init.dt, setup)
             reply.ready.protocol_version = PROTOCOL_VERSION
             reply.ready.session = next_session
             reply.ready.planner = name
@@ -94,8 +96,8 @@ def _answer(raw: bytes, factory: Callable[[Any], Any], adapter: Adapter, session
             plan = request.plan
             if plan.session not in sessions:
                 return _error(reply, "UnknownSession", f"no session {plan.session} (initialise first)")
-            planner, dt = sessions[plan.session]
-            result = planner.plan(adapter.observed(plan.observed), plan.t, adapter.world(plan, dt, planner))
+            planner, dt, setup = sessions[plan.session]
+            result = planner.plan(adapter.observed(plan.observed), plan.t, adapter.world(plan, dt, setup))
             if result is None:
                 reply.plan.no_plan = str(getattr(planner, "failure_reason", "") or "no plan")
             else:
@@ -104,7 +106,7 @@ def _answer(raw: bytes, factory: Callable[[Any], Any], adapter: Adapter, session
                 except (AttributeError, TypeError, ValueError) as exc:
                     return _error(reply, "InvalidPlan", f"a {type(result).__name__}, not a trajectory ({exc})")
         elif kind == "close":
-            planner, _ = sessions.pop(request.close.session, (None, 0.0))
+            planner, _, _ = sessions.pop(request.close.session, (None, 0.0, None))
             if planner is not None and callable(getattr(planner, "close", None)):
                 planner.close()
             reply.closed.SetInParent()

@@ -69,7 +69,7 @@ def show(ref: str = typer.Argument(..., help="planner name, module:Class or path
 def _settings_table(console: Console, planner: PlannerClass) -> None:
     model = planner.settings_model
     if model is None:
-        console.print("no settings (the class declares no Settings model)")
+        console.print("no settings model: the settings given reach its planners unchecked, in setup.settings")
         return
     table = Table(title=f"settings ({model.__name__}; --planner-config FILE, or settings: in a spec)",
                   title_justify="left")

@@ -17,6 +17,7 @@ from typing import Mapping
 
 import numpy as np
 
+from simgap.planning.protocol import RemotePlannerError
 from simgap.sim.protocol import EventKind, Outcome, Realism, event_kind
 from simgap.trajectory import STATE_FIELDS, Attitude, ControlTrace, Trajectory
 from simgap.vehicles import Vehicle
@@ -53,7 +54,7 @@ class PlannerError:
     @classmethod
     def of(cls, exc: BaseException, agent_id: int, t: float | None) -> "PlannerError":
         trace = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
-        remote = getattr(exc, "remote_traceback", "")     # a planner in its own process: its own traceback too
+        remote = exc.remote_traceback if isinstance(exc, RemotePlannerError) else ""   # its process's own too
         return cls(agent_id, t, type(exc).__name__, str(exc),
                    trace + (f"\nThe planner's process reported:\n{remote}" if remote else ""))
 

@@ -47,7 +47,7 @@ from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerE
 from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, localisation_accuracy
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.plan_check import InvalidPlan, executable_plan
-from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World
+from simgap.planning.protocol import Planner, PlannerUnavailable, TrafficParticipant, World, as_planner
 from simgap.scenario.goal import Goal
 from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea, footprint
@@ -228,7 +228,7 @@ class _CoSimulation:
             problem = problems.planning_problem_dict[a.id]
             goal = Goal.of(problem.goal, self.dt)
             localisation = Localisation(self.accuracy, np.random.default_rng((seed, a.id)))
-            self.progress_of[a.id] = _AgentProgress(a, planners[a.id], problem, goal, deadline(goal, settings),
+            self.progress_of[a.id] = _AgentProgress(a, as_planner(planners[a.id]), problem, goal, deadline(goal, settings),
                                                     localisation)
         self.horizon = max(p.deadline for p in self.progress_of.values())
         self.agents = agents
@@ -402,7 +402,7 @@ class _CoSimulation:
     def _checked(self, p: _AgentProgress, plan: object, t: float) -> tuple[Trajectory | None, str]:
         """What ``p``'s planner returned at ``t`` as a plan to execute (None: no plan), and the reason when none."""
         if plan is None:
-            return None, getattr(p.planner, "failure_reason", "") or "no feasible collision-free plan"
+            return None, p.planner.failure_reason or "no feasible collision-free plan"
         try:
             return executable_plan(plan, t, self.dt), ""
         except InvalidPlan as exc:

@@ -208,7 +208,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
                                                   settings.model_dump(mode="json") if isinstance(settings, BaseModel)
                                                   else dict(settings or {}))
             setup = PlannerSetup(a.id, planner_vehicle, scenario.lanelet_network,
-                                 problems.planning_problem_dict[a.id], dt)
+                                 problems.planning_problem_dict[a.id], dt, planner_records[a.id].settings)
             try:
                 with interruptions():
                     planners[a.id] = planner_class.build(setup, settings)
@@ -217,8 +217,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
             except PLANNER_CRASHES as exc:  # the planner's own bug (or exit): this run fails, recorded, the batch goes on
                 errors.append(PlannerError.of(exc, a.id, None))
                 continue
-            if callable(getattr(planners[a.id], "close", None)):
-                closing.callback(planners[a.id].close)
+            closing.callback(planners[a.id].close)
         _back_in(folder)
         if errors:
             history = not_started(scenario, request.backend, agents, errors, realism_of(request.backend_settings))
@@ -228,8 +227,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
                                seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=relief,
                                replayed_latencies=request.replayed_latencies)
         for aid, planner in planners.items():
-            if callable(getattr(planner, "record", None)):
-                planner_records[aid] = replace(planner_records[aid], process=planner.record())
+            planner_records[aid] = replace(planner_records[aid], process=planner.report())
     settings = RunSettings(
         scenario_id=meta.get("name", Path(request.scenario).stem), cosim=request.cosim, evaluation=request.evaluation,
         planner=_planner_record(request.planner, planner_records), scenario_path=str(request.scenario),

@@ -81,7 +81,7 @@ from simgap.planning.plan_choice import (
     searching,
     step,
 )
-from simgap.planning.protocol import PlannerSetup, PlanOutcome, World
+from simgap.planning.protocol import Planner, PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
 from simgap.planning.sampling import (
     END_OFFSET,
@@ -281,7 +281,7 @@ def on_last_plan(plan: Trajectory | None, observed: State, t: float, within: flo
     return on_plan
 
 
-class FrenetPlanner:
+class FrenetPlanner(Planner):
     """The paper's planner: Frenet sampling on the frenetix core, end time x end speed x lateral
     offset along the route's reference path, checked against road, traffic and vehicle limits.
 
@@ -402,7 +402,7 @@ class FrenetPlanner:
         return plan
 
     @property
-    def failure_reason(self) -> str:
+    def failure_reason(self) -> str:    # type: ignore[override]  # read-only: derived from the last cycle
         """Why the last cycle found no plan, in counts of rejected samples ("" after a plan)."""
         c = self.last_cycle
         if c.outcome in (None, PlanOutcome.PLANNED):

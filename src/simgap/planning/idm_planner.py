@@ -34,7 +34,7 @@ from pydantic import Field
 
 from simgap.planning.car_following import IdmParameters
 from simgap.planning.collision import predict_traffic
-from simgap.planning.protocol import PlannerSetup, World
+from simgap.planning.protocol import Planner, PlannerSetup, World
 from simgap.planning.reference_path import plan_reference_path
 from simgap.planning.speed_profile import desired_speed, route_speeds
 from simgap.scenario.road_frame import PathFrame
@@ -81,7 +81,7 @@ class IdmCycle:
     seconds: float = 0.0
 
 
-class IdmPlanner:
+class IdmPlanner(Planner):
     """A lane-following Intelligent Driver Model for traffic not under test: keeps its route's
     centre line and the IDM gap to whatever is ahead in its lane, and stops at its route's end
     (see the module docstring)."""
@@ -106,7 +106,7 @@ class IdmPlanner:
         self.last_cycle = IdmCycle()
 
     @property
-    def failure_reason(self) -> str:
+    def failure_reason(self) -> str:    # type: ignore[override]  # read-only: derived from the last cycle
         return ""          # the IDM always has a plan
 
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:

@@ -13,28 +13,9 @@ import json
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
 
-from simgap.planning.protocol import PlannerSetup, TrafficParticipant, World
+from simgap.planning.protocol import Planner, PlannerSetup, TrafficParticipant, World
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
-
-
-class _Hosted:
-    """An agent's planner with the setup it was built from (its world is rebuilt each cycle)."""
-
-    def __init__(self, planner: Any, setup: PlannerSetup):
-        self.planner, self.setup = planner, setup
-
-    def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
-        return self.planner.plan(observed, t, world)
-
-    @property
-    def failure_reason(self) -> str:
-        return getattr(self.planner, "failure_reason", "")
-
-    def close(self) -> None:
-        if callable(getattr(self.planner, "close", None)):
-            self.planner.close()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -51,28 +32,26 @@ def main(argv: list[str] | None = None) -> None:
     planner_class = load_planner(argv[0])
 
     class SimgapAdapter(Adapter):
-        def setup(self, message) -> tuple[PlannerSetup, Any]:
+        def setup(self, message) -> PlannerSetup:
             with tempfile.TemporaryDirectory() as tmp:
                 path = Path(tmp) / "setup.xml"
                 path.write_text(message.commonroad_xml)
                 scenario, problems = load_scenario(path)
-            setup = PlannerSetup(message.agent_id, Vehicle.model_validate_json(message.vehicle.json),
-                                 scenario.lanelet_network, problems.planning_problem_dict[message.agent_id],
-                                 message.dt)
-            return setup, planner_class.settings(json.loads(message.settings_json or "{}"))
+            return PlannerSetup(message.agent_id, Vehicle.model_validate_json(message.vehicle.json),
+                                scenario.lanelet_network, problems.planning_problem_dict[message.agent_id],
+                                message.dt, json.loads(message.settings_json or "{}"))
 
         def observed(self, message) -> State:
             return State(*(getattr(message, name) for name in STATE_FIELDS))
 
-        def world(self, message, dt: float, hosted: _Hosted) -> World:
+        def world(self, message, dt: float, setup: PlannerSetup) -> World:
             traffic = tuple(TrafficParticipant(p.id, p.length, p.width,
                                                Trajectory(p.prediction.dt, **trajectory_columns(p.prediction)))
                             for p in message.traffic)
-            return World(hosted.setup.lanelet_network, hosted.setup.planning_problem.goal, dt, traffic)
+            return World(setup.lanelet_network, setup.planning_problem.goal, dt, traffic)
 
-    def factory(made: tuple[PlannerSetup, Any]) -> _Hosted:
-        setup, settings = made
-        return _Hosted(planner_class.build(setup, settings), setup)
+    def factory(setup: PlannerSetup) -> Planner:
+        return planner_class.build(setup, planner_class.settings(setup.settings))
 
     serve(factory, name=planner_class.ref, adapter=SimgapAdapter())
 

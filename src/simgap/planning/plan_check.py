@@ -9,6 +9,7 @@ more, and every plan is kept in the run record.
 from __future__ import annotations
 
 import numpy as np
+from simgap_planner.messages import Trajectory as SdkTrajectory
 
 from simgap.trajectory import STATE_FIELDS, Trajectory
 
@@ -23,6 +24,8 @@ class InvalidPlan(ValueError):
 def executable_plan(plan: object, t: float, dt: float) -> Trajectory:
     """``plan``, returned by a planner at time ``t`` on a scenario of step ``dt``, cut to
     `MAX_PLAN_HORIZON_S`; raises `InvalidPlan` naming what is wrong."""
+    if isinstance(plan, SdkTrajectory):     # the planner SDK's (a planner of simgap_planner, in simgap's process)
+        plan = Trajectory(plan.dt, **{f: getattr(plan, f) for f in STATE_FIELDS})
     if not isinstance(plan, Trajectory):
         raise InvalidPlan(f"a {type(plan).__name__}, not a Trajectory (or None)")
     if len(plan) < 2:

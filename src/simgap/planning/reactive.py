@@ -53,7 +53,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.planning.collision import predict_traffic
-from simgap.planning.protocol import PlannerSetup, PlanOutcome, World
+from simgap.planning.protocol import Planner, PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import plan_reference_path
 from simgap.planning.speed_profile import desired_speed, route_speeds
 from simgap.trajectory import State, Trajectory
@@ -112,7 +112,7 @@ class ReactiveCycle:
     seconds: float = 0.0
 
 
-class ReactivePlanner:
+class ReactivePlanner(Planner):
     """CommonRoad's reactive planner (commonroad-reactive-planner 2025.1): Frenet polynomial samples
     along the route's reference path, checked against the vehicle's limits, the road boundary and
     the other traffic; one per agent, built in code (see the module docstring)."""
@@ -175,7 +175,7 @@ class ReactivePlanner:
         return config
 
     @property
-    def failure_reason(self) -> str:
+    def failure_reason(self) -> str:    # type: ignore[override]  # read-only: derived from the last cycle
         """Why the last cycle found no plan ("" after a plan)."""
         return self.last_cycle.reason
 

@@ -27,19 +27,19 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
+import json
 import re
 import sys
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib.metadata import EntryPoint
 from pathlib import Path
-from typing import Any, Mapping, Union
+from typing import Any, Mapping, Protocol, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.errors import InputError, validated
-from simgap.planning.protocol import Planner, PlannerSetup
-from simgap.planning.remote import IsolatedPlannerClass, PlannerTarget, ProcessLimits, RemotePlannerClass
+from simgap.planning.protocol import Planner, PlannerSetup, as_planner
+from simgap.planning.remote import PlannerTarget, ProcessLimits, RemotePlanner, RemotePlannerClass, json_settings
 from simgap.registry import Registry
 
 BUILTIN_PLANNERS: dict[str, str] = {
@@ -75,24 +75,76 @@ class PlannerClass:
         return " ".join(doc.split("\n\n")[0].split())
 
     def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
-                 prefix: str | None = None) -> BaseModel | None:
-        """``values`` validated by the class's ``Settings`` (None for a class without one)."""
+                 prefix: str | None = None) -> BaseModel | dict[str, Any]:
+        """``values`` validated by the class's ``Settings``; for a class without one, as they are
+        once they are sure to be a JSON object (its planners read them in ``setup.settings``, as
+        a planner in its own process does)."""
         model = self.settings_model
         if model is None:
-            if values:
-                raise InputError(f"planner '{self.ref}' takes no settings", file=file, field=prefix or "settings",
-                                 allowed="none (its class declares no Settings model)")
-            return None
+            return json_settings(values, file=file, prefix=prefix)
         return validated(model, values, file=file, prefix=prefix)
 
-    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> Planner:
-        """One planner: ``cls(setup, settings)``, ``cls(setup)`` or ``cls()``, as it is constructed."""
-        return self.cls(*(setup, settings)[:self.arguments])
+    def build(self, setup: PlannerSetup, settings: BaseModel | Mapping[str, Any] | None) -> Planner:
+        """One planner: ``cls(setup, settings)``, ``cls(setup)`` or ``cls()``, as it is constructed
+        (``settings`` its ``Settings`` model's, None for a class without one; with the whole
+        `Planner` contract: `as_planner`)."""
+        model = settings if isinstance(settings, BaseModel) else None
+        return as_planner(self.cls(*(setup, model)[:self.arguments]))
 
 
-def installed_planners() -> dict[str, EntryPoint]:
-    """The planners installed packages declare in the entry-point group ``simgap.planners``."""
-    return PLANNERS.installed()
+@dataclass(frozen=True)
+class IsolatedPlannerClass:
+    """A planner class of the registry run in a child process of simgap's interpreter: its
+    settings are checked here by its ``Settings`` model (a bad field fails before any run), its
+    planners are built and asked over the protocol (`simgap.planning.isolated`)."""
+
+    planner: PlannerClass
+    limits: ProcessLimits = ProcessLimits()
+
+    @property
+    def ref(self) -> str:
+        return self.planner.ref
+
+    @property
+    def origin(self) -> str:
+        return f"{self.planner.origin}, isolated"
+
+    @property
+    def description(self) -> str:
+        return self.planner.description
+
+    def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                 prefix: str | None = None) -> BaseModel | dict[str, Any]:
+        return self.planner.settings(values, file=file, prefix=prefix)
+
+    def build(self, setup: PlannerSetup, settings: BaseModel | Mapping[str, Any] | None) -> RemotePlanner:
+        target = PlannerTarget(command=(sys.executable, "-m", "simgap.planning.isolated", self.planner.ref))
+        settings_json = settings.model_dump_json() if isinstance(settings, BaseModel) else \
+            json.dumps(dict(settings or {}))
+        return RemotePlanner(setup, target, settings_json, self.limits)
+
+
+class PlannerFactory(Protocol):
+    """What builds an agent's planner: a class of the registry (`PlannerClass`), the same in a
+    process of its own (`IsolatedPlannerClass`), or a planner that is one already
+    (`RemotePlannerClass`)."""
+
+    @property
+    def ref(self) -> str: ...             # the name or reference it was loaded by
+
+    @property
+    def origin(self) -> str: ...          # where it comes from ("built-in", "file", "process", ...)
+
+    @property
+    def description(self) -> str: ...
+
+    def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                 prefix: str | None = None) -> Any:
+        """``values`` checked: the class's settings model (or None), or for a planner in its own
+        process the JSON object it is sent."""
+
+    def build(self, setup: PlannerSetup, settings: Any) -> Planner:
+        """One agent's planner (``settings`` as `settings` returned them)."""
 
 
 def planner_names() -> list[str]:
@@ -229,10 +281,6 @@ class PlannerChoice(BaseModel):
     def name(self) -> str:
         return self.label or default_label(self.planner)
 
-    @property
-    def in_own_process(self) -> bool:
-        return self.isolate or PlannerTarget.parse(self.planner) is not None
-
     def load(self, *, file: str | Path | None = None, field: str = "planner",
              settings_field: str | None = None) -> tuple[PlannerFactory, Any]:
         """What builds the planners and their checked settings; errors name ``file`` and ``field``
@@ -258,11 +306,6 @@ class PlannerChoice(BaseModel):
         if not where.endswith(".py") or Path(where).is_absolute():
             return self
         return self.model_copy(update={"planner": f"{(folder / where).resolve()}:{attr}"})
-
-
-#: what builds an agent's planner: a class of the registry, the same in a process of its own, or a
-#: planner that is one already (each has ``ref``, ``origin``, ``description``, ``settings`` and ``build``)
-PlannerFactory = Union[PlannerClass, IsolatedPlannerClass, RemotePlannerClass]
 
 #: the planner of every agent, or one per agent (planning problem id)
 PlannerAssignment = Union[PlannerChoice, Mapping[int, PlannerChoice]]

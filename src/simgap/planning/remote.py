@@ -34,9 +34,9 @@ A started planner runs below `simgap.planning.supervisor`, which ends whatever t
 (forked children, ``setsid`` daemons) and removes its temporary folder, when simgap closes it and
 when simgap's process ends, however it ends.
 
-`IsolatedPlannerClass` runs a Python planner class of simgap's registry the same way, in a child
-process of simgap's own interpreter (`simgap.planning.isolated`): a hang or a segfault in a
-plugin costs its agent, never the batch.
+`simgap.planning.registry.IsolatedPlannerClass` runs a Python planner class of simgap's registry
+the same way, in a child process of simgap's own interpreter (`simgap.planning.isolated`): a hang
+or a segfault in a plugin costs its agent, never the batch.
 """
 
 from __future__ import annotations
@@ -60,10 +60,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-import numpy as np
 import zmq
-from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict, Field
 from simgap_planner import simgap_planner_pb2 as pb
 from simgap_planner.messages import (
@@ -75,9 +72,8 @@ from simgap_planner.messages import (
 from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
-from simgap.planning.protocol import PlannerSetup, PlannerUnavailable, World
-from simgap.planning.route import route_centre_line
-from simgap.scenario.files import scenario_xml
+from simgap.planning.protocol import (Planner, PlannerReport, PlannerSetup, PlannerUnavailable, RemotePlannerError,
+                                     World)
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
 
 EXEC_PREFIX = "exec:"
@@ -157,27 +153,12 @@ class PlannerStartFailed(RuntimeError):
     """The planner did not become ready: it could not be started, did not answer, or refused."""
 
 
-class RemotePlannerError(RuntimeError):
-    """The planner answered a planning request with an error; ``remote_traceback`` is its own."""
-
-    def __init__(self, kind: str, message: str, remote_traceback: str):
-        super().__init__(f"{kind}: {message}" if message else kind)
-        self.kind, self.remote_traceback = kind, remote_traceback
-
-
 class _NoAnswer(Exception):
     """No reply within the time allowed (the planner may still be working)."""
 
 
 class _Gone(Exception):
     """The started planner's process has ended."""
-
-
-def _setup_xml(setup: PlannerSetup) -> str:
-    """The CommonRoad XML of the setup's lanelet network and planning problem."""
-    scenario = Scenario(setup.dt)
-    scenario.add_objects(setup.lanelet_network)
-    return scenario_xml(scenario, PlanningProblemSet([setup.planning_problem]))
 
 
 def initialize_message(setup: PlannerSetup, settings_json: str):
@@ -195,11 +176,8 @@ def initialize_message(setup: PlannerSetup, settings_json: str):
         limits.max_accel, limits.max_speed, limits.v_switch
     init.vehicle.commonroad_vehicle_type = v.commonroad_vehicle_type or 0
     init.vehicle.json = v.model_dump_json()
-    init.commonroad_xml = _setup_xml(setup)
-    try:
-        route, _ = route_centre_line(setup.lanelet_network, setup.planning_problem)
-    except Exception:           # no route to the goal: the planner gets the map and the problem alone
-        route = np.zeros((0, 2))
+    init.commonroad_xml = setup.commonroad_xml
+    route = setup.route
     init.route.x, init.route.y = column_bytes(route[:, 0]), column_bytes(route[:, 1])
     init.settings_json = settings_json
     return request
@@ -378,7 +356,7 @@ class _Connection:
             shutil.rmtree(self.folder, ignore_errors=True)
 
 
-class RemotePlanner:
+class RemotePlanner(Planner):
     """A planner in a process of its own (see the module): the loop's `Planner` on the protocol."""
 
     def __init__(self, setup: PlannerSetup, target: PlannerTarget, settings_json: str = "{}",
@@ -503,11 +481,10 @@ class RemotePlanner:
             self._connection.close(request)
             self._connection = None
 
-    def record(self) -> dict[str, Any]:
+    def report(self) -> PlannerReport:
         """What run.json keeps of the planner's process."""
-        return {"target": self.where, "planner": self.name, "protocol_version": self.protocol_version,
-                "deadline_s": self.limits.deadline_s, "deadline_misses": self.deadline_misses,
-                "restarts": self.restarts}
+        return PlannerReport(self.where, self.name, self.protocol_version, self.limits.deadline_s,
+                             self.deadline_misses, self.restarts)
 
 
 def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
@@ -534,6 +511,21 @@ def not_json(value: Any, path: str = "") -> tuple[str, str] | None:
     return path, f"{value} (a {type(value).__name__}) is not a JSON value"
 
 
+def json_settings(values: Mapping[str, Any] | None, *, file: str | Path | None = None,
+                  prefix: str | None = None) -> dict[str, Any]:
+    """A planner's settings as they are, once they are sure to be a JSON object: what a planner
+    without a settings model gets in ``setup.settings`` (in its own process: sent as JSON)."""
+    settings = dict(values or {})
+    problem = not_json(settings)
+    if problem is not None:
+        path, what = problem
+        raise InputError(f"{what}: the settings of a planner without a settings model are a JSON object", file=file,
+                         field=".".join(p for p in (prefix, path) if p) or "settings",
+                         allowed="finite numbers, strings, true/false, null, lists and mappings "
+                         "(quote a date: '2024-01-01')")
+    return settings
+
+
 @dataclass(frozen=True)
 class RemotePlannerClass:
     """An out-of-process planner as the registry hands it out: ``build`` starts (or connects to)
@@ -551,45 +543,7 @@ class RemotePlannerClass:
     def settings(self, values: Mapping[str, Any] | None, *, file: str | Path | None = None,
                  prefix: str | None = None, **_: Any) -> dict[str, Any]:
         """``values`` as they are, once they are sure to be JSON (what the planner and run.json get)."""
-        settings = dict(values or {})
-        problem = not_json(settings)
-        if problem is not None:
-            path, what = problem
-            raise InputError(f"{what}: the settings of a planner in its own process are sent as JSON", file=file,
-                             field=".".join(p for p in (prefix, path) if p) or "settings",
-                             allowed="finite numbers, strings, true/false, null, lists and mappings "
-                             "(quote a date: '2024-01-01')")
-        return settings
+        return json_settings(values, file=file, prefix=prefix)
 
     def build(self, setup: PlannerSetup, settings: Mapping[str, Any] | None) -> RemotePlanner:
         return RemotePlanner(setup, self.target, json.dumps(dict(settings or {})), self.limits)
-
-
-@dataclass(frozen=True)
-class IsolatedPlannerClass:
-    """A planner class of the registry run in a child process of simgap's interpreter: its
-    settings are checked here by its ``Settings`` model (a bad field fails before any run), its
-    planners are built and asked over the protocol (`simgap.planning.isolated`)."""
-
-    planner: Any                     # the registry's PlannerClass
-    limits: ProcessLimits = ProcessLimits()
-
-    @property
-    def ref(self) -> str:
-        return self.planner.ref
-
-    @property
-    def origin(self) -> str:
-        return f"{self.planner.origin}, isolated"
-
-    @property
-    def description(self) -> str:
-        return self.planner.description
-
-    def settings(self, values: Mapping[str, Any] | None, **kwargs: Any):
-        return self.planner.settings(values, **kwargs)
-
-    def build(self, setup: PlannerSetup, settings: BaseModel | None) -> RemotePlanner:
-        target = PlannerTarget(command=(sys.executable, "-m", "simgap.planning.isolated", self.planner.ref))
-        settings_json = settings.model_dump_json() if settings is not None else "{}"
-        return RemotePlanner(setup, target, settings_json, self.limits)

@@ -50,6 +50,7 @@ from simgap.evaluate.errors import Aggregate, Comfort
 from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunEvaluation, SolutionCheckSource)
 from simgap.evaluate.solution import PartialCost
 from simgap.files import atomic_write_text, replace_directory
+from simgap.planning.protocol import PlannerReport
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record.integrity import check_driven, check_record, check_states, record_object
 from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
@@ -109,7 +110,7 @@ def _settings_json(s: RunSettings) -> dict[str, Any]:
 def _planner_json(p: PlannerRecord) -> dict[str, Any]:
     out: dict[str, Any] = {"name": p.name, "planner": p.planner, "settings": dict(p.settings)}
     if p.process is not None:
-        out["process"] = dict(p.process)
+        out["process"] = asdict(p.process)
     if p.agents:
         out["agents"] = {str(aid): _planner_json(a) for aid, a in p.agents.items()}
     return out
@@ -335,7 +336,8 @@ def _evaluation(e: Mapping[str, Any]) -> RunEvaluation:
 
 def _planner(p: Mapping[str, Any]) -> PlannerRecord:
     return PlannerRecord(name=p.get("name") or DEFAULT_PLANNER, planner=p.get("planner", ""),
-                         settings=p.get("settings") or {}, process=p.get("process"),
+                         settings=p.get("settings") or {},
+                         process=None if p.get("process") is None else PlannerReport(**p["process"]),
                          agents={int(aid): _planner(a) for aid, a in (p.get("agents") or {}).items()})
 
 

@@ -14,6 +14,7 @@ from simgap.cosim.loop import CosimSettings
 from simgap.cosim.sensing import LocalisationAccuracy
 from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.run_evaluation import AgentEvaluation, RunEvaluation
+from simgap.planning.protocol import PlannerReport
 from simgap.scenario.sections import RoadSections
 from simgap.sim.protocol import Realism
 
@@ -30,7 +31,7 @@ class PlannerRecord:
     name: str
     planner: str = ""                                      # the reference it was loaded by
     settings: Mapping[str, Any] = field(default_factory=dict)   # its own settings model, dumped
-    process: Mapping[str, Any] | None = None               # the planner process's record
+    process: PlannerReport | None = None                   # the planner process's record
     agents: Mapping[int, "PlannerRecord"] = field(default_factory=dict)   # per agent, when they differ
 
     def of_agent(self, agent_id: int) -> "PlannerRecord":

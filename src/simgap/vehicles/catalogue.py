@@ -76,6 +76,11 @@ class Vehicle(BaseModel):
         return rear_axle_to_center
 
     @property
+    def data(self) -> dict[str, Any]:
+        """Every field as a JSON object (what a planner in its own process gets as ``vehicle.data``)."""
+        return self.model_dump(mode="json")
+
+    @property
     def front_axle_to_center(self) -> float:
         return self.wheelbase - self.rear_axle_to_center
 
