@@ -199,15 +199,15 @@ def test_an_installed_backend_takes_the_knobs_its_settings_model_includes(instal
     assert refused.value.allowed == "mujoco"
 
 
-def test_simgap_run_puts_a_knob_into_an_installed_backend(site, tmp_path):
+def test_simgap_run_puts_a_knob_into_an_installed_backend(site, installed, tmp_path):
     xml = write_scenario(build_scenario("curve", {"radius": 20, "angle": 90}), tmp_path, preview=False)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]), COLUMNS="160")
     run = [sys.executable, "-m", "simgap", "run", str(xml), "--backend", "slippery", "--no-validate"]
     proc = subprocess.run(run + ["--knob", "road_friction=0.4", "--out", str(tmp_path / "run")], capture_output=True,
                           text=True, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    record = read_run(tmp_path / "run")
-    assert record.settings.backend.road_friction == 0.4
+    record = read_run(tmp_path / "run")          # its settings read through its own settings model
+    assert type(record.settings.backend).__name__ == "SlipperySettings" and record.settings.backend.road_friction == 0.4
     assert "road friction 0.4" in record.history.backend_notes
     refused = subprocess.run(run + ["--knob", "road_grade=2", "--out", str(tmp_path / "r")], capture_output=True,
                              text=True, env=env, timeout=600)

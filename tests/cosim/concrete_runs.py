@@ -31,6 +31,6 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
     loop = CosimSettings(**(cosim or {}))
     model = backend_settings(backend, settings)
     history = simulate(scenario, problems, make_backend(backend, model), agents, planners,
-                       loop, seed=seed, relief=ground_of(concrete.metadata(), scenario.lanelet_network))
+                       loop, seed=seed, relief=ground_of(concrete.sidecar, scenario.lanelet_network))
     return (recorded(history, scenario, problems, loop),
             run_metrics(history, scenario, problems, road_friction(model)))

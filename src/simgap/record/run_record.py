@@ -8,13 +8,17 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Iterator, Mapping
 
+from pydantic import BaseModel, JsonValue
+
 from simgap.cosim.fidelity import Fidelity
 from simgap.cosim.history import AgentHistory, History
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.sensing import LocalisationAccuracy
 from simgap.evaluate.run_evaluation import AgentEvaluation, RunEvaluation
 from simgap.scenario.sections import RoadSections
+from simgap.sim.ideal import NoSettings
 from simgap.sim.protocol import Realism
+from simgap.sim.settings import TrackingSettings
 
 FORMAT_VERSION = 3      # 1: run.json without a format_version (simgap before the run record, 2026-11-27);
                         # 2: a fingerprint over raw float bits (until 2026-12-02); 3: over quantised states
@@ -27,8 +31,8 @@ class PlannerRecord:
 
     name: str
     planner: str = ""                                      # the reference it was loaded by
-    settings: Mapping[str, Any] = field(default_factory=dict)   # its own settings model, dumped
-    process: Mapping[str, Any] | None = None               # the planner process's record
+    settings: Mapping[str, JsonValue] = field(default_factory=dict)   # its own settings model, dumped
+    process: Mapping[str, JsonValue] | None = None               # the planner process's record
     agents: Mapping[int, "PlannerRecord"] = field(default_factory=dict)   # per agent, when they differ
 
     def of_agent(self, agent_id: int) -> "PlannerRecord":
@@ -44,10 +48,10 @@ class RunSettings:
     cosim: CosimSettings
     planner: PlannerRecord
     scenario_path: str | None = None
-    parameters: Mapping[str, Any] = field(default_factory=dict)     # the scenario's parameters
+    parameters: Mapping[str, JsonValue] = field(default_factory=dict)   # the scenario's parameters
     parameter_units: Mapping[str, str] = field(default_factory=dict)
     sections: RoadSections = field(default_factory=RoadSections)
-    backend: Mapping[str, Any] = field(default_factory=dict)        # the backend's settings model, dumped
+    backend: BaseModel = field(default_factory=NoSettings)          # the backend's settings model (validated)
     sensing_accuracy: LocalisationAccuracy | None = None            # what the planners observed through
     planner_vehicle: str = ""
     recorded_as: Mapping[int, int] = field(default_factory=dict)    # agent -> the recorded road user it replaces
@@ -55,12 +59,13 @@ class RunSettings:
     versions: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("parameters", "parameter_units", "backend", "recorded_as", "versions"):
+        for name in ("parameters", "parameter_units", "recorded_as", "versions"):
             object.__setattr__(self, name, dict(getattr(self, name)))
 
     @property
     def controller(self) -> str | None:
-        return self.backend.get("controller")
+        """The tracking controller of a world whose cars track their plans (None: the ideal world)."""
+        return self.backend.controller if isinstance(self.backend, TrackingSettings) else None
 
 
 @dataclass(frozen=True)

@@ -69,6 +69,12 @@ def road_friction(settings: BaseModel | None) -> float:
     return settings.road_friction if isinstance(settings, RoadSurface) else DRY_ROAD_FRICTION
 
 
+def road_slope(settings: BaseModel | None) -> tuple[float, float]:
+    """The bank and the grade [deg] a world's cars feel on top of the road's relief: its settings',
+    or none in a world that does not tilt its road."""
+    return (settings.road_bank, settings.road_grade) if isinstance(settings, RoadSlope) else (0.0, 0.0)
+
+
 class TrackingSettings(BaseModel):
     """How each car of a physics backend follows its plan."""
 
