@@ -18,6 +18,7 @@ of realism real. A backend installed from an entry point takes knobs the same wa
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -56,7 +57,7 @@ class Knob:
     @property
     def backends(self) -> tuple[str, ...]:
         """The built-in backends that take the knob (an installed one may too: `applies_to`)."""
-        return tuple(name for name in BUILTIN_BACKENDS if self.applies_to(settings_model(name)))
+        return tuple(name for name, model in _builtin_models() if self.applies_to(model))
 
     @property
     def _field(self) -> FieldInfo:
@@ -90,6 +91,12 @@ class Knob:
     @property
     def default_text(self) -> str:
         return self.default or f"{self._field.default:g}"
+
+
+@cache
+def _builtin_models() -> tuple[tuple[str, type[BaseModel]], ...]:
+    """Each built-in backend with its settings model (read once: the help and the docs' table ask)."""
+    return tuple((name, settings_model(name)) for name in BUILTIN_BACKENDS)
 
 
 KNOBS: dict[str, Knob] = {k.name: k for k in (
