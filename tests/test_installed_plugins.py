@@ -14,12 +14,17 @@ import textwrap
 from pathlib import Path
 
 import pytest
+import yaml
 
 from simgap.control import make_controller
 from simgap.control.registry import CONTROLLERS
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.errors import InputError
+from simgap.experiment.knobs import check_knob
+from simgap.experiment.search.ladder import Ladder
+from simgap.experiment.search.space import Candidate
+from simgap.experiment.search.spec import load_search_spec
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.record import read_run
@@ -35,6 +40,7 @@ from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
 from simgap.errors import validated_settings
 from simgap.sim.ideal import IdealBackend
 from simgap.sim.protocol import BackendEntry
+from simgap.sim.settings import RoadSurface, TrackingSettings
 
 
 class CountingSettings(BaseModel):
@@ -60,6 +66,23 @@ BACKEND = BackendEntry(CountingBackend, lambda values: validated_settings(Counti
                        "toy_plugins")
 
 
+class SlipperySettings(TrackingSettings, RoadSurface):
+    """A world whose car tracks its plan on a road with a friction: it takes those models' knobs."""
+
+
+class SlipperyBackend(IdealBackend):
+    """The ideal world that says the friction it was given."""
+
+    name = "slippery"
+
+    def __init__(self, settings: SlipperySettings):
+        super().__init__()
+        self.notes.append(f"road friction {settings.road_friction:g}")
+
+
+SLIPPERY = BackendEntry(SlipperyBackend, lambda values: validated_settings(SlipperySettings, values), "toy_plugins")
+
+
 class PatientGains(PurePursuitGains):
     extra_lookahead_time: float = 0.0
 
@@ -83,7 +106,8 @@ def site(tmp_path_factory) -> Path:
     dist = site / "toy_plugins-1.0.dist-info"
     dist.mkdir()
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: toy-plugins\nVersion: 1.0\n")
-    (dist / "entry_points.txt").write_text("[simgap.backends]\ncounting = toy_plugins:BACKEND\n\n"
+    (dist / "entry_points.txt").write_text("[simgap.backends]\ncounting = toy_plugins:BACKEND\n"
+                                           "slippery = toy_plugins:SLIPPERY\n\n"
                                            "[simgap.controllers]\npatient = toy_plugins:PatientTracker\n")
     return site
 
@@ -107,7 +131,7 @@ def drive(concrete, backend):
 
 
 def test_installed_names_follow_the_built_in_ones(installed):
-    assert BACKENDS.names() == ["ideal", "dynamic", "mujoco", "beamng", "counting"]
+    assert BACKENDS.names() == ["ideal", "dynamic", "mujoco", "beamng", "counting", "slippery"]
     assert CONTROLLERS.names() == ["pure_pursuit", "stanley", "lqr", "patient"]
     assert BACKENDS.origin("counting") == "installed (toy-plugins)"
     assert CONTROLLERS.target("patient") == "toy_plugins:PatientTracker"
@@ -154,3 +178,38 @@ def test_simgap_run_takes_an_installed_backend(site, tmp_path):
     assert proc.returncode == 0, proc.stderr
     record = read_run(tmp_path / "run")
     assert record.history.backend == "counting" and record.agents[0].history.outcome == "goal_reached"
+
+
+def test_an_installed_backend_takes_the_knobs_its_settings_model_includes(installed, tmp_path):
+    # the search spec's way: the installed rung's settings take the knob, a knob of a model the
+    # installed settings do not include (the slope) is left out
+    spec = tmp_path / "search.yaml"
+    spec.write_text(yaml.safe_dump({"name": "t", "logical": "curve", "parameters": {"radius": {"min": 10, "max": 50}},
+                                    "knobs": {"road_friction": {"min": 0.2, "max": 1.0},
+                                              "road_bank": {"min": 0.0, "max": 5.0}},
+                                    "ladder": [{"backend": "ideal"}, {"backend": "slippery"}], "strategies": ["random"]}))
+    search = load_search_spec(spec)
+    candidate = Candidate(0, (0.5, 0.5, 0.5), "sedan", {"radius": 30.0}, {"road_friction": 0.3, "road_bank": 4.0})
+    settings, _ = Ladder(search, tmp_path / "search").settings(candidate, 1)
+    assert type(settings).__name__ == "SlipperySettings" and settings.road_friction == 0.3
+    assert Ladder(search, tmp_path / "search").settings(candidate, 0)[0] == search.rungs[0].settings   # ideal: none
+    check_knob("steer_delay", 0.1, 0.1, backend="slippery")
+    with pytest.raises(InputError, match="the knob 'road_bank' does not apply to the slippery backend") as refused:
+        check_knob("road_bank", 4.0, 4.0, backend="slippery")
+    assert refused.value.allowed == "mujoco"
+
+
+def test_simgap_run_puts_a_knob_into_an_installed_backend(site, installed, tmp_path):
+    xml = write_scenario(build_scenario("curve", {"radius": 20, "angle": 90}), tmp_path, preview=False)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]), COLUMNS="160")
+    run = [sys.executable, "-m", "simgap", "run", str(xml), "--backend", "slippery", "--no-validate"]
+    proc = subprocess.run(run + ["--knob", "road_friction=0.4", "--out", str(tmp_path / "run")], capture_output=True,
+                          text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    record = read_run(tmp_path / "run")          # its settings read through its own settings model
+    assert type(record.settings.backend).__name__ == "SlipperySettings" and record.settings.backend.road_friction == 0.4
+    assert "road friction 0.4" in record.history.backend_notes
+    refused = subprocess.run(run + ["--knob", "road_grade=2", "--out", str(tmp_path / "r")], capture_output=True,
+                             text=True, env=env, timeout=600)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert "does not apply to the slippery backend" in refused.stderr and not (tmp_path / "r").exists()

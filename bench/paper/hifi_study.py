@@ -24,8 +24,7 @@ import mujoco
 from simgap.cosim import CosimSettings
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.scenario import build_scenario, load_scenario, read_metadata, write_scenario
-from simgap.scenario.sections import RoadSections
+from simgap.scenario import build_scenario, load_scenario, read_sidecar, write_scenario
 from simgap.vehicles import vehicle_names
 from simgap.files import BenchmarkResults
 
@@ -53,7 +52,7 @@ def main() -> None:
             radius, angle = (float(x) for x in spec.split(","))
             xml = write_scenario(build_scenario("curve", {"radius": radius, "angle": angle}), Path(tmp), preview=False)
             scenario, problems = load_scenario(xml)
-            sections = RoadSections.of_json(read_metadata(xml).get("sections"))
+            sections = read_sidecar(xml).sections
             for vehicle in args.vehicles:
                 ideal_walls, hifi_walls = [], []
                 for _ in range(args.repeat):

@@ -22,10 +22,10 @@ from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, with_cri
 from simgap.files import BenchmarkResults
 from simgap.record import read_run
 from simgap.record.values import plain, same
-from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.scenario.obstacles import without_recorded_egos
-from simgap.sim.settings import DRY_ROAD_FRICTION
+from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
 
 FIELDS = ("time_to_goal_s", "distance_m", "min_distance_to_traffic_m", "max_road_excursion_m", "planning_calls",
@@ -48,9 +48,9 @@ def main(argv: list[str] | None = None) -> int:
         scenario, _ = without_recorded_egos(scenario, problems)
         context = EvaluationContext(scenario, problems, record.settings.evaluation, record.settings.cosim.offroad_tolerance,
                                     record.settings.cosim.planning_budget_s,
-                                    float(record.settings.backend.get("road_friction", DRY_ROAD_FRICTION)),
+                                    road_friction(record.settings.backend),
                                     load_vehicle(record.settings.planner_vehicle or "sedan"),
-                                    ground_of(read_metadata(xml), scenario.lanelet_network), xml)
+                                    ground_of(read_sidecar(xml), scenario.lanelet_network), xml)
         clock = time.perf_counter()
         again = evaluate(record.history, context)
         seconds += time.perf_counter() - clock

@@ -8,11 +8,11 @@ from typing import Callable
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.run_metrics import run_metrics
-from simgap.experiment.knobs import knob_value
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.scenario.ground import ground_of
 from simgap.sim.registry import backend_settings, make_backend
+from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
 from evaluated import recorded
 
@@ -29,7 +29,8 @@ def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | No
                                                                         scenario.lanelet_network)))
                 for a in agents}
     loop = CosimSettings(**(cosim or {}))
-    history = simulate(scenario, problems, make_backend(backend, backend_settings(backend, settings)), agents, planners,
-                       loop, seed=seed, relief=ground_of(concrete.metadata(), scenario.lanelet_network))
+    model = backend_settings(backend, settings)
+    history = simulate(scenario, problems, make_backend(backend, model), agents, planners,
+                       loop, seed=seed, relief=ground_of(concrete.sidecar, scenario.lanelet_network))
     return (recorded(history, scenario, problems, loop),
-            run_metrics(history, scenario, problems, knob_value("road_friction", settings)))
+            run_metrics(history, scenario, problems, road_friction(model)))

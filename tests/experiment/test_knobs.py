@@ -130,9 +130,9 @@ def test_a_perfect_machine_takes_no_knob_of_the_loop_and_no_record_says_it_did()
             check_knob(name, 0.1, 0.1, realism=Realism.IDEAL)
     check_knob("steer_delay", 0.2, 0.2, realism=Realism.IDEAL)
     ideal = backend_settings("dynamic", {"realism": "ideal"})
-    settings, cosim = with_knobs("dynamic", ideal, CosimSettings(), values)       # a search's rung
+    settings, cosim = with_knobs(ideal, CosimSettings(), values)       # a search's rung
     assert settings.steer_delay == 0.2 and cosim == CosimSettings()
-    _, cosim = with_knobs("dynamic", backend_settings("dynamic", {}), CosimSettings(), values)
+    _, cosim = with_knobs(backend_settings("dynamic", {}), CosimSettings(), values)
     assert cosim.latency == 0.5 and cosim.sensing.position_drift_m == 2.0
 
 

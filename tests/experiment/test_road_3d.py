@@ -10,7 +10,7 @@ import pytest
 from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, write_scenario
-from simgap.scenario import read_metadata
+from simgap.scenario import read_sidecar
 from simgap.scenario.ground import ground_of
 
 
@@ -31,7 +31,7 @@ def test_mujoco_drives_over_the_crest_while_the_ideal_world_stays_flat(crest):
     assert z[top] - z[0] > 5.0 and z[top] - z[-1] > 5.0     # up 8 %, over the crest, down 8 %
     assert 0 < top < len(z) - 1
     # the surface's height under the car where it is, and nose up before the top, nose down after
-    relief = ground_of(read_metadata(xml))
+    relief = ground_of(read_sidecar(xml))
     driven = mujoco.history.driven[1]
     ground = relief.surface(driven.x, driven.y).z
     assert np.max(np.abs(z - ground)) < 1.0

@@ -41,11 +41,11 @@ def test_the_docs_example_drives_the_same_run_in_process_and_in_its_own(curve_xm
             for how, planner in (("in_process", f"{KEEP_LANE}:KeepLane"),
                                  ("own_process", f"exec:{sys.executable} {KEEP_LANE}"))}
     in_process, own_process = runs["in_process"], runs["own_process"]
-    assert in_process.agents[0].outcome == own_process.agents[0].outcome == "goal_reached"
-    assert 5.0 < max(in_process.agents[0].driven.v) < 6.5, "it cruises at the speed its settings give"
+    assert in_process.agents[0].history.outcome == own_process.agents[0].history.outcome == "goal_reached"
+    assert 5.0 < max(in_process.agents[0].history.driven.v) < 6.5, "it cruises at the speed its settings give"
     assert in_process.settings.planner.process is None
     assert own_process.settings.planner.process.protocol_version == simgap_planner.PROTOCOL_VERSION
-    assert own_process.agents[0].planner_failures == 0 and len(own_process.agents[0].driven) > 20
+    assert own_process.agents[0].history.planner_failures == 0 and len(own_process.agents[0].history.driven) > 20
     assert own_process.fingerprint == in_process.fingerprint
 
 

@@ -127,3 +127,38 @@ def test_a_record_of_format_3_reads_its_evaluation_settings_from_the_loops(study
     assert settings.evaluation.cost_function.value == "MW1"
     assert settings.evaluation.score.min_progress_ratio == 0.4 and settings.evaluation.score.weights.comfort == 7.0
     assert "score" not in settings.cosim.model_dump() and "cost_function" not in settings.cosim.model_dump()
+
+
+def test_backend_settings_are_read_typed_through_the_backend_settings_model(study, tmp_path):
+    from simgap.record import write_run
+    from simgap.sim.mujoco.settings import MujocoSettings
+
+    runs = {p.parent.name: p.parent for p in study.rglob("run.json")}
+    mujoco = read_run(runs["mujoco-sedan"])
+    assert isinstance(mujoco.settings.backend, MujocoSettings) and mujoco.settings.backend.physics_hz == 500.0
+    assert read_run(runs["ideal"]).settings.backend.model_dump() == {}
+    # a physical run kept before realism was a setting of its world was an ideal car: so it reads
+    meta = json.loads((runs["mujoco-sedan"] / "run.json").read_text())
+    del meta["settings"]["backend"]["realism"], meta["settings"]["realism"]
+    (runs["mujoco-sedan"] / "run.json").write_text(json.dumps(meta))
+    old = read_run(runs["mujoco-sedan"])
+    assert old.settings.backend.realism is Realism.IDEAL and old.fidelity.label == "mujoco/sedan/ideal-car"
+    # written again (format 3) and read back: the same model
+    again = read_run(write_run(old, tmp_path / "again"))
+    assert again.settings.backend == old.settings.backend
+    # a value the backend's model does not take is refused, naming the field
+    meta = json.loads((tmp_path / "again" / "run.json").read_text())
+    meta["settings"]["backend"]["road_friction"] = 9.0
+    (tmp_path / "again" / "run.json").write_text(json.dumps(meta))
+    with pytest.raises(InputError) as refused:
+        read_run(tmp_path / "again")
+    assert refused.value.field == "settings.backend.road_friction" and "run.json" in str(refused.value)
+
+
+def test_the_settings_of_a_backend_not_installed_here_are_kept_as_recorded(study):
+    run_dir = next(p.parent for p in study.rglob("run.json") if p.parent.name == "mujoco-sedan")
+    meta = json.loads((run_dir / "run.json").read_text())
+    meta["backend"] = "gone_world"
+    (run_dir / "run.json").write_text(json.dumps(meta))
+    record = read_run(run_dir)
+    assert record.settings.backend.model_dump()["physics_hz"] == 500.0 and record.settings.controller is None

@@ -9,7 +9,7 @@ import pytest
 from commonroad.scenario.lanelet import LineMarking
 from commonroad_route_planner.route_planner import RoutePlanner
 
-from simgap.scenario import build_scenario, load_scenario, read_metadata, write_scenario
+from simgap.scenario import build_scenario, load_scenario, read_sidecar, write_scenario
 
 
 def by_id(network):
@@ -80,4 +80,4 @@ def test_xml_round_trip_reloads_equal(tmp_path):
         g, h = p.goal.state_list[0].position, q.goal.state_list[0].position
         assert type(g) is type(h)
         assert np.allclose(g.vertices, h.vertices, atol=1e-6)
-    assert read_metadata(xml)["parameters"]["agents"] == 3
+    assert read_sidecar(xml).parameters["agents"] == 3

@@ -168,7 +168,7 @@ parameters:
     built = [logical.build(p) for p in logical.grid()]
     assert [c.name for c in built] == ["exit_initialspeed-0", "exit_initialspeed-15"]
     assert [c.problems.planning_problem_dict[1].initial_state.velocity for c in built] == [0.0, 15.0]
-    assert built[0].opendrive is not None and built[0].metadata()["opendrive"]["profiles"]   # its relief kept
+    assert built[0].opendrive is not None and built[0].sidecar.opendrive.profiles   # its relief kept
     assert str(built[0].scenario.scenario_id).startswith("ZAM_ExitInitialspeed0")
 
     text = spec.read_text()

@@ -4,16 +4,14 @@ the lanelets came from."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from simgap.errors import InputError
-from simgap.scenario import load_scenario, read_metadata, write_scenario
+from simgap.scenario import load_scenario, read_sidecar, write_scenario
 from simgap.scenario.opendrive.network import opendrive_network
-from simgap.scenario.opendrive.origin import origin_of
 from simgap.scenario.opendrive.scenario import opendrive_scenario
 
 ROADS = Path(__file__).parent / "opendrive_roads"
@@ -82,12 +80,12 @@ def test_the_written_scenario_reloads_with_its_sections_and_origin(tmp_path):
     xml = write_scenario(concrete, tmp_path, preview=False)
     scenario, problems = load_scenario(xml)
     assert len(scenario.lanelet_network.lanelets) == 4 and len(problems.planning_problem_dict) == 1
-    meta = read_metadata(xml)
-    assert meta["logical"] == "opendrive" and set(meta["sections"].values()) == {"straight", "clothoid"}
-    origin = origin_of(meta)
+    meta = read_sidecar(xml)
+    assert meta.logical == "opendrive" and set(meta.sections.kinds.values()) == {"straight", "clothoid"}
+    origin = meta.opendrive
     assert origin == concrete.opendrive and origin.source == "crest-curve.xodr"
     assert set(origin.profiles) == {"0"} and origin.profiles["0"].elevation[1].c == pytest.approx(0.00367346938776)
-    assert "opendrive" not in json.dumps(read_metadata(write_scenario(_generated(), tmp_path / "g", preview=False)))
+    assert read_sidecar(write_scenario(_generated(), tmp_path / "g", preview=False)).opendrive is None
 
 
 def _generated():

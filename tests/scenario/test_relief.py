@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from simgap.errors import InputError
-from simgap.scenario import build_scenario, read_metadata, write_scenario
+from simgap.scenario import build_scenario, read_sidecar, write_scenario
 from simgap.scenario.ground import ground_of
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.relief import BankKnot, ElevationProfile, ReliefProfile, RoadRelief, VerticalCurve
@@ -83,14 +83,14 @@ def test_a_bank_into_the_turn_raises_the_outside_of_the_curve_and_one_against_it
 def test_a_flat_road_has_no_relief_and_its_sidecar_is_as_before(tmp_path):
     flat = build_scenario("curve", {"radius": 20, "angle": 45, "grade": 0, "bank": 0})
     assert flat.blueprint.relief is None
-    assert "relief" not in flat.metadata()["blueprint"]
-    assert ground_of(flat.metadata()) is None
+    assert "relief" not in flat.sidecar.as_json()["blueprint"]
+    assert ground_of(flat.sidecar) is None
 
 
 def test_the_relief_travels_in_the_sidecar(tmp_path):
     concrete = build_scenario("s-curve", {"radius": 30, "angle": 60, "grade": -5, "bank": 4})
     xml = write_scenario(concrete, tmp_path, preview=False)
-    relief = ground_of(read_metadata(xml))
+    relief = ground_of(read_sidecar(xml))
     assert relief is not None and relief.profile == concrete.blueprint.relief
     assert relief.profile.height(np.array([100.0]))[0][0] == pytest.approx(-5.0)
     banks = [k.bank for k in relief.profile.superelevation]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from simgap.errors import InputError
-from simgap.scenario import build_scenario, load_logical, read_metadata, write_scenario
+from simgap.scenario import build_scenario, load_logical, read_sidecar, write_scenario
 from simgap.scenario.ground import ground_of
 from simgap.scenario.logical import TEMPLATES
 from simgap.scenario.templates import REQUIRED
@@ -61,7 +61,7 @@ EDITS = [  # name, edit, the field named
 
 
 def test_the_unedited_sidecar_gives_the_roads_relief(crest):
-    relief = ground_of(read_metadata(crest))
+    relief = ground_of(read_sidecar(crest))
     assert relief is not None
     assert relief.profile.height(np.array([123.56]))[0][0] > 5.0         # the crest, 9 m up
 
@@ -70,7 +70,7 @@ def test_the_unedited_sidecar_gives_the_roads_relief(crest):
 def test_a_sidecar_whose_relief_does_not_read_is_refused_naming_the_file_and_field(crest, tmp_path, edit, field):
     xml = _edited(crest, tmp_path, edit)
     with pytest.raises(InputError) as refused:
-        read_metadata(xml)
+        read_sidecar(xml)
     message = refused.value.describe()
     assert refused.value.file == str(xml.with_suffix(".json")) and refused.value.field == field
     assert "\n" not in message
@@ -79,14 +79,14 @@ def test_a_sidecar_whose_relief_does_not_read_is_refused_naming_the_file_and_fie
 def test_an_imported_roads_heights_that_do_not_read_are_refused(tmp_path):
     concrete = build_scenario("curve", {"radius": 50, "angle": 30})
     concrete.blueprint = None
-    metadata = concrete.metadata() | {"opendrive": {"source": "road.xodr", "sha256": "0", "profiles": {},
+    metadata = concrete.sidecar.as_json() | {"opendrive": {"source": "road.xodr", "sha256": "0", "profiles": {},
                                                    "lanelets": {"100": {"road": "1", "section": 0, "lane": -1,
                                                                         "s_start": 0, "s_end": 10,
                                                                         "left_z": ["high"], "right_z": None}}}}
     xml = write_scenario(concrete, tmp_path, preview=False)
     xml.with_suffix(".json").write_text(json.dumps(metadata))
     with pytest.raises(InputError, match=r"field 'opendrive\.lanelets\.100\.left_z\.0'"):
-        read_metadata(xml)
+        read_sidecar(xml)
 
 
 def test_simgap_run_refuses_the_edited_relief_before_it_runs(crest, tmp_path):

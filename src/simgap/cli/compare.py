@@ -22,8 +22,7 @@ from simgap.evaluate.route_edges import EventPlace, event_places, route_edges
 from simgap.files import writable_directory
 from simgap.record import RunRecord, read_run
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
-from simgap.scenario import load_scenario, read_metadata
-from simgap.scenario.sections import RoadSections
+from simgap.scenario import load_scenario, read_sidecar
 
 METRICS = ("lateral_displacement", "position_error", "orientation_error", "velocity_error")
 UNITS = {"lateral_displacement": "m", "position_error": "m", "orientation_error": "rad", "velocity_error": "m/s"}
@@ -113,7 +112,7 @@ def compare(
     path = a.settings.scenario_path
     xml = Path(path) if path and Path(path).exists() else run_a / "driven.xml"
     scenario, problems = load_scenario(xml)
-    sections = a.settings.sections or RoadSections.of_json(read_metadata(xml).get("sections"))
+    sections = a.settings.sections or read_sidecar(xml).sections
     comparisons = compare_histories(a.history, b.history, scenario, problems, sections)
     network, by_id = scenario.lanelet_network, problems.planning_problem_dict
     frames = {aid: route_centre(network, by_id[aid]) if aid in by_id else None

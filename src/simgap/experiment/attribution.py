@@ -47,7 +47,7 @@ from simgap.experiment.replay import recorded_scenario, replay_request
 from simgap.files import atomic_write_text
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.record import RunRecord, read_run
-from simgap.scenario import load_scenario, read_metadata
+from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.sim.assumptions import Assumption, restorations, restoring
 from simgap.sim.protocol import Realism
@@ -227,7 +227,7 @@ def broken_assumptions(record: RunRecord, request: RunRequest) -> tuple[Assumpti
 
 def _has_relief(scenario: Path) -> bool:
     scenario_, _ = load_scenario(scenario)
-    return ground_of(read_metadata(scenario), scenario_.lanelet_network) is not None
+    return ground_of(read_sidecar(scenario), scenario_.lanelet_network) is not None
 
 
 def counterfactual(request: RunRequest, holding: Iterable[Assumption]) -> RunRequest:

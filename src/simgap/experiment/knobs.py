@@ -5,15 +5,20 @@ a knob's ``nominal`` value is the ideal world's assumption (no delay, no error),
 probes move it back to. The ideal fidelity never takes a knob, and a physics world of realism
 ideal (a perfect machine) none of the loop's (latency, localisation errors).
 
-`KNOBS` is the one table of them (name, unit, the settings field it turns, the backends that take
-it, what it means); a knob's range is its field's, bound once in the settings model: the search
-spec's validation, ``simgap run --knob`` (its help and its checks) and the README's table
-(`knob_table`, checked by a test) all come from it.
+`KNOBS` is the one table of them (name, unit, the settings field it turns, what it means); a
+knob's range is its field's, bound once in the settings model: the search spec's validation,
+``simgap run --knob`` (its help and its checks) and the README's table (`knob_table`, checked by a
+test) all come from it. Which backends take a knob is not written here: each backend's settings
+model says it, by the knob models it includes (`RoadFrictionSettings`, `RoadSlope`, `TrackingSettings`:
+`simgap.sim.settings`) but the fields it names in ``NOT_KNOBS``; a knob of the loop
+(``cosim.<section>.<field>``) applies to a world whose car tracks its plan (`TrackingSettings`),
+of realism real. A backend installed from an entry point takes knobs the same way.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -23,9 +28,9 @@ from pydantic.fields import FieldInfo
 from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
-from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.protocol import Realism
-from simgap.sim.settings import RoadFrictionSettings, TrackingSettings, realism_of
+from simgap.sim.registry import BUILTIN_BACKENDS, settings_model
+from simgap.sim.settings import RoadSlope, RoadFrictionSettings, TrackingSettings, not_knobs, realism_of
 
 
 @dataclass(frozen=True)
@@ -37,10 +42,22 @@ class Knob:
     unit: str
     model: type[BaseModel]      # the settings model that holds the knob's field
     setting: str
-    backends: tuple[str, ...]
     meaning: str
     nominal: float = 0.0            # the ideal world's assumption
     default: str = ""               # what the world has when the knob is left out (empty: the field's default)
+
+    def applies_to(self, settings: type[BaseModel]) -> bool:
+        """Whether a backend whose settings model is ``settings`` takes the knob: the model includes
+        the knob's (for a knob of the loop: `TrackingSettings`, a car that tracks its plan) and does
+        not leave its field out (``NOT_KNOBS``)."""
+        if self.real_only:
+            return issubclass(settings, TrackingSettings)
+        return issubclass(settings, self.model) and self.setting not in not_knobs(settings)
+
+    @property
+    def backends(self) -> tuple[str, ...]:
+        """The built-in backends that take the knob (an installed one may too: `applies_to`)."""
+        return tuple(name for name, model in _builtin_models() if self.applies_to(model))
 
     @property
     def _field(self) -> FieldInfo:
@@ -76,35 +93,38 @@ class Knob:
         return self.default or f"{self._field.default:g}"
 
 
-_PHYSICAL = ("dynamic", "mujoco", "beamng")
+@cache
+def _builtin_models() -> tuple[tuple[str, type[BaseModel]], ...]:
+    """Each built-in backend with its settings model (read once: the help and the docs' table ask)."""
+    return tuple((name, settings_model(name)) for name in BUILTIN_BACKENDS)
+
+
 KNOBS: dict[str, Knob] = {k.name: k for k in (
-    Knob("road_friction", "-", RoadFrictionSettings, "road_friction", ("dynamic", "mujoco"),
+    Knob("road_friction", "-", RoadFrictionSettings, "road_friction",
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)", nominal=1.0),
-    Knob("steer_delay", "s", TrackingSettings, "steer_delay", _PHYSICAL, "steering dead time",
+    Knob("steer_delay", "s", TrackingSettings, "steer_delay", "steering dead time", default="the vehicle's"),
+    Knob("steer_lag", "s", TrackingSettings, "steer_lag", "steering lag: first-order time constant",
          default="the vehicle's"),
-    Knob("steer_lag", "s", TrackingSettings, "steer_lag", ("dynamic", "mujoco"),
-         "steering lag: first-order time constant", default="the vehicle's"),
-    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", _PHYSICAL, "drive and brake dead time",
+    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", "drive and brake dead time", default="the vehicle's"),
+    Knob("pedal_lag", "s", TrackingSettings, "pedal_lag", "drive and brake lag: first-order time constant",
          default="the vehicle's"),
-    Knob("pedal_lag", "s", TrackingSettings, "pedal_lag", ("dynamic", "mujoco"),
-         "drive and brake lag: first-order time constant", default="the vehicle's"),
-    Knob("latency", "s", CosimSettings, "cosim.latency", _PHYSICAL,
-         "from the planning time to the plan reaching the car", default="measured"),
-    Knob("position_drift", "m", SensingSettings, "cosim.sensing.position_drift_m", _PHYSICAL,
+    Knob("latency", "s", CosimSettings, "cosim.latency", "from the planning time to the plan reaching the car",
+         default="measured"),
+    Knob("position_drift", "m", SensingSettings, "cosim.sensing.position_drift_m",
          "drifting localisation error on x and y, 1-sigma", default="the profile's"),
-    Knob("heading_drift", "deg", SensingSettings, "cosim.sensing.heading_drift_deg", _PHYSICAL,
+    Knob("heading_drift", "deg", SensingSettings, "cosim.sensing.heading_drift_deg",
          "drifting localisation error on the heading, 1-sigma", default="the profile's"),
-    Knob("speed_drift", "m/s", SensingSettings, "cosim.sensing.speed_drift_mps", _PHYSICAL,
+    Knob("speed_drift", "m/s", SensingSettings, "cosim.sensing.speed_drift_mps",
          "drifting localisation error on the speed, 1-sigma", default="the profile's"),
-    Knob("position_noise", "m", SensingSettings, "cosim.sensing.position_noise_m", _PHYSICAL,
+    Knob("position_noise", "m", SensingSettings, "cosim.sensing.position_noise_m",
          "white noise on the x and y the planner observes, 1-sigma", default="the profile's"),
-    Knob("yaw_noise", "deg", SensingSettings, "cosim.sensing.heading_noise_deg", _PHYSICAL,
+    Knob("yaw_noise", "deg", SensingSettings, "cosim.sensing.heading_noise_deg",
          "white noise on the heading the planner observes, 1-sigma", default="the profile's"),
-    Knob("speed_noise", "m/s", SensingSettings, "cosim.sensing.speed_noise_mps", _PHYSICAL,
+    Knob("speed_noise", "m/s", SensingSettings, "cosim.sensing.speed_noise_mps",
          "white noise on the speed the planner observes, 1-sigma", default="the profile's"),
-    Knob("road_bank", "deg", WorldSettings, "road_bank", ("mujoco",),
+    Knob("road_bank", "deg", RoadSlope, "road_bank",
          "cross slope; positive: the road falls to the right of the way of travel"),
-    Knob("road_grade", "deg", WorldSettings, "road_grade", ("mujoco",), "grade; positive: uphill"),
+    Knob("road_grade", "deg", RoadSlope, "road_grade", "grade; positive: uphill"),
 )}
 
 
@@ -123,7 +143,7 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
     if low < k.low or high > k.high:
         what = f"{low:g} {k.unit} is out of range" if low == high else f"[{low:g}, {high:g}] leaves the knob's range"
         raise InputError(what, file=file, field=where, allowed=f"{k.low:g} to {k.high:g} {k.unit}")
-    if backend is not None and backend not in k.backends:
+    if backend is not None and not k.applies_to(settings_model(backend)):
         raise InputError(f"the knob '{name}' does not apply to the {backend} backend", file=file, field=where,
                          allowed=", ".join(k.backends))
     if realism is Realism.IDEAL and k.real_only:
@@ -131,17 +151,6 @@ def check_knob(name: str, low: float, high: float, *, file: str | Path | None = 
                          "car at once, the planner observes the exact state)", file=file, field=where,
                          allowed="realism real, or leave the knob out")
     return k
-
-
-def knob_value(name: str, values: Mapping[str, Any] | BaseModel) -> float | None:
-    """The value of knob ``name`` in ``values`` (a backend's settings model, or knob values), else
-    its field's default; None where that default is the world's own (the vehicle's actuators, the
-    sensing profile's accuracy, the measured latency)."""
-    k = KNOBS[name]
-    value = getattr(values, k.setting, None) if isinstance(values, BaseModel) else values.get(k.setting)
-    if value is None:
-        value = k._field.default
-    return float(value) if isinstance(value, (int, float)) else None
 
 
 def knob_table() -> str:
@@ -156,11 +165,17 @@ def apply_knobs(backend: str, values: Mapping[str, float],
                 realism: Realism = Realism.REAL) -> tuple[dict[str, Any], dict[str, Any]]:
     """(backend settings, cosim settings) that put the knob ``values`` into ``backend`` in a world
     of ``realism``; knobs that do not apply there are left out (so no record says they applied)."""
+    return _split(settings_model(backend), values, realism)
+
+
+def _split(model: type[BaseModel], values: Mapping[str, float],
+           realism: Realism) -> tuple[dict[str, Any], dict[str, Any]]:
+    """`apply_knobs` for a backend whose settings model is ``model``."""
     settings: dict[str, Any] = {}
     cosim: dict[str, Any] = {}
     for name, value in values.items():
         knob = KNOBS[name]
-        if backend not in knob.backends or (realism is Realism.IDEAL and knob.real_only):
+        if not knob.applies_to(model) or (realism is Realism.IDEAL and knob.real_only):
             continue
         if knob.setting.startswith("cosim."):
             path = knob.setting.split(".")[1:]
@@ -173,13 +188,16 @@ def apply_knobs(backend: str, values: Mapping[str, float],
     return settings, cosim
 
 
-def with_knobs(backend: str, settings: BaseModel | None, cosim: CosimSettings,
+def with_knobs(settings: BaseModel | None, cosim: CosimSettings,
                values: Mapping[str, float]) -> tuple[BaseModel | None, CosimSettings]:
-    """``backend``'s settings and the loop's with the knob ``values`` put in (those that apply to
-    it). The values lie in the knobs' ranges, which are the settings models' own bounds, so the
-    models take them as they are."""
-    overrides, sections = apply_knobs(backend, values, realism_of(settings))
-    if overrides and settings is not None:
+    """A backend's ``settings`` and the loop's with the knob ``values`` put in (those that apply to
+    it: its settings model says which; none to an optional backend that is not installed, whose
+    settings are None). The values lie in the knobs' ranges, which are the settings models' own
+    bounds, so the models take them as they are."""
+    if settings is None:
+        return settings, cosim
+    overrides, sections = _split(type(settings), values, realism_of(settings))
+    if overrides:
         settings = settings.model_copy(update=overrides)
     if sections:
         cosim = cosim.model_copy(update={name: getattr(cosim, name).model_copy(update=fields)

@@ -91,7 +91,7 @@ def replay_request(record: RunRecord, scenario: Path) -> RunRequest:
     latencies = {a.id: tuple(a.plan_latency_s) for a in h.agents} \
         if s.cosim.latency == MEASURED and h.realism is Realism.REAL else None
     return RunRequest(scenario=scenario, backend=h.backend, vehicles={a.id: a.vehicle for a in h.agents},
-                      planner_vehicle=s.planner_vehicle or h.agents[0].vehicle.name, backend_settings=dict(s.backend),
+                      planner_vehicle=s.planner_vehicle or h.agents[0].vehicle.name, backend_settings=s.backend,
                       planner=_planners(s.planner, [a.id for a in h.agents]), cosim=s.cosim, evaluation=s.evaluation,
                       seed=s.seed,
                       validate=record.evaluation.solution_check is not None, replayed_latencies=latencies,

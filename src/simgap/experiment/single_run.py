@@ -36,8 +36,7 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.record import PlannerRecord, RunRecord, RunSettings, rewrite_record, write_run
-from simgap.scenario import load_scenario, read_metadata
-from simgap.scenario.sections import RoadSections
+from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
@@ -193,10 +192,10 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
         vehicles = {pid: _vehicle(v) for pid, v in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
-    meta = read_metadata(request.scenario)
+    sidecar = read_sidecar(request.scenario)
     if request.placement is not None:
-        meta = meta | {"parameters": meta.get("parameters", {}) | request.placement.parameters()}
-    relief = None if request.flat_road else ground_of(meta, scenario.lanelet_network)   # what 3D worlds build
+        sidecar = sidecar.with_parameters(request.placement.parameters())
+    relief = None if request.flat_road else ground_of(sidecar, scenario.lanelet_network)   # what 3D worlds build
     planners, errors, planner_records = {}, [], {}
     out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
@@ -229,10 +228,11 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
         for aid, planner in planners.items():
             planner_records[aid] = replace(planner_records[aid], process=planner.report())
     settings = RunSettings(
-        scenario_id=meta.get("name", Path(request.scenario).stem), cosim=request.cosim, evaluation=request.evaluation,
+        scenario_id=sidecar.name if sidecar.name is not None else Path(request.scenario).stem, cosim=request.cosim,
+        evaluation=request.evaluation,
         planner=_planner_record(request.planner, planner_records), scenario_path=str(request.scenario),
-        parameters=meta.get("parameters", {}), parameter_units=meta.get("units", {}),
-        sections=RoadSections.of_json(meta.get("sections")), backend=request.backend_settings.model_dump(mode="json"),
+        parameters=sidecar.parameters, parameter_units=sidecar.units,
+        sections=sidecar.sections, backend=request.backend_settings,
         sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
         planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
         versions=software_versions())
@@ -251,7 +251,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
         xml = scenario_xml(driven_scenario(scenario, history), problems)
         timings["io"] = time.perf_counter() - t0
         write_run(RunRecord(history, evaluation, settings, timings), out, xml,
-                  solution_xml(solution_of(history, context)), meta)
+                  solution_xml(solution_of(history, context)), sidecar)
     if request.validate:           # the slow check, once the run is safe on disk
         clock = time.perf_counter()
         evaluation = with_validity(evaluation, history, context, SolutionCheckCache(request.check_cache))

@@ -22,13 +22,16 @@ from enum import StrEnum
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.obstacle import ObstacleType
 from commonroad.scenario.scenario import Scenario
+from pydantic import BaseModel
 from scenariogeneration import xosc
 
 from simgap.record import RunRecord
 from simgap.errors import InputError
 from simgap.cosim.history import AGENT_ID_OFFSET
 from simgap.scenario.goal import Goal
+from simgap.sim.assumptions import Assumption, restorations
 from simgap.sim.protocol import Realism
+from simgap.sim.settings import TrackingSettings
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.trajectory import Trajectory
 from simgap.vehicles import Vehicle
@@ -246,15 +249,14 @@ def description(run: RunRecord, users: list[RoadUser], notes: list[str]) -> str:
     if late:
         notes = notes + [f"{len(late)} road user(s) recorded from a later time ({', '.join(late[:3])}"
                          f"{', ...' if len(late) > 3 else ''}) stand at their first position until then"]
-    backend = run.settings.backend
+    backend, controller = run.settings.backend, run.settings.controller
     cosim = run.settings.cosim
     sensing = {k: v for k, v in cosim.sensing.model_dump(mode="json").items() if v is not None}
     planner = run.settings.planner.name
     parts = [f"simgap run of {run.scenario_id} in the {run.history.backend} world"
-             + (f" (controller {backend['controller']})" if backend.get("controller") else "")
+             + (f" (controller {controller})" if controller else "")
              + (f", planner {planner}" if planner else "") + f", seed {run.settings.seed}"]
-    settings = {k: backend[k] for k in ("realism", "steer_delay", "steer_lag", "pedal_delay", "pedal_lag", "road_bank",
-                                        "road_grade") if backend.get(k)}
+    settings = _reality_settings(backend)
     if run.realism is Realism.REAL:
         settings |= {f"sensing.{k}": v for k, v in sensing.items()} | {"latency": cosim.latency}
     if cosim.traffic.value != "replay":
@@ -270,3 +272,12 @@ def description(run: RunRecord, users: list[RoadUser], notes: list[str]) -> str:
     parts.append("goals end the story by position and window start; their velocity and orientation windows "
                  "are not conditions here")
     return "; ".join(parts + notes)
+
+
+def _reality_settings(backend: BaseModel) -> dict[str, object]:
+    """The backend's settings that make its world unlike the ideal one and that OpenSCENARIO has no
+    place for (its friction has one): its realism, then the fields that break an assumption of the
+    planner (`simgap.sim.assumptions`), each where it is set."""
+    dumped = backend.model_dump(mode="json")
+    fields = [f for a in Assumption if a is not Assumption.FRICTION for f in restorations(backend).get(a, {})]
+    return {k: dumped[k] for k in (["realism"] if isinstance(backend, TrackingSettings) else []) + fields if dumped[k]}

@@ -34,7 +34,7 @@ from simgap.cosim.history import Event
 from simgap.errors import InputError
 from simgap.record import RunRecord, read_run
 from simgap.files import atomic_write
-from simgap.scenario import read_metadata
+from simgap.scenario import read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.trajectory import Attitude, Trajectory
 
@@ -138,7 +138,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
 
 def _ground(scenario_xml: Path, scenario) -> Ground | None:
     """The road's height at points (None: flat)."""
-    surface = ground_of(read_metadata(scenario_xml), scenario.lanelet_network)
+    surface = ground_of(read_sidecar(scenario_xml), scenario.lanelet_network)
     if surface is None:
         return None
     return lambda x, y: np.asarray(surface.surface(np.asarray(x, float), np.asarray(y, float)).z, float)

@@ -27,9 +27,8 @@ from simgap.export.opendrive import Method, RoadNetwork, UniformRoad, road_netwo
 from simgap.export.opendrive_sampling import RoadSamples, sample_roads
 from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, description, openscenario, road_users
 from simgap.files import publish, staged_directory
-from simgap.scenario import load_scenario, read_metadata
-from simgap.scenario.blueprint import blueprint_of
-from simgap.sim.settings import DRY_ROAD_FRICTION
+from simgap.scenario import load_scenario, read_sidecar
+from simgap.sim.settings import road_friction, road_slope
 
 EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
 FITTED_TOLERANCE_M = 0.05        # a fitted road's lane centres, read back, beyond the fit's own deviation (sampled elsewhere)
@@ -75,7 +74,7 @@ def safe_name(name: str) -> str:
 def _blueprint(scenario_xml: Path | None):
     if scenario_xml is None or not Path(scenario_xml).exists():
         return None
-    return blueprint_of(read_metadata(scenario_xml))
+    return read_sidecar(scenario_xml).blueprint
 
 
 def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformRoad, staged: Path,
@@ -164,9 +163,7 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     scenario_path = run.settings.scenario_path
     _, scenario, problems = read_driven_scenario(run_dir, run)
     on_progress(READING, 1, 1)
-    backend = run.settings.backend
-    surface = UniformRoad(float(backend.get("road_friction", DRY_ROAD_FRICTION)),
-                      float(backend.get("road_bank", 0.0)), float(backend.get("road_grade", 0.0)))
+    surface = UniformRoad(road_friction(run.settings.backend), *road_slope(run.settings.backend))
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
                            (Path(scenario_path) if scenario_path else None))

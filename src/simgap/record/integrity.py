@@ -28,11 +28,14 @@ RUN_AGAIN = "run the scenario again"
 KEY_COLUMNS = ("kind", "agent_id", "plan_t", "k")
 STATE_KINDS = ("driven", "planned", "observed", "standing", "traffic")      # the rows that are states
 # an agent's evaluation's numbers (float or float | None): finite where present
+#: a JSON object as parsed from a run.json or a store row, before it is read into typed values
+JsonObject = dict[str, Any]
+
 EVALUATION_NUMBERS = tuple(f.name for f in fields(AgentEvaluation)
                            if "float" in str(f.type) and "Mapping" not in str(f.type) and f.name != "tracking")
 
 
-def record_object(meta: object, file: Path) -> Mapping[str, Any]:
+def record_object(meta: object, file: Path) -> JsonObject:
     """``meta``, a parsed ``run.json``, when it is a JSON object of objects where a run's record
     has them; an `InputError` naming ``file`` otherwise."""
     if not isinstance(meta, Mapping):
@@ -45,7 +48,7 @@ def record_object(meta: object, file: Path) -> Mapping[str, Any]:
     return meta
 
 
-def check_record(meta: Mapping[str, Any], file: Path) -> None:
+def check_record(meta: JsonObject, file: Path) -> None:
     """Refuse a ``run.json`` (of the current format) whose time step, timings or scores are not
     numbers a run can have: the first such field named."""
     history, evaluation = _section(meta, "history", file), _section(meta, "evaluation", file)
@@ -99,7 +102,7 @@ def check_driven(agent_ids: Iterable[int], driven: Mapping[int, Any], file: Path
                          field="kind", allowed=f"the trajectories.parquet simgap wrote; {RUN_AGAIN}")
 
 
-def _section(meta: Mapping[str, Any], name: str, file: Path) -> Mapping[str, Any]:
+def _section(meta: JsonObject, name: str, file: Path) -> JsonObject:
     value = meta.get(name)
     if not isinstance(value, Mapping):
         raise InputError("missing" if value is None else f"holds {_kind(value)}, not an object", file=file,
@@ -107,7 +110,7 @@ def _section(meta: Mapping[str, Any], name: str, file: Path) -> Mapping[str, Any
     return value
 
 
-def _list(section: Mapping[str, Any], name: str, file: Path, where: str) -> list:
+def _list(section: JsonObject, name: str, file: Path, where: str) -> list:
     value = section.get(name)
     if not isinstance(value, list):
         raise InputError("missing" if value is None else f"holds {_kind(value)}, not a list", file=file,

@@ -39,11 +39,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
 from simgap.cosim.loop import CosimSettings
 from simgap.cosim.sensing import LocalisationAccuracy
-from simgap.errors import InputError
+from simgap.errors import InputError, validation_error
 from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.criticality import PairCriticality
 from simgap.evaluate.errors import Aggregate, Comfort
@@ -52,10 +53,12 @@ from simgap.evaluate.solution import PartialCost
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.protocol import PlannerReport
 from simgap.planning.registry import DEFAULT_PLANNER
-from simgap.record.integrity import check_driven, check_record, check_states, record_object
+from simgap.record.integrity import JsonObject, check_driven, check_record, check_states, record_object
 from simgap.record.run_record import FORMAT_VERSION, PlannerRecord, RunRecord, RunSettings
 from simgap.scenario.sections import RoadSections
-from simgap.sim.protocol import Realism
+from simgap.scenario.sidecar import ScenarioSidecar
+from simgap.sim.protocol import REFERENCE, Realism
+from simgap.sim.registry import BACKENDS, settings_model
 from simgap.trajectory import ATTITUDE_FIELDS, CONTROL_FIELDS, STATE_FIELDS, Attitude, ControlTrace, Trajectory
 from simgap.vehicles import Vehicle, load_vehicle
 
@@ -67,15 +70,15 @@ RECORD_TIMINGS = ("scoring", "criticality", "io", "validation")      # phases ou
 
 # ------------------------------------------------------------------------------ writing
 def write_run(record: RunRecord, run_dir: str | Path, driven_scenario_xml: str | None = None,
-              solution_xml: str | None = None, scenario_metadata: Mapping[str, Any] | None = None) -> Path:
+              solution_xml: str | None = None, sidecar: ScenarioSidecar | None = None) -> Path:
     """Write the run directory atomically (built aside, then swapped into place)."""
     def write(tmp: Path) -> None:
         (tmp / RUN_FILE).write_text(_run_json(record))
         pq.write_table(_trajectory_table(record.history), tmp / TRAJECTORIES_FILE)
         if driven_scenario_xml is not None:
             (tmp / "driven.xml").write_text(driven_scenario_xml)
-            if scenario_metadata:
-                (tmp / "driven.json").write_text(json.dumps(dict(scenario_metadata), indent=2))
+            if sidecar:
+                (tmp / "driven.json").write_text(json.dumps(sidecar.as_json(), indent=2))
         if solution_xml is not None:
             (tmp / "solution.xml").write_text(solution_xml)
 
@@ -101,7 +104,7 @@ def _settings_json(s: RunSettings) -> dict[str, Any]:
     return {"scenario_id": s.scenario_id, "scenario_path": s.scenario_path, "parameters": dict(s.parameters),
             "parameter_units": dict(s.parameter_units), "sections": s.sections.as_json(), "seed": s.seed,
             "cosim": s.cosim.model_dump(mode="json"), "evaluation": s.evaluation.model_dump(mode="json"),
-            "backend": dict(s.backend),
+            "backend": s.backend.model_dump(mode="json"),
             "sensing_accuracy": None if s.sensing_accuracy is None else s.sensing_accuracy.model_dump(mode="json"),
             "planner": _planner_json(s.planner), "planner_vehicle": s.planner_vehicle,
             "recorded_as": {str(k): v for k, v in s.recorded_as.items()}, "versions": dict(s.versions)}
@@ -214,7 +217,8 @@ def read_run(run_dir: str | Path) -> RunRecord:
         states = _read_states(run_dir / TRAJECTORIES_FILE, float(meta["history"]["dt"]))
         check_driven(_agent_ids(meta), states["driven"], run_dir / TRAJECTORIES_FILE)
         return RunRecord(history=_history(meta["history"], states), evaluation=_evaluation(meta["evaluation"]),
-                         settings=_settings(meta["settings"]), timings=meta.get("timings") or {},
+                         settings=_settings(meta["settings"], meta["history"]["backend"], run_dir / RUN_FILE),
+                         timings=meta.get("timings") or {},
                          format_version=int(meta["format_version"]))
 
 
@@ -244,7 +248,7 @@ def _checked_meta(run_dir: Path) -> dict[str, Any]:
     return meta
 
 
-def _agent_ids(meta: Mapping[str, Any]) -> list[int]:
+def _agent_ids(meta: JsonObject) -> list[int]:
     return [int(a["id"]) for a in meta["history"]["agents"]]
 
 
@@ -301,7 +305,7 @@ def _read_states(path: Path, dt: float) -> dict[str, Any]:
     return out
 
 
-def _history(h: Mapping[str, Any], states: Mapping[str, Any]) -> History:
+def _history(h: JsonObject, states: dict[str, Any]) -> History:
     agents = tuple(AgentHistory(
         id=int(a["id"]), vehicle=Vehicle.model_validate(a["vehicle"]), outcome=Outcome(a["outcome"]),
         driven=states["driven"][int(a["id"])], plans=tuple(states["planned"].get(int(a["id"]), ())),
@@ -318,7 +322,7 @@ def _history(h: Mapping[str, Any], states: Mapping[str, Any]) -> History:
                    backend_notes=tuple(h.get("backend_notes") or ()), traffic=states["traffic"])
 
 
-def _evaluation(e: Mapping[str, Any]) -> RunEvaluation:
+def _evaluation(e: JsonObject) -> RunEvaluation:
     agents = []
     for a in e["agents"]:
         a = dict(a)
@@ -334,28 +338,48 @@ def _evaluation(e: Mapping[str, Any]) -> RunEvaluation:
                          None if check is None else SolutionCheckSource(check))
 
 
-def _planner(p: Mapping[str, Any]) -> PlannerRecord:
+def _planner(p: JsonObject) -> PlannerRecord:
     return PlannerRecord(name=p.get("name") or DEFAULT_PLANNER, planner=p.get("planner", ""),
                          settings=p.get("settings") or {},
                          process=None if p.get("process") is None else PlannerReport(**p["process"]),
                          agents={int(aid): _planner(a) for aid, a in (p.get("agents") or {}).items()})
 
 
-def _settings(s: Mapping[str, Any]) -> RunSettings:
+def _settings(s: JsonObject, backend: str, file: Path) -> RunSettings:
     accuracy = s.get("sensing_accuracy")
     return RunSettings(
         scenario_id=s["scenario_id"], cosim=CosimSettings.model_validate(s.get("cosim") or {}),
         evaluation=EvaluationSettings.model_validate(s.get("evaluation") or {}),
         planner=_planner(s.get("planner") or {}), scenario_path=s.get("scenario_path"),
         parameters=s.get("parameters") or {}, parameter_units=s.get("parameter_units") or {},
-        sections=RoadSections.of_json(s.get("sections")), backend=s.get("backend") or {},
+        sections=RoadSections.of_json(s.get("sections")), backend=_backend_settings(backend, s.get("backend") or {}, file),
         sensing_accuracy=None if accuracy is None else LocalisationAccuracy.model_validate(accuracy),
         planner_vehicle=s.get("planner_vehicle") or "", recorded_as={int(k): v for k, v in (s.get("recorded_as") or {}).items()},
         seed=int(s.get("seed") or 0), versions=s.get("versions") or {})
 
 
+class UnknownBackendSettings(BaseModel):
+    """The settings of a backend this installation does not have (an installed one since removed),
+    as the record kept them: nothing here can validate them."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+
+def _backend_settings(backend: str, values: JsonObject, file: Path) -> BaseModel:
+    """A run's backend settings validated again, through the settings model of its backend; a value
+    that model no longer takes is refused naming the field."""
+    if backend not in BACKENDS:
+        return UnknownBackendSettings.model_validate(values)
+    model = settings_model(backend)
+    try:
+        return model.model_validate(values)
+    except ValidationError as err:
+        raise validation_error(err, file=file, prefix="settings.backend", model=model,
+                               allowed=f"the settings of the {backend} backend; run the scenario again") from None
+
+
 # ------------------------------------------------------------------------------ older formats
-def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, Any]:
+def migrate(meta: JsonObject, run_dir: Path | None = None) -> JsonObject:
     """A ``run.json`` of any format as one of the current format (`FORMAT_VERSION`).
 
     Format 1 (no ``format_version``) kept every agent's outcome, metrics and scores in one list
@@ -408,7 +432,7 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
         "sections": meta.get("sections") or {}, "seed": meta.get("seed", 0),
         "cosim": {k: v for k, v in cosim.items() if k in CosimSettings.model_fields},
         "evaluation": {k: v for k, v in cosim.items() if k in EvaluationSettings.model_fields},
-        "backend": settings.get("backend") or {}, "sensing_accuracy": settings.get("sensing_accuracy"),
+        "backend": _format1_backend(meta["backend"], settings), "sensing_accuracy": settings.get("sensing_accuracy"),
         "planner": planner, "planner_vehicle": settings.get("planner_vehicle") or "",
         "recorded_as": {str(a["id"]): a["recorded_as"] for a in agents if a.get("recorded_as") is not None},
         "versions": meta.get("versions") or {}}
@@ -416,7 +440,7 @@ def migrate(meta: Mapping[str, Any], run_dir: Path | None = None) -> dict[str, A
             "timings": {k: v for k, v in timings.items() if k in RECORD_TIMINGS}}
 
 
-def _evaluation_apart(settings: Mapping[str, Any]) -> dict[str, Any]:
+def _evaluation_apart(settings: JsonObject) -> JsonObject:
     """Settings of formats 2 and 3 with the evaluation's (``cost_function``, ``score``) moved from
     ``cosim`` to ``evaluation``."""
     cosim = dict(settings.get("cosim") or {})
@@ -424,7 +448,18 @@ def _evaluation_apart(settings: Mapping[str, Any]) -> dict[str, Any]:
     return dict(settings) | {"cosim": cosim, "evaluation": evaluation}
 
 
-def migrate_row(columns: Mapping[str, Any]) -> dict[str, Any]:
+def _format1_backend(backend: str, settings: JsonObject) -> JsonObject:
+    """The backend settings of a format-1 record as its backend's settings model reads them: a
+    physical world's run kept before realism was one of its settings (until 2026-11-27) was an
+    ideal car (as its history says), so it takes the record's realism, where the model's default
+    would make it a real one."""
+    values = dict(settings.get("backend") or {})
+    if backend != REFERENCE and "realism" not in values:
+        values["realism"] = settings.get("realism", Realism.IDEAL.value)
+    return values
+
+
+def migrate_row(columns: JsonObject) -> JsonObject:
     """A results-store row of any format as one of the current format: rows written before the
     ``stage`` column name their stage (and a repeat 0) in their key only; rows of formats 1 and 2
     kept the hash of raw float bits as their ``fingerprint``, which is their ``machine_fingerprint``

@@ -8,6 +8,8 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Iterator, Mapping
 
+from pydantic import BaseModel, JsonValue
+
 from simgap.cosim.fidelity import Fidelity
 from simgap.cosim.history import AgentHistory, History
 from simgap.cosim.loop import CosimSettings
@@ -16,7 +18,9 @@ from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.run_evaluation import AgentEvaluation, RunEvaluation
 from simgap.planning.protocol import PlannerReport
 from simgap.scenario.sections import RoadSections
+from simgap.sim.ideal import NoSettings
 from simgap.sim.protocol import Realism
+from simgap.sim.settings import TrackingSettings
 
 FORMAT_VERSION = 4      # 1: run.json without a format_version (simgap before the run record, 2026-11-27);
                         # 2: a fingerprint over raw float bits (until 2026-12-02); 3: over quantised states;
@@ -30,7 +34,7 @@ class PlannerRecord:
 
     name: str
     planner: str = ""                                      # the reference it was loaded by
-    settings: Mapping[str, Any] = field(default_factory=dict)   # its own settings model, dumped
+    settings: Mapping[str, JsonValue] = field(default_factory=dict)   # its own settings model, dumped
     process: PlannerReport | None = None                   # the planner process's record
     agents: Mapping[int, "PlannerRecord"] = field(default_factory=dict)   # per agent, when they differ
 
@@ -47,10 +51,10 @@ class RunSettings:
     cosim: CosimSettings
     planner: PlannerRecord
     scenario_path: str | None = None
-    parameters: Mapping[str, Any] = field(default_factory=dict)     # the scenario's parameters
+    parameters: Mapping[str, JsonValue] = field(default_factory=dict)   # the scenario's parameters
     parameter_units: Mapping[str, str] = field(default_factory=dict)
     sections: RoadSections = field(default_factory=RoadSections)
-    backend: Mapping[str, Any] = field(default_factory=dict)        # the backend's settings model, dumped
+    backend: BaseModel = field(default_factory=NoSettings)          # the backend's settings model (validated)
     sensing_accuracy: LocalisationAccuracy | None = None            # what the planners observed through
     planner_vehicle: str = ""
     recorded_as: Mapping[int, int] = field(default_factory=dict)    # agent -> the recorded road user it replaces
@@ -59,12 +63,13 @@ class RunSettings:
     evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)   # cost function, score settings
 
     def __post_init__(self) -> None:
-        for name in ("parameters", "parameter_units", "backend", "recorded_as", "versions"):
+        for name in ("parameters", "parameter_units", "recorded_as", "versions"):
             object.__setattr__(self, name, dict(getattr(self, name)))
 
     @property
     def controller(self) -> str | None:
-        return self.backend.get("controller")
+        """The tracking controller of a world whose cars track their plans (None: the ideal world)."""
+        return self.backend.controller if isinstance(self.backend, TrackingSettings) else None
 
 
 @dataclass(frozen=True)

@@ -173,7 +173,7 @@ def _flat_settings(run: RunRecord) -> dict[str, object]:
         else:
             flat[prefix] = value
 
-    add("", dict(run.settings.backend))
+    add("", run.settings.backend.model_dump(mode="json"))
     add("cosim", run.settings.cosim.model_dump(mode="json"))
     add("evaluation", run.settings.evaluation.model_dump(mode="json"))
     return flat

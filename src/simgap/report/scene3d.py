@@ -31,7 +31,7 @@ from simgap.cosim.history import AGENT_ID_OFFSET  # noqa: E402
 from simgap.record import RunRecord  # noqa: E402
 from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
-from simgap.scenario import read_metadata  # noqa: E402
+from simgap.scenario import read_sidecar  # noqa: E402
 from simgap.scenario.ground import ground_of  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 from simgap.scenario.relief import Surface  # noqa: E402
@@ -88,7 +88,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
     out_dir = Path(out_dir or run_dir)
     scenario, problems, run = load_driven(run_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    replay = _replay(scenario, run, world, ground_of(read_metadata(run_dir / "driven.xml"), scenario.lanelet_network))
+    replay = _replay(scenario, run, world, ground_of(read_sidecar(run_dir / "driven.xml"), scenario.lanelet_network))
     first = run.history.agents[0].id
     step = _instant(run)
     written = []

@@ -5,13 +5,12 @@ from __future__ import annotations
 import errno
 import json
 import logging
-import math
 import os
 import tempfile
 import warnings
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Iterator
 from xml.etree import ElementTree
 
 from commonroad.common.file_reader import CommonRoadFileReader
@@ -23,8 +22,6 @@ from lxml import etree
 
 from simgap.errors import InputError
 from simgap.files import atomic_write, atomic_write_text
-from simgap.scenario.blueprint import blueprint_of
-from simgap.scenario.opendrive.origin import origin_of
 from simgap.scenario.physical_bounds import check_lanelets, check_planning_problems, check_time_step
 from simgap.scenario.templates import ConcreteScenario
 
@@ -87,7 +84,7 @@ def write_scenario(concrete: ConcreteScenario, out_dir: str | Path, preview: boo
     out_dir.mkdir(parents=True, exist_ok=True)
     xml = out_dir / f"{concrete.name}.xml"
     write_xml(concrete.scenario, concrete.problems, xml, f"simgap logical scenario '{concrete.logical}'")
-    atomic_write_text(xml.with_suffix(".json"), json.dumps(concrete.metadata(), indent=2))
+    atomic_write_text(xml.with_suffix(".json"), json.dumps(concrete.sidecar.as_json(), indent=2))
     if preview:
         from simgap.scenario.preview import draw_preview
 
@@ -140,38 +137,3 @@ def _check_obstacles_are_placed(scenario: Scenario, path: Path) -> None:
                              file=path, field=f"obstacle {obstacle.obstacle_id}",
                              allowed="states with a position (point or shape), as every state type but the "
                                      "lateral and longitudinal ones has")
-
-
-def read_metadata(xml_path: str | Path) -> dict[str, Any]:
-    """The sidecar of a generated scenario (name, logical, parameters, sections, and what its 3D
-    ground is built from), or {} if none. A sidecar that is not a JSON object, holds a number that
-    is not finite, or whose blueprint or OpenDRIVE origin does not read is refused naming the field:
-    a scenario whose relief cannot be read is never run flat."""
-    sidecar = Path(xml_path).with_suffix(".json")
-    if not sidecar.exists():
-        return {}
-    try:
-        metadata = json.loads(sidecar.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(f"unreadable scenario metadata: {exc}", file=sidecar) from None
-    if not isinstance(metadata, dict):
-        raise InputError(f"the scenario metadata is {json.dumps(metadata)[:40]}, not a JSON object", file=sidecar,
-                         allowed="a JSON object (the sidecar simgap generate wrote)")
-    where = _not_finite(metadata)
-    if where is not None:
-        raise InputError("a number that is not finite", file=sidecar, field=where, allowed="finite numbers")
-    blueprint_of(metadata, sidecar)
-    origin_of(metadata, sidecar)
-    return metadata
-
-
-def _not_finite(value: Any, path: str = "") -> str | None:
-    """The path of the first number in ``value`` (parsed JSON) that is not finite, or None."""
-    if isinstance(value, float):
-        return None if math.isfinite(value) else path or "."
-    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
-    for key, item in items:
-        found = _not_finite(item, f"{path}.{key}".lstrip("."))
-        if found is not None:
-            return found
-    return None

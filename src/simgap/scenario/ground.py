@@ -6,28 +6,25 @@ it). None: the scenario is flat, and a 3D world builds a plane.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
-
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
 
 from simgap.errors import InputError
-from simgap.scenario.blueprint import RoadBlueprint, blueprint_of
-from simgap.scenario.opendrive.origin import OpenDriveOrigin, origin_of
+from simgap.scenario.blueprint import RoadBlueprint
+from simgap.scenario.opendrive.origin import OpenDriveOrigin
 from simgap.scenario.relief import SampledSurface, Surface
+from simgap.scenario.sidecar import ScenarioSidecar
 
 FLAT_M = 1e-6     # heights within this of zero everywhere: a flat network
 
 
-def ground_of(metadata: Mapping[str, Any], network: LaneletNetwork | None = None) -> Surface | None:
-    """The surface of the scenario whose sidecar is ``metadata`` and whose lanelets are ``network``
+def ground_of(sidecar: ScenarioSidecar, network: LaneletNetwork | None = None) -> Surface | None:
+    """The surface of the scenario whose sidecar is ``sidecar`` and whose lanelets are ``network``
     (an imported network's heights need its lanelets' positions); None where it is flat."""
-    blueprint = blueprint_of(metadata)
-    if isinstance(blueprint, RoadBlueprint):
-        return blueprint.road_relief()
-    origin = origin_of(metadata)
-    if origin is not None and network is not None:
-        return network_surface(origin, network)
+    if isinstance(sidecar.blueprint, RoadBlueprint):
+        return sidecar.blueprint.road_relief()
+    if sidecar.opendrive is not None and network is not None:
+        return network_surface(sidecar.opendrive, network)
     return None
 
 

@@ -40,6 +40,7 @@ from simgap.scenario.relief import (MAX_BANK_DEG, MAX_GRADE_PERCENT, BankKnot, E
                                     VerticalCurve)
 from simgap.scenario.road import LaneLayout, build_road
 from simgap.scenario.sections import RoadSections
+from simgap.scenario.sidecar import ScenarioSidecar
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 LANELET_ID_START = 100  # planning problems (agents) take ids 1, 2, 3, ...
@@ -63,13 +64,11 @@ class ConcreteScenario:
     opendrive: OpenDriveOrigin | None = None     # the OpenDRIVE file its lanelets were read from, and its relief
     warnings: tuple[str, ...] = ()     # what building it dropped from its source, one line each (not in the sidecar)
 
-    def metadata(self) -> dict[str, Any]:
-        meta = {"name": self.name, "logical": self.logical, "parameters": self.parameters, "units": self.units,
-                "sections": self.sections.as_json(),
-                "blueprint": self.blueprint.model_dump(mode="json", exclude_none=True) if self.blueprint else None}
-        if self.opendrive is not None:
-            meta["opendrive"] = self.opendrive.model_dump(mode="json", exclude_none=True)
-        return meta
+    @property
+    def sidecar(self) -> ScenarioSidecar:
+        """What its sidecar file keeps (`simgap.scenario.files.write_scenario`)."""
+        return ScenarioSidecar(self.name, self.logical, self.parameters, self.units, self.sections, self.blueprint,
+                               self.opendrive)
 
 
 def scenario_of(name: str, dt: float, network: LaneletNetwork) -> Scenario:

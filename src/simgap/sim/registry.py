@@ -82,6 +82,12 @@ def backend_settings(name: str, values: Mapping[str, Any] | None = None, *, file
                          allowed=exc.allowed) from None
 
 
+def settings_model(name: str) -> type[BaseModel]:
+    """The settings model of backend ``name`` (installed or not: an optional backend's settings
+    module loads without its physics engine), as its defaults are validated into."""
+    return type(lazy(BACKENDS.load(name).settings)({}))
+
+
 def preflight(name: str, settings: BaseModel) -> None:
     """Fail now, with the reason, when ``name`` cannot run with ``settings`` at all, rather than
     once per run of a batch."""

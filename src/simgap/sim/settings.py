@@ -1,6 +1,11 @@
 """Settings every physics backend shares, each bound and default written once: the tracking
-(controller, its rate and gains, actuator delays) and the road's friction. A backend's own
-settings model extends `TrackingSettings`; a world whose road has a friction extends `RoadFrictionSettings`."""
+(controller, its rate and gains, actuator delays) and the road's friction and slope. A backend's own
+settings model extends `TrackingSettings`; a world with a road surface extends `RoadFrictionSettings`, one
+that tilts its road `RoadSlope`.
+
+These models are also the knob models: a backend takes the reality knobs of the models its
+settings model includes (`simgap.experiment.knobs`), but those of the fields it names in
+``NOT_KNOBS`` (a class variable, as ``ASSUMPTIONS``: `not_knobs`)."""
 
 from __future__ import annotations
 
@@ -34,10 +39,41 @@ class RoadFrictionSettings(BaseModel):
     road_friction: RoadFriction = DRY_ROAD_FRICTION
 
 
+class RoadSlope(BaseModel):
+    """The settings of a world that tilts its road: a bank and a grade every car feels."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    # a flat twin of the road: no slope on top (the scenario's own relief is the run's ground,
+    # `simgap.experiment.single_run.RunRequest.flat_road`)
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.RELIEF: {"road_bank": 0.0, "road_grade": 0.0}}
+
+    road_bank: float = Field(0.0, ge=-15.0, le=15.0,
+                             description="cross slope every car feels, through gravity, on top of the road's relief [deg]; "
+                                         "positive: the road falls to the right of the way of travel")
+    road_grade: float = Field(0.0, ge=-15.0, le=15.0,
+                              description="grade every car feels, through gravity, on top of the road's relief [deg]; "
+                                          "positive: uphill in the way of travel")
+
+
+def not_knobs(model: type[BaseModel]) -> frozenset[str]:
+    """The fields of ``model`` that no reality knob varies in its world: the ``NOT_KNOBS`` every
+    class of the model declares (none by default)."""
+    names: set[str] = set()
+    for base in model.__mro__:
+        names |= set(vars(base).get("NOT_KNOBS", ()))
+    return frozenset(names)
+
+
 def road_friction(settings: BaseModel | None) -> float:
     """The friction of a world's road: its setting, or the dry road of a world without one (the
     ideal world's assumption)."""
     return settings.road_friction if isinstance(settings, RoadFrictionSettings) else DRY_ROAD_FRICTION
+
+
+def road_slope(settings: BaseModel | None) -> tuple[float, float]:
+    """The bank and the grade [deg] a world's cars feel on top of the road's relief: its settings',
+    or none in a world that does not tilt its road."""
+    return (settings.road_bank, settings.road_grade) if isinstance(settings, RoadSlope) else (0.0, 0.0)
 
 
 class TrackingSettings(BaseModel):

@@ -9,12 +9,12 @@ import pytest
 
 from simgap.errors import InputError
 from simgap.cosim import Outcome
-from simgap.experiment.knobs import knob_value
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
 from simgap.experiment.search.results import summarise
 from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.store import ResultsStore
+from simgap.sim.settings import road_friction
 from simgap.experiment.search.space import SearchSpace
 from simgap.experiment.search.strategies import make_strategy
 from simgap.scenario.logical import load_logical
@@ -81,7 +81,7 @@ def test_failure_rule():
 def planted_row(job):
     """Fails in high fidelity where friction < 0.35 and the start is faster than 15 m/s (7.5 % of
     the space); the screen sees a grip use that crosses 1 on that region's border."""
-    mu = knob_value("road_friction", job.backend_settings)
+    mu = road_friction(job.backend_settings)
     speed = job.parameters["initial_speed"]
     grip = (speed / 15.0) * (0.35 / mu)
     inside = mu < 0.35 and speed > 15.0
@@ -136,7 +136,7 @@ def test_multi_fidelity_skips_the_screen_where_neighbours_keep_failing(tmp_path)
 
 def knob_row(job):
     """Fails in high fidelity where friction < 0.5; the ideal world always passes."""
-    failed = job.backend == "mujoco" and knob_value("road_friction", job.backend_settings) < 0.5
+    failed = job.backend == "mujoco" and road_friction(job.backend_settings) < 0.5
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
                   job_time_s=2.0, metrics={"max_lateral_offset_m": 0.1, "max_lane_excursion_m": 0.0})
 
@@ -208,7 +208,7 @@ def regions_row(job):
     0.5; the screen's grip use rises towards the regions."""
     u = [(job.parameters[n] - lo) / (hi - lo) for n, (lo, hi) in SCENARIO.items()]
     gap = min(sum(max(lo - x, 0.0, x - hi) ** 2 for x, (lo, hi) in zip(u, box)) ** 0.5 for box in REGIONS)
-    mu = knob_value("road_friction", job.backend_settings)
+    mu = road_friction(job.backend_settings)
     failed = job.backend == "mujoco" and gap == 0.0 and mu < 0.5
     grip = (1.2 - 2 * gap) * 0.5 / mu
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
@@ -249,7 +249,7 @@ def test_weighing_new_scenarios_finds_more_failing_scenarios_at_equal_budget(tmp
 # low friction) ---------------------------------------------------------------------------------
 
 def score_row(job):
-    mu = knob_value("road_friction", job.backend_settings)
+    mu = road_friction(job.backend_settings)
     score = 0.9 if job.backend == "ideal" else 0.9 - 0.5 * (1.0 - mu)
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.GOAL_REACHED, job_time_s=1.0,
                   score=score, solution_valid=mu > 0.3, solution_reason="" if mu > 0.3 else "infeasible for KS2",

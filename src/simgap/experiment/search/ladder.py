@@ -51,7 +51,7 @@ class Ladder:
     def settings(self, c: Candidate, rung: int) -> tuple[BaseModel | None, CosimSettings]:
         """(backend settings, loop settings) of ``c`` in ``rung``: the rung's with ``c``'s knobs."""
         r = self.search.rungs[rung]
-        return with_knobs(r.backend, r.settings, r.cosim, c.knobs)
+        return with_knobs(r.settings, r.cosim, c.knobs)
 
     def job(self, c: Candidate, rung: int, name: str | None = None) -> Job:
         """``c``'s run in ``rung``, named ``name`` (default: its index's; a probe of a failure names

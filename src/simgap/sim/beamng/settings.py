@@ -6,7 +6,7 @@ file). Where to find the server comes from the settings, else from the environme
 from __future__ import annotations
 
 import os
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -32,6 +32,9 @@ class Materials(BaseModel):
 
 class BeamngSettings(TrackingSettings):
     """The server, the level, the driver and the tracking of the ``beamng`` backend."""
+
+    # the actuators' lags are left to BeamNG's own vehicle physics: no reality knob varies them here
+    NOT_KNOBS: ClassVar[tuple[str, ...]] = ("steer_lag", "pedal_lag")
 
     host: str = Field("localhost", description="BeamNG.tech server host (env SIMGAP_BEAMNG_HOST)")
     port: int = Field(25252, ge=1, le=65535, description="server port (env SIMGAP_BEAMNG_PORT)")
