@@ -1,6 +1,7 @@
 """Failure modes on a planted landscape (no simulation: rows made up by a model): a search's
 violations grouped by the dimensions they need, what broke and the vehicle, found by probes that
-move one dimension back to nominal; budgeted and resumable."""
+move one dimension back to nominal, resumable; only probed violations reported; the search stops
+early enough to follow up what it found."""
 
 from __future__ import annotations
 

@@ -4,8 +4,8 @@ A violation *needs* a dimension of the search if moving that one dimension back 
 value — a reality knob's default (the ideal world's assumption), a scenario parameter's default,
 each clipped to the searched range — makes its high-fidelity run stop failing *that way* (it
 passes, or fails by another rule). The *probes* that find out are high-fidelity runs of the
-violation with one dimension at nominal; `simgap.experiment.search.mode_probes` runs them, budgeted and
-resumable, into ``<strategy>/probes/`` (a `ProbeRow` each, and the `ProbePlan`: the dimensions
+violation with one dimension at nominal; `simgap.experiment.search.mode_probes` runs them, within
+the search's budget (`simgap.experiment.search.follow_up`) and resumable, into ``<strategy>/probes/`` (a `ProbeRow` each, and the `ProbePlan`: the dimensions
 and their nominal point).
 
 A mode is a vehicle, a planner, what crossed the failure rule (`what_broke`: an outcome such as
