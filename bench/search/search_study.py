@@ -6,13 +6,15 @@ repeated over seeds (the spec's ``seed``: each strategy's own random choices).
 Prints, per seed and strategy: runs per rung, high-fidelity failures, violated assumptions (pass
 ideal, fail MuJoCo), distinct ones after de-duplication, CPU hours, distinct failures per CPU hour,
 the ratio to grid search, the distinct scenarios (road, start, vehicle) among the violations, the
-failure modes (after ``--probe-runs`` probes per strategy, `simgap.experiment.failure_modes`),
+failure modes (with ``--follow-up``: each strategy's violations probed, confirmed and explained
+within its budget as `simgap search` does, `simgap.experiment.search.follow_up`; without, the
+strategies search on their whole shares and report no modes),
 the share of ideal passes that fail in MuJoCo; then per strategy the mean and the spread
 (standard deviation, and min–max) over the seeds of distinct violations, distinct failing
 scenarios and failure modes, with the means' ratios to grid; then the per-phase timings of a run
 in each rung (runs whose ideal verdict was copied from another candidate's run are not counted).
 
-Usage: python bench/search/search_study.py [--budget 20m] [--workers 2] [--seeds 3] [--probe-runs 20]
+Usage: python bench/search/search_study.py [--budget 20m] [--workers 2] [--seeds 3] [--follow-up]
        [--out DIR] [--strategy NAME ...]
 Each seed searches in DIR/seed-N; re-running on the same DIR resumes (a larger --budget goes on).
 """
@@ -27,6 +29,7 @@ from pathlib import Path
 import yaml
 
 from simgap.experiment.search import Budget, parse_budget, run_search
+from simgap.experiment.search.follow_up import FollowUp
 from simgap.experiment.search.results import StrategyResult
 from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.store import ResultsStore
@@ -34,7 +37,7 @@ from simgap.files import BenchmarkResults
 
 PHASES = ("job_time_s", "wall_time_s", "time_planning_s", "time_control_s", "time_physics_s", "time_monitoring_s")
 FOUND = (("distinct violations", lambda r: r.distinct), ("failing scenarios", lambda r: r.scenarios),
-         ("failure modes", lambda r: r.probed_modes))
+         ("failure modes", lambda r: len(r.modes)))
 
 
 def _total(per_strategy: Budget, strategies: list[str]) -> Budget:
@@ -73,7 +76,7 @@ def print_seed(out: Path, results: list[StrategyResult]) -> None:
         share = 100.0 * r.violations / passes if passes else float("nan")
         ratio = r.distinct / grid.distinct if grid and grid.distinct else float("nan")
         print(f"{r.name:15s} {r.wall_s / 60:8.1f} {r.runs:5d} {per_rung[0]:5d} {per_rung[1]:6d} {per_rung[2]:5d} "
-              f"{r.high_failures:9d} {r.violations:10d} {r.distinct:8d} {r.scenarios:9d} {r.probed_modes:5d} "
+              f"{r.high_failures:9d} {r.violations:10d} {r.distinct:8d} {r.scenarios:9d} {len(r.modes):5d} "
               f"{r.cpu_s / 3600:6.2f} {r.per_cpu_hour:9.1f} {ratio:6.2f} {share:14.1f}%")
 
 
@@ -115,7 +118,9 @@ def main() -> None:
     parser.add_argument("--budget", default="20m")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seeds", type=int, default=1, help="repeat the study with spec seeds 0..N-1")
-    parser.add_argument("--probe-runs", type=int, default=20, help="per strategy and seed, for the failure modes")
+    parser.add_argument("--follow-up", action="store_true",
+                        help="follow up each strategy's violations within its budget, as simgap search does (probes, "
+                             "confirmation, explanation); off: each strategy searches on its whole share")
     parser.add_argument("--out", type=Path, default=Path("search-study"))
     parser.add_argument("--strategy", action="append", default=None)
     parser.add_argument("--json", type=Path, metavar="FILE",
@@ -129,8 +134,10 @@ def main() -> None:
         spec = seeded_spec(args.spec, seed, args.out / "specs" / f"seed-{seed}")
         results = run_search(spec, out, _total(parse_budget(args.budget), args.strategy or
                                                list(load_search_spec(spec).spec.strategies)),
-                             args.workers, strategies=args.strategy, probe_runs=args.probe_runs)
-        print(f"\nseed {seed}: budget {args.budget} per strategy, {args.workers} workers, {args.probe_runs} probe runs; "
+                             args.workers, strategies=args.strategy,
+                             follow_up=FollowUp() if args.follow_up else None)
+        print(f"\nseed {seed}: budget {args.budget} per strategy, {args.workers} workers, "
+              f"{'with' if args.follow_up else 'no'} follow-up; "
               f"{time.perf_counter() - start:.0f} s so far\n")
         print_seed(out, results)
         dirs.append(out)

@@ -125,6 +125,6 @@ def test_experiment_run_and_search_fail_on_an_outcome_of_any_of_their_runs(off_t
                       f"planners: [{{planner: '{planner}', label: straight}}]\nladder: [{{backend: ideal}}, "
                       f"{{backend: dynamic}}]\nstrategies: [random]\n")
     found = simgap("search", str(search), "--budget", "1", "--out", str(tmp_path / "s"), "--workers", "1",
-                   "--probe-runs", "0", "--no-report", "--no-validate", "--fail-on", "collision,off_road")
+                   "--no-explain", "--no-report", "--no-validate", "--fail-on", "collision,off_road")
     assert found.returncode == ExitCode.CHECK_FAILED, found.stdout + found.stderr
     assert "check failed: random " in found.stdout and "ended off_road (--fail-on)" in found.stdout

@@ -19,14 +19,15 @@ from simgap.experiment.ray_cluster import ADDRESS_HELP
 from simgap.files import writable_directory
 
 
-CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default (`simgap.experiment.search.confirmation`)
+CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default (`simgap.experiment.search.follow_up`)
 
 
 @app.command("search", epilog=EXIT_CODES_HELP)
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
     budget: str = typer.Option(..., "--budget", "-b", help="the search's total, shared evenly among its strategies: wall clock "
-                        "(20m, 90s, 1h) or runs (200); the probe runs come on top"),
+                        "(20m, 90s, 1h) or runs (200); it pays for probing, confirming and explaining what each "
+                        "reports too"),
     out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)",
                              callback=writable_directory),
     workers: Optional[int] = typer.Option(None, min=1,
@@ -34,15 +35,12 @@ def search_cmd(
     strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
     address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
-    probe_runs: int = typer.Option(20, "--probe-runs", min=0,
-                                   help="per strategy, high-fidelity runs that probe which dimensions its "
-                                        "violations need (their failure modes; 0: none)"),
     repeats: int = typer.Option(CONFIRMATION_REPEATS, "--repeats", min=1,
-                                help="seeds each distinct violation is confirmed over in high fidelity (its own "
+                                help="seeds each reported violation is confirmed over in high fidelity (its own "
                                      "included): it says in how many of them it fails"),
-    explain_worst: int = typer.Option(0, "--explain", min=0,
-                                      help="explain the N worst distinct violations of each strategy (simgap explain: "
-                                           "which of the planner's assumptions each broke; 2^n runs each)"),
+    explain: bool = typer.Option(True, "--explain/--no-explain",
+                                 help="explain each reported violation within the budget (simgap explain: which of "
+                                      "the planner's assumptions it broke; 2^n runs each)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
@@ -52,15 +50,18 @@ def search_cmd(
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
 
-    --budget is the whole search's: each strategy gets an equal share. Running it again on the
-    same --out resumes each strategy where it stopped, with the share it has left (give a larger
-    --budget to go on).
+    --budget is the whole search's: each strategy gets an equal share, which pays for its search
+    and for following up each distinct violation it reports (its probes, its confirmation over
+    seeds, its explanation): the search stops early enough to leave room for them. Running it
+    again on the same --out resumes each strategy where it stopped, with the share it has left
+    (give a larger --budget to go on).
 
     \b
     Example:
     simgap search curve-gaps --budget 20m --out studies/gaps --workers 2
     """
     from simgap.experiment.search import parse_budget, run_search
+    from simgap.experiment.search.follow_up import FollowUp
     from simgap.experiment.search.results import search_results
     from simgap.report.search_page import build_search_report
 
@@ -74,10 +75,9 @@ def search_cmd(
             bars.update(p.strategy, min(done, total), total, f"{p.runs} runs, {p.high_failures} high-fidelity failures")
 
         results = run_search(spec, out, limit, workers, executor, address, strategy or None, on_progress=show,
-                             validate=not no_validate, probe_runs=probe_runs, repeats=repeats,
-                             explain_worst=explain_worst)
+                             validate=not no_validate, follow_up=FollowUp(repeats, explain))
     _print(console, results)
-    _print_findings(console, results)
+    _print_findings(console, results, limit)
     if not no_report:
         console.print(f"report: [bold]{build_search_report(search_results(out))}[/bold]")
     if check.asked:
@@ -91,45 +91,73 @@ def search_cmd(
 def _print(console: Console, results) -> None:
     t = Table(title="what each strategy found")
     for col in ("strategy", "min", "runs", "high runs", "high failures", "violations", "distinct", "scenarios",
-                "modes (+unprobed)", "per CPU-h"):
+                "reported", "modes", "per CPU-h"):
         t.add_column(col, justify="left" if col == "strategy" else "right")
     for r in results:
         t.add_row(r.name, f"{r.wall_s / 60:.1f}", str(r.runs), str(r.high_runs), str(r.high_failures),
-                  str(r.violations), str(r.distinct), str(r.scenarios), _modes(r), f"{r.per_cpu_hour:.1f}")
+                  str(r.violations), str(r.distinct), str(r.scenarios), str(len(r.reported)), str(len(r.modes)),
+                  f"{r.per_cpu_hour:.1f}")
     console.print(t)
 
 
 FINDINGS_SHOWN = 10
 
 
-def _print_findings(console: Console, results) -> None:
-    """The distinct violations, worst first (by the objective's value in the high-fidelity run),
-    each with the command that reproduces it."""
-    found = [v for r in results for v in r.found]
-    if not found:
-        return
-    worst = sorted(found, key=lambda v: -_objective(v))
-    console.print(f"{len(found)} distinct violations; worst first, each with the command that reproduces it"
-                  + (f" (the first {FINDINGS_SHOWN}; all in the report and simgap export --violations)"
-                     if len(found) > FINDINGS_SHOWN else "") + ":")
-    for v in worst[:FINDINGS_SHOWN]:
-        seeds = "" if v.reproduces is None or v.reproduces.n < 2 else f"; fails in {v.reproduces} seeds"
-        console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): {escape(v.row.failure_reason)}"
-                      f"{seeds}")
-        console.print(f"    {escape(v.reproduce)}", soft_wrap=True)
-        if v.explanation is not None:
-            console.print(f"    why: {escape(v.explanation.sentence())}", soft_wrap=True)
+def _print_findings(console: Console, results, budget) -> None:
+    """The reported violations (each probed), worst first (by the objective's value in the
+    high-fidelity run), each with the seeds it fails in, the command that reproduces it and its
+    explanation; then, once, what the budget left undone and the budget that would do it."""
+    found = [v for r in results for v in r.reported]
+    if found:
+        worst = sorted(found, key=lambda v: -_objective(v))
+        shown = f" (the first {FINDINGS_SHOWN}; all in the report)" if len(found) > FINDINGS_SHOWN else ""
+        console.print(f"{len(found)} distinct violation{'s' if len(found) > 1 else ''}, each probed; worst first, "
+                      f"each with the command that reproduces it{shown}:")
+        for v in worst[:FINDINGS_SHOWN]:
+            seeds = "" if v.reproduces is None or v.reproduces.n < 2 else f"; fails in {v.reproduces} seeds"
+            console.print(f"  {escape(v.scenario)} ({v.vehicle}, {escape(v.strategy)}): "
+                          f"{escape(v.row.failure_reason)}{seeds}")
+            console.print(f"    {escape(v.reproduce)}", soft_wrap=True)
+            if v.explanation is not None:
+                console.print(f"    why: {escape(v.explanation.sentence())}", soft_wrap=True)
+    for line in _left(results, budget, found):
+        console.print(line, soft_wrap=True)
+
+
+def _left(results, budget, found) -> list[str]:
+    """One line for the violations the budget left unprobed (not reported), one for the reported
+    ones it left unexplained, each with the --budget that would follow them up (shares being
+    equal, the strategy that needs the most sets it)."""
+    left = [r.left for r in results if r.left is not None]
+    out = []
+    unprobed = sum(x.unprobed for x in left)
+    if unprobed:
+        more = budget + _most(results, [x.to_probe for x in left])
+        out.append(f"{unprobed} more distinct violation{'s' if unprobed > 1 else ''} found, left unprobed by the "
+                   f"budget and not reported: --budget {more.option()} on this --out would probe, confirm and explain "
+                   f"{'them' if unprobed > 1 else 'it'}")
+    unexplained = sum(x.unexplained for x in left)
+    if unexplained:
+        more = budget + _most(results, [x.to_explain for x in left])
+        out.append(f"{unexplained} of the {len(found)} reported violations {'are' if unexplained > 1 else 'is'} not "
+                   f"explained: the budget did not allow it (--budget {more.option()} on this --out would explain "
+                   f"{'them' if unexplained > 1 else 'it'})")
+    return out
+
+
+def _most(results, costs):
+    """What the whole budget (shared evenly) must grow by for every strategy's share to pay for
+    the dearest of ``costs``."""
+    from simgap.experiment.search import Budget
+
+    most = max(costs, key=lambda b: b.seconds if b.seconds is not None else b.runs)
+    n = len(results)
+    return Budget(seconds=most.seconds * n) if most.seconds is not None else Budget(runs=(most.runs or 0) * n)
 
 
 def _objective(v) -> float:
     value = v.row.run.metrics.get("max_lateral_offset_m", float("nan"))
     return value if value == value else float("-inf")
-
-
-def _modes(r) -> str:
-    """Probed failure modes, and the unprobed groups beside them."""
-    rest = len(r.modes) - r.probed_modes
-    return f"{r.probed_modes}" + (f" (+{rest})" if rest else "")
 
 
 @app.command("search-status")

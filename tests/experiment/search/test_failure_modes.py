@@ -1,6 +1,7 @@
 """Failure modes on a planted landscape (no simulation: rows made up by a model): a search's
 violations grouped by the dimensions they need, what broke and the vehicle, found by probes that
-move one dimension back to nominal; budgeted and resumable."""
+move one dimension back to nominal, resumable; only probed violations reported; the search stops
+early enough to follow up what it found."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import pytest
 from simgap.cosim import Outcome
 from simgap.experiment.search.failure_modes import what_broke
 from simgap.experiment.knobs import knob_value
-from simgap.experiment.search.mode_probes import ModeProbes
+from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
+from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
 from simgap.experiment.search.results import SearchResults, summarise
@@ -54,26 +56,28 @@ def searched(root: Path):
     return search, space
 
 
-def probe(search, space, root: Path, budget: int) -> ModeProbes:
+def probe(search, space, root: Path, violations: int | None = None) -> ModeProbes:
+    """Probe the first ``violations`` distinct violations found (default: all)."""
     found = summarise(root, "grid", 3, search.spec.distinct_radius)
-    probes = ModeProbes(search, space, root, [v.row for v in found.found], budget)
+    probes = ModeProbes(search, space, root)
     probes.ladder.scenario = lambda c, name=None: "unused.xml"
-    while (job := probes.next_job()) is not None:
-        probes.on_result(job, two_modes(job))
+    for v in found.found[:violations]:
+        for job in probes.jobs(v.row):
+            probes.on_result(job, two_modes(job))
     return probes
 
 
 def test_violations_group_into_the_planted_modes(tmp_path):
     root = tmp_path / "grid"
     search, space = searched(root)
-    probe(search, space, root, budget=200)
+    probe(search, space, root)
     result = summarise(root, "grid", 3, search.spec.distinct_radius)
     assert result.distinct == 20                     # 3 city cars off road, 9 + 8 drifting
     modes = {(m.vehicle, m.broke, tuple(m.needs)): m for m in result.modes}
     assert set(modes) == {("city", "off_road", ("initial_speed", "road_friction")),
                           ("sedan", "max_lane_excursion_m", ("steer_delay",)),
                           ("city", "max_lane_excursion_m", ("steer_delay",))}
-    assert all(m.probed for m in result.modes) and result.probed_modes == 3
+    assert len(result.reported) == 20
     a = modes[("city", "off_road", ("initial_speed", "road_friction"))]
     assert a.count == 3 and a.ranges["road_friction"] == (0.2, 0.2) and a.ranges["steer_delay"] == (0.0, 0.1)
     assert a.representative_values["steer_delay"] == 0.0           # the clearest: no delay it does not need
@@ -90,36 +94,49 @@ def test_violations_group_into_the_planted_modes(tmp_path):
     assert f"c{b.representative:05d}</a>" in page
 
 
-def test_probes_keep_to_their_budget_and_resume_without_repeating(tmp_path):
+def test_only_probed_violations_are_reported_and_probing_resumes_without_repeating(tmp_path):
     root = tmp_path / "grid"
     search, space = searched(root)
-    first = probe(search, space, root, budget=5)
-    assert first.made == 5 and len(ResultsStore(root / "probes").rows()) == 5
+    probe(search, space, root, violations=4)
     partial = summarise(root, "grid", 3, search.spec.distinct_radius)
-    assert any(not m.probed for m in partial.modes)              # the rest are grouped, marked not probed
-    assert sum(m.count for m in partial.modes) == partial.distinct
+    assert [v.candidate for v in partial.reported] == [v.candidate for v in partial.found[:4]]
+    assert sum(m.count for m in partial.modes) == 4 and partial.distinct == 20     # the others: no mode, no report
     before = {r["key"]: r["fingerprint"] for r in ResultsStore(root / "probes").rows()}
-    again = probe(search, space, root, budget=200)
+    again = probe(search, space, root)
     rows = ResultsStore(root / "probes").rows()
     keys = [r["key"] for r in rows]
-    assert len(keys) == len(set(keys)) == again.made
+    assert len(keys) == len(set(keys)) and len(keys) == len(before) + len(again.done) - len(before)
     assert all({r["key"]: r["fingerprint"] for r in rows}[k] == v for k, v in before.items())
-    assert summarise(root, "grid", 3, search.spec.distinct_radius).probed_modes == 3
+    assert len(summarise(root, "grid", 3, search.spec.distinct_radius).modes) == 3
 
 
-def test_a_small_probe_budget_gives_every_group_its_clearest_member_first(tmp_path):
-    """Three groups may be modes here (the city car off the road; each car out of its lane): nine
-    probe runs (three dimensions each at most) probe one member of each, the one nearest nominal,
-    and every group comes out a probed mode with that member as its representative."""
+def test_the_search_stops_early_enough_to_follow_up_what_it_found(tmp_path):
+    """With the follow-up reserved (probes and a second seed each, no explanation), the search's
+    runs plus the follow-up of the violations it found come to its budget, give or take one
+    violation's follow-up: not to the budget plus every follow-up."""
+    spec = SearchSpec(name="modes", logical="curve", parameters={"initial_speed": {"min": 0, "max": 25}},
+                      knobs={"road_friction": {"min": 0.2, "max": 1.0}, "steer_delay": {"min": 0.0, "max": 0.1}},
+                      vehicles=["sedan", "city"], ladder=LADDER, grid_levels=3, strategies=["grid"],
+                      failure=FailureRule(above={"max_lane_excursion_m": 0.1}), distinct_radius=0.1)
+    space = SearchSpace(spec, load_logical("curve"))
+    search = checked_search(spec, space.logical)
+    budget = Budget(runs=60)
+    reserve = FollowUpReserve(probe_plan(search), FollowUp(repeats=2, explain=False), budget, 2,
+                              spec.distinct_radius, workers=1)
     root = tmp_path / "grid"
-    search, space = searched(root)
-    probe(search, space, root, budget=9)
-    result = summarise(root, "grid", 3, search.spec.distinct_radius)
-    probed = [m for m in result.modes if m.probed]
-    assert {(m.vehicle, m.broke) for m in probed} == {("city", "off_road"), ("city", "max_lane_excursion_m"),
-                                                     ("sedan", "max_lane_excursion_m")}
-    delay = {m.vehicle: m for m in probed if m.broke == "max_lane_excursion_m"}
-    assert all(m.needs == ["steer_delay"] and m.representative_values["road_friction"] == 1.0 for m in delay.values())
+    run = StrategyRun(search, space, make_strategy("grid", space, spec), root, budget, reserve)
+    run.ladder.scenario = lambda c, name=None: "unused.xml"
+    run.resume()
+    while (job := run.next_job()) is not None:
+        run.on_result(job, two_modes(job))
+    found = summarise(root, "grid", 3, spec.distinct_radius)
+    follow = [reserve.runs_of(v.row, v.run_dir) for v in found.found]
+    assert found.found and run.runs() < budget.runs
+    assert budget.runs <= run.runs() + sum(follow) <= budget.runs + max(follow)
+    assert reserve.runs == sum(follow)              # what it reserved, kept up as it went
+    planned = reserve.planned(found.found, 0.0, run.runs())
+    assert planned == found.found[:len(planned)] and len(planned) >= len(found.found) - 1   # the last one: if it fits
+    assert run.runs() + sum(follow[:len(planned) - 1]) < budget.runs                     # each begun within it
 
 
 @pytest.mark.parametrize("reason, broke", [("goal missed (off_road)", "off_road"), ("collision", "collision"),

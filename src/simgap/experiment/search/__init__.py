@@ -21,7 +21,7 @@ import importlib
 from typing import Any
 
 _PUBLIC = {
-    "Budget": "scheduler", "StrategyRun": "scheduler", "parse_budget": "scheduler", "run_search": "scheduler",
+    "Budget": "budget", "StrategyRun": "scheduler", "parse_budget": "budget", "run_search": "scheduler",
     "SearchSpec": "spec", "Search": "spec", "load_search_spec": "spec",
     "SearchResults": "results", "StrategyResult": "results", "search_results": "results",
 }

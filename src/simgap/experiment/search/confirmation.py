@@ -32,31 +32,30 @@ FAILED = "confirmed_failed"           # the column that says whether a confirmat
 
 
 class Confirmations:
-    """The confirmation runs of one strategy's violations (``violations``: their high-fidelity rows;
-    ``ideal``: their ideal runs, by candidate), each over ``repeats`` seeds: a job source for an
-    executor, and what to do with each result."""
+    """The confirmation runs of one strategy's violations (``ideal``: their ideal runs, by
+    candidate), each over ``repeats`` seeds: the jobs of a violation's runs not made yet (`jobs`),
+    and what to do with each result."""
 
-    def __init__(self, search: Search, space: SearchSpace, root: Path, violations: list[SearchRow], repeats: int,
+    def __init__(self, search: Search, space: SearchSpace, root: Path, repeats: int,
                  ideal: dict[int, SearchRow] | None = None):
-        self.spec, self.space, self.ideal = search.spec, space, ideal or {}
+        self.spec, self.space, self.ideal, self.repeats = search.spec, space, ideal or {}, repeats
         self.root = Path(root) / CONFIRMATIONS
         self.ladder = Ladder(search, Path(root))
         self.store = ResultsStore(self.root)
         self.store.prepare()
         clean_partial_runs(self.root)
         self.done = set(self.store.finished_keys()) if self.store.rows_dir.exists() else set()
-        self.pending = [(v, k) for v in violations for k in range(1, repeats)]
         self.in_flight: dict[str, int] = {}
 
-    def next_job(self) -> Job | None:
-        while self.pending:
-            row, k = self.pending.pop(0)
+    def jobs(self, row: SearchRow) -> list[Job]:
+        """The confirmation runs of the violation ``row`` (its high-fidelity row) not made yet."""
+        out = []
+        for k in range(1, self.repeats):
             job = self._job(row, k)
-            if job.key in self.done:
-                continue
-            self.in_flight[job.key] = row.candidate
-            return job
-        return None
+            if job.key not in self.done:
+                self.in_flight[job.key] = row.candidate
+                out.append(job)
+        return out
 
     def _job(self, row: SearchRow, k: int) -> Job:
         c = self.space.candidate(row.candidate, list(row.unit), row.run.vehicle_ref,

@@ -4,16 +4,15 @@ A violation *needs* a dimension of the search if moving that one dimension back 
 value — a reality knob's default (the ideal world's assumption), a scenario parameter's default,
 each clipped to the searched range — makes its high-fidelity run stop failing *that way* (it
 passes, or fails by another rule). The *probes* that find out are high-fidelity runs of the
-violation with one dimension at nominal; `simgap.experiment.search.mode_probes` runs them, budgeted and
-resumable, into ``<strategy>/probes/`` (a `ProbeRow` each, and the `ProbePlan`: the dimensions
+violation with one dimension at nominal; `simgap.experiment.search.mode_probes` runs them, within
+the search's budget (`simgap.experiment.search.follow_up`) and resumable, into ``<strategy>/probes/`` (a `ProbeRow` each, and the `ProbePlan`: the dimensions
 and their nominal point).
 
 A mode is a vehicle, a planner, what crossed the failure rule (`what_broke`: an outcome such as
 ``off_road``, ``collision``, or a metric's name) and the dimensions needed. Each is reported with
 its count, the range of every dimension over its members and its representative: the clearest
 member, the one closest to nominal in the knobs (then in every dimension) that still fails.
-Violations whose probes are not all done (the probe budget ran out) are grouped by vehicle,
-planner and what broke alone, as modes marked not probed.
+Only violations whose probes are all done are grouped (a search reports no other).
 """
 
 from __future__ import annotations
@@ -118,13 +117,12 @@ def what_broke(reason: str) -> str:
 
 class FailureMode(BaseModel):
     """Violations that broke the same way: the driver, what crossed the rule, the dimensions each
-    needs (``probed``: every member's probes are done; else the members are grouped without)."""
+    needs."""
 
     vehicle: str
     planner: str
     broke: str
     needs: list[str]
-    probed: bool
     count: int
     candidates: list[int]
     ranges: dict[str, tuple[float, float]]       # every dimension: (least, most) over the members
@@ -134,8 +132,7 @@ class FailureMode(BaseModel):
 
     @property
     def label(self) -> str:
-        needs = " + ".join(self.needs) if self.probed else "(not probed)"
-        return f"{self.broke} needing {needs or 'no single dimension'} ({self.vehicle}, {self.planner})"
+        return f"{self.broke} needing {' + '.join(self.needs) or 'no single dimension'} ({self.vehicle}, {self.planner})"
 
 
 def values_of(row: SearchRow, plan: ProbePlan) -> dict[str, float]:
@@ -157,27 +154,29 @@ def needed(row: SearchRow, probes: dict[tuple[int, str], ProbeRow], plan: ProbeP
 
 
 def group_modes(violations: list[SearchRow], probes: list[ProbeRow], plan: ProbePlan) -> list[FailureMode]:
-    """The modes of ``violations`` (high-fidelity rows), the most common first."""
+    """The modes of ``violations`` (high-fidelity rows) whose probes are all done, the most common first."""
     by_probe = {(p.probe_of, p.dim): p for p in probes}
     groups: dict[tuple, list[SearchRow]] = {}
     for row in violations:
         needs = needed(row, by_probe, plan)
+        if needs is None:
+            continue
         key = (row.run.id.fidelity.vehicle, row.run.id.planner or DEFAULT_PLANNER, what_broke(row.failure_reason),
-               needs is not None, tuple(needs or ()))
+               tuple(needs))
         groups.setdefault(key, []).append(row)
     knob_dims = [i for i, d in enumerate(plan.dims) if d.kind is DimensionKind.KNOB]
     modes = []
-    for (vehicle, planner, broke, probed, needs), rows in groups.items():
+    for (vehicle, planner, broke, needs), rows in groups.items():
         def departure(r: SearchRow) -> tuple[float, float, int]:
             off = plan.departure(r.unit)
             return float(off[knob_dims].sum()), float(off.sum()), r.candidate
         best = min(rows, key=departure)
         values = [values_of(r, plan) for r in rows]
         modes.append(FailureMode(
-            vehicle=vehicle, planner=planner, broke=broke, needs=list(needs), probed=probed, count=len(rows),
+            vehicle=vehicle, planner=planner, broke=broke, needs=list(needs), count=len(rows),
             candidates=[r.candidate for r in rows],
             ranges={d.name: (min(v[d.name] for v in values), max(v[d.name] for v in values)) for d in plan.dims},
             representative=best.candidate, representative_run=str(best.run.run_dir or ""),
             representative_values=values_of(best, plan)))
-    return sorted(modes, key=lambda m: (not m.probed, -m.count, m.vehicle, m.broke, m.needs))
+    return sorted(modes, key=lambda m: (-m.count, m.vehicle, m.broke, m.needs))
 

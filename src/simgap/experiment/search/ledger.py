@@ -27,6 +27,7 @@ class SearchLedger:
         self.store = ResultsStore(root)
         self.candidates: dict[int, Candidate] = {}
         self.rows: dict[tuple[int, int], SearchRow] = {}
+        self.order: list[tuple[int, int]] = []       # the rows' (candidate, rung), in the order recorded
         self.spent_before = 0.0
         self.started = time.monotonic()
 
@@ -41,6 +42,7 @@ class SearchLedger:
         """Write ``row`` to the store (atomically) and keep it."""
         self.store.write_row(row.as_run_row())
         self.rows[(row.candidate, row.rung)] = row
+        self.order.append((row.candidate, row.rung))
 
     def score_drop(self, index: int, rung: int, run: RunRow) -> float | None:
         """The candidate's ideal score minus ``run``'s: 0 for its ideal run, None while the ideal
@@ -65,6 +67,7 @@ class SearchLedger:
         for r in rows:
             first.setdefault(r.candidate, r)
             self.rows[(r.candidate, r.rung)] = r
+            self.order.append((r.candidate, r.rung))
         for index in sorted(first):
             r = first[index]
             self.candidates[index] = self.space.candidate(index, r.unit, r.run.vehicle_ref,

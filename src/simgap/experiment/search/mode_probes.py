@@ -3,11 +3,9 @@
 it is off nominal in, with that dimension alone moved back to nominal — the violation's own
 candidate otherwise (its vehicle, planner and seed), through the search's ladder and executor.
 
-Budgeted in runs per strategy and resumable: each probe's row goes to ``<strategy>/probes/store``
-under its own key (``c00012-road_friction/high``), and a probe with a row is never run again.
-Violations are probed whole, one after another, the clearest of each group that may be a mode
-(vehicle, planner, what broke) before the second of any (`clearest_first`), so that a small budget
-gives every group a probed member.
+Resumable: each probe's row goes to ``<strategy>/probes/store`` under its own key
+(``c00012-road_friction/high``), and a probe with a row is never run again. Violations are probed
+whole, in the order `simgap.experiment.search.follow_up` plans within the search's budget.
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from simgap.experiment.job import Job
 from simgap.experiment.knobs import KNOBS
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.runner import clean_partial_runs
-from simgap.experiment.search.failure_modes import PROBES, ProbeDimension, ProbePlan, ProbeRow, what_broke
+from simgap.experiment.search.failure_modes import PROBES, ProbeDimension, ProbePlan, ProbeRow
 from simgap.experiment.search.ladder import Ladder, scenario_name
 from simgap.experiment.search.ledger import score_drop
 from simgap.experiment.search.rows import SearchRow
@@ -44,15 +42,13 @@ def probe_name(candidate: int, dim: str) -> str:
 
 
 class ModeProbes:
-    """The probes of one strategy's violations (``violations``: their high-fidelity rows, in the
-    order found; ``ideal``: their ideal runs, by candidate), ``budget`` runs at most (those an
-    earlier invocation made included): a job source for an executor, and what to do with each
-    result. A probe is judged like its violation, its score drop measured against the violation's
-    ideal run (for a parameter moved back, that is another road's: an approximation)."""
+    """The probes of one strategy's violations (``ideal``: their ideal runs, by candidate): the jobs
+    of a violation's probes not run yet (`jobs`), and what to do with each result. A probe is
+    judged like its violation, its score drop measured against the violation's ideal run (for a
+    parameter moved back, that is another road's: an approximation)."""
 
-    def __init__(self, search: Search, space: SearchSpace, root: Path, violations: list[SearchRow], budget: int,
-                 ideal: dict[int, SearchRow] | None = None):
-        self.spec, self.space, self.budget, self.ideal = search.spec, space, budget, ideal or {}
+    def __init__(self, search: Search, space: SearchSpace, root: Path, ideal: dict[int, SearchRow] | None = None):
+        self.spec, self.space, self.ideal = search.spec, space, ideal or {}
         self.root = Path(root) / PROBES
         self.ladder = Ladder(search, self.root)
         self.plan = probe_plan(search)
@@ -61,21 +57,18 @@ class ModeProbes:
         clean_partial_runs(self.root)
         self.plan.save(Path(root))
         self.done = set(self.store.finished_keys()) if self.store.rows_dir.exists() else set()
-        self.made = len(self.done)
-        self.pending = [(v, i) for v in clearest_first(violations, self.plan) for i in self.plan.off_nominal(v.unit)]
         self.in_flight: dict[str, tuple[int, str]] = {}
 
-    def next_job(self) -> Job | None:
-        while self.pending and self.made < self.budget:
-            row, i = self.pending.pop(0)
-            dim = self.plan.dims[i].name
+    def jobs(self, row: SearchRow) -> list[Job]:
+        """The probes of the violation ``row`` (its high-fidelity row) not run yet: one per
+        dimension it is off nominal in."""
+        out = []
+        for i in self.plan.off_nominal(row.unit):
             job = self._job(row, i)
-            if job.key in self.done:
-                continue
-            self.made += 1
-            self.in_flight[job.key] = (row.candidate, dim)
-            return job
-        return None
+            if job.key not in self.done:
+                self.in_flight[job.key] = (row.candidate, self.plan.dims[i].name)
+                out.append(job)
+        return out
 
     def _job(self, row: SearchRow, i: int) -> Job:
         unit = list(row.unit)
@@ -91,19 +84,3 @@ class ModeProbes:
         self.store.write_row(ProbeRow(result, candidate, dim, reason is not None, reason or "").as_run_row())
         self.done.add(job.key)
 
-
-def clearest_first(violations: list[SearchRow], plan: ProbePlan) -> list[SearchRow]:
-    """``violations`` in the order they are probed: the clearest of each group that may be a mode
-    (vehicle, planner, what broke) first — the fewest dimensions off nominal, then the nearest to
-    nominal: the cheapest to probe and the representative a mode would show — then the second
-    clearest of each, and so on; so that a small budget gives every group a probed member."""
-    def clarity(v: SearchRow) -> tuple[int, float, int]:
-        return len(plan.off_nominal(v.unit)), float(plan.departure(v.unit).sum()), v.candidate
-
-    groups: dict[tuple, list[SearchRow]] = {}
-    for v in violations:
-        key = (v.run.id.fidelity.vehicle, v.run.id.planner or DEFAULT_PLANNER, what_broke(v.failure_reason))
-        groups.setdefault(key, []).append(v)
-    ranked = [(rank, clarity(v), v) for members in groups.values()
-              for rank, v in enumerate(sorted(members, key=clarity))]
-    return [v for _, _, v in sorted(ranked, key=lambda t: t[:2])]

@@ -17,7 +17,8 @@ from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.attribution import Attribution, read_explanation
 from simgap.experiment.replay import reproduce_command
 from simgap.experiment.search.confirmation import reproduction
-from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, read_probe_rows
+from simgap.experiment.search.budget import Budget
+from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, needed, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
 from simgap.planning.registry import DEFAULT_PLANNER
@@ -91,6 +92,17 @@ def _plain(value: Any) -> Any:
     return value.item() if hasattr(value, "item") else value
 
 
+@dataclass(frozen=True)
+class FollowUpLeft:
+    """What a strategy's share left undone: distinct violations it found and did not probe (not
+    reported), reported ones it did not explain, and what following each up would cost."""
+
+    unprobed: int
+    to_probe: Budget
+    unexplained: int
+    to_explain: Budget
+
+
 @dataclass
 class StrategyResult:
     name: str
@@ -107,12 +119,9 @@ class StrategyResult:
     cpu_s: float = 0.0
     curve: list[tuple[float, int]] = field(default_factory=list)   # (elapsed s, distinct violations so far)
     found: list[Violation] = field(default_factory=list)            # the distinct violations, first found first
+    reported: list[Violation] = field(default_factory=list)         # ... those probed, the search's findings
     modes: list[FailureMode] = field(default_factory=list)          # ... grouped by what broke (`failure_modes`)
-
-    @property
-    def probed_modes(self) -> int:
-        """Failure modes whose members' probes are all done."""
-        return sum(1 for m in self.modes if m.probed)
+    left: FollowUpLeft | None = None    # what the share left undone (known to the search that just ran)
 
     @property
     def per_cpu_hour(self) -> float:
@@ -166,7 +175,10 @@ def summarise(root: Path, name: str, ladder_len: int, radius: float) -> Strategy
     res.scenarios = len(scenarios)
     plan = ProbePlan.load(root)
     if plan is not None:
-        res.modes = group_modes([v.row for v in res.found], read_probe_rows(root), plan)
+        probes = read_probe_rows(root)
+        by_probe = {(p.probe_of, p.dim): p for p in probes}
+        res.reported = [v for v in res.found if needed(v.row, by_probe, plan) is not None]
+        res.modes = group_modes([v.row for v in res.reported], probes, plan)
     return res
 
 

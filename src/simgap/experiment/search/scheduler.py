@@ -29,10 +29,10 @@ from __future__ import annotations
 
 import json
 import math
-import re
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from simgap.errors import InputError
 from simgap.experiment.executors import make_executor
@@ -41,63 +41,29 @@ from simgap.experiment.run_row import RunRow
 from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
 from simgap.experiment.search.ledger import SearchLedger
 from simgap.experiment.attribution import explain
-from simgap.experiment.search.confirmation import Confirmations
-from simgap.experiment.search.mode_probes import ModeProbes
-from simgap.experiment.search.results import META, StrategyResult, summarise
+from simgap.experiment.search.budget import Budget
+from simgap.experiment.search.confirmation import CONFIRMATIONS, Confirmations
+from simgap.experiment.search.failure_modes import PROBES
+from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
+from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
+from simgap.experiment.search.results import META, FollowUpLeft, StrategyResult, summarise
 from simgap.experiment.search.rows import SearchRow
 from simgap.experiment.search.space import Candidate, SearchSpace, Strategy
 from simgap.experiment.search.spec import STRATEGIES, Search, SearchSpec, load_search_spec
 from simgap.experiment.search.strategies import make_strategy
 from simgap.experiment.single_run import software_versions
+from simgap.experiment.store import ResultsStore
 from simgap.files import atomic_write_text
 from simgap.sim.registry import preflight
-
-
-@dataclass(frozen=True)
-class Budget:
-    seconds: float | None = None
-    runs: int | None = None
-
-    def spent(self, seconds: float, runs: int) -> bool:
-        return (self.seconds is not None and seconds >= self.seconds) or (self.runs is not None and runs >= self.runs)
-
-    def __str__(self) -> str:
-        return f"{self.seconds:g} s" if self.seconds is not None else f"{self.runs} runs"
-
-    def shares(self, names: list[str]) -> dict[str, "Budget"]:
-        """This budget split evenly among the strategies ``names`` (they are compared on equal
-        budgets): seconds divided, runs divided with the remainder to the first ones."""
-        if self.seconds is not None:
-            return {n: Budget(seconds=self.seconds / len(names)) for n in names}
-        assert self.runs is not None
-        if self.runs < len(names):
-            raise InputError(f"{self.runs} runs cannot be shared among {len(names)} strategies", field="budget",
-                             allowed=f"at least {len(names)} runs (the budget is the search's total), or fewer "
-                                     "strategies (--strategy)")
-        each, extra = divmod(self.runs, len(names))
-        return {n: Budget(runs=each + (i < extra)) for i, n in enumerate(names)}
-
-
-def parse_budget(text: str) -> Budget:
-    """``20m``, ``90s``, ``1.5h`` (wall clock) or ``N`` (runs): the search's total, shared among
-    its strategies (`Budget.shares`)."""
-    m = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([smh]?)\s*", str(text))
-    if not m or float(m.group(1)) <= 0:
-        raise InputError(f"'{text}' is not a budget", field="budget", allowed="a duration like 20m, 90s, 1.5h, or a run count like 200")
-    value, unit = float(m.group(1)), m.group(2)
-    if not unit:
-        if value != int(value):
-            raise InputError(f"'{text}' is not a whole number of runs", field="budget", allowed="200, or 20m")
-        return Budget(runs=int(value))
-    return Budget(seconds=value * {"s": 1, "m": 60, "h": 3600}[unit])
 
 
 class StrategyRun:
     """One strategy's search in ``root``: proposes jobs, sets off what a result calls for (the ideal
     check of a high-fidelity failure, a promotion up the ladder), keeps to the budget."""
 
-    def __init__(self, search: Search, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget):
-        self.spec, self.strategy, self.budget = search.spec, strategy, budget
+    def __init__(self, search: Search, space: SearchSpace, strategy: Strategy, root: Path, budget: Budget,
+                 reserve: FollowUpReserve | None = None):
+        self.spec, self.strategy, self.budget, self.reserve = search.spec, strategy, budget, reserve
         self.ladder = Ladder(search, root)
         self.ledger = SearchLedger(root, space)
         self.ideal = SharedIdealRuns(self.ladder, self.ledger, strategy)
@@ -116,7 +82,13 @@ class StrategyRun:
         return self.ledger.runs()
 
     def out_of_budget(self) -> bool:
-        return self.budget.spent(self.ledger.elapsed(), self.runs() + len(self.in_flight))
+        """Whether the share is spent, what following up the violations found so far will cost
+        (``reserve``) counted in."""
+        seconds, runs = self.ledger.elapsed(), self.runs() + len(self.in_flight)
+        if self.reserve is not None:
+            self.reserve.update(self.ledger)
+            seconds, runs = seconds + self.reserve.seconds(), runs + self.reserve.made + self.reserve.runs
+        return self.budget.spent(seconds, runs)
 
     def resume(self) -> None:
         """Replay what an earlier invocation finished into the strategy, and queue what was due."""
@@ -227,14 +199,13 @@ class SearchProgress:
 def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | None, executor: str = "local",
                address: str | None = None, strategies: list[str] | None = None,
                on_progress: Callable[[SearchProgress], None] | None = None, validate: bool = False,
-               probe_runs: int = 0, repeats: int = 1, explain_worst: int = 0) -> list[StrategyResult]:
+               follow_up: FollowUp | None = None) -> list[StrategyResult]:
     """Run (or resume) every strategy of the spec (or ``strategies``), ``budget`` shared evenly among
-    them (`Budget.shares`; the mode probes come on top); ``validate``
-    checks each run's solution (slow: `simgap search` asks for it unless --no-validate). Then probe
-    each one's distinct violations for their failure modes, ``probe_runs`` runs each at most
-    (`simgap.experiment.search.mode_probes`), confirm each over ``repeats`` seeds in high fidelity
-    (`simgap.experiment.search.confirmation`), explain its ``explain_worst`` worst ones (by the
-    spec's objective in high fidelity; `simgap.experiment.attribution`), and record what each found in
+    them (`Budget.shares`); ``validate`` checks each run's solution (slow: `simgap search` asks for
+    it unless --no-validate). Each share pays for the strategy's search and for following up the
+    distinct violations it reports (`simgap.experiment.search.follow_up`: probed, confirmed over
+    ``follow_up.repeats`` seeds, explained); ``follow_up`` None: the search spends its whole share
+    and reports nothing (a comparison of the strategies' yield). What each found goes to
     ``search.json``."""
     search = load_search_spec(spec_ref)
     spec = search.spec
@@ -251,6 +222,7 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
     shares = budget.shares(names)
     root = Path(root)
     runner = make_executor(executor, workers, spec.run_timeout_s, address)
+    runs_at_once = getattr(runner, "workers", None) or workers or os.cpu_count() or 1
     _claim(root, spec)
     space = SearchSpace(spec, search.logical, search.vehicles, list(search.planners))
     results = []
@@ -258,7 +230,8 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         sroot = root / name
         sroot.mkdir(parents=True, exist_ok=True)
         share = shares[name]
-        run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, share)
+        reserve = None if follow_up is None else _reserve(search, sroot, name, follow_up, share, runs_at_once)
+        run = StrategyRun(search, space, make_strategy(name, space, spec), sroot, share, reserve)
         run.resume()
         context = JobContext(sroot, planner_vehicle=search.planner_vehicle, validate=validate, criticality=False)
 
@@ -271,24 +244,69 @@ def run_search(spec_ref: str | Path, root: Path, budget: Budget, workers: int | 
         runner.run(run.next_job, context, on_result)
         run.ledger.save_budget(share)
         found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
-        probes = ModeProbes(search, space, sroot, [v.row for v in found.found], probe_runs,
-                            {v.candidate: v.ideal_row for v in found.found})
-        if probes.pending and probe_runs > 0:
-            runner.run(probes.next_job, JobContext(probes.root, planner_vehicle=search.planner_vehicle,
-                                                   validate=validate, criticality=False), probes.on_result)
-        confirmations = Confirmations(search, space, sroot, [v.row for v in found.found], repeats,
-                                      {v.candidate: v.ideal_row for v in found.found})
-        if confirmations.pending:
-            runner.run(confirmations.next_job, JobContext(confirmations.root, planner_vehicle=search.planner_vehicle,
-                                                          validate=validate, criticality=False),
-                       confirmations.on_result)
-        found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
-        for v in sorted(found.found, key=lambda v: -_finite(v.row.run.value(spec.objective)))[:explain_worst]:
-            if v.explanation is None:
-                explain(v.run_dir, max(2, workers or 2))
-        results.append(summarise(sroot, name, len(spec.ladder), spec.distinct_radius))
+        if reserve is not None:
+            _follow_up(search, space, run, reserve, runner, validate, max(2, runs_at_once))
+            run.ledger.save_budget(share)
+            found = summarise(sroot, name, len(spec.ladder), spec.distinct_radius)
+            found.left = _left(found, reserve)
+        results.append(found)
         _record_findings(root, results[-1])
     return results
+
+
+def _reserve(search: Search, root: Path, name: str, follow_up: FollowUp, share: Budget,
+             workers: int) -> FollowUpReserve:
+    """The follow-up reserve of the strategy in ``root``, with what an earlier invocation followed up."""
+    before = summarise(root, name, len(search.spec.ladder), search.spec.distinct_radius)
+    made = sum(len(ResultsStore(root / d).finished_keys()) for d in (PROBES, CONFIRMATIONS)
+               if (root / d / "store" / "rows").exists())
+    made += sum(v.explanation.runs for v in before.found if v.explanation is not None)
+    return FollowUpReserve(probe_plan(search), follow_up, share, len(search.spec.ladder) - 1,
+                           search.spec.distinct_radius, workers, done={v.candidate for v in before.reported}, made=made)
+
+
+def _follow_up(search: Search, space: SearchSpace, run: StrategyRun, reserve: FollowUpReserve, runner: Any,
+               validate: bool, explain_workers: int) -> None:
+    """Follow up the strategy's distinct violations, worst first, as far as its share goes
+    (`FollowUpReserve.planned`): their probes, then their confirmations, then their explanations."""
+    spec, root = search.spec, run.root
+    found = summarise(root, run.strategy.name, len(spec.ladder), spec.distinct_radius)
+    worst = sorted(found.found, key=lambda v: -_finite(v.row.run.value(spec.objective)))
+    planned = reserve.planned(worst, run.ledger.elapsed(), run.runs() + reserve.made)
+    ideal = {v.candidate: v.ideal_row for v in planned}
+
+    def counted(on_result: Callable[[Job, RunRow], None]) -> Callable[[Job, RunRow], None]:
+        def made(job: Job, row: RunRow) -> None:
+            on_result(job, row)
+            reserve.made += 1
+        return made
+
+    probes = ModeProbes(search, space, root, ideal)
+    runner.run([job for v in planned for job in probes.jobs(v.row)],
+               JobContext(probes.root, planner_vehicle=search.planner_vehicle, validate=validate, criticality=False),
+               counted(probes.on_result))
+    confirmations = Confirmations(search, space, root, reserve.follow_up.repeats, ideal)
+    runner.run([job for v in planned for job in confirmations.jobs(v.row)],
+               JobContext(confirmations.root, planner_vehicle=search.planner_vehicle, validate=validate,
+                          criticality=False),
+               counted(confirmations.on_result))
+    for v in planned:
+        if v.explanation is None and reserve.explains(reserve.explanation(v.run_dir)):
+            reserve.made += explain(v.run_dir, explain_workers).runs
+
+
+def _left(found: StrategyResult, reserve: FollowUpReserve) -> FollowUpLeft:
+    """What the share left undone, and what doing it would cost (in the budget's unit)."""
+    reported = {v.candidate for v in found.reported}
+    unprobed = [v for v in found.found if v.candidate not in reported]
+    to_probe = sum(reserve.runs_of(v.row, v.run_dir) for v in unprobed)
+    unexplained = [v for v in found.reported if v.explanation is None] if reserve.follow_up.explain else []
+    to_explain = sum(reserve.explanation(v.run_dir) for v in unexplained)
+
+    def cost(runs: int) -> Budget:
+        return Budget(seconds=reserve.seconds(runs)) if reserve.share.seconds is not None else Budget(runs=runs)
+
+    return FollowUpLeft(len(unprobed), cost(to_probe), len(unexplained), cost(to_explain))
 
 
 def _finite(value: float) -> float:
@@ -296,10 +314,11 @@ def _finite(value: float) -> float:
 
 
 def _record_findings(root: Path, found: StrategyResult) -> None:
-    """Keep what a strategy found in ``search.json`` beside the spec: its counts and failure modes."""
+    """Keep what a strategy found in ``search.json`` beside the spec: its counts (the distinct
+    violations, those reported) and failure modes."""
     meta = root / META
     saved = json.loads(meta.read_text())
     saved.setdefault("findings", {})[found.name] = {
         "runs": found.runs, "violations": found.violations, "distinct": found.distinct, "scenarios": found.scenarios,
-        "modes": [m.model_dump(mode="json") for m in found.modes]}
+        "reported": len(found.reported), "modes": [m.model_dump(mode="json") for m in found.modes]}
     atomic_write_text(meta, json.dumps(saved, indent=2, default=str))
