@@ -40,7 +40,7 @@ from simgap.control.pure_pursuit import PurePursuitController, PurePursuitGains
 from simgap.errors import validated_settings
 from simgap.sim.ideal import IdealBackend
 from simgap.sim.protocol import BackendEntry
-from simgap.sim.settings import RoadSurface, TrackingSettings
+from simgap.sim.settings import RoadFrictionSettings, TrackingSettings
 
 
 class CountingSettings(BaseModel):
@@ -66,7 +66,7 @@ BACKEND = BackendEntry(CountingBackend, lambda values: validated_settings(Counti
                        "toy_plugins")
 
 
-class SlipperySettings(TrackingSettings, RoadSurface):
+class SlipperySettings(TrackingSettings, RoadFrictionSettings):
     """A world whose car tracks its plan on a road with a friction: it takes those models' knobs."""
 
 
