@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 from simgap.record import read_run
 
@@ -17,8 +18,7 @@ SIMGAP = [sys.executable, "-m", "simgap"]
 
 
 def simgap(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    env = dict(os.environ, COLUMNS="120")
-    return subprocess.run(SIMGAP + list(args), capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
+    return simgap_command.simgap(*args, cwd=cwd, env=dict(os.environ, COLUMNS="120"))
 
 
 def assert_clean_error(proc: subprocess.CompletedProcess, *fragments: str) -> None:

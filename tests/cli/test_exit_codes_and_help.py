@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import simgap_command
 from typer.main import get_command
 from click.testing import CliRunner
 
@@ -37,8 +38,7 @@ class Straight:
 
 
 def simgap(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "simgap", *args], capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ, COLUMNS="200"))
+    return simgap_command.simgap(*args, env=dict(os.environ, COLUMNS="200"))
 
 
 @pytest.fixture(scope="module")

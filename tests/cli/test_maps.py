@@ -8,9 +8,9 @@ import json
 import os
 import re
 import subprocess
-import sys
 
 import pytest
+import simgap_command
 
 from simgap.record import read_run
 from simgap.scenario.real_maps import MAPS_PACKAGE, map_files, maps_dir
@@ -19,8 +19,7 @@ MAP = "USA_Intersection-1"
 
 
 def simgap(*args: str, **env: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "simgap", *args], capture_output=True, text=True, timeout=300,
-                          env=dict(os.environ, COLUMNS="250", **env))
+    return simgap_command.simgap(*args, env=dict(os.environ, COLUMNS="250", **env))
 
 
 @pytest.fixture(scope="module")

@@ -7,18 +7,16 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 ROADS = Path(__file__).parents[1] / "scenario" / "opendrive_roads"
 
 
 def simgap(*args: str) -> subprocess.CompletedProcess:
-    env = dict(os.environ, COLUMNS="160", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    return subprocess.run([sys.executable, "-m", "simgap", *args], capture_output=True, text=True, env=env,
-                          timeout=300)
+    return simgap_command.simgap(*args, env=dict(os.environ, COLUMNS="160"))
 
 
 @pytest.fixture(scope="module")

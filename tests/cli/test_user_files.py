@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 
 import pytest
+import simgap_command
 from typer.testing import CliRunner
 
 from simgap.cli.outputs import check_files_out, files_out
@@ -19,8 +19,7 @@ from simgap.scenario import load_logical, write_scenario
 
 
 def simgap(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "simgap", *map(str, args)], capture_output=True, text=True,
-                          env=dict(os.environ, COLUMNS="200"), timeout=300)
+    return simgap_command.simgap(*args, env=dict(os.environ, COLUMNS="200"))
 
 
 def refused(proc: subprocess.CompletedProcess, *fragments: str) -> bool:

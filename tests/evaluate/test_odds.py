@@ -3,11 +3,11 @@ experiment with repeats that reports them."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
+import os
 
 import pyarrow.parquet as pq
 import pytest
+import simgap_command
 import yaml
 
 from simgap.evaluate.odds import bootstrap_quantile, odds, wilson
@@ -48,9 +48,8 @@ def test_an_experiment_with_repeats_reports_odds_in_the_cli_and_the_store(tmp_pa
                                     "parameters": {"radius": {"values": [20]}, "angle": {"values": [90]}},
                                     "fidelities": [{"backend": "mujoco"}], "cosim": {"max_time_s": 3}}))
     out = tmp_path / "exp"
-    proc = subprocess.run([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                           "--workers", "2", "--no-validate"], capture_output=True, text=True,
-                          env={**__import__("os").environ, "COLUMNS": "200"}, timeout=600)
+    proc = simgap_command.simgap("experiment", "run", spec, "--out", out, "--workers", "2", "--no-validate",
+                                 env={**os.environ, "COLUMNS": "200"}, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "Wilson 95 %" in proc.stdout and "0/3" in proc.stdout      # 3 s is too short for the goal: 0 of 3
     table = pq.read_table(out / "store" / "odds.parquet").to_pylist()

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 from simgap.record import read_run
 
@@ -29,12 +29,11 @@ class SometimesSlow(FrenetPlanner):
 
 
 def simgap(*args: str, cwd: Path, loaded: bool = False) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env = dict(os.environ)
     env.pop("SIMGAP_TEST_LOADED", None)
     if loaded:
         env["SIMGAP_TEST_LOADED"] = "1"
-    return subprocess.run([sys.executable, "-m", "simgap", *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=300)
+    return simgap_command.simgap(*args, cwd=cwd, env=env)
 
 
 @pytest.fixture(scope="module")

@@ -5,12 +5,11 @@ drove, so nothing looks the vehicle up by name afterwards."""
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 from importlib import resources
 from pathlib import Path
 
 import pytest
+import simgap_command
 import yaml
 
 from simgap.cosim import CosimSettings
@@ -43,9 +42,8 @@ def test_run_and_report_with_a_vehicle_file(tmp_path, car_file):
     xml = write_scenario(build_scenario("curve", {"radius": 50, "angle": 30}), tmp_path / "scenarios", preview=False)
     execute(RunRequest(scenario=xml, vehicles=str(car_file), cosim=CosimSettings(replan_every=3)),
             tmp_path / "runs" / "ideal")
-    run = subprocess.run([sys.executable, "-m", "simgap", "run", str(xml), "--backend", "dynamic", "--controller-hz",
-                          "50", "--vehicle", str(car_file), "--replan-every", "3", "--no-validate", "--out", str(tmp_path / "runs" / "dynamic")],
-                         capture_output=True, text=True)
+    run = simgap_command.simgap("run", xml, "--backend", "dynamic", "--controller-hz", "50", "--vehicle", car_file,
+                                "--replan-every", "3", "--no-validate", "--out", tmp_path / "runs" / "dynamic")
     assert run.returncode == 0, run.stderr
     recorded = read_run(tmp_path / "runs" / "dynamic")
     assert recorded.agents[0].history.vehicle.name == "my_car" and recorded.agents[0].history.vehicle.length == pytest.approx(4.508)

@@ -6,8 +6,6 @@ rewritten in the current format."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 from typing import Callable
 
@@ -15,6 +13,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import simgap_command
 
 from simgap.errors import InputError
 from simgap.record import read_run, write_run
@@ -94,8 +93,7 @@ def test_every_reader_refuses_a_damaged_run_in_one_line(sound_run, tmp_path):
         (run / f.name).write_bytes(f.read_bytes())
     _edit_json(lambda m: m["history"].update(dt=float("nan")))(run)
     for args in (["compare", run, sound_run], ["export", run, "--out", tmp_path / "x"]):
-        proc = subprocess.run([sys.executable, "-m", "simgap", *map(str, args)], capture_output=True, text=True,
-                              timeout=120)
+        proc = simgap_command.simgap(*args, timeout=120)
         assert proc.returncode == 2, proc.stderr
         assert proc.stderr.strip().count("\n") == 0 and "run.json: field 'history.dt'" in proc.stderr
     assert not (tmp_path / "x").exists()

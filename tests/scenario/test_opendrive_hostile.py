@@ -4,12 +4,11 @@ own exported roads, mutated as a careless or hostile user would."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 from simgap.errors import InputError
 from simgap.export.opendrive import UniformRoad, road_network
@@ -133,14 +132,14 @@ def test_a_connection_from_the_junctions_own_road_into_itself_is_dropped(exporte
 def test_simgap_generate_warns_once_per_kind_and_refuses_without_a_traceback(exported, tmp_path):
     """The lanes from road 1 into the junction lose their way out; a route from road 2 still drives."""
     road = _mutated(exported, tmp_path, "t-junction", '<successor id="-1"/>', '<successor id="-4"/>', 2)
-    command = [sys.executable, "-m", "simgap", "generate", str(road), "--start", "2:1:30", "--goal", "1:-1:30",
+    command = ["generate", str(road), "--start", "2:1:30", "--goal", "1:-1:30",
                "--no-preview", "--out", str(tmp_path / "out")]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    done = simgap_command.simgap(*command, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stderr.strip().splitlines() == [
         f"warning: {road}: lane links to lanes that the linked lane section does not have: 2 dropped (road 100 "
         "lane -1 successor -4, road 101 lane -1 successor -4)"]
     road.write_bytes(exported["curve"].replace('name="curve"', 'name="Straße"').encode("latin-1"))
-    refused = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    refused = simgap_command.simgap(*command, timeout=120)
     assert refused.returncode == 2 and "Traceback" not in refused.stderr
     assert len(refused.stderr.strip().splitlines()) == 1 and str(road) in refused.stderr
