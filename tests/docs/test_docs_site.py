@@ -170,6 +170,25 @@ def test_validation_tables_are_the_results_files_figures(site):
         assert re.search(rf"<td>{re.escape(row['map'])}</td>\s*<td[^>]*>{row['roads']}</td>", export), row["map"]
 
 
+def test_the_attribution_page_counts_what_its_results_file_holds():
+    """The paper study's explanations: the counts on the page are the rows' (runs explained, adding up within
+    5 %, dominant assumption per car), one table row per explained run, and the cost ratio is each row's wall
+    times'."""
+    validation = _module("simgap_docs_validation", ROOT / "docs" / "hooks" / "validation.py")
+    data = json.loads((ROOT / "bench" / "results" / "attribution_paper_curves.json").read_text())
+    rows, page = data["rows"], validation.attribution_table("attribution_paper_curves.json")
+    assert f"**{len(rows)} explained**" in page
+    assert f"the shares of {sum(r['adds_up'] for r in rows)} of {len(rows)} add up" in page
+    for car in {r["vehicle"] for r in rows}:
+        mine = [r["dominant"] for r in rows if r["vehicle"] == car]
+        counts = sorted(((mine.count(a), a) for a in set(mine)), reverse=True)
+        assert f"{car} ({len(mine)} explained): " in page and all(f"`{a}` {n}" in page for n, a in counts)
+    table = [line for line in page.splitlines() if line.startswith("| r=")]
+    assert len(table) == len(rows)
+    for line, r in zip(table, rows):
+        assert line.split(" | ")[10] == f"{r['wall_s'] / r['run_wall_s']:.1f}"
+
+
 def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
     table = (ROOT / "bench" / "README.md").read_text()
     assert not list((ROOT / "bench").glob("*.py")), "a benchmark belongs in the folder of its subject"

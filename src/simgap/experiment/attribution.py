@@ -33,10 +33,10 @@ import math
 import multiprocessing as mp
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Iterator, Mapping
 
 import numpy as np
 
@@ -45,7 +45,8 @@ from simgap.errors import InputError
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment.replay import recorded_scenario, replay_request
 from simgap.files import atomic_write_text
-from simgap.experiment.single_run import RunRequest, execute
+from simgap.evaluate.closed_loop_score import closed_loop_scores
+from simgap.experiment.single_run import RunRequest, simulated
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
@@ -58,9 +59,9 @@ EXACT_UP_TO = 5          # assumptions restored apart (every one the worlds decl
 
 #: what a run imports, some of it only on its first call (the route planner, the ride-comfort
 #: filter, the solution's cost: seconds together), loaded once in the workers' fork server
-FIRST_RUN_IMPORTS = ("simgap.experiment.single_run", "simgap.planning.frenet", "simgap.sim.mujoco.backend",
+FIRST_RUN_IMPORTS = ("simgap.experiment.attribution", "simgap.experiment.single_run", "simgap.planning.frenet", "simgap.sim.mujoco.backend",
                      "commonroad_route_planner.reference_path_planner", "commonroad_route_planner.route_planner",
-                     "scipy.signal", "commonroad_dc.costs.evaluation")
+                     "scipy.signal")
 
 #: what breaking an assumption does to the car, and what restoring it gives (the explanation's sentence)
 CAUSE = {Assumption.VEHICLE_DYNAMICS: "its body does not move as the plan's model says",
@@ -86,15 +87,16 @@ class World:
     tracking_m: float        # max lateral tracking error (plan against car) [m]
     score: float             # the closed-loop score (the worst agent's)
     wall_s: float
+    cpu_s: float = 0.0       # the processor time its worker spent on it (0: the explained run's own record)
 
     def as_json(self) -> dict[str, Any]:
         return {"restored": sorted(self.restored), "outcome": str(self.outcome), "gap_m": self.gap_m,
-                "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s}
+                "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
 
     @classmethod
     def of_json(cls, d: Mapping[str, Any]) -> "World":
         return cls(frozenset(Assumption(a) for a in d["restored"]), Outcome(d["outcome"]), float(d["gap_m"]),
-                   float(d["tracking_m"]), float(d["score"]), float(d["wall_s"]))
+                   float(d["tracking_m"]), float(d["score"]), float(d["wall_s"]), float(d.get("cpu_s", 0.0)))
 
 
 @dataclass(frozen=True)
@@ -250,12 +252,19 @@ class _Ran:
     history: History
     scores: tuple[float, ...]
     wall_s: float
+    cpu_s: float
 
 
 def _run(request: RunRequest) -> _Ran:
-    started = time.perf_counter()
-    record = execute(request)
-    return _Ran(record.history, _scores(record), time.perf_counter() - started)
+    """``request``'s co-simulation and each agent's closed-loop score: all a world gives the
+    attribution (its outcome, path and score); not the rest of a run's evaluation, its record or
+    its files."""
+    started, cpu = time.perf_counter(), time.process_time()
+    run = simulated(request)
+    scores = closed_loop_scores(run.history, run.scenario, run.problems, request.evaluation.score,
+                                request.cosim.offroad_tolerance)
+    return _Ran(run.history, tuple(0.0 if a.id not in scores else float(scores[a.id].score) for a in run.history.agents),
+                time.perf_counter() - started, time.process_time() - cpu)
 
 
 def _scores(record: RunRecord) -> tuple[float, ...]:
@@ -305,15 +314,24 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
             present = tuple(a for a in present if a in set(assumptions))
         subsets = [frozenset(c) for k in range(1, len(present) + 1) for c in itertools.combinations(present, k)]
         requests = [ideal_request(request)] + [counterfactual(request, s) for s in subsets]
-        ran = _run_all(requests, workers)
         scenario, problems = load_scenario(request.scenario)
+        # the ideal run (the shortest) first, then the larger sets (restored, a car drives on further):
+        # each world is compared with the ideal run as it ends, and the two workers end together
+        ran: dict[int, _Ran] = {}
+        compared: dict[frozenset[Assumption], World] = {}
+        for index, r in _run_all(requests, workers, [0] + list(range(len(requests) - 1, 0, -1))):
+            ran[index] = r
+            if 0 not in ran:
+                continue
+            if index == 0:
+                stretch = {c.agent_id: float(c.s[-1]) for c in
+                           compare_histories(ran[0].history, record.history, scenario, problems) if len(c.s)}
+            for i in [i for i in ran if i and subsets[i - 1] not in compared]:
+                compared[subsets[i - 1]] = _world(subsets[i - 1], ran[i], ran[0].history, scenario, problems, stretch)
     ideal = ran[0]
-    stretch = {c.agent_id: float(c.s[-1]) for c in compare_histories(ideal.history, record.history, scenario, problems)
-               if len(c.s)}
-    worlds = {frozenset(): _world(frozenset(), record.history, _scores(record), record.history.wall_time_s,
-                                  ideal.history, scenario, problems, stretch)}
-    for subset, r in zip(subsets, ran[1:]):
-        worlds[subset] = _world(subset, r.history, r.scores, r.wall_s, ideal.history, scenario, problems, stretch)
+    own = _Ran(record.history, _scores(record), record.history.wall_time_s, 0.0)
+    worlds = {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | \
+        {s: compared[s] for s in subsets}
     attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
                                max(1, workers))
     if keep:
@@ -321,15 +339,18 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     return attribution
 
 
-def _run_all(requests: list[RunRequest], workers: int) -> list[_Ran]:
-    """The runs of ``requests``, in order, on ``workers`` processes, forked from a server that has
-    loaded what a run imports once (never from this process: a fork of a process with threads
-    can deadlock)."""
+def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran]]:
+    """The runs of ``requests``, started in ``order`` (their indices), each with its index as it
+    ends, on ``workers`` processes forked from a server that has loaded what a run imports once
+    (never from this process: a fork of a process with threads can deadlock)."""
     if workers <= 1:
-        return [_run(r) for r in requests]
+        yield from ((i, _run(requests[i])) for i in order)
+        return
     _fork_server().ensure_running()      # (already running when `explain` started it)
     with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=mp.get_context("forkserver")) as pool:
-        return list(pool.map(_run, requests))
+        futures = {pool.submit(_run, requests[i]): i for i in order}
+        for future in as_completed(futures):
+            yield futures[future], future.result()
 
 
 def _fork_server() -> Any:
@@ -340,17 +361,18 @@ def _fork_server() -> Any:
     return forkserver
 
 
-def _world(restored: frozenset[Assumption], history: History, scores: tuple[float, ...], wall_s: float,
-           ideal: History, scenario: Any, problems: Any, stretch: Mapping[int, float]) -> World:
+def _world(restored: frozenset[Assumption], ran: _Ran, ideal: History, scenario: Any, problems: Any,
+           stretch: Mapping[int, float]) -> World:
     """A world's run against the ideal run; its gap over the ``stretch`` of route (agent -> arc
     length) the explained run drove, so that every world is measured where the run itself was (a
     world that drives on past where the run left the road adds no gap beyond it)."""
+    history = ran.history
     comparisons = compare_histories(ideal, history, scenario, problems)
     gaps = [float(np.max(np.abs(c.d_b - c.d_a)[c.s <= stretch.get(c.agent_id, np.inf)], initial=0.0))
             for c in comparisons if len(c.s)]
     tracking = [c.tracking_lateral_b.max for c in comparisons if c.tracking_lateral_b is not None]
     return World(restored, Outcome.worst([a.outcome for a in history.agents]), _max(gaps), _max(tracking),
-                 min(scores, default=0.0), wall_s)
+                 min(ran.scores, default=0.0), ran.wall_s, ran.cpu_s)
 
 
 def _max(values: list[float]) -> float:

@@ -21,7 +21,7 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel
 
-from simgap.cosim import REFERENCE, CosimSettings, PlannerError, not_started, simulate
+from simgap.cosim import REFERENCE, CosimSettings, History, PlannerError, not_started, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.cosim.driven_scenario import driven_scenario
 from simgap.cosim.interruptions import PLANNER_CRASHES, RUN_STOPS, interruptions
@@ -37,6 +37,8 @@ from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignmen
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.record import PlannerRecord, RunRecord, RunSettings, rewrite_record, write_run
 from simgap.scenario import load_scenario, read_sidecar
+from simgap.scenario.relief import Surface
+from simgap.scenario.sidecar import ScenarioSidecar
 from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.obstacles import without_recorded_egos
@@ -179,10 +181,75 @@ def execute(request: RunRequest, out: Path | None = None,
         return _execute(request, scenario, problems, placed, out, progress)
 
 
+@dataclass(frozen=True)
+class Simulated:
+    """What a run's co-simulation gives, before it is evaluated: its history, on the scenario the
+    loop ran (recorded egos left out), and what the record says of it."""
+
+    history: History
+    scenario: Scenario
+    problems: PlanningProblemSet
+    relief: Surface | None
+    sidecar: ScenarioSidecar
+    planner_records: dict[int, PlannerRecord]
+    recorded_egos: Any
+    planner_vehicle: Vehicle
+
+
+def simulated(request: RunRequest) -> Simulated:
+    """``request``'s co-simulation alone: no evaluation, no record (what a counterfactual world of
+    `simgap.experiment.attribution` needs of a run; `execute` does the rest)."""
+    scenario, problems = load_scenario(request.scenario, needs_problems=request.placement is None)
+    if request.placement is not None:
+        problems = request.placement.planning_problems(scenario)
+    return _simulated(request, scenario, problems, None)
+
+
 def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemSet, scenario_file: Path,
              out: Path | None, progress: Callable[[float], None] | None) -> RunRecord:
     """`execute` on the scenario and planning problems ``request`` names, read (``scenario_file``:
     a file that holds both, for the solution's checks)."""
+    out = None if out is None else Path(out).absolute()     # a planner's os.chdir does not move it
+    run = _simulated(request, scenario, problems, progress)
+    history, scenario, sidecar, relief = run.history, run.scenario, run.sidecar, run.relief
+    settings = RunSettings(
+        scenario_id=sidecar.name if sidecar.name is not None else Path(request.scenario).stem, cosim=request.cosim,
+        evaluation=request.evaluation,
+        planner=_planner_record(request.planner, run.planner_records), scenario_path=str(request.scenario),
+        parameters=sidecar.parameters, parameter_units=sidecar.units,
+        sections=sidecar.sections, backend=request.backend_settings,
+        sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
+        planner_vehicle=request.planner_vehicle, recorded_as=run.recorded_egos, seed=request.seed,
+        versions=software_versions())
+    context = EvaluationContext(scenario, problems, request.evaluation, request.cosim.offroad_tolerance,
+                                request.cosim.planning_budget_s, road_friction(request.backend_settings),
+                                run.planner_vehicle, relief, scenario_file)
+    clock = time.perf_counter()
+    evaluation = evaluate(history, context)
+    timings = {"scoring": time.perf_counter() - clock}
+    if request.criticality and len(history.agents) > 1:
+        clock = time.perf_counter()
+        evaluation = with_criticality(evaluation, history, context)
+        timings["criticality"] = time.perf_counter() - clock
+    if out is not None:
+        t0 = time.perf_counter()
+        xml = scenario_xml(driven_scenario(scenario, history), problems)
+        timings["io"] = time.perf_counter() - t0
+        write_run(RunRecord(history, evaluation, settings, timings), out, xml,
+                  solution_xml(solution_of(history, context)), sidecar)
+    if request.validate:           # the slow check, once the run is safe on disk
+        clock = time.perf_counter()
+        evaluation = with_validity(evaluation, history, context, SolutionCheckCache(request.check_cache))
+        timings["validation"] = time.perf_counter() - clock
+    record = RunRecord(history, evaluation, settings, timings)
+    if out is not None and request.validate:
+        rewrite_record(record, out)
+    return record
+
+
+def _simulated(request: RunRequest, scenario: Scenario, problems: PlanningProblemSet,
+               progress: Callable[[float], None] | None) -> Simulated:
+    """The co-simulation of ``request`` on ``scenario`` and its planning problems ``problems``."""
     _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
     scenario, recorded_egos = without_recorded_egos(scenario, problems)
     dt = float(scenario.dt)
@@ -197,7 +264,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
         sidecar = sidecar.with_parameters(request.placement.parameters())
     relief = None if request.flat_road else ground_of(sidecar, scenario.lanelet_network)   # what 3D worlds build
     planners, errors, planner_records = {}, [], {}
-    out, folder = None if out is None else Path(out).absolute(), os.getcwd()    # a planner's os.chdir moves neither
+    folder = os.getcwd()        # a planner's os.chdir does not move it
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
         closing.callback(_back_in, folder)
         for a in agents:
@@ -227,39 +294,7 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
                                replayed_latencies=request.replayed_latencies)
         for aid, planner in planners.items():
             planner_records[aid] = replace(planner_records[aid], process=planner.report())
-    settings = RunSettings(
-        scenario_id=sidecar.name if sidecar.name is not None else Path(request.scenario).stem, cosim=request.cosim,
-        evaluation=request.evaluation,
-        planner=_planner_record(request.planner, planner_records), scenario_path=str(request.scenario),
-        parameters=sidecar.parameters, parameter_units=sidecar.units,
-        sections=sidecar.sections, backend=request.backend_settings,
-        sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
-        planner_vehicle=request.planner_vehicle, recorded_as=recorded_egos, seed=request.seed,
-        versions=software_versions())
-    context = EvaluationContext(scenario, problems, request.evaluation, request.cosim.offroad_tolerance,
-                                request.cosim.planning_budget_s, road_friction(request.backend_settings),
-                                planner_vehicle, relief, scenario_file)
-    clock = time.perf_counter()
-    evaluation = evaluate(history, context)
-    timings = {"scoring": time.perf_counter() - clock}
-    if request.criticality and len(history.agents) > 1:
-        clock = time.perf_counter()
-        evaluation = with_criticality(evaluation, history, context)
-        timings["criticality"] = time.perf_counter() - clock
-    if out is not None:
-        t0 = time.perf_counter()
-        xml = scenario_xml(driven_scenario(scenario, history), problems)
-        timings["io"] = time.perf_counter() - t0
-        write_run(RunRecord(history, evaluation, settings, timings), out, xml,
-                  solution_xml(solution_of(history, context)), sidecar)
-    if request.validate:           # the slow check, once the run is safe on disk
-        clock = time.perf_counter()
-        evaluation = with_validity(evaluation, history, context, SolutionCheckCache(request.check_cache))
-        timings["validation"] = time.perf_counter() - clock
-    record = RunRecord(history, evaluation, settings, timings)
-    if out is not None and request.validate:
-        rewrite_record(record, out)
-    return record
+    return Simulated(history, scenario, problems, relief, sidecar, planner_records, recorded_egos, planner_vehicle)
 
 
 def _vehicle(vehicle: str | Vehicle) -> Vehicle:
