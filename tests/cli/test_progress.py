@@ -1,4 +1,4 @@
-"""Progress and quiet: the long commands (export, render, report, experiment run, generate) draw progress bars
+"""Progress and quiet: the long commands (run, export, render, report, experiment run, generate) draw progress bars
 with the time left on standard error, forced on here with ``SIMGAP_PROGRESS=always`` so that they
 draw into the captured stream; what they print on standard output is the same as without bars;
 without a terminal and without the variable they draw none. Notes alike but for their numbers
@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 from drawn_bars import drawn, same_stdout
 from simgap.cli.console import PROGRESS_ENV, ProgressBars, collapsed_notes
@@ -33,7 +34,7 @@ def simgap(*args, bars: bool) -> subprocess.CompletedProcess:
     env.pop(PROGRESS_ENV, None)
     if bars:
         env[PROGRESS_ENV] = "always"
-    proc = subprocess.run(SIMGAP + [str(a) for a in args], capture_output=True, text=True, env=env, timeout=600)
+    proc = simgap_command.simgap(*args, env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
     return proc
 
@@ -54,6 +55,20 @@ def a_run(tmp_path_factory) -> Path:
 
 
 # ------------------------------------------------------------------------------ the bars themselves
+def test_a_run_shows_its_simulated_time_and_prints_the_same(tmp_path, a_run):
+    xml = next(a_run.parent.glob("*.xml"))
+    shown = simgap("run", xml, "--backend", "dynamic", "--max-time", "3", "--knob", "latency=0.1", "--no-validate",
+                   "--out", tmp_path / "a", bars=True)
+    plain = simgap("run", xml, "--backend", "dynamic", "--max-time", "3", "--knob", "latency=0.1", "--no-validate",
+                   "--out", tmp_path / "b", bars=False)
+    (phase,) = drawn(shown.stderr)
+    assert phase == f"dynamic: {xml.name}" and drawn(shown.stderr)[phase][-1]["counts"] == "100 %"
+    assert drawn(plain.stderr) == {}
+    assert "\x1b[" not in shown.stdout and "elapsed," not in shown.stdout        # the bars: on standard error only
+    fingerprint = re.compile(r"fingerprint (\w+)")
+    assert fingerprint.search(shown.stdout)[1] == fingerprint.search(plain.stdout)[1]
+
+
 
 def test_a_bar_shows_how_far_a_phase_is_and_the_time_it_has_left(monkeypatch, capsys):
     monkeypatch.setenv(PROGRESS_ENV, "always")

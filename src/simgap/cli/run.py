@@ -11,10 +11,9 @@ import typer
 from pydantic import BaseModel
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from simgap.cli.console import output_console
+from simgap.cli.console import ProgressBars, output_console
 from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.cli.outputs import OVERWRITE_HELP, check_run_out
@@ -190,10 +189,9 @@ def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck 
         _exit_on_failures(result, check, output_console(stderr=True))
         return
     console = output_console()
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-                  TimeElapsedColumn(), console=console, transient=True) as bar:
-        task = bar.add_task(f"{request.backend}: {Path(request.scenario).name}", total=1.0)
-        result = execute(request, out, progress=lambda f: bar.update(task, completed=f))
+    with ProgressBars() as bars:      # the run's simulated time against its end, with the time left
+        phase = f"{request.backend}: {Path(request.scenario).name}"
+        result = execute(request, out, progress=lambda f: bars.update(phase, f, 1.0, f"{100 * f:.0f} %"))
     print_summary(console, result)
     console.print(f"run written to [bold]{out}[/bold]")
     if explain:
