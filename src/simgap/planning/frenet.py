@@ -36,9 +36,9 @@ A cycle is a sequence of stages, each with typed inputs and outputs:
 
 1. **project** (`frenet_start.StartProjection`): the observed state into the Frenet frame, and the speed
    to aim at → `Start`;
-2. **sample** (`sample`): end time x end speed x lateral offset, and the last cycle's manoeuvre
+2. **sample** (`frenet_evaluation.sample`): end time x end speed x lateral offset, and the last cycle's manoeuvre
    continued (`CycleMemory`) → the sampling matrix;
-3. **evaluate** (`FrenetPlanner.cost_order`): the core's coordinates, kinematic feasibility and
+3. **evaluate** (`frenet_evaluation.CoreEvaluation`): the core's coordinates, kinematic feasibility and
    costs, lazily in its cost order → `CostOrder`;
 4. **check** (`frenet_search.PlanSearch.check`): the vehicle's limits from exact values, traffic, the road
    and the lateral-acceleration bound (`frenet_checks`), chunk by chunk → `CheckedChunk`;
@@ -55,36 +55,23 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
-import frenetix
-import frenetix.trajectory_functions as trajectory_functions
-import frenetix.trajectory_functions.cost_functions as cost_functions
-import frenetix.trajectory_functions.feasability_functions as feasibility_functions
 import numpy as np
 
 from simgap.planning.collision import DrivableAreaGrid, TrafficPrediction, predict_traffic
-from simgap.planning.cost_order import CoreReference, CostOrder, cost_floor
+from simgap.planning.cost_order import CoreReference, CostOrder
 from simgap.planning.frenet_checks import ROAD_EDGE_M, PlanChecks
-from simgap.planning.frenet_cycle import PHASES, CycleMemory, Manoeuvre, PlanningCycle, Start, lap
+from simgap.planning.frenet_cycle import PHASES, CycleMemory, Manoeuvre, PlanningCycle, Start
+from simgap.planning.frenet_evaluation import CoreEvaluation, sample
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
 from simgap.planning.frenet_search import PlanSearch
 from simgap.planning.frenet_start import StartProjection
 from simgap.planning.plan_choice import BLOCKED_SEARCH_SAMPLES, BLOCKED_SPEED_GAIN
 from simgap.planning.protocol import Planner, PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
-from simgap.planning.sampling import (
-    END_OFFSET,
-    END_SPEED,
-    END_TIME,
-    TIME_NUDGE,
-    end_speeds,
-    end_times,
-    lateral_offsets,
-    sampling_matrix,
-    steps_in_horizon,
-)
-from simgap.planning.settings import FrenetSettings, SamplingSettings
+from simgap.planning.sampling import END_OFFSET, END_SPEED, END_TIME, steps_in_horizon
+from simgap.planning.settings import FrenetSettings
 from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, goal_approach
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
@@ -105,66 +92,11 @@ CONTINUE_MANOEUVRE_STEPS = 10
 @dataclass
 class _StepSetUp:
     """What depends on the time step and is built at the first cycle: the goal's windows (time in
-    seconds, steps of ``dt``), the goal approach, and the core's handlers (one per batch of a
-    cycle, so that the samples of earlier batches stay valid until the next cycle)."""
+    seconds, steps of ``dt``) and the goal approach."""
 
     dt: float
     goal: Goal
     approach: GoalApproach
-    handlers: list[frenetix.TrajectoryHandler] = field(default_factory=list)
-
-
-# -- stage 2: sample ---------------------------------------------------------------------------
-def sample(start: Start, settings: SamplingSettings, max_speed: float, manoeuvre: Manoeuvre | None) -> np.ndarray:
-    """The cycle's sampling matrix: end time x end speed x lateral offset from ``start``, and the
-    last cycle's ``manoeuvre`` continued (`continued_manoeuvre`) as its last row."""
-    speeds = end_speeds(settings, start.v, start.desired, max_speed)
-    matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(settings, start.dt), speeds,
-                             lateral_offsets(settings))
-    continued = continued_manoeuvre(start, manoeuvre, settings.horizon_s)
-    if continued is not None:
-        matrix = np.vstack([matrix, continued])
-    return matrix
-
-
-def continued_manoeuvre(start: Start, manoeuvre: Manoeuvre | None, horizon_s: float) -> np.ndarray | None:
-    """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
-    the same end conditions are its remainder (so a plan once found stays available)."""
-    if manoeuvre is None:
-        return None
-    remaining = manoeuvre.t_end - start.t
-    if not start.dt <= remaining <= horizon_s + TIME_NUDGE:
-        return None
-    return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
-                           np.array([manoeuvre.v_end]), np.array([manoeuvre.d_end]))
-
-
-def _new_handler(dt: float, vehicle, settings: FrenetSettings) -> frenetix.TrajectoryHandler:
-    """A core handler with the vehicle's kinematic feasibility checks and the cost functions of
-    ``settings`` (those with a positive weight)."""
-    limits, wheelbase = vehicle.limits, vehicle.wheelbase
-    whole = settings.check_whole_trajectory
-    handler = frenetix.TrajectoryHandler(dt=dt)
-    ff = feasibility_functions
-    handler.add_feasability_function(ff.CheckYawRateConstraint(
-        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckAccelerationConstraint(
-        switchingVelocity=limits.v_switch, maxAcceleration=limits.max_accel, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckCurvatureConstraint(
-        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckCurvatureRateConstraint(
-        wheelbase=wheelbase, velocityDeltaMax=limits.max_steer_rate, wholeTrajectory=whole))
-    w = settings.costs
-    cf = cost_functions
-    for name, weight, cls in (("lateral_jerk", w.lateral_jerk, cf.CalculateLateralJerkCost),
-                              ("longitudinal_jerk", w.longitudinal_jerk, cf.CalculateLongitudinalJerkCost),
-                              ("distance_to_reference_path", w.distance_to_reference_path,
-                               cf.CalculateDistanceToReferencePathCost),
-                              ("orientation_offset", w.orientation_offset, cf.CalculateOrientationOffsetCost),
-                              ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
-        if weight > 0:
-            handler.add_cost_function(cls(name, weight))
-    return handler
 
 
 # -- stage 6: convert --------------------------------------------------------------------------
@@ -250,6 +182,7 @@ class FrenetPlanner(Planner):
         self.search = PlanSearch(vehicle, s, self.frame, self.checks)
         self.projection = StartProjection(vehicle, s, self.frame, self.speed_profile)
         self._core_reference = CoreReference(*self.frame.reference_tables())
+        self.evaluation = CoreEvaluation(vehicle, s, self.frame, self._core_reference)
         self._step_set_up: _StepSetUp | None = None
         self.memory = CycleMemory()
         self.last_cycle = PlanningCycle()
@@ -264,12 +197,10 @@ class FrenetPlanner(Planner):
             self._step_set_up = _StepSetUp(dt, goal, approach)
         return self._step_set_up
 
-    def _handler_for(self, dt: float, batch: int) -> frenetix.TrajectoryHandler:
-        """The core's handler of the ``batch``-th batch of a cycle."""
-        handlers = self._set_up_for(dt).handlers
-        while len(handlers) <= batch:
-            handlers.append(_new_handler(dt, self.vehicle, self.settings))
-        return handlers[batch]
+    def cost_order(self, start: Start, cycle: PlanningCycle, manoeuvre: Manoeuvre | None = None) -> CostOrder:
+        """The cycle's samples (with ``manoeuvre`` continued), to be evaluated by the core in its
+        cost order: `CoreEvaluation.cost_order`."""
+        return self.evaluation.cost_order(start, cycle, manoeuvre)
 
     # -- the cycle ---------------------------------------------------------------------------
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
@@ -346,43 +277,3 @@ class FrenetPlanner(Planner):
         cycle.evaluated += order.evaluated
         cycle.floor_misses += order.floor_misses
         return chosen
-
-    # -- stages 2 and 3: sample, evaluate ------------------------------------------------------
-    def cost_order(self, start: Start, cycle: PlanningCycle, manoeuvre: Manoeuvre | None = None) -> CostOrder:
-        """The cycle's samples (with ``manoeuvre`` continued), to be evaluated by the core in its
-        cost order (`cost_order`): coordinates, the kinematic feasibility checks and the costs."""
-        s, dt = self.settings, start.dt
-        clock = time.perf_counter()
-        matrix = sample(start, s.sampling, self.vehicle.limits.max_speed, manoeuvre)
-        cycle.samples += len(matrix)
-        points = steps_in_horizon(s.sampling, dt) + 1
-        floor = cost_floor(matrix, dt, points, start.low_velocity, start.desired, s.costs, self._core_reference)
-        functions = [trajectory_functions.FillCoordinates(
-            lowVelocityMode=start.low_velocity, initialOrientation=start.yaw_local, coordinateSystem=self.frame.core,
-            horizon=steps_in_horizon(s.sampling, dt) * dt + TIME_NUDGE)]
-        if s.costs.velocity_offset > 0:
-            functions.append(cost_functions.CalculateVelocityOffsetCost(
-                "velocity_offset", s.costs.velocity_offset, start.desired, dt, s.sampling.t_min_s, False, 2))
-        lap(cycle, "sampling", clock)
-        batches = iter(range(len(matrix)))
-
-        def evaluate(rows: np.ndarray) -> list[tuple[float, int, object]]:
-            clock = time.perf_counter()
-            handler = self._handler_for(dt, next(batches))
-            handler.add_function(functions[0])
-            for function in functions[1:]:
-                handler.add_cost_function(function)
-            handler.generate_trajectories(np.ascontiguousarray(matrix[rows]), start.low_velocity)
-            if s.concurrent_evaluation:
-                handler.evaluate_all_current_functions_concurrent(False)
-            else:
-                handler.evaluate_all_current_functions(False)
-            feasible = []
-            for sample in handler.get_sorted_trajectories():
-                if not sample.feasible:
-                    break
-                feasible.append((sample.cost, int(rows[sample.uniqueId]), sample))
-            lap(cycle, "evaluation", clock)
-            return feasible
-
-        return CostOrder(floor, evaluate)
