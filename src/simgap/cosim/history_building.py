@@ -49,7 +49,7 @@ class HistoryBuilder:
               controls: Mapping[int, ControlTrace]) -> History:
         """The run's frozen `History`."""
         dt = self.dt
-        agents = []
+        agents: list[AgentHistory] = []
         for aid, p in self.progress_of.items():
             driven = Trajectory.from_states(p.driven or [p.agent.initial_state], dt)
             trace = controls[aid].until(driven.t_end) if aid in controls else None
@@ -75,7 +75,8 @@ def not_started(scenario: Scenario, backend: str, agents: list[Agent], errors: l
     every agent a planner failure where it stands, the exceptions with their tracebacks."""
     dt = float(scenario.dt)
     failed = {e.agent_id: e for e in errors}
-    histories, events = [], []
+    histories: list[AgentHistory] = []
+    events: list[Event] = []
     for a in agents:
         st = a.initial_state
         detail = (f"planner raised {failed[a.id].exception} in its constructor: {failed[a.id].message}"

@@ -34,7 +34,7 @@ class Judge:
         progress_of = self.progress_of
         shapes = {aid: footprint(st, progress_of[aid].agent.vehicle.length, progress_of[aid].agent.vehicle.width)
                   for aid, st in states.items()}
-        contacts = {}
+        contacts: dict[int, int | None] = {}
         for ev in self.backend.events():       # a car that reached its goal has left the scenario
             gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
             if ev.kind == Outcome.COLLISION and not gone:
@@ -62,7 +62,7 @@ class Judge:
         """The obstacles at ``t`` that may touch a present agent (`ObstacleReach.near`): every other
         one is farther, and needs no footprint."""
         reach = self.traffic.reach
-        near = set()
+        near: set[int] = set()
         for aid in present:
             p, st = self.progress_of[aid], states[aid]
             near.update(reach.near(t, st.x, st.y, math.hypot(p.agent.vehicle.length, p.agent.vehicle.width) / 2,

@@ -203,7 +203,7 @@ def traffic_snapshot(progress_of: Mapping[int, AgentProgress], states: Mapping[i
 
     Agents that reached their goal have left the scenario and are not shown.
     """
-    snapshot = {}
+    snapshot: dict[int, TrafficParticipant] = {}
     for aid, p in progress_of.items():
         if p.outcome == Outcome.GOAL_REACHED or (p.plan is None and aid not in states):
             continue         # left the scenario, or not entered yet
