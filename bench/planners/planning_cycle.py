@@ -26,7 +26,7 @@ import time
 import numpy as np
 from commonroad.scenario.state import CustomState
 
-import simgap.planning.frenet as frenet
+import simgap.planning.frenet_evaluation as frenet_evaluation
 from simgap.planning.frenet import PHASES, FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.protocol import World
@@ -110,13 +110,13 @@ def main() -> None:
     print(head + f"{'checked':>9}{'evaluated':>10}{'misses':>7}  outcome")
     print(" " * 21 + " " * 7 + f"{'[ms]':>8}{'[ms]':>7}{'[ms]':>7}  " + "".join(f"{'[ms]':>11}" for _ in PHASES))
     modes = ("lazy", "whole") if args.compare else ("whole",) if args.whole else ("lazy",)
-    floor = frenet.cost_floor
+    floor = frenet_evaluation.cost_floor
     for radius, angle in ((10.0, 90.0), (50.0, 90.0)):
         medians: dict[str, list[float]] = {m: [] for m in modes}
         driven: dict[str, np.ndarray] = {}
         for _ in range(args.repeat):
             for mode in modes:
-                frenet.cost_floor = floor if mode == "lazy" else whole_evaluation
+                frenet_evaluation.cost_floor = floor if mode == "lazy" else whole_evaluation
                 r = closed_loop(radius, angle, settings)
                 medians[mode].append(r["median"])
                 driven[mode] = r["states"]
@@ -124,7 +124,7 @@ def main() -> None:
                       f"{r['max']:>7.2f}  " + "".join(f"{r['phases'][p]:>11.2f}" for p in PHASES)
                       + f"{r['checked']:>9.0f}{r['evaluated']:>10.0f}{r['misses']:>7}  {r['outcome']} "
                       f"(planner built in {r['build_s']:.2f} s)")
-        frenet.cost_floor = floor
+        frenet_evaluation.cost_floor = floor
         if args.compare:
             lazy, whole = float(np.median(medians["lazy"])), float(np.median(medians["whole"]))
             same = driven["lazy"].shape == driven["whole"].shape and bool((driven["lazy"] == driven["whole"]).all())

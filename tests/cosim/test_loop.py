@@ -179,7 +179,7 @@ def test_a_timeout_says_why_the_goal_was_missed():
 
 
 def test_a_failing_planner_brakes_along_its_last_plan():
-    from simgap.cosim.loop import emergency_stop
+    from simgap.cosim.plan_delivery import emergency_stop
 
     arc = Trajectory.from_states([State(k * DT, 20 * math.sin(0.05 * k), 20 - 20 * math.cos(0.05 * k), 0.05 * k, 10.0)
                                   for k in range(31)], DT)
@@ -306,11 +306,11 @@ def parked_cars(scenario, rows: int, first_row_y: float = 100.0):
 
 
 def test_far_away_obstacles_add_no_footprint_checks(monkeypatch):
-    import simgap.cosim.loop as loop
+    import simgap.cosim.judging as judging
     import simgap.evaluate.closest_approach as closest_approach
 
     built = []
-    for module in (loop, closest_approach):         # the monitors, and the measure of the closest approach
+    for module in (judging, closest_approach):         # the monitors, and the measure of the closest approach
         monkeypatch.setattr(module, "footprint", lambda *shape: built.append(shape) or footprint(*shape))
     pps = PlanningProblemSet([problem(1, 10, 1.75, 0.0, 10.0, 150, t_end=30)])
     gaps, footprints = [], []

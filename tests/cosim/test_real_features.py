@@ -77,7 +77,7 @@ def test_a_goal_lanelet_two_lanes_over_is_reached_by_changing_lanes():
 def test_a_start_between_two_lanelets_with_a_heading_error_reaches_the_goal():
     run = run_ego(highway(lanes=2, length=200, segments=1), start(10, 0, 5.0, y_offset=1.75, yaw=0.1),
                   box_goal(120, 1, (0, 300)))
-    assert _only_outcome(run).outcome == "goal_reached"
+    assert _only_outcome(run).history.outcome == "goal_reached"
 
 
 def test_circle_and_set_based_obstacles_are_avoided():
@@ -113,7 +113,7 @@ def test_recorded_traffic_behind_a_slow_start_reacts_only_with_idm(mode, outcome
     scenario = highway(lanes=1, length=300, segments=1)
     scenario.add_objects(recorded_car(700, -60, 0, 25.0, 300))
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)), settings=CosimSettings(traffic=mode))
-    assert _only_outcome(run).outcome in outcomes
+    assert _only_outcome(run).history.outcome in outcomes
     assert run.settings.cosim.traffic == mode
 
 
@@ -124,7 +124,7 @@ def test_an_ego_run_into_from_behind_drives_away_when_it_can():
     scenario = highway(lanes=1, length=300, segments=1)
     scenario.add_objects(recorded_car(700, -30, 0, 15.0, 300))
     run = run_ego(scenario, start(10, 0, 0.0), box_goal(150, 0, (0, 300)))
-    assert _only_outcome(run).outcome == "goal_reached", run.history.events
+    assert _only_outcome(run).history.outcome == "goal_reached", run.history.events
 
 
 def test_a_goal_with_only_a_time_window_follows_the_road_until_it_opens():

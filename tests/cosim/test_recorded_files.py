@@ -60,7 +60,7 @@ def test_a_planning_problem_that_starts_later_enters_the_road_then(tmp_path, wor
     run = execute(RunRequest(scenario=late_entry(tmp_path), backend=world))
     outcomes = {a.id: a for a in run.agents}
     for aid in (1, 2):
-        assert outcomes[aid].outcome == "goal_reached", [e.detail for e in run.history.events if e.agent_id == aid]
+        assert outcomes[aid].history.outcome == "goal_reached", [e.detail for e in run.history.events if e.agent_id == aid]
     assert outcomes[2].recorded_as == 601
     late_driven = run.history.driven[2]
     assert late_driven.t[0] == pytest.approx(6.0)

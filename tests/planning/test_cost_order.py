@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import simgap.planning.frenet as frenet
+import simgap.planning.frenet_evaluation as frenet_evaluation
 from planner_roads import drive, start_state
 from simgap.planning.cost_order import CostOrder, cost_floor
 from simgap.planning.frenet import CycleMemory, FrenetPlanner, PlanningCycle
@@ -137,7 +137,7 @@ def test_closed_loop_plans_equal_those_of_the_whole_evaluation(sedan, straight_r
 
     lazy, planner = closed_loop()
     with monkeypatch.context() as m:
-        m.setattr(frenet, "cost_floor", _no_floor)
+        m.setattr(frenet_evaluation, "cost_floor", _no_floor)
         whole, _ = closed_loop()
     assert len(lazy.plans) == len(whole.plans)
     for a, b in zip(lazy.plans, whole.plans):

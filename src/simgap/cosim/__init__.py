@@ -2,7 +2,8 @@
 
 from simgap.cosim.fidelity import REFERENCE, Fidelity
 from simgap.cosim.history import AgentHistory, Event, History, Outcome, PlannerError
-from simgap.cosim.loop import CosimSettings, not_started, simulate
+from simgap.cosim.history_building import not_started
+from simgap.cosim.loop import CosimSettings, simulate
 from simgap.sim.protocol import EventKind
 
 __all__ = ["AgentHistory", "CosimSettings", "Event", "EventKind", "Fidelity", "History", "Outcome", "PlannerError",

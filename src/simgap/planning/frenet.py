@@ -34,80 +34,51 @@ Beyond the core:
 
 A cycle is a sequence of stages, each with typed inputs and outputs:
 
-1. **project** (`FrenetPlanner.project`): the observed state into the Frenet frame, and the speed
+1. **project** (`frenet_start.StartProjection`): the observed state into the Frenet frame, and the speed
    to aim at → `Start`;
-2. **sample** (`sample`): end time x end speed x lateral offset, and the last cycle's manoeuvre
+2. **sample** (`frenet_evaluation.sample`): end time x end speed x lateral offset, and the last cycle's manoeuvre
    continued (`CycleMemory`) → the sampling matrix;
-3. **evaluate** (`FrenetPlanner.cost_order`): the core's coordinates, kinematic feasibility and
+3. **evaluate** (`frenet_evaluation.CoreEvaluation`): the core's coordinates, kinematic feasibility and
    costs, lazily in its cost order → `CostOrder`;
-4. **check** (`FrenetPlanner.check`): the vehicle's limits from exact values, traffic, the road
+4. **check** (`frenet_search.PlanSearch.check`): the vehicle's limits from exact values, traffic, the road
    and the lateral-acceleration bound (`frenet_checks`), chunk by chunk → `CheckedChunk`;
 5. **choose** (`plan_choice.step` and `plan_choice.final`, pure): which checked sample wins →
-   `Choice`; when none, a **second look** (`FrenetPlanner.second_look`) at the same samples
+   `Choice`; when none, a **second look** (`PlanSearch.second_look`) at the same samples
    from the road's edge or with traffic that runs into the ego from behind;
 6. **convert** (`to_trajectory`): the chosen plan in simgap's convention → `Trajectory`.
 
-What one cycle leaves the next is `CycleMemory` (the manoeuvre chosen, when, and the plan).
+What one cycle leaves the next is `CycleMemory` (the manoeuvre chosen, when, and the plan); the
+cycle's typed values live in `frenet_cycle`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
-import frenetix
-import frenetix.trajectory_functions as trajectory_functions
-import frenetix.trajectory_functions.cost_functions as cost_functions
-import frenetix.trajectory_functions.feasability_functions as feasibility_functions
 import numpy as np
 
-from simgap.planning.collision import DrivableAreaGrid, RoadBand, TrafficPrediction, predict_traffic
-from simgap.planning.cost_order import CoreReference, CostOrder, cost_floor
-from simgap.planning.frenet_checks import ROAD_EDGE_M, PlanChecks, RoadLeeway, within_limits
+from simgap.planning.collision import DrivableAreaGrid, TrafficPrediction, predict_traffic
+from simgap.planning.cost_order import CoreReference, CostOrder
+from simgap.planning.frenet_checks import ROAD_EDGE_M, PlanChecks
+from simgap.planning.frenet_cycle import PHASES, CycleMemory, Manoeuvre, PlanningCycle, Start
+from simgap.planning.frenet_evaluation import CoreEvaluation, sample
 from simgap.planning.frenet_frame import CartesianBatch, FrenetFrame
-from simgap.planning.plan_choice import (
-    BLOCKED_SEARCH_SAMPLES,
-    BLOCKED_SPEED_GAIN,
-    CheckedChunk,
-    Choice,
-    ChoiceKind,
-    ChoiceRules,
-    ChoiceState,
-    final,
-    first_passing,
-    latest_met,
-    only_reaching,
-    searching,
-    step,
-)
+from simgap.planning.frenet_search import PlanSearch
+from simgap.planning.frenet_start import StartProjection
+from simgap.planning.plan_choice import BLOCKED_SEARCH_SAMPLES, BLOCKED_SPEED_GAIN
 from simgap.planning.protocol import Planner, PlannerSetup, PlanOutcome, World
 from simgap.planning.reference_path import ReferencePath, plan_reference_path
-from simgap.planning.sampling import (
-    END_OFFSET,
-    END_SPEED,
-    END_TIME,
-    TIME_NUDGE,
-    end_speeds,
-    end_times,
-    lateral_offsets,
-    sampling_matrix,
-    steps_in_horizon,
-)
-from simgap.planning.settings import FrenetSettings, SamplingSettings
-from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, desired_speed, goal_approach
+from simgap.planning.sampling import END_OFFSET, END_SPEED, END_TIME, steps_in_horizon
+from simgap.planning.settings import FrenetSettings
+from simgap.planning.speed_profile import GoalApproach, SpeedProfile, cruise_speed, goal_approach
 from simgap.scenario.goal import Goal
 from simgap.trajectory import State, Trajectory, wrap_angle
 
-__all__ = ["BLOCKED_SEARCH_SAMPLES", "BLOCKED_SPEED_GAIN", "ROAD_EDGE_M", "CycleMemory", "FrenetPlanner",
+__all__ = ["BLOCKED_SEARCH_SAMPLES", "BLOCKED_SPEED_GAIN", "PHASES", "ROAD_EDGE_M", "CycleMemory", "FrenetPlanner",
            "FrenetSettings", "Manoeuvre", "PlanningCycle", "Start", "sample", "to_trajectory"]
 
-PHASES = ("projection", "sampling", "evaluation", "collision", "conversion")
-
-# plans are checked in cost order in chunks growing from FIRST_CHUNK to MAX_CHUNK
-FIRST_CHUNK, MAX_CHUNK = 4, 64
-# no overtaking within this distance of the goal (or the speed lookahead, when longer) [m]
-NO_OVERTAKING_BEFORE_GOAL_M = 15.0
 # the desired speed asks for at most this share of the vehicle's steering rate where the curvature
 # changes: a physical car needs the rest to correct its tracking errors
 STEER_RATE_SHARE = 0.85
@@ -118,131 +89,14 @@ CONTINUE_PLAN_HEADING, CONTINUE_PLAN_SPEED = 0.1, 1.0
 CONTINUE_MANOEUVRE_STEPS = 10
 
 
-@dataclass(frozen=True)
-class Start:
-    """Where a planning cycle starts: the observed state in the Frenet frame (core layout:
-    ``x0_lon`` = s, s_dot, s_ddot; ``x0_lat`` = d, d_dot, d_ddot), the rear axle in the local
-    frame, and the speed the cycle aims at."""
-
-    t: float
-    dt: float
-    x0_lon: np.ndarray
-    x0_lat: np.ndarray
-    x_rear: float
-    y_rear: float
-    yaw_local: float
-    v: float
-    desired: float
-    low_velocity: bool
-    may_overtake: bool = True     # not when the goal is near: it is entered behind slower traffic
-    lateral_bound: float = math.inf   # plans within this lateral acceleration are preferred [m/s^2]
-    goal_in_reach: bool = False   # a plan may reach the goal within the horizon: one that does is preferred
-
-
-@dataclass(frozen=True)
-class Manoeuvre:
-    """A chosen sample's end conditions: absolute end time [s], end speed [m/s], lateral end offset [m]."""
-
-    t_end: float
-    v_end: float
-    d_end: float
-
-
-@dataclass(frozen=True)
-class CycleMemory:
-    """What a cycle leaves the next: the manoeuvre it chose (None: none, or none to continue),
-    when it ran (None: never), and its plan (None: none, or the vehicle left it)."""
-
-    manoeuvre: Manoeuvre | None = None
-    t: float | None = None
-    last_plan: Trajectory | None = None
-
-
-@dataclass
-class PlanningCycle:
-    """What one call of `FrenetPlanner.plan` did (for diagnostics and benchmarks)."""
-
-    t: float = 0.0
-    samples: int = 0
-    evaluated: int = 0         # samples the core evaluated (in its cost order, as they were looked at)
-    feasible: int = 0          # feasible among them
-    floor_misses: int = 0      # samples whose cost came out below cost_order's floor (none, or a bug)
-    checked: int = 0
-    rejected_infeasible: int = 0
-    rejected_road: int = 0
-    rejected_traffic: int = 0
-    rejected_lateral_acceleration: int = 0
-    low_velocity: bool = False
-    relaxed: bool = False
-    desired_speed: float = 0.0
-    outcome: PlanOutcome | None = None     # None until the cycle ends
-    choice: ChoiceKind | None = None       # why the plan won (None: no plan, or a second look's)
-    timings: dict[str, float] = field(default_factory=lambda: {p: 0.0 for p in PHASES})
-
-
 @dataclass
 class _StepSetUp:
     """What depends on the time step and is built at the first cycle: the goal's windows (time in
-    seconds, steps of ``dt``), the goal approach, and the core's handlers (one per batch of a
-    cycle, so that the samples of earlier batches stay valid until the next cycle)."""
+    seconds, steps of ``dt``) and the goal approach."""
 
     dt: float
     goal: Goal
     approach: GoalApproach
-    handlers: list[frenetix.TrajectoryHandler] = field(default_factory=list)
-
-
-# -- stage 2: sample ---------------------------------------------------------------------------
-def sample(start: Start, settings: SamplingSettings, max_speed: float, manoeuvre: Manoeuvre | None) -> np.ndarray:
-    """The cycle's sampling matrix: end time x end speed x lateral offset from ``start``, and the
-    last cycle's ``manoeuvre`` continued (`continued_manoeuvre`) as its last row."""
-    speeds = end_speeds(settings, start.v, start.desired, max_speed)
-    matrix = sampling_matrix(start.x0_lon, start.x0_lat, end_times(settings, start.dt), speeds,
-                             lateral_offsets(settings))
-    continued = continued_manoeuvre(start, manoeuvre, settings.horizon_s)
-    if continued is not None:
-        matrix = np.vstack([matrix, continued])
-    return matrix
-
-
-def continued_manoeuvre(start: Start, manoeuvre: Manoeuvre | None, horizon_s: float) -> np.ndarray | None:
-    """The last cycle's manoeuvre, continued: from the state it predicted, the polynomials with
-    the same end conditions are its remainder (so a plan once found stays available)."""
-    if manoeuvre is None:
-        return None
-    remaining = manoeuvre.t_end - start.t
-    if not start.dt <= remaining <= horizon_s + TIME_NUDGE:
-        return None
-    return sampling_matrix(start.x0_lon, start.x0_lat, np.array([remaining - TIME_NUDGE]),
-                           np.array([manoeuvre.v_end]), np.array([manoeuvre.d_end]))
-
-
-def _new_handler(dt: float, vehicle, settings: FrenetSettings) -> frenetix.TrajectoryHandler:
-    """A core handler with the vehicle's kinematic feasibility checks and the cost functions of
-    ``settings`` (those with a positive weight)."""
-    limits, wheelbase = vehicle.limits, vehicle.wheelbase
-    whole = settings.check_whole_trajectory
-    handler = frenetix.TrajectoryHandler(dt=dt)
-    ff = feasibility_functions
-    handler.add_feasability_function(ff.CheckYawRateConstraint(
-        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckAccelerationConstraint(
-        switchingVelocity=limits.v_switch, maxAcceleration=limits.max_accel, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckCurvatureConstraint(
-        deltaMax=limits.max_steer, wheelbase=wheelbase, wholeTrajectory=whole))
-    handler.add_feasability_function(ff.CheckCurvatureRateConstraint(
-        wheelbase=wheelbase, velocityDeltaMax=limits.max_steer_rate, wholeTrajectory=whole))
-    w = settings.costs
-    cf = cost_functions
-    for name, weight, cls in (("lateral_jerk", w.lateral_jerk, cf.CalculateLateralJerkCost),
-                              ("longitudinal_jerk", w.longitudinal_jerk, cf.CalculateLongitudinalJerkCost),
-                              ("distance_to_reference_path", w.distance_to_reference_path,
-                               cf.CalculateDistanceToReferencePathCost),
-                              ("orientation_offset", w.orientation_offset, cf.CalculateOrientationOffsetCost),
-                              ("acceleration", w.acceleration, cf.CalculateAccelerationCost)):
-        if weight > 0:
-            handler.add_cost_function(cls(name, weight))
-    return handler
 
 
 # -- stage 6: convert --------------------------------------------------------------------------
@@ -325,7 +179,10 @@ class FrenetPlanner(Planner):
             resolution=s.collision.road_grid_resolution_m, margin=s.collision.road_margin_m,
             max_cells=s.collision.road_grid_max_cells)
         self.checks = PlanChecks(vehicle, s, self.frame, self.drivable_area)
+        self.search = PlanSearch(vehicle, s, self.frame, self.checks)
+        self.projection = StartProjection(vehicle, s, self.frame, self.speed_profile)
         self._core_reference = CoreReference(*self.frame.reference_tables())
+        self.evaluation = CoreEvaluation(vehicle, s, self.frame, self._core_reference)
         self._step_set_up: _StepSetUp | None = None
         self.memory = CycleMemory()
         self.last_cycle = PlanningCycle()
@@ -340,22 +197,10 @@ class FrenetPlanner(Planner):
             self._step_set_up = _StepSetUp(dt, goal, approach)
         return self._step_set_up
 
-    def _handler_for(self, dt: float, batch: int) -> frenetix.TrajectoryHandler:
-        """The core's handler of the ``batch``-th batch of a cycle."""
-        handlers = self._set_up_for(dt).handlers
-        while len(handlers) <= batch:
-            handlers.append(_new_handler(dt, self.vehicle, self.settings))
-        return handlers[batch]
-
-    def _goal_in_reach(self, goal: Goal, observed: State, t: float, speed: float) -> bool:
-        """Might a plan from ``observed`` at ``t`` reach a goal state within the horizon: its time
-        window overlaps the horizon and its position lies within the distance driven at ``speed``
-        (and a car's length) of the vehicle's centre?"""
-        horizon = self.settings.sampling.horizon_s
-        reach = speed * horizon + self.vehicle.length
-        return any((gs.time is None or (gs.time.lo <= t + horizon and gs.time.hi >= t))
-                   and gs.distance_from_position(observed.x, observed.y) <= reach
-                   for gs in goal.states)
+    def cost_order(self, start: Start, cycle: PlanningCycle, manoeuvre: Manoeuvre | None = None) -> CostOrder:
+        """The cycle's samples (with ``manoeuvre`` continued), to be evaluated by the core in its
+        cost order: `CoreEvaluation.cost_order`."""
+        return self.evaluation.cost_order(start, cycle, manoeuvre)
 
     # -- the cycle ---------------------------------------------------------------------------
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None:
@@ -381,7 +226,7 @@ class FrenetPlanner(Planner):
             # nothing feasible from the observed acceleration and steering (physics may hand us
             # values no polynomial can continue): retry from the observed pose and speed alone
             clock = time.perf_counter()
-            start = self._relaxed(start)
+            start = self.projection.relaxed(start)
             cycle.timings["projection"] += time.perf_counter() - clock
             if start is not None:
                 cycle.relaxed = True
@@ -416,44 +261,9 @@ class FrenetPlanner(Planner):
     # -- stage 1: project ----------------------------------------------------------------------
     def project(self, observed: State, t: float, dt: float, cycle: PlanningCycle) -> Start | None:
         """The observed state projected into the Frenet frame, and the speed to aim at (None: it
-        cannot be projected)."""
-        v = max(float(observed.v), 0.0)
-        low_velocity = v < self.settings.sampling.low_velocity_threshold_m_s
-        cycle.low_velocity = low_velocity
-        x_rear, y_rear = self.frame.xy_to_local(*self.vehicle.rear_axle_of(observed.x, observed.y, observed.yaw))
-        yaw_local = self.frame.local_heading(observed.yaw)
-        limits = self.vehicle.limits
-        a0 = float(np.clip(observed.a, -limits.max_accel, limits.max_accel))
-        steer0 = float(np.clip(observed.steer, -limits.max_steer, limits.max_steer))
-        try:
-            x0_lon, x0_lat = self.frame.initial_state(float(x_rear), float(y_rear), yaw_local, v, a0, steer0,
-                                                      self.vehicle.wheelbase, low_velocity)
-        except (RuntimeError, ValueError):
-            return None
-        s_ref = float(self.frame.to_reference_s(x0_lon[0]))
-        lookahead = max(v, 1.0) * self.settings.speed.lookahead_s
+        cannot be projected): `StartProjection.project`."""
         set_up = self._set_up_for(dt)
-        approach = set_up.approach
-        aim = desired_speed(self.speed_profile, approach, s_ref, t, v, lookahead)
-        desired = aim.speed
-        cycle.desired_speed = desired
-        may_overtake = approach.distance_to_goal(s_ref) > max(lookahead, NO_OVERTAKING_BEFORE_GOAL_M)
-        speed = self.settings.speed
-        bound = speed.late_lateral_acceleration if aim.late else speed.max_lateral_acceleration
-        in_reach = self._goal_in_reach(set_up.goal, observed, t, max(v, desired))
-        return Start(t, dt, x0_lon, x0_lat, float(x_rear), float(y_rear), yaw_local, v, desired, low_velocity,
-                     may_overtake, bound, in_reach)
-
-    def _relaxed(self, start: Start) -> Start | None:
-        """``start`` with zero acceleration and the reference path's curvature."""
-        _, kappa_ref, _ = self.frame.reference_at(np.array([start.x0_lon[0]]))
-        steer_ref = math.atan(self.vehicle.wheelbase * float(kappa_ref[0]))
-        try:
-            x0_lon, x0_lat = self.frame.initial_state(start.x_rear, start.y_rear, start.yaw_local, start.v, 0.0,
-                                                      steer_ref, self.vehicle.wheelbase, start.low_velocity)
-        except (RuntimeError, ValueError):
-            return None
-        return replace(start, x0_lon=x0_lon, x0_lat=x0_lat)
+        return self.projection.project(observed, t, dt, cycle, set_up.approach, set_up.goal)
 
     def _search(self, start: Start, traffic: TrafficPrediction, cycle: PlanningCycle,
                 manoeuvre: Manoeuvre | None) -> CartesianBatch | None:
@@ -461,162 +271,9 @@ class FrenetPlanner(Planner):
         they are looked at."""
         order = self.cost_order(start, cycle, manoeuvre)
         clock, evaluation = time.perf_counter(), cycle.timings["evaluation"]
-        chosen = self._choose(order, start, traffic, cycle)
+        chosen = self.search.choose(order, start, traffic, cycle, self._set_up_for(start.dt).goal)
         cycle.timings["collision"] += time.perf_counter() - clock - (cycle.timings["evaluation"] - evaluation)
         cycle.feasible += order.feasible
         cycle.evaluated += order.evaluated
         cycle.floor_misses += order.floor_misses
         return chosen
-
-    # -- stages 2 and 3: sample, evaluate ------------------------------------------------------
-    def cost_order(self, start: Start, cycle: PlanningCycle, manoeuvre: Manoeuvre | None = None) -> CostOrder:
-        """The cycle's samples (with ``manoeuvre`` continued), to be evaluated by the core in its
-        cost order (`cost_order`): coordinates, the kinematic feasibility checks and the costs."""
-        s, dt = self.settings, start.dt
-        clock = time.perf_counter()
-        matrix = sample(start, s.sampling, self.vehicle.limits.max_speed, manoeuvre)
-        cycle.samples += len(matrix)
-        points = steps_in_horizon(s.sampling, dt) + 1
-        floor = cost_floor(matrix, dt, points, start.low_velocity, start.desired, s.costs, self._core_reference)
-        functions = [trajectory_functions.FillCoordinates(
-            lowVelocityMode=start.low_velocity, initialOrientation=start.yaw_local, coordinateSystem=self.frame.core,
-            horizon=steps_in_horizon(s.sampling, dt) * dt + TIME_NUDGE)]
-        if s.costs.velocity_offset > 0:
-            functions.append(cost_functions.CalculateVelocityOffsetCost(
-                "velocity_offset", s.costs.velocity_offset, start.desired, dt, s.sampling.t_min_s, False, 2))
-        _lap(cycle, "sampling", clock)
-        batches = iter(range(len(matrix)))
-
-        def evaluate(rows: np.ndarray) -> list[tuple[float, int, object]]:
-            clock = time.perf_counter()
-            handler = self._handler_for(dt, next(batches))
-            handler.add_function(functions[0])
-            for function in functions[1:]:
-                handler.add_cost_function(function)
-            handler.generate_trajectories(np.ascontiguousarray(matrix[rows]), start.low_velocity)
-            if s.concurrent_evaluation:
-                handler.evaluate_all_current_functions_concurrent(False)
-            else:
-                handler.evaluate_all_current_functions(False)
-            feasible = []
-            for sample in handler.get_sorted_trajectories():
-                if not sample.feasible:
-                    break
-                feasible.append((sample.cost, int(rows[sample.uniqueId]), sample))
-            _lap(cycle, "evaluation", clock)
-            return feasible
-
-        return CostOrder(floor, evaluate)
-
-    # -- stage 4: check ------------------------------------------------------------------------
-    def check(self, batch: CartesianBatch, traffic: TrafficPrediction, leeway: RoadLeeway, start: Start,
-              cycle: PlanningCycle) -> tuple[np.ndarray, np.ndarray]:
-        """Per plan of ``batch``: passes the limit, traffic and road checks?; within the lateral-
-        acceleration bound? Counts the rejections in ``cycle``."""
-        feasible_ok = within_limits(batch, self.vehicle.limits, self.vehicle.wheelbase)
-        verdicts = self.checks.check(batch, traffic, leeway, start.dt, start.lateral_bound)
-        hit, on_road = verdicts.hit, verdicts.on_road
-        cycle.checked += len(feasible_ok)
-        cycle.rejected_infeasible += int((~feasible_ok).sum())
-        cycle.rejected_traffic += int((feasible_ok & hit).sum())
-        cycle.rejected_road += int((feasible_ok & ~hit & ~on_road).sum())
-        return feasible_ok & ~hit & on_road, verdicts.lateral_ok
-
-    def _checked_chunk(self, batch: CartesianBatch, taken: int, reaching: bool, traffic: TrafficPrediction,
-                       leeway: RoadLeeway, start: Start, cycle: PlanningCycle) -> CheckedChunk:
-        """``batch`` (of ``taken`` samples; all of it reaching the goal when ``reaching``) checked,
-        as the choice sees it."""
-        passing, lateral_ok = self.check(batch, traffic, leeway, start, cycle)
-        within_bound = lateral_ok | (not self.settings.speed.enforce_lateral_acceleration)
-        cycle.rejected_lateral_acceleration += int((passing & ~within_bound).sum())
-        if reaching:
-            reaches = np.ones(len(passing), dtype=bool)
-        else:
-            reaches = np.zeros(len(passing), dtype=bool)
-            candidates = np.flatnonzero(passing & within_bound)
-            if start.goal_in_reach and len(candidates):       # only these are looked at
-                reaches[candidates] = self._reaches_goal(batch, candidates, start)
-        return CheckedChunk(taken, passing, within_bound, batch.v[:, -1], reaches, cycle.rejected_traffic)
-
-    # -- stage 5: choose -----------------------------------------------------------------------
-    def _choose(self, order: CostOrder, start: Start, traffic: TrafficPrediction,
-                cycle: PlanningCycle) -> CartesianBatch | None:
-        """In cost order, a few at a time: check the samples and choose (`plan_choice`): the
-        first within the limits, clear of traffic and on the road (and within the lateral-
-        acceleration bound if any is), unless traffic blocks it or the goal is in reach. With
-        none, a `second_look`."""
-        leeway = self.checks.leeway(start.x_rear, start.y_rear, start.yaw_local, start.dt)
-        rules = ChoiceRules(start.desired, self.settings.speed.blocked_speed_share, start.may_overtake,
-                            start.goal_in_reach)
-        state = ChoiceState()
-        batches: list[CartesianBatch | None] = []        # per chunk (None: none of it checked)
-        chunk = FIRST_CHUNK
-        while searching(state):
-            samples = order.take(chunk)
-            if not samples:
-                break
-            chunk = min(chunk * 2, MAX_CHUNK)
-            batch = self.frame.cartesian(samples, start.low_velocity, start.yaw_local)
-            reaching = only_reaching(state)      # only a plan that reaches the goal would do now
-            if reaching:
-                rows = np.flatnonzero(self._reaches_goal(batch, np.arange(len(samples)), start))
-                if not len(rows):
-                    batches.append(None)
-                    state = step(state, CheckedChunk.of([], [], [], taken=len(samples)), rules)
-                    continue
-                batch = _rows(batch, rows)
-            batches.append(batch)
-            state = step(state, self._checked_chunk(batch, len(samples), reaching, traffic, leeway, start, cycle),
-                         rules)
-        choice: Choice = final(state)
-        if choice.pick is not None:
-            cycle.choice = choice.kind
-            picked = batches[choice.pick.chunk]
-            assert picked is not None, "a pick is from a checked chunk"
-            return _row(picked, choice.pick.row)
-        return self.second_look([b for b in batches if b is not None], start, traffic, leeway, cycle)
-
-    def second_look(self, checked: list[CartesianBatch], start: Start, traffic: TrafficPrediction,
-                    leeway: RoadLeeway, cycle: PlanningCycle) -> CartesianBatch | None:
-        """When no plan passes: from a vehicle at the road's edge (within `ROAD_EDGE_M`) whose
-        plans all leave the road, the cheapest that gets back onto the safe cells within the
-        recovery time (`first_passing`, the rejections of this second look not counted); when
-        traffic rejected plans, the one that traffic meets latest of those whose every encounter
-        is another road user running into the ego from behind (`latest_met`), ``cycle.outcome``
-        saying so. None: every plan runs into someone (the planner fails, and says so)."""
-        if leeway.steps == 0 and cycle.rejected_road and self.checks.at_road_edge(start.x_rear, start.y_rear,
-                                                                                  start.yaw_local):
-            recovery = RoadLeeway(self.checks.recovery_steps(start.dt), RoadBand.ROAD)
-            pick = first_passing(self.check(batch, traffic, recovery, start, PlanningCycle())[0] for batch in checked)
-            if pick is not None:
-                return _row(checked[pick.chunk], pick.row)
-        if cycle.rejected_traffic:
-            found = latest_met(self.checks.encounters(batch, leeway, start.dt, start.lateral_bound, traffic)
-                               for batch in checked)
-            if found is not None:
-                cycle.outcome = PlanOutcome.STRUCK_FROM_BEHIND
-                return _row(checked[found[0].chunk], found[0].row)
-        return None
-
-    def _reaches_goal(self, batch: CartesianBatch, rows: np.ndarray, start: Start) -> np.ndarray:
-        """Per plan ``rows`` of ``batch``: does it reach the goal (every window of a goal state,
-        judged at the vehicle's centre) at one of its states?"""
-        yaw = batch.yaw[rows]
-        x, y = self.frame.xy_to_world(*self.vehicle.centre_of(batch.x[rows], batch.y[rows], yaw))
-        t = np.broadcast_to(start.t + start.dt * np.arange(yaw.shape[1]), yaw.shape)
-        return self._set_up_for(start.dt).goal.reached_at(t, x, y, yaw + self.frame.rotation,
-                                                          batch.v[rows]).any(axis=1)
-
-
-def _row(batch: CartesianBatch, i: int) -> CartesianBatch:
-    return CartesianBatch(*(getattr(batch, f)[i:i + 1] for f in CartesianBatch.__dataclass_fields__))
-
-
-def _rows(batch: CartesianBatch, rows: np.ndarray) -> CartesianBatch:
-    return CartesianBatch(*(getattr(batch, f)[rows] for f in CartesianBatch.__dataclass_fields__))
-
-
-def _lap(cycle: PlanningCycle, phase: str, since: float) -> float:
-    now = time.perf_counter()
-    cycle.timings[phase] += now - since
-    return now
