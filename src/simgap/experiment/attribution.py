@@ -310,8 +310,9 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     ideal = ran[0]
     stretch = {c.agent_id: float(c.s[-1]) for c in compare_histories(ideal.history, record.history, scenario, problems)
                if len(c.s)}
-    worlds = {frozenset(): _world(frozenset(), record.history, _scores(record), record.history.wall_time_s,
-                                  ideal.history, scenario, problems, stretch)}
+    worlds: dict[frozenset[Assumption], World] = {
+        frozenset(): _world(frozenset(), record.history, _scores(record), record.history.wall_time_s, ideal.history,
+                            scenario, problems, stretch)}
     for subset, r in zip(subsets, ran[1:]):
         worlds[subset] = _world(subset, r.history, r.scores, r.wall_s, ideal.history, scenario, problems, stretch)
     attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
