@@ -78,7 +78,7 @@ def export_cmd(
                              allowed=", ".join(f.value for f in Format)) from None
     elif out.suffix == RECORDING_SUFFIX:
         chosen = Format.RERUN
-    if out.suffix == RECORDING_SUFFIX and chosen is not Format.RERUN:
+    if out.suffix == RECORDING_SUFFIX and chosen is not None and chosen is not Format.RERUN:
         raise InputError(f"a {RECORDING_SUFFIX} file is a rerun recording", field="--out",
                          allowed=f"a directory for {chosen.value}, or --format rerun")
     if ideal is not None and chosen is not Format.RERUN:

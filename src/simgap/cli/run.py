@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import typer
 from pydantic import BaseModel
@@ -132,8 +132,8 @@ def run(
                 "road_friction": road_friction, "offroad_friction": offroad_friction}
     knob_values = _knobs(knobs or [], backend)
     knob_settings, knob_cosim = apply_knobs(backend, knob_values)
-    scoring = {"score": read_model(score_config, ScoreSettings, "score settings file", empty_ok=True)} \
-        if score_config else {}
+    scoring: dict[str, Any] = {"score": read_model(score_config, ScoreSettings, "score settings file",
+                                                   empty_ok=True)} if score_config else {}
     if cost_function is not None:
         scoring["cost_function"] = cost_function
     evaluation = EvaluationSettings(**scoring)
@@ -237,8 +237,8 @@ def print_summary(console: Console, result: RunRecord) -> None:
     for agent in result.agents:
         h, a = agent.history, agent.evaluation
         colour = "green" if h.outcome == Outcome.GOAL_REACHED else "red"
-        times = "—" if a.planning_mean_s is None else \
-            "/".join(f"{1000 * v:.1f}" for v in (a.planning_mean_s, a.planning_p95_s, a.planning_max_s))
+        times = "—" if a.planning_mean_s is None else "/".join(     # (all three, or none: no call)
+            f"{1000 * v:.1f}" for v in (a.planning_mean_s, a.planning_p95_s, a.planning_max_s) if v is not None)
         table.add_row(str(a.id), escape(agent.planner), h.vehicle.name, f"[{colour}]{h.outcome}[/{colour}]",
                       "—" if a.time_to_goal_s is None else f"{a.time_to_goal_s:.1f}",
                       f"{a.distance_m:.1f}",

@@ -97,7 +97,6 @@ class IdmTraffic:
         self.reach = ObstacleReach.of([TrafficParticipant(o.id, o.length, o.width, o.motion) for o in self._replayed],
                                       [pv.obstacle.id for pv in self._driven])
         self.driven_ids = tuple(pv.obstacle.id for pv in self._driven)
-        self._t = None
         self._place(0.0)
 
     # -- what the loop and planners see -------------------------------------------------------
@@ -127,7 +126,6 @@ class IdmTraffic:
                 pv.present = True
             if pv.present:
                 pv.prediction = self._predict(pv, t)
-        self._t = t
 
     def advance(self, t: float, dt: float, agents: Mapping[int, TrafficParticipant]) -> None:
         others = self._obstacles_at(t, agents)

@@ -36,7 +36,8 @@ class Judge:
                   for aid, st in states.items()}
         contacts: dict[int, int | None] = {}
         for ev in self.backend.events():       # a car that reached its goal has left the scenario
-            gone = ev.other_id in progress_of and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
+            gone = ev.other_id is not None and ev.other_id in progress_of \
+                and progress_of[ev.other_id].outcome == Outcome.GOAL_REACHED
             if ev.kind == Outcome.COLLISION and not gone:
                 contacts.setdefault(ev.agent_id, ev.other_id)
             elif ev.kind == Outcome.DIVERGED and ev.agent_id in states and progress_of[ev.agent_id].active:   # taken out

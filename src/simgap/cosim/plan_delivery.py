@@ -104,6 +104,7 @@ class PlanDelivery:
         if not during:
             return p.in_force
         at, plan = during[-1]
+        assert p.in_force is not None, "a plan arrives late only where another is in force (`_send`)"
         handover = PlanHandover(p.in_force, plan, at)
         p.arriving = [(a, q) for a, q in p.arriving if a > at]
         p.in_force = plan

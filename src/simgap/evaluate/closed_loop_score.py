@@ -186,7 +186,7 @@ class _AgentScorer:
             self.measures["collision"] = None
             return []
         ego = self.driven[len(self.driven) - 1]
-        other = self.users.get(event.other_id)
+        other = None if event.other_id is None else self.users.get(event.other_id)
         if other is None:          # a contact the physics reported with something unknown: the ego's fault
             self.measures["collision"] = None
             return [Collision(-1 if event.other_id is None else event.other_id, RoadUserKind.VEHICLE,
@@ -237,10 +237,10 @@ class _AgentScorer:
             s, _ = frame.project(np.array([[first.x, first.y], [last.x, last.y]]))
             return float(s[1] - s[0]), _goal_progress(self.problem, frame, float(s[0]))
         goal = Goal.of(self.problem.goal, self.history.dt)
-        away = goal.distance_from_position(first.x, first.y)
-        if away is None:
+        away, left = goal.distance_from_position(first.x, first.y), goal.distance_from_position(last.x, last.y)
+        if away is None or left is None:        # both or neither: no goal state bounds the position
             return None
-        return away - goal.distance_from_position(last.x, last.y), away
+        return away - left, away
 
     def _time_to_collision(self, collisions: list[Collision]) -> float:
         st = self.settings

@@ -13,6 +13,7 @@ comparison of two runs of one scenario is `simgap.evaluate.compare.compare_histo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
@@ -122,15 +123,26 @@ class EvaluationContext:
     scenario_file: Path | None = None
 
 
-def planning_times(call_s: tuple[float, ...], budget_s: float | None) -> dict[str, float | int | None]:
-    """Calls, mean, 95th percentile and maximum of the wall times of one agent's planning calls,
-    and how many took longer than ``budget_s``."""
+@dataclass(frozen=True)
+class PlanningTimes:
+    """Calls, mean, 95th percentile and maximum of the wall times [s] of one agent's planning calls
+    (None: no call), and how many took longer than the budget."""
+
+    calls: int = 0
+    mean_s: float | None = None
+    p95_s: float | None = None
+    max_s: float | None = None
+    over_budget: int = 0
+
+
+def planning_times(call_s: tuple[float, ...], budget_s: float | None) -> PlanningTimes:
+    """The `PlanningTimes` of the wall times ``call_s``, against ``budget_s`` (None: no budget)."""
     if not call_s:
-        return {"planning_calls": 0}
+        return PlanningTimes()
     times = np.asarray(call_s)
-    return {"planning_calls": len(times), "planning_mean_s": round(float(times.mean()), 6),
-            "planning_p95_s": round(float(np.percentile(times, 95)), 6), "planning_max_s": round(float(times.max()), 6),
-            "planning_over_budget": 0 if budget_s is None else int(sum(t > budget_s for t in call_s))}
+    return PlanningTimes(len(times), round(float(times.mean()), 6), round(float(np.percentile(times, 95)), 6),
+                         round(float(times.max()), 6),
+                         0 if budget_s is None else int(sum(t > budget_s for t in call_s)))
 
 
 def tracking_of(agent: AgentHistory, route: RouteMeasures) -> AgentTracking:
@@ -160,22 +172,25 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
     agents = []
     for a in history.agents:
         approach, score, cost = approaches[a.id], scores.get(a.id), costs.get(a.id)
-        latencies = a.plan_latency_s
+        latencies, times = a.plan_latency_s, planning_times(a.planning_call_s, context.planning_budget_s)
         agents.append(AgentEvaluation(
             id=a.id,
             time_to_goal_s=None if a.time_to_goal_s is None else round(a.time_to_goal_s, 6),
             distance_m=round(a.driven.path_length(), 3),
             min_distance_to_traffic_m=None if approach.min_distance_m is None else round(approach.min_distance_m, 3),
             max_road_excursion_m=round(approach.max_road_excursion_m, 3),
-            **planning_times(a.planning_call_s, context.planning_budget_s),
+            planning_calls=times.calls, planning_mean_s=times.mean_s, planning_p95_s=times.p95_s,
+            planning_max_s=times.max_s, planning_over_budget=times.over_budget,
             plan_latency_mean_s=round(float(np.mean(latencies)), 6) if latencies else None,
             plan_latency_max_s=round(max(latencies), 6) if latencies else None,
             tracking=tracking_of(a, routes[a.id]),
-            **({} if score is None else {"score": score.score, "score_components": score.components,
-                                         "score_measures": score.measures}),
-            **({} if cost is None else {"solution_benchmark": cost.benchmark_id, "solution_cost": cost.total,
-                                        "solution_partial_costs": cost.partial,
-                                        "solution_cost_error": cost.error})))
+            score=None if score is None else score.score,
+            score_components={} if score is None else score.components,
+            score_measures={} if score is None else score.measures,
+            solution_benchmark="" if cost is None else cost.benchmark_id,
+            solution_cost=None if cost is None else cost.total,
+            solution_partial_costs={} if cost is None else cost.partial,
+            solution_cost_error="" if cost is None else cost.error))
     return RunEvaluation(tuple(agents),
                          run_metrics(history, context.scenario, context.problems, context.road_friction,
                                      context.relief, routes))
@@ -220,15 +235,15 @@ def worst_scores(evaluation: RunEvaluation) -> RunScores:
     solution's cost summed over its agents (as CommonRoad sums a solution's)."""
     agents = evaluation.agents
     scored = [a for a in agents if a.score is not None]
-    worst = min(scored, key=lambda a: a.score, default=None)
+    worst = min(scored, key=lambda a: math.inf if a.score is None else a.score, default=None)
     validity = [a.solution_valid for a in agents]
     # the first reason: of the first invalid agent, else of one that could not be checked (a crash)
     why = next((a for a in agents if a.solution_valid is False), None) or \
         next((a for a in agents if a.solution_valid is None and a.solution_reason), None)
-    costs = [a.solution_cost for a in agents]
+    costs = [a.solution_cost for a in agents if a.solution_cost is not None]
     many = len(agents) > 1
     return RunScores(score=None if worst is None else worst.score,
                      score_components={} if worst is None else dict(worst.score_components),
                      solution_valid=False if False in validity else None if None in validity or not validity else True,
                      solution_reason="" if why is None else (f"agent {why.id}: " if many else "") + why.solution_reason,
-                     solution_cost=None if None in costs or not costs else float(sum(costs)))
+                     solution_cost=None if len(costs) < len(agents) or not costs else float(sum(costs)))

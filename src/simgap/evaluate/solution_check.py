@@ -101,10 +101,10 @@ def _check_agent(pps: PlanningProblemSolution, solution: Solution, scenario: Sce
             return SolutionCheck(False, _agent_collision(pps, other, scenario.dt))
     on_stage("feasibility")
     try:
-        feasible, k = _feasible(pps, alone, scenario.dt, problem_set)
+        k = _infeasible_step(pps, alone, scenario.dt, problem_set)
     except checker.SolutionCheckerException as exc:
         return SolutionCheck(False, f"infeasible for {_model(pps)}: " + _first_line(exc.__cause__ or exc))
-    if not feasible:
+    if k is not None:
         return SolutionCheck(False, f"infeasible for {_model(pps)} at t = {(k + 1) * scenario.dt:.1f} s (no input "
                                     f"reaches that state from the one at t = {k * scenario.dt:.1f} s)")
     return SolutionCheck(True)
@@ -193,11 +193,11 @@ def _well_inside_the_road(scenario: Scenario, problem_set: PlanningProblemSet, p
     return bool(shapely.contains(interior, shapely.polygons(corners)).all())
 
 
-def _feasible(pps: PlanningProblemSolution, alone: Solution, dt: float,
-              problem_set: PlanningProblemSet) -> tuple[bool, int | None]:
-    """The library's feasibility verdict on one agent's trajectory, and the time step whose
-    transition is not feasible: a KS trajectory through `simgap.evaluate.feasibility`'s fast path
-    (the same verdicts), any other by the library's `solution_feasible`."""
+def _infeasible_step(pps: PlanningProblemSolution, alone: Solution, dt: float,
+                     problem_set: PlanningProblemSet) -> int | None:
+    """The library's feasibility verdict on one agent's trajectory: the time step whose transition
+    is not feasible, None when every one is. A KS trajectory through `simgap.evaluate.feasibility`'s
+    fast path (the same verdicts), any other by the library's `solution_feasible`."""
     from commonroad.common.solution import TrajectoryType, VehicleModel
     from commonroad_dc.feasibility import solution_checker as checker
     from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
@@ -212,9 +212,9 @@ def _feasible(pps: PlanningProblemSolution, alone: Solution, dt: float,
         except StateTransitionException as exc:     # as the library's solution_feasible words it
             raise checker.SolutionCheckerException(f"Solution is not feasible on planning problem solution "
                                                    f"{pps.planning_problem_id}.") from exc
-        return verdict.feasible, verdict.infeasible_from
+        return None if verdict.feasible else verdict.infeasible_from
     feasible, inputs, _ = checker.solution_feasible(alone, dt, problem_set)[pps.planning_problem_id]
-    return feasible, None if feasible else inputs.state_list[-1].time_step
+    return None if feasible else inputs.state_list[-1].time_step
 
 
 def _model(pps: PlanningProblemSolution) -> str:

@@ -135,6 +135,7 @@ class CheckerProcess:
     def _wait(self) -> int:
         """Its exit code, as `subprocess` gives one (-N: ended by signal N)."""
         if self._status is None:
+            assert self._pid is not None, "_start() comes first"
             self._status = os.waitpid(self._pid, 0)[1]
         return os.waitstatus_to_exitcode(self._status)
 
@@ -142,9 +143,9 @@ class CheckerProcess:
         for conn in (self._send, self._receive):
             if conn is not None:
                 conn.close()
-        if self._running():
-            os.kill(self._pid, signal.SIGKILL)
         if self._pid is not None:
+            if self._running():
+                os.kill(self._pid, signal.SIGKILL)
             self._wait()
         self._pid = self._status = self._send = self._receive = None
 
@@ -153,6 +154,7 @@ class CheckerProcess:
         if not self._running():
             self._stop()
             self._start()
+        assert self._send is not None and self._receive is not None, "_start() opened them"
         verdicts: dict[int, SolutionCheck] = {}
         stage = "starting"
         try:
@@ -202,19 +204,19 @@ def checked_solution(solution: Solution, scenario: Scenario, problems: PlanningP
                      scenario_file: str | Path | None, cache: SolutionCheckCache | None) -> tuple[dict[int, SolutionCheck], bool]:
     """The verdicts on ``solution`` and whether they came from ``cache`` (checked in the shared
     `CheckerProcess`; a scenario without a file is written to a temporary one for it)."""
-    have_file = scenario_file is not None and Path(scenario_file).is_file()
-    key = SolutionCheckCache.key(solution, scenario_file) if cache is not None and have_file else None
+    file = scenario_file if scenario_file is not None and Path(scenario_file).is_file() else None
+    key = SolutionCheckCache.key(solution, file) if cache is not None and file is not None else None
     agents = [p.planning_problem_id for p in solution.planning_problem_solutions]
-    if key is not None:
+    if cache is not None and key is not None:
         known = cache.get(key)
         if known is not None and set(known) == set(agents):
             return known, True
     with tempfile.TemporaryDirectory() as folder:
-        if not have_file:
-            scenario_file = Path(folder) / "scenario.xml"
-            write_xml(scenario, problems, scenario_file)
-        checks = CheckerProcess.shared().check(scenario_file, solution_xml(solution), agents)
-    if key is not None and all(c.valid is not None for c in checks.values()):
+        if file is None:
+            file = Path(folder) / "scenario.xml"
+            write_xml(scenario, problems, file)
+        checks = CheckerProcess.shared().check(file, solution_xml(solution), agents)
+    if cache is not None and key is not None and all(c.valid is not None for c in checks.values()):
         cache.put(key, checks)
     return checks, False
 

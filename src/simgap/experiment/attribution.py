@@ -330,8 +330,8 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
                 compared[subsets[i - 1]] = _world(subsets[i - 1], ran[i], ran[0].history, scenario, problems, stretch)
     ideal = ran[0]
     own = _Ran(record.history, _scores(record), record.history.wall_time_s, 0.0)
-    worlds = {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | \
-        {s: compared[s] for s in subsets}
+    worlds: dict[frozenset[Assumption], World] = \
+        {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | {s: compared[s] for s in subsets}
     attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
                                max(1, workers))
     if keep:

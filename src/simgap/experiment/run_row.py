@@ -116,7 +116,7 @@ class RunRow:
         """A scalar, a run metric or a score component (``score_<component>``) by name (what failure
         rules and objectives name); NaN when the run has none."""
         if name in self.metrics:
-            v = self.metrics[name]
+            v: float | None = self.metrics[name]
         elif name.startswith("score_") and name[len("score_"):] in self.score_components:
             v = self.score_components[name[len("score_"):]]
         else:
@@ -165,7 +165,8 @@ class RunRow:
         types |= {k: pa.float64() for k in cols if k.startswith(("param_", "time_")) or k in self.metrics}
         types |= {f"score_{name}": pa.float64() for name in self.score_components}
         types |= {k: pa.string() for k in cols if k.startswith("version_")}
-        inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra else None
+        inferred = pa.Table.from_pylist([{k: self.extra[k] for k in self.extra}]).schema if self.extra \
+            else pa.schema([])
         return pa.schema([pa.field(k, types[k]) if k in types else inferred.field(k) for k in cols])
 
 

@@ -47,7 +47,7 @@ def declared_version(path: str | Path) -> tuple[str, int, int]:
     header = root.find("FileHeader" if root.tag == "OpenSCENARIO" else "header")
     if header is None:
         raise CheckFailed(f"{path}: no header")
-    return root.tag, int(header.get("revMajor")), int(header.get("revMinor"))
+    return root.tag, int(header.attrib["revMajor"]), int(header.attrib["revMinor"])
 
 
 @functools.cache
@@ -160,22 +160,22 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
     root = ET.parse(path).getroot()
     road_links, lane_links = {}, set()
     for road in root.iter("road"):
-        rid = int(road.get("id"))
+        rid = int(road.attrib["id"])
         for way in ("predecessor", "successor"):
             el = road.find(f"link/{way}")
             if el is not None:
-                road_links[(rid, way)] = (el.get("elementType"), int(el.get("elementId")))
+                road_links[(rid, way)] = (el.get("elementType"), int(el.attrib["elementId"]))
         for lane in road.iter("lane"):
             for way in ("predecessor", "successor"):
                 for el in lane.findall(f"link/{way}"):
-                    lane_links.add((rid, int(lane.get("id")), way, int(el.get("id"))))
+                    lane_links.add((rid, int(lane.attrib["id"]), way, int(el.attrib["id"])))
     junctions = root.findall("junction")
     through = set()
     for junction in junctions:
         for connection in junction.iter("connection"):
-            incoming, connecting = int(connection.get("incomingRoad")), int(connection.get("connectingRoad"))
+            incoming, connecting = int(connection.attrib["incomingRoad"]), int(connection.attrib["connectingRoad"])
             for link in connection.iter("laneLink"):
-                through.add((incoming, int(link.get("from")), connecting, int(link.get("to"))))
+                through.add((incoming, int(link.attrib["from"]), connecting, int(link.attrib["to"])))
     lanes = _lanes_of(network)
     successors = kept = via_junction = 0
     lost_successors, lost_neighbours = [], []

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Callable
+from typing import Callable, TypeAlias
 
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking
@@ -65,7 +65,7 @@ _MARK_TYPE = {
 _NO_CROSSING = {LineMarking.SOLID, LineMarking.BROAD_SOLID, LineMarking.SOLID_SOLID, LineMarking.CURB,
                 LineMarking.LOWERED_CURB}
 
-Geometry = xodr.Line | xodr.Arc | xodr.Spiral | xodr.ParamPoly3
+Geometry: TypeAlias = xodr.Line | xodr.Arc | xodr.Spiral | xodr.ParamPoly3
 
 
 class Method(StrEnum):

@@ -165,7 +165,7 @@ def _goal_conditions(run: RunRecord, problems: PlanningProblemSet, minor: int) -
             continue
         goal = Goal.of(problem.goal, run.history.dt)
         state = next((gs for gs in goal.states if gs.position is not None), None)
-        if state is None:
+        if state is None or state.position is None:     # (a state it finds has a position)
             continue
         area = state.position.shapely_object
         centre = area.centroid

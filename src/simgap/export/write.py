@@ -89,6 +89,7 @@ def _write_road(network: LaneletNetwork, name: str, blueprint, surface: UniformR
     points = np.vstack([r.reference for r in samples] + [b for r in samples for b in r.lane_borders.values()])
     tree = ET.parse(path)
     header = tree.getroot().find("header")
+    assert header is not None, "xodr writes a header"
     for key, value in (("west", points[:, 0].min()), ("south", points[:, 1].min()), ("east", points[:, 0].max()),
                        ("north", points[:, 1].max())):
         header.set(key, repr(float(value)))

@@ -109,7 +109,7 @@ class _PlainPlanner(Planner):
 
     def __init__(self, planner: Any):
         self.planner = planner
-        self.plan = planner.plan                # the planner's own method: no extra call per cycle
+        self.plan = planner.plan  # type: ignore[method-assign]  # the planner's own method: no extra call per cycle
         closer = getattr(planner, "close", None)
         self._close = closer if callable(closer) else None
 

@@ -199,6 +199,8 @@ def _module_of_file(path_text: str) -> Any:
     name = f"simgap_planner_{re.sub(r'[^A-Za-z0-9_]', '_', path.stem)}_" \
            f"{hashlib.sha1(str(path).encode()).hexdigest()[:8]}"
     spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:       # not for a .py file; said as any import's failure is
+        raise ImportError(f"no module loader for {path}")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module            # dataclasses and pickling look their module up here
     try:

@@ -298,7 +298,7 @@ class _Connection:
                                      "its request's id)")
                 return reply
             if self.process is not None and self.process.poll() is not None:
-                raise _Gone(self.exit_reason())
+                raise _Gone(self.exit_reason(self.process))
 
     def _dropped(self) -> bool:
         """Whether the connection dropped since this was last asked."""
@@ -321,10 +321,11 @@ class _Connection:
                 raise _NoAnswer()
             self.socket.poll(max(1, math.ceil(min(left, POLL_SLICE_S) * 1000)), zmq.POLLOUT)
             if self.process is not None and self.process.poll() is not None:
-                raise _Gone(self.exit_reason())
+                raise _Gone(self.exit_reason(self.process))
 
-    def exit_reason(self) -> str:
-        code = self.process.returncode
+    def exit_reason(self, process: subprocess.Popen) -> str:
+        """How the started ``process`` (this connection's, once it has ended) ended, and its output's end."""
+        code = process.returncode
         how = f"was killed by {signal.Signals(-code).name}" if code < 0 and -code in signal.Signals._value2member_map_ \
             else f"exited with code {code}"
         text = self.output.text().strip() if self.output is not None else ""
@@ -353,6 +354,7 @@ class _Connection:
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(self.process.pid, signal.SIGKILL)
                 self.process.wait()
+        if self.folder is not None:                         # a started process's folder
             shutil.rmtree(self.folder, ignore_errors=True)
 
 
@@ -454,14 +456,17 @@ class RemotePlanner(Planner):
         self.failure_reason = ""
         return Trajectory(message.dt, **columns)
 
-    def _fail(self, reason: str) -> None:
+    def _fail(self, reason: str) -> Trajectory | None:
+        """This cycle's plan when it fails: none, ``reason`` kept as the failure's."""
         self.failure_reason = reason
         return None
 
-    def _restart(self, reason: str) -> None:
-        """The planner's process ended: restart it when restarts are left, else give the agent up."""
-        self._connection.close()
-        self._connection = None
+    def _restart(self, reason: str) -> Trajectory | None:
+        """The planner's process ended: restart it when restarts are left (this cycle has no plan),
+        else give the agent up."""
+        if self._connection is not None:
+            self._connection.close()
+            self._connection = None
         if self.restarts >= self.limits.restarts:
             self.failure_reason = f"{reason} (restarted {self.restarts} time(s), no restart left)"
             raise PlannerUnavailable(self.failure_reason)

@@ -183,7 +183,7 @@ def preferred_route(network: LaneletNetwork, routes, initial: InitialState | Non
     the car is on (``initial``: the planning problem's initial state; where two lanelets merge, as
     at a roundabout's entry, both hold the car: the one heading its way), then the shortest."""
     start = None if initial is None else np.asarray(initial.position, dtype=float)
-    heading = None if initial is None else float(getattr(initial, "orientation", 0.0) or 0.0)
+    heading = 0.0 if initial is None else float(getattr(initial, "orientation", 0.0) or 0.0)   # read with start
 
     def misfit(route: tuple[int, ...]) -> float:
         if start is None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import fields
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Container, Iterable, Mapping
 
 import numpy as np
 import pyarrow as pa
@@ -38,7 +38,7 @@ EVALUATION_NUMBERS = tuple(f.name for f in fields(AgentEvaluation)
 def record_object(meta: object, file: Path) -> JsonObject:
     """``meta``, a parsed ``run.json``, when it is a JSON object of objects where a run's record
     has them; an `InputError` naming ``file`` otherwise."""
-    if not isinstance(meta, Mapping):
+    if not isinstance(meta, dict):
         raise InputError(f"holds {_kind(meta)}, not a run's record", file=file,
                          allowed=f"the JSON object simgap wrote; {RUN_AGAIN}")
     for section in ("settings", "history", "evaluation"):
@@ -94,7 +94,7 @@ def check_states(table: pa.Table, file: Path) -> None:
                              allowed=f"finite numbers; {RUN_AGAIN}")
 
 
-def check_driven(agent_ids: Iterable[int], driven: Mapping[int, Any], file: Path) -> None:
+def check_driven(agent_ids: Iterable[int], driven: Container[int], file: Path) -> None:
     """Refuse trajectories that lack the driven states of an agent its run's record names."""
     missing = [aid for aid in agent_ids if aid not in driven]
     if missing:
@@ -104,7 +104,7 @@ def check_driven(agent_ids: Iterable[int], driven: Mapping[int, Any], file: Path
 
 def _section(meta: JsonObject, name: str, file: Path) -> JsonObject:
     value = meta.get(name)
-    if not isinstance(value, Mapping):
+    if not isinstance(value, dict):
         raise InputError("missing" if value is None else f"holds {_kind(value)}, not an object", file=file,
                          field=name, allowed=RUN_AGAIN)
     return value
@@ -118,14 +118,14 @@ def _list(section: JsonObject, name: str, file: Path, where: str) -> list:
     return value
 
 
-def _finite(value: object, file: Path, field: str) -> None:
+def _finite(value: object, file: Path, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise InputError(f"is {value!r}", file=file, field=field, allowed=f"a finite number; {RUN_AGAIN}")
+    return value
 
 
 def _positive(value: object, file: Path, field: str) -> None:
-    _finite(value, file, field)
-    if value <= 0:
+    if _finite(value, file, field) <= 0:
         raise InputError(f"is {value!r}", file=file, field=field, allowed=f"a number above 0; {RUN_AGAIN}")
 
 

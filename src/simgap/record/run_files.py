@@ -400,7 +400,7 @@ def migrate(meta: JsonObject, run_dir: Path | None = None) -> JsonObject:
     if version in (2, 3):           # 2: its fingerprint hashed raw float bits; both are computed from the states
         settings = meta.get("settings")         # (one that is no mapping is refused by its check)
         return dict(meta) | {"format_version": FORMAT_VERSION} | \
-            ({"settings": _evaluation_apart(settings)} if isinstance(settings, Mapping) else {})
+            ({"settings": _evaluation_apart(settings)} if isinstance(settings, dict) else {})
     settings = dict(meta.get("settings") or {})
     vehicles = meta.get("vehicles") or {}
     timings = meta.get("timings") or {}

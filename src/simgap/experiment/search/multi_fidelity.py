@@ -169,7 +169,7 @@ class MoveAllocation:
             sum(y.cost_s for y in self.moves.values()) + COST_PRIOR_S)
         rate = {m: rng.gamma(y.found + pooled * COST_PRIOR_S, 1.0 / (y.cost_s + COST_PRIOR_S))
                 for m, y in self.moves.items()}
-        return max(rate, key=rate.get)
+        return max(rate, key=rate.__getitem__)
 
     def proposed(self, index: int, move: str, parent: int | None) -> None:
         self.move_of[index] = (move, parent)
@@ -224,14 +224,14 @@ class MultiFidelityStrategy(Strategy):
         rng = np.random.default_rng([self.seed, index])
         move, parent = self.allocation.choose(rng, index, self.map)
         c = None
-        if move != "global":
+        if move != "global" and parent is not None:      # (a move around a parent names it)
             c = self._neighbour(index, self.map.failures[parent], move, rng)
             if c is None:
                 move, parent = "global", None
+            elif self.allocation.fail_share(parent) >= SKIP_SCREEN_AT:
+                c.start_rung = self.high        # the screen would only add its cost
         if c is None:
             c = uniform_candidate(self.space, index, rng)
-        elif self.allocation.fail_share(parent) >= SKIP_SCREEN_AT:
-            c.start_rung = self.high        # the screen would only add its cost
         self.allocation.proposed(index, move, parent)
         self.map.live[index] = c
         return c

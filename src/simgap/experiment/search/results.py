@@ -231,5 +231,6 @@ def _high_runs(rows: list[SearchRow], high: int) -> list[HighRun]:
         if r.rung == high and r.ok:
             i = ideal.get(r.candidate)
             ideal_ok = i is not None and i.ok
-            out.append(HighRun(r, r.failed and ideal_ok and not i.failed, ideal_ok and i.failed))
+            ideal_failed = i is not None and i.ok and i.failed
+            out.append(HighRun(r, r.failed and ideal_ok and not ideal_failed, ideal_failed))
     return out
