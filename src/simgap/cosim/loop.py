@@ -220,7 +220,8 @@ class _CoSimulation:
             delivery.plan(progress_of[aid], state, t, snapshot)
         self.timings["planning"] += time.perf_counter() - clock
         clock = time.perf_counter()
-        states = self.backend.step({aid: delivery.in_force(p, t) for aid, p in progress_of.items()})
+        states = self.backend.step({aid: plan for aid, p in progress_of.items()      # an agent without a plan yet: none
+                                    if (plan := delivery.in_force(p, t)) is not None})
         self.timings["execution"] += time.perf_counter() - clock
         clock = time.perf_counter()
         self.traffic.advance(t, self.dt, snapshot)
