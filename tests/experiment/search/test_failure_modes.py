@@ -11,7 +11,6 @@ import pytest
 
 from simgap.cosim import Outcome
 from simgap.experiment.search.failure_modes import what_broke
-from simgap.experiment.knobs import knob_value
 from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
 from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
 from simgap.experiment.run_row import RunRow
@@ -34,7 +33,7 @@ def two_modes(job):
     road_friction and initial_speed); every car drifts out of its lane with a long steering delay
     (mode B: needs steer_delay). The ideal world always passes."""
     high = job.backend == "mujoco"
-    mu, delay = knob_value("road_friction", job.backend_settings), knob_value("steer_delay", job.backend_settings)
+    mu, delay = job.backend_settings.road_friction, job.backend_settings.steer_delay
     off_road = high and job.id.fidelity.vehicle == "city" and mu < 0.35 and job.parameters["initial_speed"] > 15
     drifts = high and delay > 0.07
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if off_road else Outcome.GOAL_REACHED,

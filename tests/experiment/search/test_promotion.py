@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from simgap.cosim import Outcome
-from simgap.experiment.knobs import knob_value
 from simgap.experiment.search.multi_fidelity import START_THRESHOLD, MoveAllocation, PromotionThreshold, _Yield, separating_risk
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
@@ -56,7 +55,7 @@ BOUNDARY = 0.8
 
 def separable_row(job):
     """Fails in high fidelity where the screen's grip use (speed over friction) reaches 0.8."""
-    grip = (job.parameters["initial_speed"] / 25.0) * (0.3 / knob_value("road_friction", job.backend_settings))
+    grip = (job.parameters["initial_speed"] / 25.0) * (0.3 / job.backend_settings.road_friction)
     failed = job.backend == "mujoco" and grip >= BOUNDARY
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
                   job_time_s={"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend],
