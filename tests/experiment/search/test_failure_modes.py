@@ -33,7 +33,7 @@ def two_modes(job):
     road_friction and initial_speed); every car drifts out of its lane with a long steering delay
     (mode B: needs steer_delay). The ideal world always passes."""
     high = job.backend == "mujoco"
-    mu, delay = job.backend_settings.road_friction, job.backend_settings.steer_delay
+    mu, delay = getattr(job.backend_settings, "road_friction", 1.0), getattr(job.backend_settings, "steer_delay", None)
     off_road = high and job.id.fidelity.vehicle == "city" and mu < 0.35 and job.parameters["initial_speed"] > 15
     drifts = high and delay > 0.07
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if off_road else Outcome.GOAL_REACHED,

@@ -55,7 +55,7 @@ BOUNDARY = 0.8
 
 def separable_row(job):
     """Fails in high fidelity where the screen's grip use (speed over friction) reaches 0.8."""
-    grip = (job.parameters["initial_speed"] / 25.0) * (0.3 / job.backend_settings.road_friction)
+    grip = (job.parameters["initial_speed"] / 25.0) * (0.3 / getattr(job.backend_settings, "road_friction", 1.0))
     failed = job.backend == "mujoco" and grip >= BOUNDARY
     return RunRow(job.id, job.parameters, job.vehicle, "ok", outcome=Outcome.OFF_ROAD if failed else Outcome.GOAL_REACHED,
                   job_time_s={"ideal": 1.8, "dynamic": 0.5, "mujoco": 2.7}[job.backend],
