@@ -16,10 +16,10 @@ from simgap.cli.exit_codes import EXIT_CODES_HELP, exit_on_failures
 from simgap.cli.main import app
 from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.experiment.ray_cluster import ADDRESS_HELP
+from simgap.experiment.search.budget import CONFIRMATION_REPEATS
 from simgap.files import writable_directory
 
 
-CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default (`simgap.experiment.search.follow_up`)
 
 
 @app.command("search", epilog=EXIT_CODES_HELP)

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 from simgap.errors import InputError
 
+CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default, its own included
+
 
 @dataclass(frozen=True)
 class Budget:

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from simgap.experiment.attribution import broken_assumptions, read_explanation
 from simgap.experiment.replay import recorded_scenario, replay_request
-from simgap.experiment.search.budget import Budget
+from simgap.experiment.search.budget import CONFIRMATION_REPEATS, Budget
 from simgap.experiment.search.failure_modes import ProbePlan
 from simgap.experiment.search.ledger import SearchLedger
 from simgap.experiment.search.results import Violation
@@ -35,7 +35,6 @@ from simgap.experiment.search.rows import SearchRow
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record import read_run
 
-CONFIRMATION_REPEATS = 5      # seeds a violation is confirmed over by default, its own included
 
 
 @dataclass(frozen=True)
