@@ -1872,29 +1872,39 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _driver_stopped(child: "Child", how: signal.Signals, wait_s: float) -> tuple[Outcome | None, object, str]:
+    """``how`` sent to ``child`` (a command whose pool runs its work) once a pool worker runs, to the
+    driver alone: (an outcome when the stop went wrong — no worker, one left running, a traceback —
+    else None, the driver's end, its standard error)."""
+    deadline, workers = time.monotonic() + wait_s, []
+    while time.monotonic() < deadline and not workers and _alive(child.popen.pid):
+        time.sleep(0.2)
+        workers = _workers_of(child.popen.pid)
+    if not workers:
+        child.kill()
+        return Outcome(OTHER, "no pool worker started", child.wait().stderr), None, ""
+    time.sleep(1.0)
+    os.kill(child.popen.pid, how)                     # the driver alone
+    p = child.wait(timeout=30)
+    time.sleep(5.0)                                   # an orphan would finish its run and speak by now
+    orphans = [w for w in workers if _alive(w)]
+    for w in orphans:
+        os.kill(w, signal.SIGKILL)
+    text = child.err_file.read_text(errors="replace")
+    if orphans or "Traceback" in text:
+        return Outcome(LOSS if orphans else TRACEBACK, f"{len(orphans)} worker(s) left running; "
+                       f"stderr: {' '.join(text.split())[:100]}", text), p, text
+    return None, p, text
+
+
 def _stopped_experiment_case(how: signal.Signals):
     def run(folder: Path, stock: Stock) -> Outcome:
         (folder / "spec.yaml").write_text(SPEC_TWO_RUNS.replace("{backend: ideal}", "{backend: dynamic}"))
         child = Child(["experiment", "run", folder / "spec.yaml", "--out", folder / "exp", "--workers", "1",
                        "--no-report", "--no-validate"], folder)
-        deadline, workers = time.monotonic() + 60, []
-        while time.monotonic() < deadline and not workers:
-            time.sleep(0.2)
-            workers = _workers_of(child.popen.pid)
-        if not workers:
-            child.kill()
-            return Outcome(OTHER, "no pool worker started", child.wait().stderr)
-        time.sleep(1.0)
-        os.kill(child.popen.pid, how)                     # the driver alone
-        p = child.wait(timeout=30)
-        time.sleep(5.0)                                   # an orphan would finish its run and speak by now
-        orphans = [w for w in workers if _alive(w)]
-        for w in orphans:
-            os.kill(w, signal.SIGKILL)
-        text = child.err_file.read_text(errors="replace")
-        if orphans or "Traceback" in text:
-            return Outcome(LOSS if orphans else TRACEBACK, f"{len(orphans)} worker(s) left running; "
-                           f"stderr: {' '.join(text.split())[:100]}", text)
+        wrong, p, text = _driver_stopped(child, how, 60)
+        if wrong is not None:
+            return wrong
         if how == signal.SIGTERM:
             lines = [line for line in text.splitlines() if line.strip()]
             return expect(p, p.rc not in (0, -15) and len(lines) == 1, f"exit {p.rc}, one line, no worker left",
@@ -1964,31 +1974,16 @@ def _stopped_search_case(how: signal.Signals):
     def run(folder: Path, stock: Stock) -> Outcome:
         (folder / "search.yaml").write_text(SEARCH_FOUR_RUNS)
         child = Child(["search", folder / "search.yaml", "--budget", "4", "--out", folder / "s", "--workers", "1",
-                       "--probe-runs", "0", "--no-report", "--no-validate"], folder)
-        deadline, workers = time.monotonic() + 300, []
-        while time.monotonic() < deadline and not workers and _alive(child.popen.pid):
-            time.sleep(0.2)
-            workers = _workers_of(child.popen.pid)
-        if not workers:
-            child.kill()
-            return Outcome(OTHER, "no pool worker started", child.wait().stderr)
-        time.sleep(1.0)
-        os.kill(child.popen.pid, how)                     # the driver alone
-        p = child.wait(timeout=30)
-        time.sleep(5.0)                                   # an orphan would finish its run and speak by now
-        orphans = [w for w in workers if _alive(w)]
-        for w in orphans:
-            os.kill(w, signal.SIGKILL)
-        text = child.err_file.read_text(errors="replace")
-        if orphans or "Traceback" in text:
-            return Outcome(LOSS if orphans else TRACEBACK, f"{len(orphans)} worker(s) left running; "
-                           f"stderr: {' '.join(text.split())[:100]}", text)
+                       "--no-explain", "--no-report", "--no-validate"], folder)
+        wrong, p, text = _driver_stopped(child, how, 300)
+        if wrong is not None:
+            return wrong
         lines = [line for line in text.splitlines() if line.strip()]
         if how == signal.SIGTERM:
             return expect(p, p.rc == 128 + signal.SIGTERM and len(lines) == 1, f"exit {p.rc}, one line, no worker left",
                           OTHER, f"exit {p.rc}: {' '.join(lines)[:120]}")
         resumed = simgap("search", folder / "search.yaml", "--budget", "4", "--out", folder / "s", "--workers", "1",
-                         "--probe-runs", "0", "--no-report", "--no-validate", cwd=folder, timeout=300)
+                         "--no-explain", "--no-report", "--no-validate", cwd=folder, timeout=300)
         return expect(resumed, resumed.rc in (0, 1), "the worker ended with its driver; the rerun finished the search",
                       LOSS, f"rerun exit {resumed.rc}: {' '.join(resumed.stderr_lines())[:120]}")
     return run
