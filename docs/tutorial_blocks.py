@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Callable
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
@@ -57,7 +58,17 @@ def _env() -> dict[str, str]:
     return env
 
 
-def run_page(page: Path, scratch: Path) -> tuple[str, list[tuple[str, str]]]:
+#: how a block's command runs: (command, folder, environment) -> (what it printed, its exit code)
+Runner = Callable[[str, Path, dict[str, str]], tuple[str, int]]
+
+
+def bash(command: str, cwd: Path, env: dict[str, str]) -> tuple[str, int]:
+    """``command`` run with bash, as a reader runs it."""
+    proc = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+    return proc.stdout + proc.stderr, proc.returncode
+
+
+def run_page(page: Path, scratch: Path, run: Runner = bash) -> tuple[str, list[tuple[str, str]]]:
     """(the page with every block's output as printed now, [(documented, printed)] of each block)."""
     text = page.read_text()
     blocks: list[tuple[str, str]] = []
@@ -71,11 +82,10 @@ def run_page(page: Path, scratch: Path) -> tuple[str, list[tuple[str, str]]]:
         commands = [line[2:] for line in body.splitlines() if line.startswith("$ ")]
         printed = []
         for command in commands:
-            proc = subprocess.run(["bash", "-c", command], cwd=scratch, env=_env(), capture_output=True, text=True,
-                                  timeout=300)
-            output = (proc.stdout + proc.stderr).rstrip()
-            if proc.returncode != 0:
-                output += f"\n[exit {proc.returncode}]"
+            output, code = run(command, scratch, _env())
+            output = output.rstrip()
+            if code != 0:
+                output += f"\n[exit {code}]"
             printed += [f"$ {command}"] + ([output] if output else [])
         new = "\n".join(printed) + "\n"
         blocks.append((body, new))
@@ -84,7 +94,9 @@ def run_page(page: Path, scratch: Path) -> tuple[str, list[tuple[str, str]]]:
     return BLOCK.sub(block, text), blocks
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, run: Runner = bash) -> int:
+    """Run the pages' blocks (``run``: how a command runs; the tests pass one that runs ``simgap``
+    commands in a process forked from a server that has imported simgap, which prints the same)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="write the printed output into the pages")
     parser.add_argument("pages", nargs="*", default=PAGES, help="pages under docs/ (default: all tutorials)")
@@ -95,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         with tempfile.TemporaryDirectory(prefix="simgap-tutorial-") as scratch:
             for folder in LINKED:
                 (Path(scratch) / folder).symlink_to(ROOT / folder)
-            new_text, blocks = run_page(page, Path(scratch))
+            new_text, blocks = run_page(page, Path(scratch), run)
         if args.write:
             page.write_text(new_text)
             print(f"{name}: {len(blocks)} blocks written")

@@ -1,8 +1,8 @@
 """`simgap` as a user runs it, in a process of its own, for the command-line tests: its exit code,
 standard output and error, working directory and environment are its own. Each command is a fork
-of a server process that imported simgap's commands once (and runs nothing itself), not a new
-interpreter that imports them again: about 2 s of CPU saved a command, and the suite runs
-several hundred. The server is started by the first command of a test worker and ends with it.
+of a server process that imported simgap's commands and what a run imports once (and runs nothing
+itself), not a new interpreter that imports them again: 2 to 5 s of CPU saved a command, and the
+suite runs several hundred. The server is started by the first command of a test worker and ends with it.
 
 Why a server and not a fork of the test worker: the worker has run planners in process, and
 GNU OpenMP (frenetix's) does not survive a fork once its threads have run. What a fork cannot
@@ -65,8 +65,10 @@ def _serve() -> None:
     from simgap.cli import main as cli
     import importlib
 
-    for module in sorted(set(cli.COMMANDS.values())):
-        importlib.import_module(f"simgap.cli.{module}")
+    from simgap.experiment.fork_server import RUN_IMPORTS
+
+    for module in [f"simgap.cli.{m}" for m in sorted(set(cli.COMMANDS.values()))] + list(RUN_IMPORTS):
+        importlib.import_module(module)
     for line in sys.stdin:
         request = json.loads(line)
         pid = os.fork()

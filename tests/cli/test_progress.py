@@ -17,6 +17,7 @@ import simgap_command
 
 from drawn_bars import drawn, same_stdout
 from simgap.cli.console import PROGRESS_ENV, ProgressBars, collapsed_notes
+from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, write_scenario
 
@@ -50,7 +51,7 @@ def assert_finished(bars: dict[str, list[re.Match]], phase: str, total: int | No
 def a_run(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("a_run")
     xml = write_scenario(build_scenario("curve", {"radius": 30, "angle": 30}), tmp, preview=False)
-    execute(RunRequest(scenario=xml, backend="ideal"), tmp / "run")
+    execute(RunRequest(scenario=xml, backend="ideal", cosim=CosimSettings(max_time_s=4.0)), tmp / "run")   # 4 s: a short video
     return tmp / "run"
 
 

@@ -5,11 +5,11 @@ attribution names it first and restoring it alone fixes the outcome."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
+import os
 from pathlib import Path
 
 import pytest
+from simgap_command import simgap
 
 from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingProfile, SensingSettings
@@ -19,7 +19,6 @@ from simgap.scenario import build_scenario, write_scenario
 from simgap.report.site import build_report
 from simgap.sim.assumptions import Assumption as A
 
-SIMGAP = [sys.executable, "-m", "simgap"]
 
 
 def test_shapley_shares_add_up_and_are_fair():
@@ -114,7 +113,7 @@ def test_the_sedan_on_an_icy_road_leaves_it_because_of_the_friction(paper_curve,
 
 def test_a_run_in_the_ideal_world_has_nothing_to_explain(paper_curve, tmp_path):
     execute(RunRequest(scenario=paper_curve, criticality=False), tmp_path / "ideal")
-    proc = subprocess.run(SIMGAP + ["explain", str(tmp_path / "ideal")], capture_output=True, text=True, timeout=120)
+    proc = simgap("explain", tmp_path / "ideal")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "nothing to explain" in proc.stderr and "backend" in proc.stderr
 
@@ -122,23 +121,14 @@ def test_a_run_in_the_ideal_world_has_nothing_to_explain(paper_curve, tmp_path):
 @pytest.mark.slow
 def test_run_explain_json_carries_the_explanation_in_its_one_document(paper_curve, tmp_path):
     # the perfect machine but for a late steering: the one assumption it breaks is the actuators
-    proc = subprocess.run(SIMGAP + ["run", str(paper_curve), "--backend", "dynamic", "--max-time", "2",
-                                    "--realism", "ideal", "--knob", "steer_delay=0.2", "--no-validate", "--explain",
-                                    "--json", "--out", str(tmp_path / "r")],
-                          capture_output=True, text=True, timeout=300)
+    proc = simgap("run", paper_curve, "--backend", "dynamic", "--max-time", "2", "--realism", "ideal", "--knob",
+                  "steer_delay=0.2", "--no-validate", "--explain", "--json", "--out", tmp_path / "r")
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     explained = summary["explanation"]
     names = {a["name"] for a in explained["assumptions"]}
     assert names == {"vehicle_dynamics", "actuators"} and explained["runs"] == 2
     assert sum(a["share_m"] for a in explained["assumptions"]) == pytest.approx(explained["gap_m"])
-
-
-def _env() -> dict[str, str]:
-    import os
-
-    return dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2] / "src"), COLUMNS="200",
-                MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
 
 
 def test_an_experiment_explains_its_failed_physical_runs_and_a_resume_keeps_them(tmp_path):
@@ -150,13 +140,12 @@ def test_an_experiment_explains_its_failed_physical_runs_and_a_resume_keeps_them
         "fidelities": [{"backend": "ideal"}, {"backend": "mujoco", "vehicles": ["suv"]}],
         "explain": {"failed": True, "assumptions": ["actuators"]}}))
     out = tmp_path / "exp"
-    command = [sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out), "--workers", "2",
-               "--no-validate", "--no-report"]
-    first = subprocess.run(command, capture_output=True, text=True, timeout=600, env=_env())
+    command = ["experiment", "run", spec, "--out", out, "--workers", "2", "--no-validate", "--no-report"]
+    first = simgap(*command, env=dict(os.environ, COLUMNS="200"), timeout=600)
     assert first.returncode == 0, first.stderr
     assert "1 runs explained (1 now" in first.stdout and "restoring instant actuators alone brings it to the goal" \
         in first.stdout
     (explained,) = [p.parent for p in (out / "runs").rglob("explanation.json")]
     assert read_explanation(explained).assumptions[0].name is A.ACTUATORS
-    again = subprocess.run(command, capture_output=True, text=True, timeout=600, env=_env())
+    again = simgap(*command, env=dict(os.environ, COLUMNS="200"), timeout=600)
     assert "1 runs explained (0 now" in again.stdout                # kept, not explained twice

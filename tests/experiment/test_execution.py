@@ -87,14 +87,14 @@ def test_a_failing_run_is_recorded_with_its_reason_and_the_rest_succeed(tmp_path
 
 def test_a_run_whose_worker_dies_is_recorded_with_the_reason_and_runs_again_on_resume(tmp_path):
     spec = spec_file(tmp_path, fidelities=[{"backend": "mujoco"}],
-                     parameters={"radius": {"values": [20]}, "angle": {"values": [30]}})
+                     parameters={"radius": {"values": [20]}, "angle": {"values": [90]}})
     out = tmp_path / "out"
 
-    def kill_the_worker() -> None:           # the pool's one worker, once the run is under way
+    def kill_the_worker() -> None:           # the pool's one worker, once the run is under way (it takes seconds)
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not (out / "scenarios").exists():
+        while time.monotonic() < deadline and not mp.active_children():
             time.sleep(0.05)
-        time.sleep(2.0)
+        time.sleep(1.0)
         for child in mp.active_children():
             os.kill(child.pid, signal.SIGKILL)
 

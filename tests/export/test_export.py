@@ -8,8 +8,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -23,6 +21,7 @@ from commonroad.scenario.state import InitialState
 
 from drawn_bars import drawn, same_stdout
 from real_like import box_goal, highway, recorded_car, start
+from simgap_command import simgap
 from simgap.record import RunRecord, read_run
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.single_run import RunRequest, execute
@@ -34,8 +33,6 @@ from simgap.export.write import FITTED_TOLERANCE_M, export_road, export_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import map_files, maps_dir, scenario_on_map
-
-SIMGAP = [sys.executable, "-m", "simgap"]
 
 
 def run_of(scenario_xml: Path, out: Path, backend: str = "ideal", **settings) -> Path:
@@ -238,14 +235,13 @@ def test_a_search_exports_one_folder_per_distinct_violation(tmp_path):
     (result,) = run_search(spec, tmp_path / "search", Budget(runs=4), workers=2)
     assert result.distinct >= 1
     env = dict(os.environ, COLUMNS="200", SIMGAP_PROGRESS="always")          # its bars drawn into the captured stderr
-    proc = subprocess.run(SIMGAP + ["export", str(tmp_path / "search"), "--violations", "--out", str(tmp_path / "found")],
-                          capture_output=True, text=True, env=env, timeout=300)
+    proc = simgap("export", tmp_path / "search", "--violations", "--out", tmp_path / "found", env=env)
     assert proc.returncode == 0, proc.stderr
     bars = drawn(proc.stderr)
     assert bars["violations"][-1]["counts"] == f"{result.distinct}/{result.distinct}"
     assert {"fitting roads", "checking against the schema"} <= set(bars) or {"checking lane centres"} <= set(bars)
-    plain = subprocess.run(SIMGAP + ["export", str(tmp_path / "search"), "--violations", "--out", str(tmp_path / "again")],
-                           capture_output=True, text=True, env=env | {"SIMGAP_PROGRESS": "never"}, timeout=300)
+    plain = simgap("export", tmp_path / "search", "--violations", "--out", tmp_path / "again",
+                   env=env | {"SIMGAP_PROGRESS": "never"})
     assert drawn(plain.stderr) == {}
     same_stdout(proc.stdout.replace(str(tmp_path / "found"), "OUT"), plain.stdout.replace(str(tmp_path / "again"), "OUT"))
     folders = sorted(p for p in (tmp_path / "found").iterdir() if not p.name.startswith("."))   # (and the list of them)
@@ -282,8 +278,7 @@ def a_run(tmp_path_factory) -> Path:
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, a_run, args, fragments):
     args = [a.replace("RUN", str(a_run)) if a.startswith("RUN") else str(tmp_path / a) if a == "nowhere" else a
             for a in args]
-    proc = subprocess.run(SIMGAP + ["export", *args, "--out", str(tmp_path / "out")], capture_output=True, text=True,
-                          timeout=300)
+    proc = simgap("export", *args, "--out", tmp_path / "out")
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
     for fragment in fragments:
         assert fragment in proc.stderr, proc.stderr

@@ -30,7 +30,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import multiprocessing as mp
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -43,6 +42,7 @@ import numpy as np
 from simgap.cosim import REFERENCE, History, Outcome
 from simgap.errors import InputError
 from simgap.evaluate.compare import compare_histories
+from simgap.experiment import fork_server
 from simgap.experiment.replay import recorded_scenario, replay_request
 from simgap.files import atomic_write_text
 from simgap.evaluate.closed_loop_score import closed_loop_scores
@@ -57,11 +57,6 @@ from simgap.sim.settings import TrackingSettings, realism_of
 BASE = Assumption.VEHICLE_DYNAMICS
 EXACT_UP_TO = 5          # assumptions restored apart (every one the worlds declare): 2^5 worlds at most
 
-#: what a run imports, some of it only on its first call (the route planner, the ride-comfort
-#: filter, the solution's cost: seconds together), loaded once in the workers' fork server
-FIRST_RUN_IMPORTS = ("simgap.experiment.attribution", "simgap.experiment.single_run", "simgap.planning.frenet", "simgap.sim.mujoco.backend",
-                     "commonroad_route_planner.reference_path_planner", "commonroad_route_planner.route_planner",
-                     "scipy.signal")
 
 #: what breaking an assumption does to the car, and what restoring it gives (the explanation's sentence)
 CAUSE = {Assumption.VEHICLE_DYNAMICS: "its body does not move as the plan's model says",
@@ -298,7 +293,7 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     (default: all); ``keep``: write it into the run directory (`EXPLANATION_FILE`)."""
     started = time.perf_counter()
     if workers > 1:     # the fork server loads what a run imports while this process reads the run
-        _fork_server().ensure_running()
+        fork_server.start()
     run_dir = Path(run_dir)
     record = read_run(run_dir)
     if record.history.backend == REFERENCE:
@@ -346,19 +341,11 @@ def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iter
     if workers <= 1:
         yield from ((i, _run(requests[i])) for i in order)
         return
-    _fork_server().ensure_running()      # (already running when `explain` started it)
-    with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=mp.get_context("forkserver")) as pool:
+    with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=fork_server.context()) as pool:
         futures = {pool.submit(_run, requests[i]): i for i in order}
         for future in as_completed(futures):
             yield futures[future], future.result()
 
-
-def _fork_server() -> Any:
-    """The fork server the workers are forked from, told what to load first."""
-    from multiprocessing import forkserver
-
-    forkserver.set_forkserver_preload(list(FIRST_RUN_IMPORTS))
-    return forkserver
 
 
 def _world(restored: frozenset[Assumption], ran: _Ran, ideal: History, scenario: Any, problems: Any,

@@ -1,7 +1,8 @@
 """Executors: where the runs of an experiment execute.
 
-`LocalExecutor` keeps N worker processes (spawned, so nothing of the parent's threads or state
-leaks into them), hands each one run at a time, and watches them: a worker that dies (a crash,
+`LocalExecutor` keeps N worker processes (forked from `fork_server`, which has loaded what a run
+imports, so nothing of the driver's threads or state leaks into them; each takes the driver's
+environment of the moment), hands each one run at a time, and watches them: a worker that dies (a crash,
 a kill) or overruns the per-run timeout is replaced, and only its run is recorded as failed, with
 the reason. A worker ends with the driver, however the driver ends (a SIGKILL too), and says
 nothing when it finds the driver gone. `RayExecutor` submits the runs to a Ray cluster (a local
@@ -20,7 +21,6 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
-import multiprocessing as mp
 import os
 import signal
 import sys
@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from simgap.errors import machine_failure
+from simgap.experiment import fork_server
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import MACHINE_FAILED, WORKER_DIED
@@ -62,12 +63,14 @@ def _crashed_row(job: Job, exc: BaseException) -> RunRow:
     return failed_row(job, reason if machine is None else f"{MACHINE_FAILED}: {machine} ({reason})")
 
 
-def _worker(conn, driver: int) -> None:
-    """A pool's worker: runs the jobs the driver (process ``driver``) sends, one at a time, and
-    ends with it — killed when the driver dies (Linux), quietly when it finds the driver gone."""
+def _worker(conn, driver: int, where: "_Where") -> None:
+    """A pool's worker: runs the jobs the driver (process ``driver``) sends, one at a time, where
+    the driver runs, and ends with it — killed when the driver dies (Linux), quietly when it finds
+    the driver gone."""
+    _die_with_driver(driver)
+    where.enter()
     from simgap.experiment.worker import execute_job
 
-    _die_with_driver(driver)
     while True:
         try:
             message = conn.recv()
@@ -89,18 +92,44 @@ def _worker(conn, driver: int) -> None:
 
 
 def _die_with_driver(driver: int) -> None:
-    """End this worker when the driver ends however it ends (SIGKILL too): the kernel's parent-death
-    signal on Linux, then a check that the driver did not end before it was set."""
+    """End this worker when the driver ends however it ends (SIGKILL too): its parent is the fork
+    server, which ends with the driver, so the kernel's parent-death signal on Linux; then a check
+    that neither ended before it was set."""
+    parent = os.getppid()
     if _PRCTL is not None:
         _PRCTL(1, signal.SIGKILL)                        # PR_SET_PDEATHSIG
-    if os.getppid() != driver:
+    try:
+        os.kill(driver, 0)
+    except ProcessLookupError:
         os._exit(0)
+    if os.getppid() != parent:
+        os._exit(0)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Where:
+    """What a process started by the driver would take from it and a fork of the fork server (started
+    earlier) does not: the environment, the import path and the working directory of the moment."""
+
+    environment: dict[str, str]
+    path: list[str]
+    cwd: str
+
+    @classmethod
+    def now(cls) -> "_Where":
+        return cls(dict(os.environ), list(sys.path), os.getcwd())
+
+    def enter(self) -> None:
+        os.environ.clear()
+        os.environ.update(self.environment)
+        sys.path[:] = self.path
+        os.chdir(self.cwd)
 
 
 class _Worker:
     def __init__(self, ctx):
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker, args=(child, os.getpid()), daemon=True)
+        self.process = ctx.Process(target=_worker, args=(child, os.getpid(), _Where.now()), daemon=True)
         self.process.start()
         child.close()
         self.job: Job | None = None
@@ -132,7 +161,7 @@ class LocalExecutor:
         self.timeout_s = timeout_s
 
     def run(self, jobs: "list[Job] | JobSource", context: JobContext, on_result: OnResult) -> None:
-        ctx = mp.get_context("spawn")
+        ctx = fork_server.context()
         size = self.workers if callable(jobs) else min(self.workers, len(jobs))
         next_job = _source(jobs)
         pool = [_Worker(ctx) for _ in range(size)]

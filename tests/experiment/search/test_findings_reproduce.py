@@ -6,16 +6,12 @@ from __future__ import annotations
 
 import os
 import shlex
-import subprocess
-import sys
-from pathlib import Path
 
 import yaml
+from simgap_command import simgap
 
 from simgap.experiment.search.results import search_results
 from simgap.record import read_run
-
-ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_every_finding_of_a_short_search_is_probed_explained_and_reproduces_with_its_command(tmp_path, monkeypatch):
@@ -26,12 +22,11 @@ def test_every_finding_of_a_short_search_is_probed_explained_and_reproduces_with
         "knobs": {"steer_delay": {"min": 0.4, "max": 0.45}}, "vehicles": ["suv"],
         "ladder": [{"backend": "ideal"}, {"backend": "dynamic", "cosim": {"latency": 0.0}}],
         "failure": {"goal_missed": True}, "strategies": ["random"]}))
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), COLUMNS="250", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env = dict(os.environ, COLUMNS="250")
     out = tmp_path / "search"
     budget = 8
-    proc = subprocess.run([sys.executable, "-m", "simgap", "search", str(spec), "--budget", str(budget), "--out",
-                           str(out), "--workers", "2", "--repeats", "2", "--no-report", "--no-validate"],
-                          env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    proc = simgap("search", spec, "--budget", budget, "--out", out, "--workers", "2", "--repeats", "2", "--no-report",
+                  "--no-validate", env=env, cwd=tmp_path, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "(not probed)" not in proc.stdout
     (strategy,) = search_results(out).strategies
@@ -54,7 +49,6 @@ def test_every_finding_of_a_short_search_is_probed_explained_and_reproduces_with
     commands = [line.strip() for line in proc.stdout.splitlines() if line.strip().startswith("simgap replay ")]
     assert sorted(commands) == sorted(v.reproduce for v in reported)
     for v in reported:
-        again = subprocess.run([sys.executable, "-m", "simgap", *shlex.split(v.reproduce)[1:]], env=env, cwd=tmp_path,
-                               capture_output=True, text=True, timeout=300)
+        again = simgap(*shlex.split(v.reproduce)[1:], env=env, cwd=tmp_path)
         assert again.returncode == 0, again.stdout + again.stderr
         assert f"reproduced: fingerprint {read_run(v.run_dir).fingerprint}" in again.stdout, again.stdout
