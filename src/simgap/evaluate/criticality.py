@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from itertools import permutations
 from pathlib import Path
 
+import numpy as np
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.driven_scenario import driven_scenario
@@ -49,8 +50,33 @@ def pair_criticality(driven: Scenario, obstacle_ids: dict[int, int], every: int 
     if len(obstacle_ids) < 2:
         return []
     driven.assign_obstacles_to_lanelets()
-    with _quiet():
+    with _quiet(), _lanes_smoothed_once():
         return _pairs(driven, obstacle_ids, every, measures, crime_measures, CriMeConfiguration)
+
+
+@contextmanager
+def _lanes_smoothed_once():
+    """CriMe smooths a lanelet's centre line and borders (a B-spline fit) each time a measure asks for
+    the lane's width and orientation at a position: at every step, for every measure and pair, the
+    same three polylines again (five sixths of a pair's time). The fit depends on the polyline
+    alone: kept here for the duration of a call, each copied out, so every value is what it was."""
+    from commonroad_crime.utility import solver
+
+    smooth = solver.smoothing_reference_path
+    fitted: dict[tuple, np.ndarray] = {}
+
+    def once(reference_path, smooth_factor=None, weight_coefficient=None):
+        path = np.asarray(reference_path)
+        key = (path.shape, path.dtype.str, path.tobytes(), smooth_factor, weight_coefficient)
+        if key not in fitted:
+            fitted[key] = smooth(reference_path, smooth_factor, weight_coefficient)
+        return fitted[key].copy()
+
+    solver.smoothing_reference_path = once
+    try:
+        yield
+    finally:
+        solver.smoothing_reference_path = smooth
 
 
 @contextmanager
