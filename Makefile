@@ -64,13 +64,14 @@ planner-toolchain:
 # the two virtual environments installed side by side (apt's installs one after the other), then
 # the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
 # then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
-# (tests/conftest.py groups by file), the tutorial pages each on whichever worker is free
+# (tests/conftest.py: work_unit), the tutorial pages each on whichever worker is free; a worker that
+# dies ends the suite naming its test (a replaced one can leave xdist waiting forever: pytest-xdist#1378)
 test:
 	$(MAKE) -j2 $(STAMP) $(QC)
 	$(MAKE) $(MAPS) browser planner-toolchain
 	$(BIN)/ruff check .
 	PYTHONPATH=src $(BIN)/lint-imports
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadgroup --durations=15
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --max-worker-restart=0 --durations=15
 
 lock:
 	$(PYTHON) -m venv /tmp/simgap-lock && /tmp/simgap-lock/bin/pip install --quiet -e planner-protocol/python -e '.[test,beamng,docs]' \

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
+from xdist.scheduler import LoadScopeScheduling
 
 
 @pytest.fixture(autouse=True, scope="session")
@@ -20,16 +21,19 @@ def _solution_check_cache(tmp_path_factory):
         os.environ["SIMGAP_CACHE_DIR"] = before
 
 
-#: the groups that take longest (each tens of seconds on two cores: searches, the tutorial pages
+#: tests each of which may run on any worker, not with the rest of their file: the tutorial pages,
+#: each a study of its own (tens of seconds)
+SPREAD = ("tests/docs/test_docs_site.py::test_the_tutorials_print_what_the_page_shows",)
+
+#: the work units that take longest (each tens of seconds on two cores: searches, the tutorial pages
 #: that run studies), handed out first, so that no worker is left alone with one of them at the end
-#: while the other has nothing left to do. Not the Ray cluster's: beside the heaviest searches its
-#: Ray Client session was once cleaned up under the driver (a reconnect refused), alone it passes
+#: while the other has nothing left to do; a prefix of a unit's name
 LONGEST_FIRST = (
     "tests/experiment/search/test_findings_reproduce.py",
     "tests/experiment/search/test_search_runs.py",
-    "tutorial tutorials/scenarios-and-runs.md",
-    "tutorial tutorials/search.md",
-    "tutorial tutorials/experiments.md",
+    f"{SPREAD[0]}[tutorials/scenarios-and-runs.md]",
+    f"{SPREAD[0]}[tutorials/search.md]",
+    f"{SPREAD[0]}[tutorials/experiments.md]",
     "tests/cli/test_commands.py",
     "tests/experiment/test_attribution.py",
     "tests/docs/test_docs_site.py",
@@ -37,14 +41,30 @@ LONGEST_FIRST = (
 )
 
 
+def work_unit(nodeid: str) -> str:
+    """What runs on one worker under ``--dist loadfile`` (`make test`): a test file, so that its
+    module fixtures (a Ray cluster, a study) are built once, on one worker; a test of `SPREAD` alone."""
+    return nodeid if nodeid.split("[", 1)[0] in SPREAD else nodeid.split("::", 1)[0]
+
+
+def _rank(nodeid: str) -> int:
+    unit = work_unit(nodeid)
+    return next((k for k, longest in enumerate(LONGEST_FIRST) if unit.startswith(longest)), len(LONGEST_FIRST))
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Under ``--dist loadgroup`` (`make test`) a test file's tests run on one worker, so that its
-    module fixtures are built once, as ``--dist loadfile`` would; a test marked with a group of its
-    own (``xdist_group``: the tutorial pages) goes to whichever worker is free. The longest groups
-    come first (`LONGEST_FIRST`), the others in their files' order."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
-    rank = {group: k for k, group in enumerate(LONGEST_FIRST)}
-    items.sort(key=lambda item: rank.get(item.get_closest_marker("xdist_group").args[0], len(rank)))
+    """The longest work units first (`LONGEST_FIRST`), the others in their files' order."""
+    items.sort(key=lambda item: _rank(item.nodeid))
+
+
+class _FileScheduling(LoadScopeScheduling):
+    """xdist's ``loadfile`` with `work_unit` as the unit (xdist's ``loadgroup`` marks units by a
+    suffix of the test's id, which pytest 9.2 no longer lets a plugin change)."""
+
+    def _split_scope(self, nodeid: str) -> str:
+        return work_unit(nodeid)
+
+
+def pytest_xdist_make_scheduler(config, log):
+    return _FileScheduling(config, log) if config.getvalue("dist") == "loadfile" else None

@@ -217,8 +217,7 @@ def test_every_tutorial_runs_commands():
 TUTORIAL_PAGES = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py").PAGES
 
 
-@pytest.mark.parametrize("page", [pytest.param(p, marks=pytest.mark.xdist_group(f"tutorial {p}"))
-                                  for p in TUTORIAL_PAGES])
+@pytest.mark.parametrize("page", TUTORIAL_PAGES)
 def test_the_tutorials_print_what_the_page_shows(page):
     blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
 
