@@ -20,8 +20,8 @@ import re
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent

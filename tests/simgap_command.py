@@ -62,9 +62,9 @@ def _line(server: subprocess.Popen, timeout: float) -> str:
 
 def _serve() -> None:
     """Read a request a line, fork its command, answer its process id, then its exit code."""
-    from simgap.cli import main as cli
     import importlib
 
+    from simgap.cli import main as cli
     from simgap.experiment.fork_server import RUN_IMPORTS
 
     for module in [f"simgap.cli.{m}" for m in sorted(set(cli.COMMANDS.values()))] + list(RUN_IMPORTS):

@@ -33,8 +33,9 @@ import statistics
 import tempfile
 import time
 from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from simgap.cosim import Outcome
 from simgap.evaluate.compare import compare_histories
@@ -83,7 +84,7 @@ def own_runs(curves: list[dict[str, Any]], vehicles: list[str], folder: Path, un
     settings = {v.vehicle: v.settings for variants in experiment.variants for v in variants
                 if v.fidelity.backend == "mujoco"}
     for parameters in curves:
-        if until is not None and dt.datetime.now(dt.timezone.utc) >= until:
+        if until is not None and dt.datetime.now(dt.UTC) >= until:
             return
         curve = f"r={parameters['radius']:g} {parameters['angle']:g}°"
         ran.append(curve)
@@ -140,7 +141,7 @@ def main() -> None:
     until = None
     if args.until:
         hour, minute = (int(x) for x in args.until.split(":"))
-        until = dt.datetime.now(dt.timezone.utc).replace(hour=hour, minute=minute, second=0, microsecond=0)
+        until = dt.datetime.now(dt.UTC).replace(hour=hour, minute=minute, second=0, microsecond=0)
     if args.grid:
         curves = grid(args.angles)
     elif args.curves:

@@ -39,9 +39,9 @@ from shapely.geometry import LineString
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.export import checks, quality_checker, road_topology
 from simgap.export.write import Export, export_road, export_run
+from simgap.files import BenchmarkResults
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.real_maps import load_map, map_files, maps_dir
-from simgap.files import BenchmarkResults
 
 RESULTS = Path(__file__).resolve().parents[1] / "results" / "export.json"
 GENERATED = (("curve", {"radius": 10, "angle": 90, "transition": 5}), ("s-curve", {}), ("t-junction", {"agents": 3}),

@@ -38,9 +38,9 @@ import yaml
 from shapely.geometry import LineString, MultiLineString
 
 from simgap.export.write import export_road
+from simgap.files import BenchmarkResults
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
-from simgap.files import BenchmarkResults
 
 ROADS = Path(__file__).resolve().parents[2] / "tests" / "scenario" / "opendrive_roads"
 GENERATED = [("curve", {"radius": 20, "angle": 90}), ("curve", {"radius": 30, "angle": -60, "transition": 10,
@@ -131,7 +131,7 @@ def main() -> None:
     print(f"{'road':<52} {'import [s]':>10} {'lanelets':>8} {'succ (across)':>13} {'nbrs':>5} {'links kept':>10} "
           f"{'ideal':>12} {'mujoco':>12} {'export [s]':>10} {'read back [m]':>13}")
     for r in rows:
-        def world(b):
+        def world(b, r=r):
             if b not in r:
                 return "—"
             reached = r[b]["time_to_goal_s"]

@@ -18,9 +18,9 @@ from pathlib import Path
 import yaml
 
 from simgap.experiment.runner import run_experiment
+from simgap.files import BenchmarkResults
 from simgap.report.collection import collect
 from simgap.report.site import build_report
-from simgap.files import BenchmarkResults
 
 RADII = [10, 20, 30, 50, 75, 100]
 ANGLES = [0, 30, 60, 90, 120, 150, 180]

@@ -24,9 +24,9 @@ import mujoco
 from simgap.cosim import CosimSettings
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.files import BenchmarkResults
 from simgap.scenario import build_scenario, load_scenario, read_sidecar, write_scenario
 from simgap.vehicles import vehicle_names
-from simgap.files import BenchmarkResults
 
 
 def main() -> None:

@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from simgap.cosim import CosimSettings, History
-from simgap.scenario.road_frame import PathFrame
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.scenario import load_scenario
 from simgap.files import BenchmarkResults
+from simgap.scenario import load_scenario
+from simgap.scenario.road_frame import PathFrame
 
 
 def generate(logical: str, out: Path, **params) -> list[Path]:

@@ -15,8 +15,8 @@ import statistics
 from collections import defaultdict
 from pathlib import Path
 
-from simgap.report.collection import collect
 from simgap.files import BenchmarkResults
+from simgap.report.collection import collect
 
 
 def gaps(study: Path) -> dict[str, dict[tuple[float, float], float]]:

@@ -16,8 +16,8 @@ from pathlib import Path
 
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.store import ResultsStore
-from simgap.report.scores import store_score_rows as score_table
 from simgap.files import BenchmarkResults
+from simgap.report.scores import store_score_rows as score_table
 from simgap.report.time_budget import budget_lines, store_budget
 
 # MultiDrive's Table I (seconds per run): low fidelity (CommonRoad + Frenetix) and high

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from simgap.cosim import Outcome
-from simgap.report.collection import collect
 from simgap.files import BenchmarkResults
+from simgap.report.collection import collect
 
 
 def gaps(root: Path) -> dict[str, dict]:

@@ -20,10 +20,10 @@ import numpy as np
 
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.files import BenchmarkResults
 from simgap.scenario import build_scenario
 from simgap.scenario.files import load_scenario, write_scenario
 from simgap.vehicles import vehicle_names
-from simgap.files import BenchmarkResults
 
 
 def main() -> None:

@@ -38,6 +38,7 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+
 from simgap.files import BenchmarkResults
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -36,8 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from simgap.cosim import simulate
-from simgap.experiment.store import ResultsStore
 from simgap.cosim.agents import agents_from_problems
+from simgap.experiment.store import ResultsStore
+from simgap.files import BenchmarkResults
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.registry import load_planner
@@ -48,7 +49,6 @@ from simgap.scenario.files import write_scenario
 from simgap.sim.registry import make_backend
 from simgap.trajectory import Trajectory
 from simgap.vehicles import load_vehicle
-from simgap.files import BenchmarkResults
 
 REPO = Path(__file__).resolve().parents[2]
 SERVERS = REPO / "tests" / "protocol" / "servers.py"

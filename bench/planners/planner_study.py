@@ -24,21 +24,20 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from simgap.files import BenchmarkResults
 from simgap.cosim import CosimSettings, History, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate import EvaluationSettings
-from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.compare import compare_histories
 from simgap.evaluate.run_evaluation import EvaluationContext, RunEvaluation, evaluate, with_validity
+from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.validity import SolutionCheckCache
+from simgap.files import BenchmarkResults
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import load_planner
 from simgap.scenario import build_scenario
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
-
 
 PLANNERS = ("frenet", "reactive", "idm")        # built-in names (simgap.planning.registry), default settings
 SCENARIOS = {

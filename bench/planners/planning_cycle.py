@@ -22,20 +22,19 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 from commonroad.scenario.state import CustomState
 
 import simgap.planning.frenet_evaluation as frenet_evaluation
+from simgap.files import BenchmarkResults
 from simgap.planning.frenet import PHASES, FrenetPlanner
-from simgap.planning.protocol import PlannerSetup
-from simgap.planning.protocol import World
+from simgap.planning.protocol import PlannerSetup, World
 from simgap.planning.settings import FrenetSettings
 from simgap.scenario import build_scenario
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle
-from pathlib import Path
-from simgap.files import BenchmarkResults
 
 
 def curve_scenario(radius: float, angle: float):

@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import yaml
+
 from simgap.files import BenchmarkResults
 
 MANIFEST = Path(__file__).with_name("recorded_corpus.yaml")
@@ -66,9 +67,9 @@ def start_conflicts(xml: Path) -> dict[int, str]:
     from simgap.cosim import CosimSettings
     from simgap.cosim.agents import agents_from_problems
     from simgap.cosim.traffic import ReplayedTraffic
-    from simgap.scenario.road_frame import DrivableArea, footprint
     from simgap.scenario import load_scenario
     from simgap.scenario.obstacles import without_recorded_egos
+    from simgap.scenario.road_frame import DrivableArea, footprint
     from simgap.vehicles import load_vehicle
 
     scenario, problems = load_scenario(xml)

@@ -24,9 +24,9 @@ from pathlib import Path
 from simgap.cosim import CosimSettings
 from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.files import BenchmarkResults
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import MAPS_PACKAGE, map_files, maps_dir, scenario_on_map
-from simgap.files import BenchmarkResults
 
 
 def corpus(folder: Path, per_map: int, limit: int | None, only: set[str] | None = None) -> list[Path]:

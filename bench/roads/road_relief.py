@@ -46,6 +46,7 @@ from scipy.optimize import minimize_scalar
 
 from simgap.control import LongitudinalMap, make_controller, manoeuvres
 from simgap.control.protocol import Command
+from simgap.files import BenchmarkResults
 from simgap.scenario.geometry import Arc, Straight, centre_line
 from simgap.scenario.relief import BankKnot, ElevationProfile, ReliefProfile, RoadRelief, VerticalCurve
 from simgap.sim.dynamic import track_plans
@@ -53,7 +54,6 @@ from simgap.sim.mujoco.plant import AGENT, MujocoPlant
 from simgap.trajectory import State
 from simgap.vehicles import Vehicle, load_vehicle
 from simgap.vehicles.constants import GRAVITY
-from simgap.files import BenchmarkResults
 
 PERIOD = 0.01                   # s, drivers
 PHYSICS_STEP = 0.002            # s, the plant's physics step (500 Hz)

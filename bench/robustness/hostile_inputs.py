@@ -48,10 +48,11 @@ import textwrap
 import threading
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable, Iterator
+
 from simgap.files import BenchmarkResults
 
 REPO = Path(__file__).resolve().parents[2]
@@ -578,7 +579,7 @@ SPEC_CASES = [  # name, item, experiment spec YAML, what the refusal should name
                                                     "sampler: {kind: random, samples: 100000}"), ("samples",)),
     ("spec-grid-40000", 8, SPEC_TWO_RUNS.replace(
         "{radius: {values: [50, 100]}, angle: {values: [30]}}",
-        "{radius: {values: [%s]}, angle: {values: [%s]}}" % (", ".join(str(10 + i * 0.4) for i in range(200)),
+        "{{radius: {{values: [{}]}}, angle: {{values: [{}]}}}}".format(", ".join(str(10 + i * 0.4) for i in range(200)),
                                                               ", ".join(str(-80 + i * 0.8) for i in range(200)))),
      ()),
     ("spec-run-timeout-inf", 4, SPEC_TWO_RUNS + "run_timeout_s: .inf\n", ("run_timeout_s",)),
@@ -941,7 +942,7 @@ def tmpfs(path: Path, options: str) -> Iterator[bool]:
 def _disk_case(options: str, command: Callable[[Path, Stock, Path], list], fragment: str):
     def run(folder: Path, stock: Stock) -> Outcome:
         disk = folder / "disk"
-        stock.scenario, stock.run                                       # built before the mount
+        _ = stock.scenario, stock.run                                   # built before the mount
         with tmpfs(disk, options) as mounted:
             if not mounted:
                 return Outcome(SKIPPED, "cannot mount a tmpfs here")
@@ -1067,7 +1068,7 @@ case("vehicle-file-alias-bomb", 8)(_bomb_case("--vehicle"))
 def _(folder: Path, stock: Stock) -> Outcome:
     text = stock.scenario.read_text()
     entities = '<!DOCTYPE commonRoad [<!ENTITY l0 "lol">' + "".join(
-        f'<!ENTITY l{i} "{("&l%d;" % (i - 1)) * 10}">' for i in range(1, 10)) + "]>"
+        f'<!ENTITY l{i} "{f"&l{i - 1};" * 10}">' for i in range(1, 10)) + "]>"
     text = text.replace("?>", "?>" + entities, 1).replace("<scenarioTags/>", "<scenarioTags/><!-- &l9; -->", 1)
     text = text.replace('author="simgap"', 'author="&l9;"', 1)
     (folder / "laughs.xml").write_text(text)
@@ -1872,7 +1873,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def _driver_stopped(child: "Child", how: signal.Signals, wait_s: float) -> tuple[Outcome | None, object, str]:
+def _driver_stopped(child: Child, how: signal.Signals, wait_s: float) -> tuple[Outcome | None, object, str]:
     """``how`` sent to ``child`` (a command whose pool runs its work) once a pool worker runs, to the
     driver alone: (an outcome when the stop went wrong — no worker, one left running, a traceback —
     else None, the driver's end, its standard error)."""

@@ -20,10 +20,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from commonroad.common.util import Interval
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
-from commonroad.common.util import Interval
 from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
@@ -34,13 +34,13 @@ from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from simgap.cosim import CosimSettings
 from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.closed_loop_score import closed_loop_scores
-from simgap.evaluate.solution import (cost_function_of, run_solution, solution_costs, vehicle_type_of)
+from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, vehicle_type_of
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.experiment.single_run import RunRequest, execute
+from simgap.files import BenchmarkResults
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.vehicles import load_vehicle
-from simgap.files import BenchmarkResults
 
 DT = 0.1
 LANE = 3.5

@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 from simgap.control import controller_names, make_controller, manoeuvres
+from simgap.files import BenchmarkResults
 from simgap.sim.dynamic import SingleTrackPlant, track_plans
 from simgap.vehicles import load_vehicle
-from pathlib import Path
-from simgap.files import BenchmarkResults
 
 
 def main() -> None:
@@ -67,7 +67,7 @@ def main() -> None:
                                          overrides=overrides or None)
             plant = SingleTrackPlant(vehicle)
             start = time.perf_counter()
-            states = track_plans(plant, controller, lambda t, s: man.plan(t, args.horizon),
+            states = track_plans(plant, controller, lambda t, s, man=man: man.plan(t, args.horizon),
                                  man.initial_state(), man.duration)
             wall = time.perf_counter() - start
             t = np.array([s.t for s in states])

@@ -18,19 +18,19 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from simgap.control import controller_names, make_controller, manoeuvres
+from simgap.files import BenchmarkResults
 from simgap.sim.dynamic import track_plans
 from simgap.sim.mujoco import MujocoBackend
-from simgap.sim.mujoco.settings import MujocoSettings
 from simgap.sim.mujoco.plant import MujocoPlant, proving_ground
+from simgap.sim.mujoco.settings import MujocoSettings
 from simgap.sim.protocol import Agent, PhysicsDiverged
 from simgap.vehicles import load_vehicle, vehicle_names
-from pathlib import Path
-from simgap.files import BenchmarkResults
 
 RADIUS = 50.0
 

@@ -27,6 +27,7 @@ from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.errors import frenet_tracking_errors
 from simgap.evaluate.route_centre import route_centre
+from simgap.files import BenchmarkResults
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
@@ -35,7 +36,6 @@ from simgap.sim.registry import backend_settings, make_backend
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle, vehicle_names
 from simgap.vehicles.actuators import ActuatorResponses
-from simgap.files import BenchmarkResults
 
 STEP_PERIOD = 0.001
 CAR_PERIOD = 0.01       # the controllers' period

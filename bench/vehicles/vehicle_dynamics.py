@@ -56,17 +56,17 @@ import json
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
-from simgap.files import BenchmarkResults
-from simgap.sim.multibody import MultiBodyPlant, sideslip
 from simgap.control import LongitudinalMap, controller_names, make_controller, manoeuvres  # noqa: E402
 from simgap.control.protocol import Command  # noqa: E402
+from simgap.files import BenchmarkResults
 from simgap.sim.dynamic import track_plans  # noqa: E402
 from simgap.sim.mujoco.plant import AGENT, MujocoPlant  # noqa: E402
+from simgap.sim.multibody import MultiBodyPlant, sideslip
 from simgap.sim.protocol import PhysicsDiverged  # noqa: E402
 from simgap.trajectory import State  # noqa: E402
 from simgap.vehicles import Vehicle, load_vehicle, vehicle_names  # noqa: E402

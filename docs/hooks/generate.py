@@ -23,8 +23,8 @@ import importlib
 import importlib.util
 import re
 import types
-import warnings
 import typing
+import warnings
 from pathlib import Path
 from typing import Any
 

@@ -41,7 +41,7 @@ from copy import deepcopy
 from pathlib import Path
 
 import numpy as np
-from omegaconf import OmegaConf
+import simgap_planner
 from commonroad.common.file_reader import CommonRoadFileReader
 from commonroad.geometry.shape import Rectangle
 from commonroad.prediction.prediction import TrajectoryPrediction
@@ -51,8 +51,7 @@ from commonroad.scenario.trajectory import Trajectory as CRTrajectory
 from cr_scenario_handler.planner_interfaces.frenet_interface import FrenetPlannerInterface
 from cr_scenario_handler.utils.configuration import FrenetConfiguration, SimConfiguration
 from frenetix_motion_planner.state import ReactivePlannerState
-
-import simgap_planner
+from omegaconf import OmegaConf
 
 START_MODES = ("observed", "planned")
 PREDICTION_VARIANCE = 0.1       # m^2 on the diagonal, as Frenetix's ground-truth predictions

@@ -16,7 +16,6 @@ slower when a road user ahead on the route is closer than two seconds at that sp
 """
 
 import numpy as np
-
 from simgap_planner import Trajectory, serve
 
 HORIZON_S = 3.0

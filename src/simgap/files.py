@@ -11,9 +11,11 @@ import os
 import shutil
 import tempfile
 import uuid
+from collections.abc import Callable, Hashable, Iterator
 from contextlib import contextmanager
+from datetime import UTC
 from pathlib import Path
-from typing import Any, Callable, Hashable, Iterator, TypeVar
+from typing import Any, TypeVar
 
 import yaml
 from pydantic import BaseModel
@@ -311,7 +313,7 @@ class BenchmarkResults:
         import shlex
         import subprocess
         import time
-        from datetime import datetime, timezone
+        from datetime import datetime
 
         def git(*args: str) -> subprocess.CompletedProcess:
             return subprocess.run(["git", *args], capture_output=True, text=True, cwd=Path(self._argv[0]).parent
@@ -326,7 +328,7 @@ class BenchmarkResults:
             script = script.resolve().relative_to(Path.cwd())
         except ValueError:
             pass
-        return {"commit": commit, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        return {"commit": commit, "date": datetime.now(UTC).isoformat(timespec="seconds"),
                 "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, {platform.system()} {platform.release()}, "
                            f"Python {platform.python_version()}",
                 "load": {"start": round(self._load_before, 2), "end": round(os.getloadavg()[0], 2),

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -58,7 +59,7 @@ class State:
     def position(self) -> np.ndarray:
         return np.array([self.x, self.y])
 
-    def replace(self, **changes: float) -> "State":
+    def replace(self, **changes: float) -> State:
         return dataclasses.replace(self, **changes)
 
     def as_tuple(self) -> tuple[float, ...]:
@@ -102,7 +103,7 @@ class Trajectory:
         self._data = data
 
     @classmethod
-    def from_states(cls, states: Sequence[State], dt: float) -> "Trajectory":
+    def from_states(cls, states: Sequence[State], dt: float) -> Trajectory:
         return cls(dt, **{f: [getattr(s, f) for s in states] for f in STATE_FIELDS})
 
     __getattr__ = _column
@@ -188,7 +189,7 @@ class ControlTrace:
     def __repr__(self) -> str:
         return f"ControlTrace(n={len(self)})"
 
-    def until(self, t: float) -> "ControlTrace":
+    def until(self, t: float) -> ControlTrace:
         """The ticks up to ``t`` (inclusive)."""
         keep = self._data["t"] <= t + 1e-9
         return ControlTrace(**{f: a[keep] for f, a in self._data.items()})

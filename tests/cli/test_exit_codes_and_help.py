@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 import simgap_command
-from typer.main import get_command
 from click.testing import CliRunner
+from typer.main import get_command
 
 from simgap.cli.exit_codes import ExitCode
 from simgap.cli.main import _register, app

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from simgap.scenario import build_scenario, write_scenario
 from simgap.record import read_run
+from simgap.scenario import build_scenario, write_scenario
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "time_gap_planner"
 PLANNER_FILE = EXAMPLE / "time_gap_planner" / "planner.py"

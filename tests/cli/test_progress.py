@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 import simgap_command
-
 from drawn_bars import drawn, same_stdout
+
 from simgap.cli.console import PROGRESS_ENV, ProgressBars, collapsed_notes
 from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute

@@ -17,7 +17,6 @@ from simgap.errors import InputError
 from simgap.scenario import load_logical, write_scenario
 
 
-
 def simgap(*args) -> subprocess.CompletedProcess:
     return simgap_command.simgap(*args, env=dict(os.environ, COLUMNS="200"))
 

@@ -11,8 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simgap.control import controller_names, make_controller
-from simgap.control import manoeuvres
+from simgap.control import controller_names, make_controller, manoeuvres
 from simgap.sim.dynamic import SingleTrackPlant, track_plans
 from simgap.trajectory import State, Trajectory
 

@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
+
+from evaluated import recorded
 
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
@@ -14,7 +16,6 @@ from simgap.scenario.ground import ground_of
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
-from evaluated import recorded
 
 
 def drive(concrete, backend: str, settings: dict | None = None, cosim: dict | None = None, seed: int = 0,

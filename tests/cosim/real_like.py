@@ -16,6 +16,7 @@ from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
+from evaluated import recorded
 
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
@@ -23,7 +24,6 @@ from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
-from evaluated import recorded
 
 DT = 0.1
 LANE = 3.5

@@ -10,8 +10,8 @@ import pickle
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from concrete_runs import drive
+
 from simgap.errors import InputError
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.timeline import agent_timeline

@@ -9,6 +9,7 @@ from commonroad.prediction.prediction import TrajectoryPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.state import CustomState, InitialState
 from commonroad.scenario.trajectory import Trajectory as CRTrajectory
+from evaluated import recorded
 
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
@@ -17,7 +18,6 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
-from evaluated import recorded
 
 
 def run_ideal(concrete, replan_every=1):

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-
 from real_like import DT, highway, recorded_car
+
 from simgap.cosim.idm import IdmTraffic
 from simgap.planning.protocol import TrafficParticipant
 from simgap.trajectory import State, Trajectory

@@ -16,11 +16,11 @@ from commonroad.planning.planning_problem import PlanningProblem, PlanningProble
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import CustomState, InitialState
-
 from evaluated import recorded
+
 from simgap.cosim import CosimSettings, EventKind, Outcome, simulate
-from simgap.record import read_run, write_run
 from simgap.cosim.agents import agents_from_problems
+from simgap.record import read_run, write_run
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.relief import ElevationProfile, ReliefProfile, RoadRelief
 from simgap.scenario.road_frame import footprint

@@ -12,8 +12,8 @@ from commonroad.planning.goal import GoalRegion
 from commonroad.prediction.prediction import Occupancy, SetBasedPrediction
 from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType, StaticObstacle
 from commonroad.scenario.state import CustomState, InitialState
-
 from real_like import DT, box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
+
 from simgap.cosim import CosimSettings
 from simgap.errors import InputError
 

@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 import pytest
-
 from concrete_runs import drive as drive_concrete
+
 from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import PROFILES, Localisation, SensingProfile, SensingSettings
 from simgap.scenario import build_scenario

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.state import InitialState
-
 from real_like import box_goal, highway, lane_y, lanelet_goal, recorded_car, run_ego, start
+
 from simgap.cosim import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.record import read_run

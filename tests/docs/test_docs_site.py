@@ -72,7 +72,7 @@ def test_every_documented_default_is_the_codes(site):
                 assert name in rows, f"{page}: {target} field {name} is not documented"
                 assert rows[name] == expected, f"{page}: {name} documented as {rows[name]!r}, the code's is {expected!r}"
     backends = (site / "reference/backend-settings.html").read_text()
-    for name, target in generate.BACKEND_MODELS.items():
+    for name in generate.BACKEND_MODELS:
         assert f"<code>{name}</code>" in backends
     from simgap.sim.registry import BACKENDS
     assert set(BACKENDS) <= set(generate.BACKEND_MODELS)

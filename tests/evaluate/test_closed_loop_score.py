@@ -8,21 +8,27 @@ import math
 import numpy as np
 import pytest
 from commonroad.scenario.traffic_sign import TrafficSign, TrafficSignElement, TrafficSignIDZamunda
+from cosim.real_like import highway, lane_y
 
 from simgap.cosim.history import Outcome
-from simgap.evaluate.run_evaluation import AgentEvaluation
-from simgap.evaluate.settings import ComfortBounds, ScoreSettings, ScoreWeights
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
-from simgap.evaluate.closed_loop_score import (collision_multiplier, combine, direction_multiplier,
-                                               drivable_area_multiplier, progress_ratio,
-                                               speed_limit_compliance, worst_wrong_way)
+from simgap.evaluate.closed_loop_score import (
+    collision_multiplier,
+    combine,
+    direction_multiplier,
+    drivable_area_multiplier,
+    progress_ratio,
+    speed_limit_compliance,
+    worst_wrong_way,
+)
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
-from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.road_users import RoadUser, RoadUserKind
+from simgap.evaluate.run_evaluation import AgentEvaluation
+from simgap.evaluate.score_drop import score_drop
+from simgap.evaluate.settings import ComfortBounds, ScoreSettings, ScoreWeights
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.trajectory import State, Trajectory
-from cosim.real_like import highway, lane_y
 
 DT = 0.1
 SETTINGS = ScoreSettings()

@@ -7,8 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from simgap.evaluate.errors import (Aggregate, comfort, frenet_tracking_errors, lateral_displacement_by_s,
-                                    time_aligned_errors, tracking_errors)
+from simgap.evaluate.errors import (
+    Aggregate,
+    comfort,
+    frenet_tracking_errors,
+    lateral_displacement_by_s,
+    time_aligned_errors,
+    tracking_errors,
+)
 from simgap.scenario.road_frame import PathFrame
 from simgap.trajectory import Trajectory
 

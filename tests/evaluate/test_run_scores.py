@@ -14,8 +14,8 @@ from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.state import CustomState
-
 from cosim.real_like import DT, box_goal, highway, recorded_car, start
+
 from simgap.cosim import CosimSettings, Outcome, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.closed_loop_score import closed_loop_scores

@@ -20,10 +20,9 @@ from commonroad.scenario.obstacle import DynamicObstacle, ObstacleType
 from commonroad.scenario.state import InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 from commonroad_dc.costs.evaluation import CostFunctionEvaluator
-
 from cosim.real_like import DT, box_goal, highway, lane_y, recorded_car, start
+
 from simgap.cosim import AgentHistory, History, Outcome
-from simgap.sim.protocol import Realism
 from simgap.evaluate.settings import CostFunctionId
 from simgap.evaluate.solution import cost_function_of, run_solution, solution_costs, solution_xml
 from simgap.evaluate.solution_check import SolutionCheck, check_solution
@@ -31,6 +30,7 @@ from simgap.evaluate.validity import SolutionCheckCache, checked_solution
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, load_scenario, write_scenario
 from simgap.scenario.files import write_xml
+from simgap.sim.protocol import Realism
 from simgap.trajectory import Trajectory
 from simgap.vehicles import load_vehicle
 

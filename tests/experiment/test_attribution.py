@@ -15,10 +15,9 @@ from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingProfile, SensingSettings
 from simgap.experiment.attribution import counterfactual, explain, read_explanation, shapley
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.scenario import build_scenario, write_scenario
 from simgap.report.site import build_report
+from simgap.scenario import build_scenario, write_scenario
 from simgap.sim.assumptions import Assumption as A
-
 
 
 def test_shapley_shares_add_up_and_are_fair():

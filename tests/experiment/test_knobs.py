@@ -6,12 +6,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 from cosim.concrete_runs import drive as drive_concrete
+
 from simgap.experiment.knobs import KNOBS, apply_knobs
 from simgap.scenario import build_scenario
 from simgap.vehicles import load_vehicle
-
 
 PERFECT_MACHINE = {"realism": "ideal"}     # each knob is measured against a car that has no other defect
 

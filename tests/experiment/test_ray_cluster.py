@@ -20,12 +20,12 @@ import pytest
 import yaml
 
 import simgap
-from simgap.record import read_run
 from simgap.errors import InputError
 from simgap.experiment.ray_cluster import NodeSoftware, check_nodes, connection_error, disconnect
 from simgap.experiment.runner import experiment_status, run_experiment
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.store import ResultsStore
+from simgap.record import read_run
 
 pytestmark = pytest.mark.cluster
 
@@ -163,7 +163,7 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     rows = store_rows(out)
     assert sorted(rows) == sorted(local)
     assert {k: r["fingerprint"] for k, r in rows.items()} == {k: r["fingerprint"] for k, r in local.items()}
-    for key, row in rows.items():                       # the run directories came back to the driver
+    for row in rows.values():                           # the run directories came back to the driver
         record = read_run(out / row["run_dir"])
         assert record.fingerprint == row["fingerprint"]
         assert Path(record.settings.scenario_path).parent == out / "scenarios"

@@ -9,8 +9,7 @@ import pytest
 
 from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.scenario import build_scenario, write_scenario
-from simgap.scenario import read_sidecar
+from simgap.scenario import build_scenario, read_sidecar, write_scenario
 from simgap.scenario.ground import ground_of
 
 

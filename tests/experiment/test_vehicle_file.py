@@ -13,12 +13,12 @@ import simgap_command
 import yaml
 
 from simgap.cosim import CosimSettings
-from simgap.record import read_run
 from simgap.experiment.runner import run_experiment
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.search.results import search_results
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.experiment.store import ResultsStore
+from simgap.record import read_run
 from simgap.report.search_page import build_search_report
 from simgap.report.site import build_experiment_report, build_report
 from simgap.scenario import build_scenario, write_scenario

@@ -18,11 +18,10 @@ from commonroad.geometry.shape import Circle, Rectangle
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.obstacle import ObstacleType, StaticObstacle
 from commonroad.scenario.state import InitialState
-
 from drawn_bars import drawn, same_stdout
 from real_like import box_goal, highway, recorded_car, start
 from simgap_command import simgap
-from simgap.record import RunRecord, read_run
+
 from simgap.experiment.search import Budget, run_search
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.export import checks
@@ -30,6 +29,7 @@ from simgap.export.opendrive import Method, UniformRoad, road_network
 from simgap.export.opendrive_sampling import sample_roads
 from simgap.export.openscenario import OpenScenarioVersion
 from simgap.export.write import FITTED_TOLERANCE_M, export_road, export_run
+from simgap.record import RunRecord, read_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import map_files, maps_dir, scenario_on_map

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
+from real_like import box_goal, highway, recorded_car, start
 from rerun.chunk import RrdReader
 
-from real_like import box_goal, highway, recorded_car, start
 from simgap.cli.main import main
 from simgap.cosim.loop import CosimSettings
 from simgap.experiment.single_run import RunRequest, execute
@@ -21,6 +21,7 @@ from simgap.export.rerun_recording import SIM_TIME, _quaternions, export_recordi
 from simgap.record import read_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
+
 
 def run_of(scenario_xml: Path, out: Path, backend: str = "ideal", seconds: float = 2.0) -> Path:
     execute(RunRequest(scenario=scenario_xml, backend=backend, cosim=CosimSettings(max_time_s=seconds),

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-
 from planner_roads import two_lane_road
+
 from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.vehicles import load_vehicle

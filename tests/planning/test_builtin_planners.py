@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 import shapely
-
+from evaluated import recorded
 from planner_roads import DT, drive, lateral_offset, two_lane_road
+
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.planning.idm_planner import IdmPlanner, IdmSettings
@@ -19,7 +20,6 @@ from simgap.planning.reactive import ReactivePlanner
 from simgap.scenario.templates import curve
 from simgap.sim.registry import make_backend
 from simgap.trajectory import State, Trajectory
-from evaluated import recorded
 
 PLANNERS = {"reactive": ReactivePlanner, "idm": IdmPlanner}
 # the reactive planner costs ~0.1 s per call in pure Python: it replans every 3 steps here (the

@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 
-from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.planning.collision import (
     footprint_outline,
     footprints_on_road,
@@ -15,6 +14,7 @@ from simgap.planning.collision import (
     traffic_collisions,
 )
 from simgap.planning.protocol import TrafficParticipant
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.trajectory import State, Trajectory
 
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from planner_roads import drive, start_state
 
 import simgap.planning.frenet_evaluation as frenet_evaluation
-from planner_roads import drive, start_state
 from simgap.planning.cost_order import CostOrder, cost_floor
 from simgap.planning.frenet import CycleMemory, FrenetPlanner, PlanningCycle
 from simgap.planning.protocol import PlannerSetup, TrafficParticipant, World

@@ -12,13 +12,12 @@ from commonroad.common.util import AngleInterval, Interval
 from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.scenario.state import CustomState
-
 from planner_roads import DT, drive, lateral_offset, two_lane_road
-from simgap.scenario.road_frame import DrivableArea, footprint
+
 from simgap.planning.frenet import FrenetPlanner
-from simgap.planning.protocol import PlannerSetup
-from simgap.planning.protocol import TrafficParticipant, World
+from simgap.planning.protocol import PlannerSetup, TrafficParticipant, World
 from simgap.planning.settings import FrenetSettings
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.trajectory import State, Trajectory
 
 

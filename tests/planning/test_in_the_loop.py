@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from evaluated import recorded
 
 from simgap.cosim import simulate
 from simgap.cosim.agents import agents_from_problems
@@ -10,7 +11,6 @@ from simgap.planning.frenet import FrenetPlanner
 from simgap.planning.protocol import PlannerSetup
 from simgap.sim.ideal import IdealBackend
 from simgap.vehicles import load_vehicle
-from evaluated import recorded
 
 scenario_package = pytest.importorskip("simgap.scenario")
 

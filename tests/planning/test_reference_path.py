@@ -11,8 +11,8 @@ from commonroad.geometry.shape import Rectangle
 from commonroad.planning.goal import GoalRegion
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.state import CustomState
-
 from planner_roads import lateral_offset
+
 from simgap.planning.reference_path import plan_reference_path, smooth_reference_path
 
 
@@ -153,7 +153,7 @@ def _parallel_lanes(pieces_m: tuple[float, ...], lanes: int = 2, width: float = 
     for lane in range(lanes):
         for k in range(len(pieces_m)):
             x = ends[k:k + 2]
-            side = lambda y: np.stack([x, np.full(2, y)], 1)          # noqa: E731
+            side = lambda y, x=x: np.stack([x, np.full(2, y)], 1)     # noqa: E731
             lid = 10 * (lane + 1) + k
             lanelets.append(Lanelet(
                 side((lane + 1) * width), side((lane + 0.5) * width), side(lane * width), lid,

@@ -9,7 +9,6 @@ import time
 
 import numpy as np
 import zmq
-
 from simgap_planner import Trajectory, serve
 from simgap_planner.server import ENDPOINT_VARIABLE
 

@@ -21,10 +21,10 @@ from shapely.geometry import LineString, Point
 from simgap_planner import simgap_planner_pb2 as pb
 
 from simgap.experiment.single_run import RunRequest, execute
-from simgap.planning.route import route_centre_line
 from simgap.planning.registry import PlannerChoice
-from simgap.scenario import build_scenario, load_scenario, write_scenario
+from simgap.planning.route import route_centre_line
 from simgap.record import read_run
+from simgap.scenario import build_scenario, load_scenario, write_scenario
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "cpp_lane_keeper"
 PROGRAM = EXAMPLE / "build" / "lane_keeper"

@@ -22,7 +22,6 @@ def test_the_generated_python_messages_match_the_proto_file(tmp_path):
 
 def test_a_trajectory_crosses_the_wire_unchanged():
     import numpy as np
-
     from simgap_planner import simgap_planner_pb2 as pb
     from simgap_planner.messages import STATE_FIELDS, Trajectory, trajectory_message, trajectory_of
 

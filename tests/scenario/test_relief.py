@@ -9,8 +9,8 @@ import pytest
 
 from simgap.errors import InputError
 from simgap.scenario import build_scenario, read_sidecar, write_scenario
-from simgap.scenario.ground import ground_of
 from simgap.scenario.geometry import Straight, centre_line
+from simgap.scenario.ground import ground_of
 from simgap.scenario.relief import BankKnot, ElevationProfile, ReliefProfile, RoadRelief, VerticalCurve
 
 

@@ -14,8 +14,17 @@ types carry the field names of these (`messages`). The protocol (ZeroMQ request/
 messages) is in ``simgap_planner.proto``.
 """
 
-from simgap_planner.messages import (PROTOCOL_VERSION, STATE_FIELDS, Participant, Setup, State, Trajectory, Vehicle,
-                                     VehicleLimits, World)
+from simgap_planner.messages import (
+                                     PROTOCOL_VERSION,
+                                     STATE_FIELDS,
+                                     Participant,
+                                     Setup,
+                                     State,
+                                     Trajectory,
+                                     Vehicle,
+                                     VehicleLimits,
+                                     World,
+)
 from simgap_planner.server import ENDPOINT_VARIABLE, Adapter, serve
 
 __all__ = ["PROTOCOL_VERSION", "STATE_FIELDS", "ENDPOINT_VARIABLE", "Adapter", "Participant", "Setup", "State",

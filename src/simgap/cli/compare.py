@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -15,10 +15,10 @@ from rich.table import Table
 from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
-from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.compare import compare_histories
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.route_edges import EventPlace, event_places, route_edges
+from simgap.evaluate.score_drop import score_drop
 from simgap.files import writable_directory
 from simgap.record import RunRecord, read_run
 from simgap.report.plots import plot_d_over_s, plot_v_over_t
@@ -96,7 +96,7 @@ def _label(run: RunRecord, run_dir: Path) -> str:
 def compare(
     run_a: Path = typer.Argument(..., help="reference run directory (e.g. the ideal run)"),
     run_b: Path = typer.Argument(..., help="run directory to compare with it"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="write d-over-s and v-over-t plots here",
+    out: Path | None = typer.Option(None, "--out", "-o", help="write d-over-s and v-over-t plots here",
                                        callback=writable_directory),
     as_json: bool = typer.Option(False, "--json", help="print the metrics as JSON"),
 ) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -33,17 +33,17 @@ def run_cmd(
     spec: str = typer.Argument(..., help="experiment spec (YAML file) or a built-in one: demo, paper-curves"),
     out: Path = typer.Option(..., "--out", "-o", help="experiment directory (re-run to resume)",
                              callback=writable_directory),
-    workers: Optional[int] = typer.Option(None, min=1,
+    workers: int | None = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
-    address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
+    address: str | None = typer.Option(None, help=ADDRESS_HELP),
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     retry_failed: bool = typer.Option(False, "--retry-failed", help="run the runs that failed before again"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
-    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (a stored run's outcome is its "
+    fail_on: str | None = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (a stored run's outcome is its "
                                           "first agent's that missed its goal)"),
-    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
+    min_score: float | None = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
 ) -> None:
     """Generate the scenarios, run every combination, store the results, build the report.
 
@@ -145,7 +145,7 @@ def status_cmd(out: Path = typer.Argument(..., help="experiment directory")) -> 
 def query_cmd(
     out: Path = typer.Argument(..., help="experiment directory"),
     sql: str = typer.Argument(..., help="DuckDB SQL over the table 'runs' (one row per run)"),
-    to_csv: Optional[Path] = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
+    to_csv: Path | None = typer.Option(None, "--csv", help="write the result as CSV instead of printing it"),
 ) -> None:
     """Query the results store with SQL; columns: key, scenario, fidelity, backend, vehicle,
     controller, planner, param_*, status, failure, outcome, planning_mean_s, wall_time_s, time_*_s,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -16,15 +16,17 @@ from simgap.errors import InputError
 from simgap.experiment.attribution import explain as attribute
 from simgap.sim.assumptions import Assumption
 
+ASSUMPTION_HELP = ("restore only this one of the assumptions the run broke: " + ", ".join(Assumption) +
+                   " (repeatable; default: all; the others stay broken in every world, so the base holds them too)")
+
 
 @app.command()
 def explain(
     run_dir: Path = typer.Argument(..., help="run directory of a run in a physical world (simgap run --out)"),
     workers: int = typer.Option(2, min=1, help="processes the counterfactual runs share"),
-    assumptions: Optional[list[Assumption]] = typer.Option(
+    assumptions: list[Assumption] | None = typer.Option(
         None, "--assumption", metavar="ASSUMPTION",
-        help="restore only this one of the assumptions the run broke: " + ", ".join(Assumption) + " (repeatable; "
-             "default: all; the others stay broken in every world, so the base holds them too)"),
+        help=ASSUMPTION_HELP),
     as_json: bool = typer.Option(False, "--json", help="print the attribution as JSON on stdout"),
 ) -> None:
     """Rerun a run's scenario in the worlds where some of the planner's assumptions hold (its own

@@ -7,7 +7,6 @@ import json
 import shutil
 from enum import StrEnum
 from pathlib import Path
-from typing import Optional
 
 import typer
 from rich.console import Console
@@ -44,14 +43,14 @@ def export_cmd(
                                             "a search directory"),
     out: Path = typer.Option(..., "--out", "-o", help="directory to write into (rerun: or the .rrd file)",
                              callback=_writable_out),
-    format: Optional[str] = typer.Option(None, "--format", "-f",
+    format: str | None = typer.Option(None, "--format", "-f",
                                          help="openscenario (a run: .xosc + .xodr), opendrive (a scenario's "
                                               "road: .xodr) or rerun (a run: .rrd, for rerun's viewer); "
                                               "default: by SOURCE, rerun for an --out ending in .rrd"),
-    ideal: Optional[Path] = typer.Option(None, "--ideal", help="rerun: a run of the same scenario drawn beside "
+    ideal: Path | None = typer.Option(None, "--ideal", help="rerun: a run of the same scenario drawn beside "
                                                                "as its ideal twin"),
     violations: bool = typer.Option(False, "--violations", help="SOURCE is a search: a folder per distinct violation"),
-    version: Optional[str] = typer.Option(None, "--version", help="OpenSCENARIO version: 1.2 (default: every rule of ASAM's "
+    version: str | None = typer.Option(None, "--version", help="OpenSCENARIO version: 1.2 (default: every rule of ASAM's "
                                                          "Quality Checker applies), 1.0 (CARLA's ScenarioRunner), "
                                                          "1.1 or 1.3"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),

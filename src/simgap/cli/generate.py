@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import List, Optional
 
 import typer
 from rich.console import Console
@@ -31,15 +30,15 @@ def _parse_sets(items: list[str]) -> dict[str, str]:
 
 @app.command()
 def generate(
-    logical: Optional[str] = typer.Argument(None, help="built-in logical scenario name, a YAML file, or an "
+    logical: str | None = typer.Argument(None, help="built-in logical scenario name, a YAML file, or an "
                                                     "OpenDRIVE road (.xodr, with --start and --goal)"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files",
+    out: Path | None = typer.Option(None, "--out", "-o", help="directory for the XML, JSON and PNG files",
                                        callback=writable_directory),
-    set_: List[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable); on an OpenDRIVE "
+    set_: list[str] = typer.Option([], "--set", help="pin a parameter: NAME=VALUE (repeatable); on an OpenDRIVE "
                                    "road: initial_speed (m/s), time_limit (s), dt (s)"),
-    start: Optional[str] = typer.Option(None, "--start", help="OpenDRIVE road: where the agent starts, "
+    start: str | None = typer.Option(None, "--start", help="OpenDRIVE road: where the agent starts, "
                                         "ROAD:LANE:S (road id, lane id, station along the road in m) or X,Y"),
-    goal: Optional[str] = typer.Option(None, "--goal", help="OpenDRIVE road: the centre of the goal area, "
+    goal: str | None = typer.Option(None, "--goal", help="OpenDRIVE road: the centre of the goal area, "
                                        "ROAD:LANE:S or X,Y (ahead of the start along the lanes' links)"),
     preview: bool = typer.Option(True, "--preview/--no-preview", help="write a PNG preview per scenario"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),

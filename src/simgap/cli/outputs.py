@@ -8,15 +8,16 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING
 
 from simgap.errors import InputError
 from simgap.files import atomic_write_text
 
 if TYPE_CHECKING:                 # (a run's modules are imported by the checks of a run's folder only:
-    from simgap.experiment.single_run import RunRequest     # generate and export start without them)
+    from simgap.experiment.single_run import RunRequest  # generate and export start without them)
 
 OVERWRITE_HELP = "replace what the output folder holds even when this command did not write it"
 REPORT_FILES = ("index.html", "report.css", "report.js")

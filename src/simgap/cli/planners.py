@@ -9,8 +9,15 @@ from rich.table import Table
 
 from simgap.cli.console import output_console
 from simgap.cli.main import app
-from simgap.planning.registry import (ENTRY_POINT_GROUP, PLANNERS, REQUIRED, PlannerClass, load_planner,
-                                      planner_names, settings_fields)
+from simgap.planning.registry import (
+    ENTRY_POINT_GROUP,
+    PLANNERS,
+    REQUIRED,
+    PlannerClass,
+    load_planner,
+    planner_names,
+    settings_fields,
+)
 
 planners_app = typer.Typer(help="The planners: built-in, installed (entry points) and your own classes.",
                            invoke_without_command=True)

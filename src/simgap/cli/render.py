@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -16,7 +15,7 @@ from simgap.files import writable_directory
 @app.command()
 def render(
     run_dir: Path = typer.Argument(..., help="a run directory written by `simgap run`"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="where to write (default: the run directory)",
+    out: Path | None = typer.Option(None, "--out", "-o", help="where to write (default: the run directory)",
                                        callback=writable_directory),
     frame_every: int = typer.Option(3, min=1, help="one frame of the 2D animation every N steps"),
     three_d: bool = typer.Option(False, "--3d", help="also render the 3D world: chase camera and bird's-eye "

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -18,7 +17,7 @@ from simgap.files import writable_directory
 @app.command()
 def replay(
     run_dir: Path = typer.Argument(..., help="a run directory (simgap run --out, or one of an experiment's runs)"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="write the replay's run directory here too",
+    out: Path | None = typer.Option(None, "--out", "-o", help="write the replay's run directory here too",
                                        callback=writable_directory),
     as_json: bool = typer.Option(False, "--json", help="print the verdict as JSON on stdout"),
     overwrite: bool = typer.Option(False, "--overwrite", help=OVERWRITE_HELP),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 from pydantic import BaseModel
@@ -21,12 +21,12 @@ from simgap.cosim import REFERENCE, CosimSettings, Outcome
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.cosim.loop import MAX_SIMULATED_TIME_S
 from simgap.errors import InputError, validated
-from simgap.evaluate.settings import CostFunctionId, EvaluationSettings, ScoreSettings
 from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.evaluate.run_evaluation import AgentEvaluation
-from simgap.files import read_model, read_yaml_mapping, writable_directory
+from simgap.evaluate.settings import CostFunctionId, EvaluationSettings, ScoreSettings
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
+from simgap.files import read_model, read_yaml_mapping, writable_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.planning.remote import ProcessLimits
 from simgap.record import RunRecord
@@ -45,34 +45,34 @@ def run(
     scenario: Path = typer.Argument(..., help="CommonRoad XML scenario (every planning problem is an agent), or "
                                     "any CommonRoad map with --start and --goal (simgap maps lists real ones)"),
     out: Path = typer.Option(..., "--out", "-o", help="run directory to write", callback=writable_directory),
-    start: Optional[str] = typer.Option(None, "--start", help="one agent on the map, in place of its planning "
+    start: str | None = typer.Option(None, "--start", help="one agent on the map, in place of its planning "
                                         "problems, starting at " + START_FORMS),
-    goal: Optional[str] = typer.Option(None, "--goal", help="with --start: the agent's goal, " + GOAL_FORMS),
+    goal: str | None = typer.Option(None, "--goal", help="with --start: the agent's goal, " + GOAL_FORMS),
     backend: str = typer.Option(REFERENCE, help="ideal (2D, perfect tracking), dynamic (single-track model), "
                                 "mujoco (3D physics) or beamng (a BeamNG.tech server)"),
-    backend_config: Optional[Path] = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
+    backend_config: Path | None = typer.Option(None, help="YAML file of backend settings (for beamng: host, "
                                                   "port, home, driver, ...)"),
     vehicle: str = typer.Option(DEFAULT_VEHICLE, help="vehicle for every agent, or per agent: 1=sedan,2=suv (catalogue "
                                 "names or vehicle data files)"),
     planner_vehicle: str = typer.Option(DEFAULT_VEHICLE, help="the vehicle the planner assumes it drives"),
-    controller: Optional[str] = typer.Option(None, help="tracking controller (physics backends): "
+    controller: str | None = typer.Option(None, help="tracking controller (physics backends): "
                                              "pure_pursuit, stanley, lqr"),
-    controller_hz: Optional[float] = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
-    physics_hz: Optional[float] = typer.Option(None, help="physics rate [Hz] (mujoco, >= 200, a multiple of the "
+    controller_hz: float | None = typer.Option(None, help="controller rate [Hz] (physics backends, >= 50)"),
+    physics_hz: float | None = typer.Option(None, help="physics rate [Hz] (mujoco, >= 200, a multiple of the "
                                                "controller rate)"),
-    realism: Optional[Realism] = typer.Option(None, help="physics backends: real (default: the vehicle's measured "
+    realism: Realism | None = typer.Option(None, help="physics backends: real (default: the vehicle's measured "
                                               "actuators, a drifting localisation, compute latency) or ideal (a "
                                               "perfect machine: the ideal world's assumptions on a physical car)"),
-    road_friction: Optional[float] = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
-    offroad_friction: Optional[float] = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
-    knobs: Optional[list[str]] = typer.Option(None, "--knob", help=KNOB_HELP),
+    road_friction: float | None = typer.Option(None, help="road surface friction, scales each tyre's (mujoco)"),
+    offroad_friction: float | None = typer.Option(None, help="off-road friction, scales each tyre's (mujoco)"),
+    knobs: list[str] | None = typer.Option(None, "--knob", help=KNOB_HELP),
     replan_every: int = typer.Option(1, min=1, help="replan every N steps (the paper's planner: 3)"),
     planner: str = typer.Option(DEFAULT_PLANNER, help="planner of every agent, or per agent: 1=frenet,2=idm; a "
                                 "name (simgap planners), my_pkg.module:Class, path/to/file.py:Class, or a planner "
                                 "in its own process: 'exec:COMMAND ARGS' (simgap starts it) or tcp://HOST:PORT"),
-    planner_config: Optional[Path] = typer.Option(None, help="YAML file of the planner's settings (several "
+    planner_config: Path | None = typer.Option(None, help="YAML file of the planner's settings (several "
                                                   "planners: planner name -> its settings)"),
-    planning_budget: Optional[float] = typer.Option(None, help="wall time a planning call may take [s]; longer "
+    planning_budget: float | None = typer.Option(None, help="wall time a planning call may take [s]; longer "
                                                     "calls are counted per agent"),
     isolate: bool = typer.Option(False, "--isolate", help="run each agent's planner class in a process of its own "
                                  "(a hang or a crash fails its cycles, never the run)"),
@@ -82,24 +82,24 @@ def run(
     planner_startup_timeout: float = typer.Option(ProcessLimits.model_fields["startup_timeout_s"].default,
                                                   help="planners in their own process: wall time to start and "
                                                   "initialise [s]"),
-    max_time: Optional[float] = typer.Option(
+    max_time: float | None = typer.Option(
         None, help="stop after this much simulated time [s]; default: the end of the goal's time window "
                    f"(60 s when the goal has none); at most {MAX_SIMULATED_TIME_S:g} s"),
     run_timeout: float = typer.Option(DEFAULT_RUN_TIMEOUT_S, help="wall time the run may take [s]; a run still "
                                       "going then (a planner that does not return) is stopped and recorded as failed"),
     traffic: str = typer.Option("replay", help="recorded traffic: replay (as recorded) or idm (driven along "
                                                "its recorded path by an IDM towards the vehicle ahead)"),
-    cost_function: Optional[CostFunctionId] = typer.Option(
+    cost_function: CostFunctionId | None = typer.Option(
         None, help="CommonRoad cost function of the solutions when the scenario's benchmark ID names none "
                    "(default SM1)"),
-    score_config: Optional[Path] = typer.Option(None, help="YAML file of the closed-loop score's thresholds and "
+    score_config: Path | None = typer.Option(None, help="YAML file of the closed-loop score's thresholds and "
                                                 "weights (evaluation.score; defaults: nuPlan's)"),
     seed: int = typer.Option(0, min=0, help="seed of everything random in the run (the localisations' errors); "
                              "the same seed, scenario and settings drive the same run"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip the solution's validity check (the slow "
                                      "part of scoring: feasibility state by state) for quick loops"),
-    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + ", e.g. off_road,collision"),
-    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
+    fail_on: str | None = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + ", e.g. off_road,collision"),
+    min_score: float | None = typer.Option(None, "--min-score", help=MIN_SCORE_HELP),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON on stdout"),
     explain: bool = typer.Option(False, "--explain", help="then say which of the planner's assumptions the run broke "
                                  "and what each cost (simgap explain; physics backends)"),

@@ -4,7 +4,6 @@ the strategies of the spec on equal shares of the budget; resumable."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 from rich.console import Console
@@ -20,8 +19,6 @@ from simgap.experiment.search.budget import CONFIRMATION_REPEATS
 from simgap.files import writable_directory
 
 
-
-
 @app.command("search", epilog=EXIT_CODES_HELP)
 def search_cmd(
     spec: str = typer.Argument(..., help="search spec (YAML file) or a built-in one: curve-gaps"),
@@ -30,11 +27,11 @@ def search_cmd(
                         "reports too"),
     out: Path = typer.Option(..., "--out", "-o", help="search directory (re-run to resume)",
                              callback=writable_directory),
-    workers: Optional[int] = typer.Option(None, min=1,
+    workers: int | None = typer.Option(None, min=1,
                                           help="parallel runs (default: all cores, or all CPUs of the Ray cluster)"),
-    strategy: Optional[list[str]] = typer.Option(None, help="run only this strategy (repeatable)"),
+    strategy: list[str] | None = typer.Option(None, help="run only this strategy (repeatable)"),
     executor: str = typer.Option("local", help="local (process pool) or ray"),
-    address: Optional[str] = typer.Option(None, help=ADDRESS_HELP),
+    address: str | None = typer.Option(None, help=ADDRESS_HELP),
     repeats: int = typer.Option(CONFIRMATION_REPEATS, "--repeats", min=1,
                                 help="seeds each reported violation is confirmed over in high fidelity (its own "
                                      "included): it says in how many of them it fails"),
@@ -44,9 +41,9 @@ def search_cmd(
     no_report: bool = typer.Option(False, "--no-report", help="skip building the HTML report"),
     no_validate: bool = typer.Option(False, "--no-validate", help="skip each run's solution validity check (the "
                                      "slow part of scoring) for quick loops"),
-    fail_on: Optional[str] = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (in any rung of the search; a "
+    fail_on: str | None = typer.Option(None, "--fail-on", help=FAIL_ON_HELP + " (in any rung of the search; a "
                                           "stored run's outcome is its first agent's that missed its goal)"),
-    min_score: Optional[float] = typer.Option(None, "--min-score", help=MIN_SCORE_HELP + " (in any rung)"),
+    min_score: float | None = typer.Option(None, "--min-score", help=MIN_SCORE_HELP + " (in any rung)"),
 ) -> None:
     """Search the spec's space for violated planning assumptions, one strategy after another.
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from typing import Optional
 
 import typer
 import yaml
@@ -56,7 +55,7 @@ def catalogue(ctx: typer.Context) -> None:
 
 @vehicles_app.command()
 def show(name: str = typer.Argument(..., help="catalogue name or path of a vehicle data file"),
-         as_yaml: Optional[bool] = typer.Option(False, "--yaml", help="print the data file's content as YAML")) -> None:
+         as_yaml: bool | None = typer.Option(False, "--yaml", help="print the data file's content as YAML")) -> None:
     """Print one vehicle: every parameter with its unit and source, its actuators' dead times and
     lags among them (the steering's angle and rate limits are physics.steering's).
 

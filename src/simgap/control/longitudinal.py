@@ -28,8 +28,9 @@ Two pieces live here, and nowhere else:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -73,7 +74,7 @@ class LongitudinalMap:
 
     @classmethod
     def from_physics(cls, physics: Mapping[str, Any] | None, *, source: str | None = None
-                     ) -> "LongitudinalMap":
+                     ) -> LongitudinalMap:
         """Read the map from a vehicle's ``physics`` section (``None``: the defaults).
 
         ``source`` names the vehicle file in error messages.
@@ -102,7 +103,7 @@ class LongitudinalMap:
         return cls(**values)
 
     @classmethod
-    def for_vehicle(cls, vehicle) -> "LongitudinalMap":
+    def for_vehicle(cls, vehicle) -> LongitudinalMap:
         physics = vehicle.physics
         if hasattr(physics, "model_dump"):
             physics = physics.model_dump()

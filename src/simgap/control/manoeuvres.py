@@ -8,9 +8,9 @@ would, and measures the driven path against it (`Manoeuvre.lateral_error`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 

@@ -35,7 +35,7 @@ class PurePursuitGains(TrackingGains):
         "ahead of the rear axle's foot point, to make up for steering and tyre lag [s]")
 
     @model_validator(mode="after")
-    def _ordered(self) -> "PurePursuitGains":
+    def _ordered(self) -> PurePursuitGains:
         if self.lookahead_max < self.lookahead_min:
             raise ValueError("lookahead_max must be >= lookahead_min")
         return self

@@ -19,7 +19,8 @@ Keys are validated against the controller's gains model; a wrong key or value is
 from __future__ import annotations
 
 import inspect
-from typing import Any, Mapping, Protocol
+from collections.abc import Mapping
+from typing import Any, Protocol
 
 from pydantic import BaseModel, ValidationError
 

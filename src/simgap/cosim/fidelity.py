@@ -14,7 +14,6 @@ from simgap.control.registry import DEFAULT_CONTROLLER
 from simgap.sim.protocol import REFERENCE, Realism
 from simgap.vehicles import DEFAULT_VEHICLE
 
-
 IDEAL_CAR = "/ideal-car"      # the label's mark of a physical world under realism: ideal
 
 

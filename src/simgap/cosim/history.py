@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import hashlib
 import traceback
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -52,7 +52,7 @@ class PlannerError:
     traceback: str
 
     @classmethod
-    def of(cls, exc: BaseException, agent_id: int, t: float | None) -> "PlannerError":
+    def of(cls, exc: BaseException, agent_id: int, t: float | None) -> PlannerError:
         trace = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
         remote = exc.remote_traceback if isinstance(exc, RemotePlannerError) else ""   # its process's own too
         return cls(agent_id, t, type(exc).__name__, str(exc),

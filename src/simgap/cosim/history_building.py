@@ -4,7 +4,7 @@ the frozen `History` (`HistoryBuilder.build`), or that of a run that could not s
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 from commonroad.scenario.scenario import Scenario
 

@@ -11,17 +11,17 @@ Pedestrians, cyclists and static obstacles replay their recording.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Collection, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 from pydantic import Field
 
-from simgap.polyline import arc_length
 from simgap.cosim.obstacle_reach import ObstacleReach
 from simgap.planning.car_following import IdmParameters
 from simgap.planning.protocol import TrafficParticipant
+from simgap.polyline import arc_length
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.trajectory import State, Trajectory
 

@@ -18,8 +18,9 @@ from __future__ import annotations
 import os
 import signal
 import threading
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator, NoReturn
+from typing import NoReturn
 
 PLANNER_CRASHES = BaseException     # what a planner may raise: its cycle fails (after RUN_STOPS are let through)
 DEFAULT_RUN_TIMEOUT_S = 600.0   # wall time a run may take unless told otherwise [s] (simgap run, experiments)

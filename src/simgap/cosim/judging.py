@@ -5,7 +5,7 @@ keeps the run's events, and words a collision for a reader (`collision_detail`).
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 from simgap.cosim.agent_progress import LEFT_THE_WORLD, AgentProgress
 from simgap.cosim.history import Event, Outcome

@@ -32,11 +32,12 @@ from __future__ import annotations
 
 import copy
 import time
-from typing import Callable, ClassVar, Mapping
+from collections.abc import Callable, Mapping
+from typing import ClassVar
 
+import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.cosim.agent_progress import AgentProgress
@@ -54,7 +55,6 @@ from simgap.scenario.road_frame import DrivableArea
 from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.protocol import Agent, Backend, PhysicsDiverged
 from simgap.trajectory import State
-
 
 DEFAULT_TIME_LIMIT_S = 60.0
 MAX_SIMULATED_TIME_S = 600.0     # no run simulates longer, whatever its goal's time window

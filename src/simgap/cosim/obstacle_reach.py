@@ -4,8 +4,8 @@ the obstacles near an agent (every kind of traffic, `simgap.cosim.traffic`, has 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -25,7 +25,7 @@ class ObstacleReach:
     t_end: np.ndarray        # (n,) when each leaves it [s]
 
     @classmethod
-    def of(cls, recorded: Sequence[TrafficParticipant], driven: Sequence[int] = ()) -> "ObstacleReach":
+    def of(cls, recorded: Sequence[TrafficParticipant], driven: Sequence[int] = ()) -> ObstacleReach:
         """The reach of obstacles that follow their recorded ``prediction``, then of ``driven`` ones."""
         boxes = np.array([(o.prediction.x.min(), o.prediction.y.min(), o.prediction.x.max(), o.prediction.y.max())
                           for o in recorded], dtype=float).reshape(-1, 4)

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Annotated, Literal, Mapping
+from collections.abc import Mapping
+from typing import Annotated, Literal
 
-from commonroad.scenario.lanelet import LaneletNetwork
 import numpy as np
+from commonroad.scenario.lanelet import LaneletNetwork
 from pydantic import Field
 
 from simgap.cosim.agent_progress import AgentProgress

@@ -14,8 +14,8 @@ The ideal world, and a physics world under ``realism: ideal``, observe the exact
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from enum import Enum
-from typing import Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field

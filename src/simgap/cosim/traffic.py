@@ -9,8 +9,9 @@ are driven along their recorded paths by an IDM towards the vehicle ahead, agent
 
 from __future__ import annotations
 
+from collections.abc import Collection, Mapping, Sequence
 from enum import Enum
-from typing import Collection, Mapping, Protocol, Sequence
+from typing import Protocol
 
 from commonroad.scenario.scenario import Scenario
 

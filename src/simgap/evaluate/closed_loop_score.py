@@ -32,24 +32,24 @@ Weighted terms:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.history import AgentHistory, History, Outcome
-from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.at_fault import Collision, CollisionType, at_fault, collision_type
+from simgap.evaluate.closest_approach import closest_approaches
 from simgap.evaluate.lane_occupancy import LaneOccupancy
 from simgap.evaluate.ride_comfort import comfort_check
 from simgap.evaluate.road_users import RoadUser, RoadUserKind, road_users
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.settings import ScoreSettings, ScoreWeights
-from simgap.scenario.road_frame import footprint
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.scenario.goal import Goal
+from simgap.scenario.road_frame import footprint
 from simgap.trajectory import Trajectory
 
 #: component -> (role, meaning); the multipliers first, then the weighted terms

@@ -13,10 +13,16 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.history import History
-from simgap.scenario.sections import RoadSections
-from simgap.evaluate.errors import (Aggregate, frenet_tracking_errors, interp_by_s, lateral_displacement_by_s,
-                                    time_aligned_errors, tracking_errors)
+from simgap.evaluate.errors import (
+    Aggregate,
+    frenet_tracking_errors,
+    interp_by_s,
+    lateral_displacement_by_s,
+    time_aligned_errors,
+    tracking_errors,
+)
 from simgap.evaluate.route_centre import route_centre, section_of_s
+from simgap.scenario.sections import RoadSections
 
 
 @dataclass

@@ -26,7 +26,7 @@ class Aggregate:
     p95: float
 
     @classmethod
-    def of(cls, values: np.ndarray) -> "Aggregate":
+    def of(cls, values: np.ndarray) -> Aggregate:
         v = np.abs(np.asarray(values, dtype=float))
         v = v[np.isfinite(v)]
         if len(v) == 0:

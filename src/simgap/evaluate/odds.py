@@ -10,8 +10,8 @@ percentile interval (seeded: the same repeats give the same interval).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

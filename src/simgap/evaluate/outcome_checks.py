@@ -35,7 +35,7 @@ class OutcomeCheck:
     min_score: float | None = None
 
     @classmethod
-    def of_options(cls, fail_on: str | None, min_score: float | None) -> "OutcomeCheck":
+    def of_options(cls, fail_on: str | None, min_score: float | None) -> OutcomeCheck:
         """The check ``--fail-on`` (a comma list of outcome values) and ``--min-score`` ask for."""
         allowed = ", ".join(o.value for o in Outcome)
         names = [item.strip() for item in (fail_on or "").split(",") if item.strip()]

@@ -22,7 +22,7 @@ from simgap.trajectory import Trajectory
 
 
 def _smooth(values: np.ndarray, window: int = 8, order: int = 2) -> np.ndarray | None:
-    from scipy.signal import savgol_filter     # slow to import (about a second): not at the CLI's start
+    from scipy.signal import savgol_filter  # slow to import (about a second): not at the CLI's start
 
     window = min(window, len(values))
     return savgol_filter(values, window, order) if order < window else None

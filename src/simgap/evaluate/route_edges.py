@@ -10,8 +10,8 @@ route's own side-by-side lanelets (the drivable area there is larger)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem

@@ -14,10 +14,10 @@ comparison of two runs of one scenario is `simgap.evaluate.compare.compare_histo
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 from commonroad.common.solution import Solution

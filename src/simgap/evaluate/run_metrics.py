@@ -9,8 +9,8 @@ frame of `simgap.evaluate.route_centre`.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet

@@ -78,7 +78,7 @@ class ScoreWeights(BaseModel):
     comfort: float = Field(2.0, ge=0, description=f"comfort (nuPlan: {_NUPLAN_WEIGHTS}, ego_is_comfortable)")
 
     @model_validator(mode="after")
-    def _some_weight(self) -> "ScoreWeights":
+    def _some_weight(self) -> ScoreWeights:
         if not any((self.progress, self.time_to_collision, self.speed_limit, self.comfort)):
             raise ValueError("at least one weight must be positive")
         return self
@@ -148,7 +148,7 @@ class ScoreSettings(BaseModel):
     weights: ScoreWeights = Field(default_factory=ScoreWeights, description="weights of the weighted mean")
 
     @model_validator(mode="after")
-    def _ordered(self) -> "ScoreSettings":
+    def _ordered(self) -> ScoreSettings:
         if self.direction_violation_m < self.direction_compliance_m:
             raise ValueError("direction_violation_m must not be below direction_compliance_m")
         if self.ttc_step_s > self.ttc_horizon_s:

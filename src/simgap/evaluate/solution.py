@@ -21,8 +21,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from commonroad.common.solution import (CommonRoadSolutionWriter, CostFunction, PlanningProblemSolution, Solution,
-                                        VehicleModel, VehicleType)
+from commonroad.common.solution import (
+    CommonRoadSolutionWriter,
+    CostFunction,
+    PlanningProblemSolution,
+    Solution,
+    VehicleModel,
+    VehicleType,
+)
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
 from commonroad.scenario.state import KSState

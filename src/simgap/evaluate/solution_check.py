@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import atexit
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from commonroad.common.solution import PlanningProblemSolution, Solution
 from commonroad.planning.planning_problem import PlanningProblemSet
@@ -200,9 +200,8 @@ def _infeasible_step(pps: PlanningProblemSolution, alone: Solution, dt: float,
     fast path (the same verdicts), any other by the library's `solution_feasible`."""
     from commonroad.common.solution import TrajectoryType, VehicleModel
     from commonroad_dc.feasibility import solution_checker as checker
-    from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
-
     from commonroad_dc.feasibility.feasibility_checker import StateTransitionException
+    from commonroad_dc.feasibility.vehicle_dynamics import VehicleDynamics
 
     if pps.vehicle_model == VehicleModel.KS and pps.trajectory_type not in (TrajectoryType.Input,
                                                                             TrajectoryType.PMInput):

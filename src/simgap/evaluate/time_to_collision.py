@@ -14,7 +14,7 @@ The boxes are tested for overlap by separating axes, every road user and project
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -97,7 +97,7 @@ class SolutionCheckCache:
 class CheckerProcess:
     """A process that checks the solutions it is sent (`simgap.evaluate.solution_check`)."""
 
-    _shared: ClassVar["CheckerProcess | None"] = None
+    _shared: ClassVar[CheckerProcess | None] = None
 
     def __init__(self) -> None:
         self._pid: int | None = None
@@ -106,7 +106,7 @@ class CheckerProcess:
         self._receive: Connection | None = None
 
     @classmethod
-    def shared(cls) -> "CheckerProcess":
+    def shared(cls) -> CheckerProcess:
         if cls._shared is None:
             cls._shared = cls()
             atexit.register(cls._shared._stop)      # none left behind when simgap ends

@@ -32,21 +32,22 @@ import json
 import math
 import tempfile
 import time
+from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping
+from typing import Any
 
 import numpy as np
 
 from simgap.cosim import REFERENCE, History, Outcome
 from simgap.errors import InputError
+from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment import fork_server
 from simgap.experiment.replay import recorded_scenario, replay_request
-from simgap.files import atomic_write_text
-from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.experiment.single_run import RunRequest, simulated
+from simgap.files import atomic_write_text
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
@@ -89,7 +90,7 @@ class World:
                 "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
 
     @classmethod
-    def of_json(cls, d: Mapping[str, Any]) -> "World":
+    def of_json(cls, d: Mapping[str, Any]) -> World:
         return cls(frozenset(Assumption(a) for a in d["restored"]), Outcome(d["outcome"]), float(d["gap_m"]),
                    float(d["tracking_m"]), float(d["score"]), float(d["wall_s"]), float(d.get("cpu_s", 0.0)))
 
@@ -109,7 +110,7 @@ class AssumptionShare:
                 "score_drop": self.score_drop, "tracking_share_m": self.tracking_share_m}
 
     @classmethod
-    def of_json(cls, d: Mapping[str, Any]) -> "AssumptionShare":
+    def of_json(cls, d: Mapping[str, Any]) -> AssumptionShare:
         return cls(Assumption(d["name"]), float(d["share_m"]), float(d["tracking_share_m"]), float(d["score_drop"]),
                    bool(d["fixes_outcome"]))
 
@@ -148,7 +149,7 @@ class Attribution:
                 "worlds": [w.as_json() for w in self.worlds]}
 
     @classmethod
-    def of_json(cls, d: Mapping[str, Any]) -> "Attribution":
+    def of_json(cls, d: Mapping[str, Any]) -> Attribution:
         """An attribution as `as_json` wrote it (``explanation.json``)."""
         return cls(str(d["run"]), str(d["scenario_id"]), str(d["backend"]), str(d["vehicle"]), Outcome(d["outcome"]),
                    Outcome(d["ideal_outcome"]), float(d["gap_m"]), float(d["tracking_m"]),

@@ -27,9 +27,10 @@ import sys
 import tempfile
 import time
 import traceback
+from collections.abc import Callable
 from multiprocessing.connection import wait
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from simgap.errors import machine_failure
 from simgap.experiment import fork_server
@@ -44,7 +45,7 @@ _PRCTL = getattr(ctypes.CDLL(None), "prctl", None) if sys.platform.startswith("l
 JobSource = Callable[[], "Job | None"]
 
 
-def _source(jobs: "list[Job] | JobSource") -> JobSource:
+def _source(jobs: list[Job] | JobSource) -> JobSource:
     if callable(jobs):
         return jobs
     queue = list(jobs)
@@ -63,7 +64,7 @@ def _crashed_row(job: Job, exc: BaseException) -> RunRow:
     return failed_row(job, reason if machine is None else f"{MACHINE_FAILED}: {machine} ({reason})")
 
 
-def _worker(conn, driver: int, where: "_Where") -> None:
+def _worker(conn, driver: int, where: _Where) -> None:
     """A pool's worker: runs the jobs the driver (process ``driver``) sends, one at a time, where
     the driver runs, and ends with it — killed when the driver dies (Linux), quietly when it finds
     the driver gone."""
@@ -116,7 +117,7 @@ class _Where:
     cwd: str
 
     @classmethod
-    def now(cls) -> "_Where":
+    def now(cls) -> _Where:
         return cls(dict(os.environ), list(sys.path), os.getcwd())
 
     def enter(self) -> None:
@@ -160,7 +161,7 @@ class LocalExecutor:
         self.workers = max(1, workers)
         self.timeout_s = timeout_s
 
-    def run(self, jobs: "list[Job] | JobSource", context: JobContext, on_result: OnResult) -> None:
+    def run(self, jobs: list[Job] | JobSource, context: JobContext, on_result: OnResult) -> None:
         ctx = fork_server.context()
         size = self.workers if callable(jobs) else min(self.workers, len(jobs))
         next_job = _source(jobs)
@@ -278,7 +279,7 @@ class RayExecutor:
 
         return connect(self.address, self.workers)
 
-    def run(self, jobs: "list[Job] | JobSource", context: JobContext, on_result: OnResult) -> None:
+    def run(self, jobs: list[Job] | JobSource, context: JobContext, on_result: OnResult) -> None:
         import ray
 
         from simgap.experiment.ray_cluster import disconnect

@@ -9,9 +9,10 @@ A job's key — ``scenario/fidelity`` (``/PLANNER`` unless the planner is the de
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel
 
@@ -57,7 +58,7 @@ class JobId:
                 "repeat": self.repeat or 0, "seed": self.seed, "stage": self.stage or ""}
 
     @classmethod
-    def from_columns(cls, cols: Mapping[str, Any]) -> "JobId":
+    def from_columns(cls, cols: Mapping[str, Any]) -> JobId:
         """The identity of a stored row (the inverse of `columns`; older rows through
         `simgap.record.migrate_row`)."""
         fidelity = Fidelity(cols["backend"], cols["vehicle"], cols.get("controller") or None,

@@ -17,10 +17,11 @@ of realism real. A backend installed from an entry point takes knobs the same wa
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
@@ -30,7 +31,7 @@ from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import BUILTIN_BACKENDS, settings_model
-from simgap.sim.settings import RoadSlope, RoadFrictionSettings, TrackingSettings, not_knobs, realism_of
+from simgap.sim.settings import RoadFrictionSettings, RoadSlope, TrackingSettings, not_knobs, realism_of
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,9 @@ import importlib.util
 import os
 import re
 import socket
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from simgap.errors import InputError
 

@@ -12,8 +12,9 @@ a data file, ``vehicle_file`` holds that file.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
 
 import pyarrow as pa
 
@@ -70,7 +71,7 @@ class RunRow:
     extra: dict[str, Any] = field(default_factory=dict)         # columns a caller adds (a search's)
 
     @classmethod
-    def of(cls, job: Job, record: RunRecord, run_dir: str, job_time_s: float) -> "RunRow":
+    def of(cls, job: Job, record: RunRecord, run_dir: str, job_time_s: float) -> RunRow:
         """The row of a finished run: a projection of its record (scalars summed or taken worst
         over its agents) under the job's identity; ``run_dir`` relative to the experiment's folder."""
         history, evaluation = record.history, record.evaluation
@@ -101,7 +102,7 @@ class RunRow:
             versions=dict(record.settings.versions), **asdict(worst_scores(evaluation)))
 
     @classmethod
-    def failed(cls, job: Job, reason: str) -> "RunRow":
+    def failed(cls, job: Job, reason: str) -> RunRow:
         return cls(job.id, job.parameters, job.vehicle, "failed", reason)
 
     @property
@@ -109,7 +110,7 @@ class RunRow:
         """The data file the vehicle was loaded from ("" for a catalogue vehicle)."""
         return self.vehicle_ref if is_vehicle_file(self.vehicle_ref) else ""
 
-    def with_columns(self, **extra: Any) -> "RunRow":
+    def with_columns(self, **extra: Any) -> RunRow:
         return replace(self, extra=self.extra | extra)
 
     def value(self, name: str) -> float:
@@ -124,7 +125,7 @@ class RunRow:
         return math.nan if v is None else float(v)
 
     @classmethod
-    def from_columns(cls, cols: Mapping[str, Any]) -> "RunRow":
+    def from_columns(cls, cols: Mapping[str, Any]) -> RunRow:
         """A row as the store holds it, typed again (the inverse of `columns`): identity, the
         parameters, the scalars, metrics, timings and versions; every other column in ``extra``."""
         rest = {k: v for k, v in cols.items() if k not in _ID_COLUMNS and k != "format_version"}

@@ -7,15 +7,15 @@ from __future__ import annotations
 import json
 import shutil
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from simgap.errors import InputError
 from simgap.evaluate.odds import Odds
 from simgap.experiment.executors import make_executor
-from simgap.experiment.job import Job, JobContext
 from simgap.experiment.explained_runs import ExplainedRun, explain_runs
+from simgap.experiment.job import Job, JobContext
 from simgap.experiment.repeats import odds_over_repeats, write_odds
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions

@@ -12,10 +12,11 @@ import os
 import tempfile
 import time
 import warnings
+from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
 
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
@@ -37,12 +38,12 @@ from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignmen
 from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.record import PlannerRecord, RunRecord, RunSettings, rewrite_record, write_run
 from simgap.scenario import load_scenario, read_sidecar
-from simgap.scenario.relief import Surface
-from simgap.scenario.sidecar import ScenarioSidecar
-from simgap.scenario.ground import ground_of
 from simgap.scenario.files import scenario_xml
+from simgap.scenario.ground import ground_of
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.scenario.placement import AgentPlacement
+from simgap.scenario.relief import Surface
+from simgap.scenario.sidecar import ScenarioSidecar
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, Vehicle, load_vehicle

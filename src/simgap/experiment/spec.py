@@ -39,7 +39,6 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgap.control import DEFAULT_CONTROLLER
 from simgap.control.registry import CONTROLLERS
-from simgap.sim.settings import realism_of
 from simgap.cosim import REFERENCE, CosimSettings, Fidelity
 from simgap.cosim.interruptions import DEFAULT_RUN_TIMEOUT_S
 from simgap.errors import InputError, validated
@@ -47,13 +46,13 @@ from simgap.evaluate import EvaluationSettings
 from simgap.experiment.job import Job, JobId
 from simgap.experiment.samplers import grid_size, sample
 from simgap.files import read_model
-from simgap.sim.assumptions import Assumption
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.planning.remote import ProcessLimits
 from simgap.scenario.logical import LogicalScenario, load_logical
+from simgap.sim.assumptions import Assumption
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
+from simgap.sim.settings import realism_of
 from simgap.vehicles import DEFAULT_VEHICLE, is_vehicle_file, load_vehicle, vehicle_names
-
 
 MAX_SCENARIOS = 10_000      # concrete scenarios per experiment: about 1.6 GB of files, minutes to write
 
@@ -79,7 +78,7 @@ class ParameterRange(BaseModel):
     max: float | None = None
 
     @model_validator(mode="after")
-    def _one_form(self) -> "ParameterRange":
+    def _one_form(self) -> ParameterRange:
         if self.values is not None and (self.min is not None or self.max is not None):
             raise ValueError("give either values or min/max, not both")
         if self.values is not None and not self.values:
@@ -97,7 +96,7 @@ class SamplerSpec(BaseModel):
     seed: int = 0
 
     @model_validator(mode="after")
-    def _samples_given(self) -> "SamplerSpec":
+    def _samples_given(self) -> SamplerSpec:
         if self.kind == "grid" and self.samples is not None:
             raise ValueError("a grid has no 'samples': it takes every combination")
         if self.kind != "grid" and self.samples is None:

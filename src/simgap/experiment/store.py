@@ -31,7 +31,6 @@ from simgap.experiment.run_row import RunRow
 from simgap.files import atomic_write, remove_stale_temporaries
 from simgap.record import check_run, migrate_row
 
-
 WORKER_DIED = "worker died"     # the failure of a run whose worker died under it (a crash, a kill, a lost node)
 MACHINE_FAILED = "the machine failed"   # ... of a run the machine failed (a full disk, no memory): not its input's
 NOT_A_RESULT = (WORKER_DIED, MACHINE_FAILED)    # failures that say nothing of the run: it runs again on resume

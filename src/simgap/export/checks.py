@@ -10,15 +10,15 @@ from __future__ import annotations
 
 import contextlib
 import functools
-from collections import defaultdict
-from dataclasses import dataclass
 import importlib.metadata
 import io
 import math
 import warnings
 import xml.etree.ElementTree as ET
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import shapely
@@ -191,8 +191,7 @@ def links_kept(path: str | Path, network: RoadNetwork, lanelets: LaneletNetwork)
                 lost_successors.append((lanelet.lanelet_id, b))
     neighbours = neighbours_kept = 0
     for lanelet in lanelets.lanelets:
-        for other, same in ((lanelet.adj_left, lanelet.adj_left_same_direction),
-                            (lanelet.adj_right, lanelet.adj_right_same_direction)):
+        for other in (lanelet.adj_left, lanelet.adj_right):
             if other is None or lanelets.find_lanelet_by_id(other) is None:
                 continue
             neighbours += 1

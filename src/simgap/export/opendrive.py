@@ -33,9 +33,10 @@ no single elevation profile: the caller notes it instead).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Callable, TypeAlias
+from typing import TypeAlias
 
 import numpy as np
 from commonroad.scenario.lanelet import Lanelet, LaneletNetwork, LineMarking

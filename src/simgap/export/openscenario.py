@@ -25,14 +25,14 @@ from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel
 from scenariogeneration import xosc
 
-from simgap.record import RunRecord
-from simgap.errors import InputError
 from simgap.cosim.history import AGENT_ID_OFFSET
+from simgap.errors import InputError
+from simgap.record import RunRecord
 from simgap.scenario.goal import Goal
+from simgap.scenario.obstacles import recorded_obstacles
 from simgap.sim.assumptions import Assumption, restorations
 from simgap.sim.protocol import Realism
 from simgap.sim.settings import TrackingSettings
-from simgap.scenario.obstacles import recorded_obstacles
 from simgap.trajectory import Trajectory
 from simgap.vehicles import Vehicle
 
@@ -48,7 +48,7 @@ class OpenScenarioVersion(StrEnum):
         return int(self.value.split(".")[1])
 
     @classmethod
-    def parse(cls, text: str) -> "OpenScenarioVersion":
+    def parse(cls, text: str) -> OpenScenarioVersion:
         try:
             return cls(text)
         except ValueError:

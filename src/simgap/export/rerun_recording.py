@@ -24,16 +24,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from simgap.cosim.history import Event
 from simgap.errors import InputError
-from simgap.record import RunRecord, read_run
 from simgap.files import atomic_write
+from simgap.record import RunRecord, read_run
 from simgap.scenario import read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.trajectory import Attitude, Trajectory

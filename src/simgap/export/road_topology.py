@@ -587,7 +587,7 @@ def topology(network: LaneletNetwork) -> Topology:
     junction_ends: dict[RoadEnd, int] = {}
     cut_at: dict[RoadEnd, float] = {}
     junction_relations = []
-    for key, rels in sorted(at_place.items()):
+    for _, rels in sorted(at_place.items()):
         ends = sorted({leaves(a) for a, _ in rels} | {enters(b) for _, b in rels})
         if len(ends) == 2 and ends[0][0] != ends[1][0] and _is_direct(rels, gaps):
             joint = _place_joint([(roads[r], e) for r, e in ends], rels)

@@ -11,22 +11,22 @@ from __future__ import annotations
 import re
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 
-from simgap.record import RunRecord, read_run
 from simgap.errors import InputError
 from simgap.export import checks
 from simgap.export.opendrive import Method, RoadNetwork, UniformRoad, road_network
 from simgap.export.opendrive_sampling import RoadSamples, sample_roads
 from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, description, openscenario, road_users
 from simgap.files import publish, staged_directory
+from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_sidecar
 from simgap.sim.settings import road_friction, road_slope
 

@@ -17,9 +17,9 @@ local frame, so that the planner can test candidates in cost order, a few at a t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Sequence
 
 import numpy as np
 from commonroad.scenario.lanelet import LaneletNetwork
@@ -102,7 +102,7 @@ class DrivableAreaGrid:
     @classmethod
     def for_route(cls, network: LaneletNetwork, to_local, route_end: np.ndarray, corridor_xy: np.ndarray,
                   extension_m: float, corridor_margin: float, resolution: float, margin: float,
-                  max_cells: int) -> "DrivableAreaGrid":
+                  max_cells: int) -> DrivableAreaGrid:
         """Grid of all lanelets (and the dead-end extensions near ``route_end``) over the bounding
         box of ``corridor_xy`` (local frame) grown by ``corridor_margin``. ``to_local`` maps world
         points (n, 2) into the local frame."""
@@ -148,7 +148,7 @@ class TrafficPrediction:
     def empty(self) -> bool:
         return len(self.half_length) == 0
 
-    def braking_from_end(self, steps: int, dt: float, deceleration: float | None) -> "TrafficPrediction":
+    def braking_from_end(self, steps: int, dt: float, deceleration: float | None) -> TrafficPrediction:
         """Beyond the last instant, ``steps`` more: every participant brakes to standstill along its
         last heading at ``deceleration`` (None: stands where it is at the last instant)."""
         tile = lambda a: np.repeat(a[:, -1:], steps, axis=1)  # noqa: E731

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import frenetix
 import numpy as np
 
-from simgap.polyline import Polyline
 from simgap.planning.reference_path import ReferencePath
+from simgap.polyline import Polyline
 from simgap.trajectory import wrap_angle
 
 _EPS_SPEED = 1e-3

@@ -13,8 +13,8 @@ import shapely
 from commonroad.planning.planning_problem import PlanningProblem
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from simgap.polyline import Polyline, arc_length, heading_and_curvature, nearest, resample, without_duplicates
 from simgap.planning.lane_change import lane_change_length
+from simgap.polyline import Polyline, arc_length, heading_and_curvature, nearest, resample, without_duplicates
 from simgap.scenario.goal import area_of
 
 _FINE_STEP_M = 0.1

@@ -8,10 +8,11 @@ written against those names runs unchanged in simgap's process and in its own.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from commonroad.planning.goal import GoalRegion
@@ -95,7 +96,7 @@ class Planner(ABC):
     @abstractmethod
     def plan(self, observed: State, t: float, world: World) -> Trajectory | None: ...
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 - optional: most planners hold nothing
         """Release what the planner holds (a process, files); called once, when its run ends."""
 
     def report(self) -> PlannerReport | None:
@@ -169,7 +170,7 @@ class PlannerSetup:
 
     @classmethod
     def for_problem(cls, planning_problem: PlanningProblem, vehicle: Vehicle, lanelet_network: LaneletNetwork,
-                    dt: float = DEFAULT_TIME_STEP_S) -> "PlannerSetup":
+                    dt: float = DEFAULT_TIME_STEP_S) -> PlannerSetup:
         """The setup of the agent that drives ``planning_problem`` (the agent's id is the problem's)."""
         return cls(planning_problem.planning_problem_id, vehicle, lanelet_network, planning_problem, dt)
 

@@ -18,9 +18,9 @@ import numpy as np
 from commonroad.planning.planning_problem import PlanningProblem
 from commonroad.scenario.lanelet import LaneletNetwork
 
-from simgap.polyline import Polyline
 from simgap.planning.path_smoothing import smooth_centre_line, towards_goal
 from simgap.planning.route import route_centre_line
+from simgap.polyline import Polyline
 
 # tighter than a 4 m radius is no lane's curve but a kink between lanelets: smoothed with 3 m
 KINK_CURVATURE = 0.25

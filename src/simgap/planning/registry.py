@@ -30,10 +30,11 @@ import inspect
 import json
 import re
 import sys
+from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
-from typing import Any, Mapping, Protocol, Union
+from typing import Any, Protocol
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -192,7 +193,7 @@ def _import_class(target: str, ref: str, file: str | Path | None, field: str) ->
     return getattr(module, attr)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _module_of_file(path_text: str) -> Any:
     """The module a Python file defines, imported once per process under a name of its own."""
     path = Path(path_text)
@@ -302,7 +303,7 @@ class PlannerChoice(BaseModel):
         prefix = f"{field}.settings" if settings_field is None else settings_field or None
         return planner, planner.settings(self.settings, file=file, prefix=prefix)
 
-    def with_file_base(self, folder: Path) -> "PlannerChoice":
+    def with_file_base(self, folder: Path) -> PlannerChoice:
         """This choice with a relative ``path/file.py:Class`` made absolute against ``folder``."""
         where, _, attr = self.planner.rpartition(":")
         if not where.endswith(".py") or Path(where).is_absolute():
@@ -310,7 +311,7 @@ class PlannerChoice(BaseModel):
         return self.model_copy(update={"planner": f"{(folder / where).resolve()}:{attr}"})
 
 #: the planner of every agent, or one per agent (planning problem id)
-PlannerAssignment = Union[PlannerChoice, Mapping[int, PlannerChoice]]
+PlannerAssignment = PlannerChoice | Mapping[int, PlannerChoice]
 
 
 def assignment_label(planners: PlannerAssignment) -> str:

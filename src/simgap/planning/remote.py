@@ -56,9 +56,10 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import zmq
 from pydantic import BaseModel, ConfigDict, Field
@@ -72,8 +73,7 @@ from simgap_planner.messages import (
 from simgap_planner.server import ENDPOINT_VARIABLE, compatible
 
 from simgap.errors import InputError
-from simgap.planning.protocol import (Planner, PlannerReport, PlannerSetup, PlannerUnavailable, RemotePlannerError,
-                                     World)
+from simgap.planning.protocol import Planner, PlannerReport, PlannerSetup, PlannerUnavailable, RemotePlannerError, World
 from simgap.trajectory import STATE_FIELDS, State, Trajectory
 
 EXEC_PREFIX = "exec:"
@@ -109,7 +109,7 @@ class PlannerTarget:
     address: str | None = None
 
     @classmethod
-    def parse(cls, ref: str) -> "PlannerTarget | None":
+    def parse(cls, ref: str) -> PlannerTarget | None:
         """``exec:COMMAND ARGS`` or ``tcp://HOST:PORT`` / ``ipc://PATH``; None for any other reference."""
         if ref.startswith(EXEC_PREFIX):
             try:
@@ -237,7 +237,7 @@ class _Connection:
     ids: Any = field(default_factory=lambda: itertools.count(1))
 
     @classmethod
-    def open(cls, target: PlannerTarget) -> "_Connection":
+    def open(cls, target: PlannerTarget) -> _Connection:
         if target.address is not None:
             connection = cls(target.address)
         else:

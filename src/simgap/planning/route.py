@@ -20,9 +20,15 @@ from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.state import InitialState
 
 from simgap.errors import InputError
+from simgap.planning.lane_change import (
+    adjacent,
+    changes_from,
+    lane_change_length,
+    lane_change_path,
+    lane_changes,
+    lanes_beside,
+)
 from simgap.polyline import arc_length, nearest, resample, without_duplicates
-from simgap.planning.lane_change import (adjacent, changes_from, lane_change_length, lane_change_path,
-                                         lane_changes, lanes_beside)
 
 # two lanelets whose boundaries lie within this of each other end to end are side by side [m]
 SHARED_BOUNDARY_M = 0.2

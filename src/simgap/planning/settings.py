@@ -7,8 +7,9 @@ Defaults follow the paper's Frenetix configuration where it states one: horizon 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -38,7 +39,7 @@ class SamplingSettings(_Section):
         2.0, ge=0, description="below this speed the lateral motion is planned over distance, not time")
 
     @model_validator(mode="after")
-    def _times_fit_the_horizon(self) -> "SamplingSettings":
+    def _times_fit_the_horizon(self) -> SamplingSettings:
         if self.t_min_s > self.horizon_s:
             raise ValueError(f"t_min_s ({self.t_min_s}) must not exceed horizon_s ({self.horizon_s})")
         return self
@@ -138,10 +139,10 @@ class FrenetSettings(_Section):
         False, description="evaluate samples on all cores (frenetix taskflow); deterministic either way")
 
     @classmethod
-    def from_mapping(cls, data: Mapping[str, Any] | None, file: str | Path | None = None) -> "FrenetSettings":
+    def from_mapping(cls, data: Mapping[str, Any] | None, file: str | Path | None = None) -> FrenetSettings:
         """Validate ``data``; a bad field becomes an `InputError` naming its path."""
         return validated(cls, data, file=file)
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> "FrenetSettings":
+    def from_yaml(cls, path: str | Path) -> FrenetSettings:
         return read_model(path, cls, "planner settings file", empty_ok=True)

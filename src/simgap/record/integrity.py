@@ -12,9 +12,10 @@ Values a run may hold as NaN (run metrics and tracking aggregates without a samp
 from __future__ import annotations
 
 import math
+from collections.abc import Container, Iterable, Mapping
 from dataclasses import fields
 from pathlib import Path
-from typing import Any, Container, Iterable, Mapping
+from typing import Any
 
 import numpy as np
 import pyarrow as pa

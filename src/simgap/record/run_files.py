@@ -30,10 +30,11 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import asdict, fields
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -48,7 +49,7 @@ from simgap.errors import InputError, validation_error
 from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.criticality import PairCriticality
 from simgap.evaluate.errors import Aggregate, Comfort
-from simgap.evaluate.run_evaluation import (AgentEvaluation, AgentTracking, RunEvaluation, SolutionCheckSource)
+from simgap.evaluate.run_evaluation import AgentEvaluation, AgentTracking, RunEvaluation, SolutionCheckSource
 from simgap.evaluate.solution import PartialCost
 from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.protocol import PlannerReport

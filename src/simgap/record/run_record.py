@@ -5,8 +5,9 @@ written in. Written and read by `simgap.record.run_files` only.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Iterator, Mapping
+from typing import Any
 
 from pydantic import BaseModel, JsonValue
 
@@ -36,9 +37,9 @@ class PlannerRecord:
     planner: str = ""                                      # the reference it was loaded by
     settings: Mapping[str, JsonValue] = field(default_factory=dict)   # its own settings model, dumped
     process: PlannerReport | None = None                   # the planner process's record
-    agents: Mapping[int, "PlannerRecord"] = field(default_factory=dict)   # per agent, when they differ
+    agents: Mapping[int, PlannerRecord] = field(default_factory=dict)   # per agent, when they differ
 
-    def of_agent(self, agent_id: int) -> "PlannerRecord":
+    def of_agent(self, agent_id: int) -> PlannerRecord:
         return self.agents.get(agent_id, self)
 
 

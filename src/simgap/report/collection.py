@@ -10,9 +10,9 @@ is the one its record names (`simgap.record.RunSettings.planner`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable
 
 from commonroad.planning.planning_problem import PlanningProblemSet
 from commonroad.scenario.scenario import Scenario
@@ -25,6 +25,7 @@ from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario
 from simgap.scenario.sections import RoadSections
+
 
 @dataclass(frozen=True)
 class RunEntry:

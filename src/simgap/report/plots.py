@@ -4,8 +4,8 @@ and road edges and every event of each run (goal, off road, collision, ...) wher
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import matplotlib
 
@@ -116,7 +116,7 @@ def plot_waterfall(steps: Sequence[tuple[str, float, bool]], total: float, path:
     fig, ax = plt.subplots(figsize=(8, 0.55 * (len(steps) + 1) + 1.2))
     start = 0.0
     names = [name for name, _, _ in steps] + ["gap"]
-    for i, (name, share, fixes) in enumerate(steps):
+    for i, (_, share, fixes) in enumerate(steps):
         colour = "#d55e00" if share >= 0 else "#009e73"
         ax.barh(i, share, left=start, color=colour, hatch="//" if fixes else None, edgecolor="black", lw=0.6)
         ax.text(max(start, start + share), i, f" {share:+.3f} {unit}" + ("  restoring it alone fixes the outcome"

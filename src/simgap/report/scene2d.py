@@ -3,8 +3,8 @@ animation of the run, drawn with commonroad-io's renderer from the run's ``drive
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import matplotlib
 
@@ -17,9 +17,9 @@ from commonroad.common.file_reader import CommonRoadFileReader  # noqa: E402
 from commonroad.visualization.draw_params import MPDrawParams  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
+from simgap.errors import InputError  # noqa: E402
 from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
 from simgap.record import RunRecord, read_run  # noqa: E402
-from simgap.errors import InputError  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 
 # colour-blind-safe (Okabe–Ito), distinguishable in grayscale by line style as well

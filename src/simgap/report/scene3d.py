@@ -15,8 +15,9 @@ from __future__ import annotations
 import copy
 import errno
 import os
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Callable, Iterator, Mapping, Protocol, Sequence
+from typing import Protocol
 
 import imageio.v2 as imageio
 import matplotlib
@@ -28,8 +29,8 @@ from commonroad.scenario.scenario import Scenario  # noqa: E402
 from commonroad.visualization.mp_renderer import MPRenderer  # noqa: E402
 
 from simgap.cosim.history import AGENT_ID_OFFSET  # noqa: E402
-from simgap.record import RunRecord  # noqa: E402
 from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
+from simgap.record import RunRecord  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
 from simgap.scenario import read_sidecar  # noqa: E402
 from simgap.scenario.ground import ground_of  # noqa: E402

@@ -7,18 +7,17 @@ from __future__ import annotations
 
 import math
 from collections import Counter, defaultdict
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from simgap.cosim import REFERENCE
 from simgap.evaluate.closed_loop_score import COMPONENTS
+from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.evaluate.score_drop import score_drop
 from simgap.evaluate.settings import ScoreWeights
-from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.experiment.run_row import RunRow
 from simgap.report.collection import ScenarioGroup
-
 
 SCORES_NOTE = ("<p>score: the closed-loop score (built like nuPlan's CLS: the multipliers at-fault collisions, "
                "drivable area, driving direction and making progress times the weighted mean of progress, time to "

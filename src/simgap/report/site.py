@@ -18,31 +18,37 @@ import html
 import math
 import shutil
 from collections import Counter
+from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 
+from simgap.cosim import REFERENCE, Outcome
+from simgap.cosim.fidelity import Realism
 from simgap.errors import InputError
 from simgap.evaluate.errors import lateral_profile
-from simgap.files import atomic_write_text, replace_directory
 from simgap.evaluate.route_centre import route_centre
-from simgap.experiment.run_row import RunRow
+from simgap.evaluate.route_edges import event_places, route_edges
+from simgap.evaluate.timeline import agent_timeline
 from simgap.experiment.repeats import odds_over_repeats
+from simgap.experiment.run_row import RunRow
 from simgap.experiment.store import ResultsStore
-from simgap.cosim import REFERENCE, Outcome
+from simgap.files import atomic_write_text, replace_directory
 from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.report.collection import ScenarioGroup, collect
-from simgap.report.figures import (heatmap_colour, heatmap_grid, plot_error_boxes, plot_heatmap,
-                                   plot_paths_from_above, runtime_table)
-from simgap.evaluate.route_edges import event_places, route_edges
-from simgap.scenario.road_frame import PathFrame
-from simgap.evaluate.timeline import agent_timeline
+from simgap.report.figures import (
+    heatmap_colour,
+    heatmap_grid,
+    plot_error_boxes,
+    plot_heatmap,
+    plot_paths_from_above,
+    runtime_table,
+)
 from simgap.report.plots import plot_d_over_s, plot_v_over_t, plot_waterfall
-from simgap.report.timeline import plot_timeline
 from simgap.report.scores import SCORES_NOTE, breakdown_rows, score_drop_maps, score_rows
-from simgap.cosim.fidelity import Realism
+from simgap.report.timeline import plot_timeline
+from simgap.scenario.road_frame import PathFrame
 
 PICTURES = ("side_by_side.png", "scene3d_chase.png", "scene3d_birdseye.png", "scene.png", "scene3d.mp4", "run.gif")
 
@@ -372,7 +378,7 @@ def _comparison_page(scenario_id: str, groups: list[ScenarioGroup], out: Path, a
         problem = first.problems.planning_problem_dict.get(aid)
         if frame is not None:
             curves = {}
-            for label, (g, e) in runs.items():
+            for label, (_, e) in runs.items():
                 if aid in e.run.history.driven:
                     s, d = lateral_profile(e.run.history.driven[aid], frame)
                     curves[label] = (s[np.argsort(s)], d[np.argsort(s)])

@@ -7,8 +7,8 @@ event of the agent (goal, off road, collision, ...) marked on each panel. It dra
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import matplotlib
 

@@ -11,8 +11,9 @@ same lanelets (`rebuild`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Annotated, Any, Literal, Mapping, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
@@ -30,7 +31,7 @@ class RoadBlueprint(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     kind: Literal["road"] = "road"
-    segments: list[Union[Straight, Arc]]
+    segments: list[Straight | Arc]
     lanes_per_direction: int = 1
     lane_width: float = 3.0
     two_way: bool = True
@@ -71,7 +72,7 @@ class JunctionBlueprint(BaseModel):
                               self.centre_marking)
 
 
-Blueprint = Annotated[Union[RoadBlueprint, JunctionBlueprint], Field(discriminator="kind")]
+Blueprint = Annotated[RoadBlueprint | JunctionBlueprint, Field(discriminator="kind")]
 
 
 _BLUEPRINT: TypeAdapter[RoadBlueprint | JunctionBlueprint] = TypeAdapter(Blueprint)

@@ -8,9 +8,9 @@ import logging
 import os
 import tempfile
 import warnings
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 from xml.etree import ElementTree
 
 from commonroad.common.file_reader import CommonRoadFileReader
@@ -24,7 +24,6 @@ from simgap.errors import InputError
 from simgap.files import atomic_write, atomic_write_text
 from simgap.scenario.physical_bounds import check_lanelets, check_planning_problems, check_time_step
 from simgap.scenario.templates import ConcreteScenario
-
 
 XML_PRECISION = 8  # decimals written for coordinates: a written file reloads equal to 1e-8 m
 READ_FORMATS = ("2018b", "2020a")   # the CommonRoad formats commonroad-io 2024.3 reads

@@ -9,8 +9,9 @@ heading, curvature and the kind of section it belongs to.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, Sequence, Union
+from typing import Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -37,7 +38,7 @@ class Arc(BaseModel):
     transition: float = Field(0.0, ge=0, description="clothoid length on each side [m]")
 
 
-Segment = Union[Straight, Arc]
+Segment = Straight | Arc
 
 
 @dataclass(frozen=True)
@@ -113,7 +114,7 @@ def centre_line(segments: Sequence[Segment], start=(0.0, 0.0), heading: float = 
             kb = k0 + (k1 - k0) * (i + 1) / n
             dk = (kb - ka) / ds
 
-            def head(u: float) -> float:
+            def head(u: float, h: float = h, ka: float = ka, dk: float = dk) -> float:
                 return h + ka * u + 0.5 * dk * u * u
 
             sub = 8

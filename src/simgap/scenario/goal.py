@@ -9,9 +9,9 @@ unwrapped heading counts) and explains, after a run, why a goal was missed.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Sequence
 
 import numpy as np
 import shapely
@@ -140,7 +140,7 @@ class Goal:
     states: tuple[GoalState, ...]
 
     @classmethod
-    def of(cls, region: GoalRegion, dt: float) -> "Goal":
+    def of(cls, region: GoalRegion, dt: float) -> Goal:
         states = []
         for gs in region.state_list:
             time = _window(getattr(gs, "time_step", None))

@@ -29,16 +29,17 @@ from __future__ import annotations
 import itertools
 import math
 import re
+from collections.abc import Iterator
 from importlib import resources
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from simgap.errors import InputError
 from simgap.files import read_model
-from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
 from simgap.scenario.opendrive.scenario import opendrive_template
+from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
 from simgap.scenario.templates import TEMPLATES as ROAD_TEMPLATES
 from simgap.scenario.templates import ConcreteScenario, check_template_inputs
 from simgap.trajectory import DEFAULT_TIME_STEP_S
@@ -69,7 +70,7 @@ class Parameter(BaseModel):
     grid: Grid | None = None
 
     @model_validator(mode="after")
-    def _check(self) -> "Parameter":
+    def _check(self) -> Parameter:
         if self.values is not None and self.grid is not None:
             raise ValueError("give either values or grid, not both")
         for v in [self.default] + self.span():
@@ -97,7 +98,7 @@ class LogicalScenario(BaseModel):
     parameters: dict[str, Parameter]
 
     @model_validator(mode="after")
-    def _known_template(self) -> "LogicalScenario":
+    def _known_template(self) -> LogicalScenario:
         if self.template not in TEMPLATES:
             raise ValueError(f"unknown template '{self.template}' (allowed: {', '.join(TEMPLATES)})")
         return self

@@ -41,7 +41,7 @@ class MapPoint:
     extra: float | None = None
 
     @classmethod
-    def parse(cls, text: str, option: str, allowed: str) -> "MapPoint":
+    def parse(cls, text: str, option: str, allowed: str) -> MapPoint:
         m = _POINT.match(text)
         if m is None:
             raise InputError(f"'{text}' is not a point", field=option, allowed=allowed)
@@ -68,7 +68,7 @@ class AgentPlacement:
     goal_text: str
 
     @classmethod
-    def of_options(cls, start: str | None, goal: str | None) -> "AgentPlacement | None":
+    def of_options(cls, start: str | None, goal: str | None) -> AgentPlacement | None:
         """The placement ``--start`` and ``--goal`` ask for (None when neither is given)."""
         if start is None and goal is None:
             return None

@@ -72,7 +72,7 @@ class ElevationProfile(BaseModel):
     changes: tuple[VerticalCurve, ...] = ()
 
     @model_validator(mode="after")
-    def _curves_in_order(self) -> "ElevationProfile":
+    def _curves_in_order(self) -> ElevationProfile:
         end, previous = 0.0, self.grade
         for k, curve in enumerate(self.changes):
             half = 0.5 * curve.radius * abs(curve.grade - previous) / 100.0
@@ -126,7 +126,7 @@ class ReliefProfile(BaseModel):
     superelevation: tuple[BankKnot, ...] = ()
 
     @model_validator(mode="after")
-    def _knots_in_order(self) -> "ReliefProfile":
+    def _knots_in_order(self) -> ReliefProfile:
         s = [k.s for k in self.superelevation]
         if any(b <= a for a, b in zip(s, s[1:])):
             raise ValueError("superelevation knots must follow each other along the road (s increasing)")

@@ -5,8 +5,9 @@ report shades its plots by and the comparison splits its gaps by. A scenario's s
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 from simgap.scenario.geometry import SectionKind
 
@@ -33,5 +34,5 @@ class RoadSections:
         return {str(k): v for k, v in self.kinds.items()}
 
     @classmethod
-    def of_json(cls, data: Mapping[str, Any] | None) -> "RoadSections":
+    def of_json(cls, data: Mapping[str, Any] | None) -> RoadSections:
         return cls({int(k): v for k, v in (data or {}).items()})

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import JsonValue
 
@@ -40,7 +41,7 @@ class ScenarioSidecar:
     def __bool__(self) -> bool:
         return self != ScenarioSidecar()
 
-    def with_parameters(self, parameters: Mapping[str, JsonValue]) -> "ScenarioSidecar":
+    def with_parameters(self, parameters: Mapping[str, JsonValue]) -> ScenarioSidecar:
         """The sidecar with ``parameters`` over its own (a placed agent's start and goal)."""
         return ScenarioSidecar(self.name, self.logical, {**self.parameters, **parameters}, self.units, self.sections,
                                self.blueprint, self.opendrive)
@@ -56,7 +57,7 @@ class ScenarioSidecar:
         return out
 
     @classmethod
-    def of_json(cls, data: Mapping[str, Any], file: str | Path | None = None) -> "ScenarioSidecar":
+    def of_json(cls, data: Mapping[str, Any], file: str | Path | None = None) -> ScenarioSidecar:
         """``data``, a parsed sidecar, typed; a blueprint or an OpenDRIVE origin that does not read is
         refused naming ``file`` and the field (a scenario whose relief cannot be read is never run
         flat)."""

@@ -19,9 +19,10 @@ from __future__ import annotations
 import hashlib
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 from commonroad.planning.planning_problem import PlanningProblemSet
@@ -31,13 +32,27 @@ from pydantic import TypeAdapter, ValidationError
 
 from simgap.errors import InputError, validation_error
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
-from simgap.scenario.geometry import (MAX_ROAD_LENGTH_M, Arc, SectionKind, Segment, Straight, centre_line,
-                                     curvature_pieces, self_intersects)
+from simgap.scenario.geometry import (
+    MAX_ROAD_LENGTH_M,
+    Arc,
+    SectionKind,
+    Segment,
+    Straight,
+    centre_line,
+    curvature_pieces,
+    self_intersects,
+)
 from simgap.scenario.opendrive.origin import OpenDriveOrigin
 from simgap.scenario.physical_bounds import MIN_LANE_WIDTH
 from simgap.scenario.problem import planning_problem
-from simgap.scenario.relief import (MAX_BANK_DEG, MAX_GRADE_PERCENT, BankKnot, ElevationProfile, ReliefProfile,
-                                    VerticalCurve)
+from simgap.scenario.relief import (
+    MAX_BANK_DEG,
+    MAX_GRADE_PERCENT,
+    BankKnot,
+    ElevationProfile,
+    ReliefProfile,
+    VerticalCurve,
+)
 from simgap.scenario.road import LaneLayout, build_road
 from simgap.scenario.sections import RoadSections
 from simgap.scenario.sidecar import ScenarioSidecar

@@ -11,8 +11,9 @@ base: its share is what is left between the perfect machine and the ideal run.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from enum import StrEnum
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel
 

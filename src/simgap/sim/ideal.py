@@ -7,15 +7,15 @@ fidelity ladder.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel, ConfigDict
 
 from simgap.errors import InputError
 from simgap.scenario.relief import Surface
-from simgap.sim.protocol import (REFERENCE, Agent, BackendEntry, BackendEvent, PlanInForce, Realism, enters_at,
-                                 plan_at)
+from simgap.sim.protocol import REFERENCE, Agent, BackendEntry, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, State
 
 

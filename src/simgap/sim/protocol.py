@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum, StrEnum
-from typing import Any, Callable, Mapping, Protocol, Sequence, Union
+from typing import Any, Protocol
 
 from commonroad.scenario.scenario import Scenario
 
@@ -38,7 +39,7 @@ class PlanHandover:
         return self.plan if t >= self.at - 1e-9 else self.previous
 
 
-PlanInForce = Union[Trajectory, PlanHandover]
+PlanInForce = Trajectory | PlanHandover
 
 
 def plan_at(plan: PlanInForce, t: float) -> Trajectory:
@@ -71,7 +72,7 @@ class Outcome(StrEnum):
     DIVERGED = "diverged"                    # the physics blew up
 
     @classmethod
-    def worst(cls, outcomes: "list[Outcome]") -> "Outcome":
+    def worst(cls, outcomes: list[Outcome]) -> Outcome:
         """The first outcome that is not reaching the goal, else reaching it."""
         return next((o for o in outcomes if o != cls.GOAL_REACHED), cls.GOAL_REACHED)
 

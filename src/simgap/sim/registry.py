@@ -13,8 +13,9 @@ the backend's model, which then flows unchanged to `make_backend` and the backen
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel
 

@@ -25,7 +25,8 @@ which the loop puts into the run's history.
 from __future__ import annotations
 
 import time
-from typing import Mapping, Protocol, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Protocol
 
 from commonroad.scenario.scenario import Scenario
 
@@ -34,12 +35,13 @@ from simgap.control.delay import compensated
 from simgap.control.longitudinal import LongitudinalMap
 from simgap.control.protocol import Command, Controller
 from simgap.errors import InputError
+from simgap.scenario.relief import Surface
 from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
 from simgap.sim.rates import is_multiple, nearest_multiple
-from simgap.scenario.relief import Surface
 from simgap.sim.settings import TrackingSettings
 from simgap.trajectory import DEFAULT_TIME_STEP_S, Attitude, ControlTrace, State
 from simgap.vehicles.actuators import ActuatorResponses, Actuators
+
 
 class Physics(Protocol):
     """The physical world of a physics backend with all its cars, driven one controller period at

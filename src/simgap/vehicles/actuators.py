@@ -41,7 +41,7 @@ class ActuatorChannel(BaseModel):
     source: str = Field("", description="where the numbers come from")
 
     @model_validator(mode="after")
-    def _one_lag(self) -> "ActuatorChannel":
+    def _one_lag(self) -> ActuatorChannel:
         second = (self.natural_frequency is not None, self.damping_ratio is not None)
         if any(second) and not all(second):
             raise ValueError("a second-order lag needs both natural_frequency and damping_ratio")
@@ -60,7 +60,7 @@ class ActuatorChannel(BaseModel):
     def order(self) -> int:
         return 2 if self.natural_frequency is not None else 1 if self.time_constant > 0 else 0
 
-    def with_changes(self, dead_time: float | None = None, time_constant: float | None = None) -> "ActuatorChannel":
+    def with_changes(self, dead_time: float | None = None, time_constant: float | None = None) -> ActuatorChannel:
         """This channel with another dead time or first-order lag (a reality knob's override;
         a first-order lag replaces a second-order one)."""
         changes: dict = {}
@@ -78,7 +78,7 @@ class ActuatorChannel(BaseModel):
             lag = f" + lag {self.time_constant:g} s" if self.order == 1 else ""
         return f"{self.dead_time:g} s dead time{lag}"
 
-    def response(self, period: float, initial: float = 0.0) -> "ChannelResponse":
+    def response(self, period: float, initial: float = 0.0) -> ChannelResponse:
         return ChannelResponse(self, period, initial)
 
 
@@ -147,7 +147,7 @@ class ChannelResponse:
             self._rate = p[2] * y + p[3] * r + g[1] * request
         return self._y
 
-    def copy(self) -> "ChannelResponse":
+    def copy(self) -> ChannelResponse:
         twin = object.__new__(ChannelResponse)
         twin.__dict__.update(self.__dict__)
         twin._queue = deque(self._queue)

@@ -7,7 +7,7 @@ The ``planner`` section holds what a planner assumes (CommonRoad's kinematic lim
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -18,8 +18,8 @@ from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.vehicles.actuators import Actuators
 from simgap.vehicles.constants import MAX_LENGTH, MAX_SPEED, MAX_WIDTH
-from simgap.vehicles.reference_points import along_heading
 from simgap.vehicles.physics import VehiclePhysics
+from simgap.vehicles.reference_points import along_heading
 
 DEFAULT_VEHICLE = "sedan"     # every agent's vehicle, and the one its planner assumes, unless told otherwise
 
@@ -111,7 +111,7 @@ def is_vehicle_file(name_or_path: str) -> bool:
     return name_or_path.endswith((".yaml", ".yml")) or "/" in name_or_path
 
 
-@lru_cache(maxsize=None)
+@cache
 def load_vehicle(name_or_path: str) -> Vehicle:
     """A vehicle by catalogue name (``sedan``) or by the path of a data file."""
     if is_vehicle_file(name_or_path):

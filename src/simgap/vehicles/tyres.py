@@ -71,7 +71,7 @@ class Tyres(BaseModel):
     low_speed: float = Field(2.0, gt=0.1, le=10.0, description="below this speed [m/s] a damping term fades in, so a car at walking pace or standing is calm")
 
     @model_validator(mode="after")
-    def _nominal_load_with_load_terms(self) -> "Tyres":
+    def _nominal_load_with_load_terms(self) -> Tyres:
         mf = self.magic_formula
         for name, needs in (("p_ky2", mf.p_ky2 is not None), ("p_dx2", mf.p_dx2 != 0.0), ("p_dy2", mf.p_dy2 != 0.0)):
             if needs and self.nominal_load is None:

@@ -10,16 +10,16 @@ from pathlib import Path
 import pytest
 
 from simgap.cosim import Outcome
+from simgap.experiment.run_row import RunRow
+from simgap.experiment.search import Budget, StrategyRun
 from simgap.experiment.search.failure_modes import what_broke
 from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
 from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
-from simgap.experiment.run_row import RunRow
-from simgap.experiment.search import Budget, StrategyRun
 from simgap.experiment.search.results import SearchResults, summarise
 from simgap.experiment.search.space import SearchSpace
 from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search
-from simgap.experiment.store import ResultsStore
 from simgap.experiment.search.strategies import make_strategy
+from simgap.experiment.store import ResultsStore
 from simgap.report.search_page import build_search_report
 from simgap.scenario.logical import load_logical
 

@@ -4,18 +4,23 @@ candidates, it settles where the screen's risk separates failing from passing ca
 from __future__ import annotations
 
 import numpy as np
+from search_specs import LADDER
 
 from simgap.cosim import Outcome
-from simgap.experiment.search.multi_fidelity import START_THRESHOLD, MoveAllocation, PromotionThreshold, _Yield, separating_risk
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun
-from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search
+from simgap.experiment.search.multi_fidelity import (
+    START_THRESHOLD,
+    MoveAllocation,
+    PromotionThreshold,
+    _Yield,
+    separating_risk,
+)
 from simgap.experiment.search.space import SearchSpace
-from simgap.experiment.store import ResultsStore
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search
 from simgap.experiment.search.strategies import make_strategy
+from simgap.experiment.store import ResultsStore
 from simgap.scenario.logical import load_logical
-
-from search_specs import LADDER
 
 
 def test_the_separating_risk_lies_between_the_highest_pass_and_the_lowest_failure():

@@ -6,20 +6,20 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from search_specs import LADDER, write
 
-from simgap.errors import InputError
 from simgap.cosim import Outcome
+from simgap.errors import InputError
 from simgap.experiment.run_row import RunRow
 from simgap.experiment.search import Budget, StrategyRun, parse_budget, run_search
 from simgap.experiment.search.results import summarise
-from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search, load_search_spec
-from simgap.experiment.store import ResultsStore
-from simgap.sim.settings import road_friction
 from simgap.experiment.search.space import SearchSpace
+from simgap.experiment.search.spec import FailureRule, SearchSpec, checked_search, load_search_spec
 from simgap.experiment.search.strategies import make_strategy
+from simgap.experiment.store import ResultsStore
 from simgap.scenario.logical import load_logical
+from simgap.sim.settings import road_friction
 
-from search_specs import LADDER, write
 
 @pytest.mark.parametrize("fields, where, allowed", [
     ({"knobs": {"grip": {"min": 0, "max": 1}}}, "knobs.grip", "road_friction"),

@@ -12,6 +12,7 @@ import sys
 import time
 
 import pytest
+from search_specs import LADDER, write
 
 from simgap.errors import InputError
 from simgap.experiment.search import Budget, run_search
@@ -19,7 +20,6 @@ from simgap.experiment.search.results import search_results
 from simgap.experiment.store import ResultsStore
 from simgap.report.search_page import build_search_report
 
-from search_specs import LADDER, write
 
 def small_search(tmp_path, **fields):
     return write(tmp_path, **({"parameters": {"radius": {"min": 10, "max": 30}, "initial_speed": {"min": 10, "max": 20}},

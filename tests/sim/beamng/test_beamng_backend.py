@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from commonroad.scenario.lanelet import LineMarking
+from evaluated import recorded
+from fake_server import REF_OFFSET, FakeServer
 from shapely.geometry import LineString, Point
 
-from fake_server import REF_OFFSET, FakeServer
-from evaluated import recorded
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.errors import InputError
@@ -28,8 +28,15 @@ from simgap.planning.protocol import PlannerSetup
 from simgap.scenario import build_scenario, write_scenario
 from simgap.sim.beamng import BeamngBackend
 from simgap.sim.beamng.catalogue import DEFAULT_MODELS, MODELS, model_for
-from simgap.sim.beamng.convert import (bbox_centre, forward_of, quat_from_yaw, reference_offset, steering_input,
-                                       to_state, yaw_of)
+from simgap.sim.beamng.convert import (
+    bbox_centre,
+    forward_of,
+    quat_from_yaw,
+    reference_offset,
+    steering_input,
+    to_state,
+    yaw_of,
+)
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import ServerUnreachable
 from simgap.sim.beamng.settings import Materials, load_settings
@@ -49,7 +56,7 @@ def test_lanelets_become_decal_roads_that_keep_their_shape(radius):
         centre = LineString(lanelet.center_vertices)
         nodes = np.array(road.nodes)
         # every node on the centre line, with the lanelet's width there
-        for x, y, z, w in nodes:
+        for x, y, _, w in nodes:
             assert centre.distance(Point(x, y)) < 0.01
             i = int(np.argmin(np.linalg.norm(lanelet.center_vertices - [x, y], axis=1)))
             assert w == pytest.approx(np.linalg.norm(lanelet.left_vertices[i] - lanelet.right_vertices[i]), abs=0.02)

@@ -12,13 +12,13 @@ from commonroad.scenario.state import InitialState, KSState
 from commonroad.scenario.trajectory import Trajectory as CrTrajectory
 
 from simgap.cosim import CosimSettings
+from simgap.errors import InputError
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario
 from simgap.scenario.files import write_scenario
-from simgap.errors import InputError
 from simgap.sim.mujoco import MujocoBackend
-from simgap.sim.mujoco.settings import mujoco_settings
 from simgap.sim.mujoco.plant import proving_ground
+from simgap.sim.mujoco.settings import mujoco_settings
 from simgap.sim.protocol import Agent
 from simgap.sim.registry import backend_settings
 from simgap.trajectory import State, Trajectory

@@ -79,8 +79,8 @@ def test_markings_follow_the_commonroad_line_markings(logical):
     assert {round(line.width, 2) for line in lines} <= {0.12, 0.25}
     for line in lines:
         # every drawn line lies on a lanelet bound (its centre line within half a line width)
-        bound = min((np.min(np.linalg.norm(np.asarray(b)[:, None, :] - line.xy[None, :, :], axis=2), axis=0).max()
-                     for l in network.lanelets for b in (l.left_vertices, l.right_vertices)))
+        bound = min(np.min(np.linalg.norm(np.asarray(b)[:, None, :] - line.xy[None, :, :], axis=2), axis=0).max()
+                     for l in network.lanelets for b in (l.left_vertices, l.right_vertices))
         assert bound < 0.13
     dashed = [line for line in lines if line.dash > 0]
     if LineMarking.DASHED in marked:

@@ -29,12 +29,12 @@ class Budget:
             return str(self.runs)
         return f"{math.ceil(self.seconds / 60)}m" if self.seconds >= 120 else f"{math.ceil(self.seconds)}s"
 
-    def __add__(self, other: "Budget") -> "Budget":
+    def __add__(self, other: Budget) -> Budget:
         if self.seconds is not None:
             return Budget(seconds=self.seconds + (other.seconds or 0.0))
         return Budget(runs=(self.runs or 0) + (other.runs or 0))
 
-    def shares(self, names: list[str]) -> dict[str, "Budget"]:
+    def shares(self, names: list[str]) -> dict[str, Budget]:
         """This budget split evenly among the strategies ``names`` (they are compared on equal
         budgets): seconds divided, runs divided with the remainder to the first ones."""
         if self.seconds is not None:

@@ -68,7 +68,7 @@ class ProbePlan(BaseModel):
         atomic_write_text(Path(root) / PROBES / PLAN, self.model_dump_json(indent=2))
 
     @classmethod
-    def load(cls, root: Path) -> "ProbePlan | None":
+    def load(cls, root: Path) -> ProbePlan | None:
         path = Path(root) / PROBES / PLAN
         return cls.model_validate(json.loads(path.read_text())) if path.exists() else None
 
@@ -93,7 +93,7 @@ class ProbeRow:
                                      failure_reason=self.failure_reason)
 
     @classmethod
-    def of(cls, row: RunRow) -> "ProbeRow":
+    def of(cls, row: RunRow) -> ProbeRow:
         extra = dict(row.extra)
         probe_of, dim = int(extra.pop("probe_of")), str(extra.pop("probe_dim"))
         failed, reason = bool(extra.pop("failed", False)), str(extra.pop("failure_reason", "") or "")

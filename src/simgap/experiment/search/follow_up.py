@@ -36,7 +36,6 @@ from simgap.planning.registry import DEFAULT_PLANNER
 from simgap.record import read_run
 
 
-
 @dataclass(frozen=True)
 class FollowUp:
     """What a search does with each distinct violation it reports: confirm it over ``repeats``

@@ -16,8 +16,8 @@ from simgap.evaluate.odds import Rate
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.attribution import Attribution, read_explanation
 from simgap.experiment.replay import reproduce_command
-from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.budget import Budget
+from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, needed, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec

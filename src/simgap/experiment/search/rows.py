@@ -60,7 +60,7 @@ class SearchRow:
         return self.run.with_columns(**columns, **({} if self.score_drop is None else {SCORE_DROP: self.score_drop}))
 
     @classmethod
-    def of(cls, row: RunRow) -> "SearchRow":
+    def of(cls, row: RunRow) -> SearchRow:
         """The search row a stored row is (its search columns taken out of ``extra``)."""
         extra = dict(row.extra)
         own = {k: extra.pop(k) for k in _COLUMNS if k in extra}

@@ -30,21 +30,22 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from simgap.errors import InputError
+from simgap.experiment.attribution import explain
 from simgap.experiment.executors import make_executor
 from simgap.experiment.job import Job, JobContext
 from simgap.experiment.run_row import RunRow
-from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
-from simgap.experiment.search.ledger import SearchLedger
-from simgap.experiment.attribution import explain
 from simgap.experiment.search.budget import Budget
 from simgap.experiment.search.confirmation import CONFIRMATIONS, Confirmations
 from simgap.experiment.search.failure_modes import PROBES
 from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
+from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
+from simgap.experiment.search.ledger import SearchLedger
 from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
 from simgap.experiment.search.results import META, FollowUpLeft, StrategyResult, summarise
 from simgap.experiment.search.rows import SearchRow

@@ -38,7 +38,7 @@ class Candidate:
         """Who drives: the vehicle and the planner (failures of different drivers are distinct)."""
         return (self.vehicle, self.planner)
 
-    def distance(self, other: "Candidate") -> float:
+    def distance(self, other: Candidate) -> float:
         if self.driver != other.driver:
             return math.inf
         return float(np.linalg.norm(np.subtract(self.unit, other.unit)))

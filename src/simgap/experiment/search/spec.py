@@ -98,7 +98,7 @@ class Range(BaseModel):
     max: float
 
     @model_validator(mode="after")
-    def _ordered(self) -> "Range":
+    def _ordered(self) -> Range:
         if self.min > self.max:
             raise ValueError("min must not exceed max")
         return self

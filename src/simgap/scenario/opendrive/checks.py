@@ -36,8 +36,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from simgap.errors import InputError
-from simgap.scenario.opendrive.document import (Connection, Geometry, Junction, Lane, LaneSection, OpenDriveDocument,
-                                                Road, RoadLink, piecewise)
+from simgap.scenario.opendrive.document import (
+    Connection,
+    Geometry,
+    Junction,
+    Lane,
+    LaneSection,
+    OpenDriveDocument,
+    Road,
+    RoadLink,
+    piecewise,
+)
 from simgap.scenario.opendrive.lanes import section_ends
 from simgap.scenario.opendrive.reference_line import geometry_poses, polynomial_length
 

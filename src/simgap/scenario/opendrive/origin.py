@@ -6,8 +6,9 @@ vertices — for a 3D world to lay the surface on (the CommonRoad XML is 2D).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 

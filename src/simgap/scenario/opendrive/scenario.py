@@ -16,9 +16,9 @@ from commonroad.planning.planning_problem import PlanningProblemSet
 from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.errors import InputError, validated
-from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
 from simgap.scenario.lane_places import LanePlace, on_lanelet, place_under, reachable
 from simgap.scenario.opendrive.lanes import lane_centre
+from simgap.scenario.opendrive.network import OpenDriveNetwork, opendrive_network
 from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S
 from simgap.scenario.problem import planning_problem
 from simgap.scenario.templates import ConcreteScenario, scenario_of

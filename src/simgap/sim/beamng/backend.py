@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -37,8 +37,15 @@ from simgap.errors import InputError
 from simgap.scenario.obstacles import recorded_obstacles
 from simgap.scenario.relief import Surface
 from simgap.sim.beamng.catalogue import model_for
-from simgap.sim.beamng.convert import (DAMAGE_COLLISION, bbox_centre, quat_from_yaw, reference_offset,
-                                       reference_position, steering_input, to_state)
+from simgap.sim.beamng.convert import (
+    DAMAGE_COLLISION,
+    bbox_centre,
+    quat_from_yaw,
+    reference_offset,
+    reference_position,
+    steering_input,
+    to_state,
+)
 from simgap.sim.beamng.roads import decal_roads
 from simgap.sim.beamng.session import BeamngSession, Poll, Session, Spawn
 from simgap.sim.beamng.settings import BeamngSettings, load_settings

@@ -12,8 +12,8 @@ and override them with the backend setting ``steer_locks``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 from simgap.errors import InputError
 

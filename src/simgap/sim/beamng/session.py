@@ -10,8 +10,9 @@ clear error at once, before beamngpy is imported or any run is written.
 from __future__ import annotations
 
 import socket
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, Sequence
+from typing import Any, Protocol
 
 from simgap.errors import InputError
 from simgap.sim.beamng.roads import DecalRoad

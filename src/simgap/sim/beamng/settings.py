@@ -12,8 +12,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from simgap.control.tracking import MIN_RATE_HZ
 from simgap.errors import InputError, validated_settings
-from simgap.sim.rates import steps_per_tick
 from simgap.sim.protocol import BackendEntry
+from simgap.sim.rates import steps_per_tick
 from simgap.sim.settings import TrackingSettings
 
 ENV = {"host": "SIMGAP_BEAMNG_HOST", "port": "SIMGAP_BEAMNG_PORT", "home": "SIMGAP_BEAMNG_HOME"}

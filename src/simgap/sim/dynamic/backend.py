@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario

@@ -8,7 +8,8 @@ controller period.
 from __future__ import annotations
 
 import math
-from typing import Callable, Protocol
+from collections.abc import Callable
+from typing import Protocol
 
 from simgap.control.protocol import Command, Controller
 from simgap.trajectory import State, Trajectory

@@ -40,10 +40,10 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
-from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
 from vehiclemodels.init_mb import init_mb
+from vehiclemodels.utils.acceleration_constraints import acceleration_constraints
 from vehiclemodels.vehicle_dynamics_mb import vehicle_dynamics_mb
 from vehiclemodels.vehicle_dynamics_st import vehicle_dynamics_st
 from vehiclemodels.vehicle_parameters import VehicleParameters, setup_vehicle_parameters
@@ -67,7 +67,7 @@ class Slope:
     across: float
 
 
-@lru_cache(maxsize=None)
+@cache
 def _parameter_set(params_id: int) -> VehicleParameters:
     return setup_vehicle_parameters(vehicle_id=params_id)
 

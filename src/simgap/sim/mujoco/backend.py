@@ -31,13 +31,12 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
 from commonroad.scenario.scenario import Scenario
 
-from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 from simgap.control.protocol import Command
 from simgap.errors import InputError
 from simgap.scenario.relief import Surface
@@ -48,6 +47,7 @@ from simgap.sim.protocol import Agent, BackendEvent, Outcome, PhysicsDiverged, e
 from simgap.sim.rates import SpeedRate, is_multiple, nearest_multiple
 from simgap.sim.tracked import TrackedBackend
 from simgap.trajectory import Attitude, State
+from simgap.vehicles.constants import AIR_DENSITY, GRAVITY
 
 PARKED = Command(steer=0.0, throttle=0.0, brake=1.0)     # what a car taken out of the world is given
 PARKING_M = 100.0           # a car that has not entered the world yet waits this far beyond the road [m]

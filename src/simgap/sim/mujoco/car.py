@@ -115,7 +115,7 @@ class CarIndex:
                                 self.suspension_qpos[k], self.physics, loads[k], side * susp.camber_gain))
         return mounts
 
-    def resolve(self, model: mujoco.MjModel) -> "CarIndex":
+    def resolve(self, model: mujoco.MjModel) -> CarIndex:
         p = self.prefix
         self.chassis_body = model.body(f"{p}chassis").id
         jnt = model.joint(f"{p}free")

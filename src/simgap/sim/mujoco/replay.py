@@ -14,7 +14,7 @@ climbs with the car. It follows smoothly (`chase_cameras`).
 from __future__ import annotations
 
 import math
-from typing import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 import mujoco
 import numpy as np

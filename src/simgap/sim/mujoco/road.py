@@ -12,7 +12,7 @@ hulls, which a curved road is not.
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import mujoco
 import numpy as np

@@ -8,9 +8,9 @@ from typing import Any
 from pydantic import Field
 
 from simgap.errors import validated_settings
-from simgap.sim.rates import steps_per_tick
 from simgap.sim.protocol import BackendEntry
-from simgap.sim.settings import RoadFriction, RoadSlope, RoadFrictionSettings, TrackingSettings
+from simgap.sim.rates import steps_per_tick
+from simgap.sim.settings import RoadFriction, RoadFrictionSettings, RoadSlope, TrackingSettings
 
 PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
 

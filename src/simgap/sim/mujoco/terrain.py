@@ -35,7 +35,7 @@ class Terrain:
     grid: np.ndarray
 
     @classmethod
-    def of(cls, relief: Surface, bounds: tuple[float, float, float, float]) -> "Terrain":
+    def of(cls, relief: Surface, bounds: tuple[float, float, float, float]) -> Terrain:
         """The ground of ``relief`` over ``bounds`` (x0, y0, x1, y1: the road) and its margin."""
         rx0, ry0, rx1, ry1 = relief.bounds()
         x0, y0 = min(bounds[0], rx0) - MARGIN_M, min(bounds[1], ry0) - MARGIN_M

@@ -11,8 +11,8 @@ draws the land beyond it. The backend (`simgap.sim.mujoco.backend`) drives it; t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import mujoco
 import numpy as np
@@ -22,10 +22,10 @@ from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.scenario.relief import Surface
 from simgap.sim.mujoco.car import CarIndex, ackermann_angles, add_car, yaw_quaternion
 from simgap.sim.mujoco.road import SurfaceMap, add_road
+from simgap.sim.mujoco.settings import WorldSettings
 from simgap.sim.mujoco.terrain import Terrain
 from simgap.sim.mujoco.tyre import SlipTyres
 from simgap.sim.protocol import Agent
-from simgap.sim.mujoco.settings import WorldSettings
 from simgap.trajectory import State
 from simgap.vehicles.constants import GRAVITY
 
