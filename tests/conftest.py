@@ -67,4 +67,7 @@ class _FileScheduling(LoadScopeScheduling):
 
 
 def pytest_xdist_make_scheduler(config, log):
-    return _FileScheduling(config, log) if config.getvalue("dist") == "loadfile" else None
+    if config.getvalue("dist") != "loadfile":
+        return None
+    config.option.loadscopereorder = False      # the units in the order above, not the largest files first
+    return _FileScheduling(config, log)
