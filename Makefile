@@ -62,7 +62,7 @@ planner-toolchain:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
 # the two virtual environments installed side by side (apt's installs one after the other), then
-# the linter (pyflakes' findings) and the import contracts of docs/concepts/architecture.md first,
+# the linter (pyflakes, isort, bugbear, pyupgrade) and the import contracts of docs/concepts/architecture.md first,
 # then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
 # (tests/conftest.py: work_unit), the tutorial pages each on whichever worker is free; a worker that
 # dies ends the suite naming its test (a replaced one can leave xdist waiting forever: pytest-xdist#1378)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import os
 import re
 import resource
@@ -579,8 +580,8 @@ SPEC_CASES = [  # name, item, experiment spec YAML, what the refusal should name
                                                     "sampler: {kind: random, samples: 100000}"), ("samples",)),
     ("spec-grid-40000", 8, SPEC_TWO_RUNS.replace(
         "{radius: {values: [50, 100]}, angle: {values: [30]}}",
-        "{{radius: {{values: [{}]}}, angle: {{values: [{}]}}}}".format(", ".join(str(10 + i * 0.4) for i in range(200)),
-                                                              ", ".join(str(-80 + i * 0.8) for i in range(200)))),
+        json.dumps({"radius": {"values": [10 + i * 0.4 for i in range(200)]},       # JSON: YAML's flow form
+                    "angle": {"values": [-80 + i * 0.8 for i in range(200)]}})),
      ()),
     ("spec-run-timeout-inf", 4, SPEC_TWO_RUNS + "run_timeout_s: .inf\n", ("run_timeout_s",)),
     ("spec-repeats-1e9", 8, SPEC_TWO_RUNS + "repeats: 1000000000\n", ("repeats",)),
