@@ -56,3 +56,18 @@ class MujocoPlant:
         if flipped is not None:         # one car alone: nothing drives on without it
             raise PhysicsDiverged(flipped.detail)
         return self.physics.measure(AGENT, self._t)
+
+
+def compile_tyres() -> None:
+    """Compile the tyre kernel (`simgap.sim.mujoco.tyre`, numba) into its on-disk cache: one car on
+    the proving ground, stepped once. ``make`` does it at install, so that the processes a study or
+    the test suite starts at once each load it instead of compiling it (seconds of CPU each)."""
+    from simgap.vehicles import DEFAULT_VEHICLE, load_vehicle
+
+    plant = MujocoPlant(load_vehicle(DEFAULT_VEHICLE))
+    plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=5.0))
+    plant.step(Command(0.0, 0.1, 0.0), 0.01)
+
+
+if __name__ == "__main__":
+    compile_tyres()
