@@ -18,9 +18,10 @@ QC     := .venv-qc/.installed
 $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet $(UV) && $(UV_PIP) -r requirements.lock \
-	  || { echo "make: uv could not install requirements.lock; pip installs it"; $(BIN)/pip install --quiet -r requirements.lock; }
-	$(BIN)/pip install --quiet --no-deps -e planner-protocol/python -e .
+	$(BIN)/pip install --quiet $(UV) && $(UV_PIP) -r requirements.lock && $(UV_PIP) --no-deps -e planner-protocol/python -e . \
+	  || { echo "make: uv could not install requirements.lock; pip installs it"; $(BIN)/pip install --quiet -r requirements.lock \
+	       && $(BIN)/pip install --quiet --no-deps -e planner-protocol/python -e .; }
+	@# numba compiles the tyre kernel into its cache once, here, not in each process a study starts
 	$(BIN)/python -m simgap.sim.mujoco.plant
 	@touch $(STAMP)
 
