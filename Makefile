@@ -21,7 +21,10 @@ $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.tom
 	$(BIN)/pip install --quiet $(UV) && $(UV_PIP) -r requirements.lock && $(UV_PIP) --no-deps -e planner-protocol/python -e . \
 	  || { echo "make: uv could not install requirements.lock; pip installs it"; $(BIN)/pip install --quiet -r requirements.lock \
 	       && $(BIN)/pip install --quiet --no-deps -e planner-protocol/python -e .; }
-	@# numba compiles the tyre kernel into its cache once, here, not in each process a study starts
+	@# simgap's own modules compiled to bytecode (an editable install is not; with PYTHONDONTWRITEBYTECODE
+	@# set every interpreter a study starts would compile them again), and numba's tyre kernel into its
+	@# cache, once, here, not in each process a study starts
+	$(BIN)/python -m compileall -q src/simgap planner-protocol/python/simgap_planner
 	$(BIN)/python -m simgap.sim.mujoco.plant
 	@touch $(STAMP)
 
