@@ -9,9 +9,11 @@ evaluate a measure (for instance a vehicle between lanelets) is skipped and coun
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import os
+import pickle
 import sys
 import tempfile
 import warnings
@@ -19,6 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from itertools import permutations
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from commonroad.scenario.scenario import Scenario
@@ -60,19 +63,11 @@ def _copied_from_bytes(driven: Scenario):
     headway, BTN and STN a required acceleration, each with its own): most of a pair's time. Each
     measure still gets a copy of its own (they change theirs), but read from the scenario pickled
     once here: the same objects, in about half the time of `copy.deepcopy`'s walk."""
-    import copy
-    import pickle
-
     from commonroad_crime.data_structure import base
 
     pickled = pickle.dumps(driven, protocol=pickle.HIGHEST_PROTOCOL)
-
-    class _Copy:
-        @staticmethod
-        def deepcopy(obj, memo=None):
-            return pickle.loads(pickled) if obj is driven else copy.deepcopy(obj, memo)
-
-    base.copy = _Copy
+    base.copy = SimpleNamespace(
+        deepcopy=lambda obj, memo=None: pickle.loads(pickled) if obj is driven else copy.deepcopy(obj, memo))
     try:
         yield
     finally:
