@@ -13,7 +13,7 @@ from rich.console import Console
 from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.errors import InputError
-from simgap.experiment.attribution import explain as attribute
+from simgap.experiment import fork_server
 from simgap.sim.assumptions import Assumption
 
 ASSUMPTION_HELP = ("restore only this one of the assumptions the run broke: " + ", ".join(Assumption) +
@@ -36,6 +36,8 @@ def explain(
 
     Example: simgap explain runs/c10-suv-mujoco
     """
+    if workers > 1:     # the fork server loads what a run imports while this process loads the rest
+        fork_server.start()
     if not (run_dir / "run.json").is_file():
         raise InputError("no run here (run.json is missing)", file=run_dir, field="RUN_DIR",
                          allowed="a run directory simgap run wrote")
@@ -50,11 +52,15 @@ def explain(
 
 def explanation(run_dir: Path, workers: int = 2, assumptions: list[Assumption] | None = None) -> dict[str, Any]:
     """The attribution of the run in ``run_dir``, as ``--json`` prints it."""
+    from simgap.experiment.attribution import explain as attribute  # after the fork server starts
+
     return attribute(run_dir, workers, assumptions or None).as_json()
 
 
 def print_explanation(console: Console, run_dir: Path, workers: int = 2,
                       assumptions: list[Assumption] | None = None) -> None:
     """The attribution of the run in ``run_dir``: a line per assumption, largest first, then why."""
+    from simgap.experiment.attribution import explain as attribute  # after the fork server starts
+
     for line in attribute(run_dir, workers, assumptions or None).lines():
         console.print(line, highlight=False, markup=False)

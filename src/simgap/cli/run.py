@@ -24,6 +24,7 @@ from simgap.errors import InputError, validated
 from simgap.evaluate.outcome_checks import FAIL_ON_HELP, MIN_SCORE_HELP, CheckedRun, OutcomeCheck
 from simgap.evaluate.run_evaluation import AgentEvaluation
 from simgap.evaluate.settings import CostFunctionId, EvaluationSettings, ScoreSettings
+from simgap.experiment import fork_server
 from simgap.experiment.knobs import KNOBS, apply_knobs, check_knob, knob
 from simgap.experiment.single_run import RunRequest, execute, parse_agent_map, parse_planners
 from simgap.files import read_model, read_yaml_mapping, writable_directory
@@ -181,6 +182,8 @@ def _execute(request: RunRequest, out: Path, as_json: bool, check: OutcomeCheck 
     """Run ``request`` into ``out`` and print its summary (as a table, or JSON), with ``explain`` its
     attribution (`simgap.cli.explain`); exit `simgap.cli.exit_codes.ExitCode.CHECK_FAILED` if the run
     failed or ``check`` fails."""
+    if explain:     # the fork server of the explanation's worlds loads what a run imports during the run
+        fork_server.start()
     if as_json:
         result = execute(request, out)
         if explain:

@@ -311,11 +311,12 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
         subsets = [frozenset(c) for k in range(1, len(present) + 1) for c in itertools.combinations(present, k)]
         requests = [ideal_request(request)] + [counterfactual(request, s) for s in subsets]
         scenario, problems = load_scenario(request.scenario)
-        # the ideal run (the shortest) first, then the larger sets (restored, a car drives on further):
-        # each world is compared with the ideal run as it ends, and the two workers end together
+        # the ideal run (the shortest) first, then the sets from the smallest: the larger (restored, a
+        # car drives on further) are the longest, and this process takes them from the end while the
+        # workers start (`_run_all`); each world is compared with the ideal run as it ends
         ran: dict[int, _Ran] = {}
         compared: dict[frozenset[Assumption], World] = {}
-        for index, r in _run_all(requests, workers, [0] + list(range(len(requests) - 1, 0, -1))):
+        for index, r in _run_all(requests, workers, list(range(len(requests)))):
             ran[index] = r
             if 0 not in ran:
                 continue
@@ -338,15 +339,22 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
 def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran]]:
     """The runs of ``requests``, started in ``order`` (their indices), each with its index as it
     ends, on ``workers`` processes forked from a server that has loaded what a run imports once
-    (never from this process: a fork of a process with threads can deadlock)."""
+    (never forked from this process: a fork of a process with threads can deadlock). This process
+    works beside them: it runs the first itself, then, from the end of the queue, each run no worker
+    has taken yet — while the server loads (seconds) the workers take none, and after that three
+    processes share the rest (put the longest runs last)."""
     if workers <= 1:
         yield from ((i, _run(requests[i])) for i in order)
         return
     with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=fork_server.context()) as pool:
-        futures = {pool.submit(_run, requests[i]): i for i in order}
-        for future in as_completed(futures):
+        futures = {pool.submit(_run, requests[i]): i for i in order[1:]}
+        yield order[0], _run(requests[order[0]])
+        for future in reversed(list(futures)):
+            if not future.cancel():         # the workers have come this far: the rest is theirs
+                break
+            yield futures[future], _run(requests[futures[future]])
+        for future in as_completed([f for f in futures if not f.cancelled()]):
             yield futures[future], future.result()
-
 
 
 def _world(restored: frozenset[Assumption], ran: _Ran, ideal: History, scenario: Any, problems: Any,
