@@ -13,7 +13,7 @@ UV_PIP := $(BIN)/uv pip install --quiet --compile-bytecode --python $(BIN)/pytho
 
 QC     := .venv-qc/.installed
 
-.PHONY: demo docs docs-output test install qc browser planner-toolchain lock clean
+.PHONY: demo docs docs-output test install qc browser planner-toolchain cpp-example beside-install lock clean
 
 $(STAMP): requirements.lock pyproject.toml planner-protocol/python/pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "make: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
@@ -71,14 +71,29 @@ planner-toolchain:
 	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq protobuf-compiler libprotobuf-dev libzmq3-dev pkg-config >/dev/null; }
 
-# the two virtual environments installed side by side (apt's installs one after the other), then
-# the linter (pyflakes, isort, bugbear, pyupgrade) and the import contracts of docs/concepts/architecture.md first,
-# then the suite on every core (2 on CI), a test file per worker so that module fixtures are built once
+# the C++ planner example built (its test builds it too, incrementally; here it is built while the
+# main virtual environment installs)
+cpp-example:
+	@$(MAKE) --no-print-directory -C examples/cpp_lane_keeper >/dev/null \
+	  || echo "make: the C++ planner example did not build; its test builds it again and says why"
+
+# what the suite needs beside the main virtual environment, one after another (apt installs one at
+# a time), while the main one installs: ASAM's Quality Checker, Debian's chromium, the C++ toolchain
+# and the C++ example built with it
+beside-install:
+	@$(MAKE) --no-print-directory $(QC)
+	@$(MAKE) --no-print-directory browser
+	@$(MAKE) --no-print-directory planner-toolchain
+	@$(MAKE) --no-print-directory cpp-example
+
+# the main virtual environment installed beside the rest (above), then the linter (pyflakes, isort,
+# bugbear, pyupgrade) and the import contracts of docs/concepts/architecture.md first, then the suite
+# on every core (2 on CI), a test file per worker so that module fixtures are built once
 # (tests/conftest.py: work_unit), the tutorial pages each on whichever worker is free; a worker that
 # dies ends the suite naming its test (a replaced one can leave xdist waiting forever: pytest-xdist#1378)
 test:
-	$(MAKE) -j2 $(STAMP) $(QC)
-	$(MAKE) $(MAPS) browser planner-toolchain
+	$(MAKE) -j2 $(STAMP) beside-install
+	$(MAKE) $(MAPS)
 	$(BIN)/ruff check .
 	PYTHONPATH=src $(BIN)/lint-imports
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -n auto --dist loadfile --max-worker-restart=0 --durations=15

@@ -2,13 +2,14 @@
 standard output and error, working directory and environment are its own. Each command is a fork
 of a server process that imported simgap's commands and what a run imports once (and runs nothing
 itself), not a new interpreter that imports them again: 2 to 5 s of CPU saved a command, and the
-suite runs several hundred. The server is started by the first command of a test worker and ends with it.
+suite runs several hundred. A server is started by the first command of a test worker that needs it
+and ends with the worker.
 
 Why a server and not a fork of the test worker: the worker has run planners in process, and
-GNU OpenMP (frenetix's) does not survive a fork once its threads have run. What a fork cannot
-give: an environment read when a module is imported (``MUJOCO_GL`` by MuJoCo, ``PYTHONPATH`` and
-entry points) is the server's, the worker's at its start; tests about those start the interpreter
-(`subprocess`)."""
+GNU OpenMP (frenetix's) does not survive a fork once its threads have run. The environment a
+module reads when it is imported (`IMPORTED`: ``MUJOCO_GL`` by MuJoCo, ``PYTHONPATH`` and with it
+the entry points an installed plugin declares, the BLAS kernel) is the server's: a command whose
+environment sets them otherwise runs in a server of its own, started with that environment."""
 
 from __future__ import annotations
 
@@ -28,10 +29,11 @@ def simgap(*args: object, cwd: str | Path | None = None, env: dict[str, str] | N
     """``simgap ARGS`` run to its end in a process of its own (``env``: its whole environment; the
     worker's when None)."""
     argv = [str(a) for a in args]
-    server = _server()
+    environment = dict(os.environ if env is None else env)
+    server = _server(tuple(_imported(name, environment.get(name)) for name in IMPORTED))
     with tempfile.TemporaryDirectory(prefix="simgap-command-") as folder:
         out, err = Path(folder) / "stdout", Path(folder) / "stderr"
-        request = {"argv": argv, "cwd": None if cwd is None else str(cwd), "env": dict(os.environ if env is None else env),
+        request = {"argv": argv, "cwd": None if cwd is None else str(cwd), "env": environment,
                    "stdout": str(out), "stderr": str(err)}
         server.stdin.write(json.dumps(request) + "\n")
         server.stdin.flush()
@@ -45,10 +47,34 @@ def simgap(*args: object, cwd: str | Path | None = None, env: dict[str, str] | N
         return subprocess.CompletedProcess(["simgap", *argv], code, out.read_text(), err.read_text())
 
 
+#: what a process reads from its environment when it imports simgap and what a run imports
+IMPORTED = ("PYTHONPATH", "MUJOCO_GL", "OPENBLAS_CORETYPE")
+#: where the worker found modules when it started (not what a test puts on its path since)
+_STARTING_PATH = {os.path.realpath(p) for p in sys.path if p} | {str(Path(__file__).resolve().parents[1] / "src")}
+
+
+def _imported(name: str, value: str | None) -> str | None:
+    """``value`` of ``name`` as far as it changes what is imported: a ``PYTHONPATH`` without the
+    folders the worker found modules in when it started (simgap's own among them)."""
+    if name != "PYTHONPATH" or value is None:
+        return value
+    extra = [p for p in value.split(os.pathsep) if p and os.path.realpath(p) not in _STARTING_PATH]
+    return os.pathsep.join(extra) or None
+
+
 @cache
-def _server() -> subprocess.Popen:
+def _server(imported: tuple[str | None, ...]) -> subprocess.Popen:
+    """The server whose environment has the values ``imported`` (of `IMPORTED`), the worker's
+    modules found after the given ``PYTHONPATH``'s."""
+    env = dict(os.environ)
+    for name, value in zip(IMPORTED, imported):
+        if value is None:
+            env.pop(name, None)
+        else:
+            env[name] = value
+    env["PYTHONPATH"] = os.pathsep.join([p for p in [env.get("PYTHONPATH")] if p] + sys.path)
     return subprocess.Popen([sys.executable, __file__], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                            bufsize=1, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+                            bufsize=1, env=env)
 
 
 def _line(server: subprocess.Popen, timeout: float) -> str:

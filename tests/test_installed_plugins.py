@@ -8,12 +8,12 @@ reads to find an entry point (what pip would leave, without a build)."""
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pytest
+import simgap_command
 import yaml
 
 from simgap.control import make_controller
@@ -173,8 +173,8 @@ def test_an_unknown_name_names_the_known_ones_and_the_group(installed):
 def test_simgap_run_takes_an_installed_backend(site, tmp_path):
     xml = write_scenario(build_scenario("curve", {"radius": 20, "angle": 90}), tmp_path, preview=False)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]), COLUMNS="160")
-    proc = subprocess.run([sys.executable, "-m", "simgap", "run", str(xml), "--backend", "counting", "--no-validate",
-                           "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env, timeout=600)
+    proc = simgap_command.simgap("run", xml, "--backend", "counting", "--no-validate", "--out", tmp_path / "run", env=env,
+                                 timeout=600)
     assert proc.returncode == 0, proc.stderr
     record = read_run(tmp_path / "run")
     assert record.history.backend == "counting" and record.agents[0].history.outcome == "goal_reached"
@@ -202,14 +202,12 @@ def test_an_installed_backend_takes_the_knobs_its_settings_model_includes(instal
 def test_simgap_run_puts_a_knob_into_an_installed_backend(site, installed, tmp_path):
     xml = write_scenario(build_scenario("curve", {"radius": 20, "angle": 90}), tmp_path, preview=False)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]), COLUMNS="160")
-    run = [sys.executable, "-m", "simgap", "run", str(xml), "--backend", "slippery", "--no-validate"]
-    proc = subprocess.run(run + ["--knob", "road_friction=0.4", "--out", str(tmp_path / "run")], capture_output=True,
-                          text=True, env=env, timeout=600)
+    run = ["run", xml, "--backend", "slippery", "--no-validate"]
+    proc = simgap_command.simgap(*run, "--knob", "road_friction=0.4", "--out", tmp_path / "run", env=env, timeout=600)
     assert proc.returncode == 0, proc.stderr
     record = read_run(tmp_path / "run")          # its settings read through its own settings model
     assert type(record.settings.backend).__name__ == "SlipperySettings" and record.settings.backend.road_friction == 0.4
     assert "road friction 0.4" in record.history.backend_notes
-    refused = subprocess.run(run + ["--knob", "road_grade=2", "--out", str(tmp_path / "r")], capture_output=True,
-                             text=True, env=env, timeout=600)
+    refused = simgap_command.simgap(*run, "--knob", "road_grade=2", "--out", tmp_path / "r", env=env, timeout=600)
     assert refused.returncode == 2 and "Traceback" not in refused.stderr
     assert "does not apply to the slippery backend" in refused.stderr and not (tmp_path / "r").exists()

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import pytest
+import simgap_command
 
 from simgap.record import read_run
 from simgap.scenario import build_scenario, write_scenario
@@ -40,8 +40,8 @@ def installed(tmp_path_factory) -> dict[str, str]:
 
 
 def simgap(env: dict[str, str], *args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "simgap", *args], capture_output=True, text=True, env=env,
-                          cwd=cwd, timeout=600)
+    """``simgap ARGS`` in a process whose environment is ``env`` (the example installed)."""
+    return simgap_command.simgap(*args, env=env, cwd=cwd, timeout=600)
 
 
 @pytest.fixture(scope="module")

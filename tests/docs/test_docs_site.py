@@ -4,6 +4,7 @@ load in a real headless browser with nothing fetched from the web."""
 
 from __future__ import annotations
 
+import contextlib
 import html
 import importlib.util
 import json
@@ -16,6 +17,7 @@ import subprocess
 import sys
 import time
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -217,19 +219,68 @@ def test_every_tutorial_runs_commands():
 TUTORIAL_PAGES = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py").PAGES
 
 
+def _unquoted(command: str) -> str:
+    """``command`` with every quoted stretch blanked (what a shell reads as operators is what is left)."""
+    return re.sub(r"'[^']*'|\"(?:[^\"\\]|\\.)*\"", lambda m: " " * len(m.group()), command)
+
+
+def _shell_parts(command: str) -> tuple[list[str], str | None] | None:
+    """A tutorial line as ``A && B && ...``, the last of which may pipe its output into a shell
+    command (``simgap run ... | grep ...``): (the commands, the pipe's tail or None); None for
+    anything else a shell reads (redirections, variables, ``;``, an environment before the command)."""
+    bare = _unquoted(command)
+    if re.search(r"[;<>$`*?(){}#~\\]|(?<!&)&(?!&)|\|\|", bare) or re.match(r"\s*\w+=", bare):
+        return None
+    pipe = bare.find("|")
+    tail = command[pipe + 1:].strip() if pipe >= 0 else None
+    head, head_bare = (command[:pipe], bare[:pipe]) if pipe >= 0 else (command, bare)
+    cuts = [m.start() for m in re.finditer("&&", head_bare)]
+    parts = [head[a:b].strip() for a, b in zip([0] + [c + 2 for c in cuts], cuts + [len(head)])]
+    return parts, tail
+
+
 @pytest.mark.parametrize("page", TUTORIAL_PAGES)
 def test_the_tutorials_print_what_the_page_shows(page):
     blocks = _module("simgap_docs_tutorials", ROOT / "docs" / "tutorial_blocks.py")
 
     def run(command: str, cwd: Path, env: dict[str, str]) -> tuple[str, int]:
-        """A plain ``simgap ARGS`` line in a fork of the command server (the same process a reader's
-        shell starts, without importing simgap again); anything else with bash."""
-        if not re.search(r"[|&;<>$`*?(){}#~\\]|^\s*\w+=", command) and command.split()[0] == "simgap":
-            proc = simgap_command.simgap(*shlex.split(command)[1:], cwd=cwd, env=env)
-            return proc.stdout + proc.stderr, proc.returncode
-        return blocks.bash(command, cwd, env)
+        """Each ``simgap ARGS`` of a line (alone, chained with ``&&``, or piped into a shell command)
+        in a fork of the command server (the same process a reader's shell starts, without
+        importing simgap again); anything else with bash."""
+        parts = _shell_parts(command)
+        if parts is None or not any(p.split()[0] == "simgap" for p in parts[0]):
+            return blocks.bash(command, cwd, env)
+        commands, tail = parts
+        printed = ""
+        for part in commands:
+            if part.split()[0] != "simgap":
+                out, code = blocks.bash(part, cwd, env)
+                printed += out
+            else:
+                proc = simgap_command.simgap(*shlex.split(part)[1:], cwd=cwd, env=env)
+                code = proc.returncode
+                if tail is not None and part is commands[-1]:      # its output into the pipe's tail
+                    piped = subprocess.run(["bash", "-c", tail], input=proc.stdout, cwd=cwd, env=env,
+                                           capture_output=True, text=True, timeout=300)
+                    return printed + piped.stdout + proc.stderr + piped.stderr, piped.returncode
+                printed += proc.stdout + proc.stderr
+            if code != 0:
+                break
+        return printed, code
 
     assert blocks.main([page], run) == 0
+
+
+def test_a_tutorial_line_is_cut_where_a_shell_cuts_it():
+    assert _shell_parts("simgap generate t --out s/ && simgap run s/t.xml") == (["simgap generate t --out s/",
+                                                                               "simgap run s/t.xml"], None)
+    assert _shell_parts("""simgap run a.xml --json | grep -E '"(fingerprint|seed)"'""") == \
+        (["simgap run a.xml --json"], """grep -E '"(fingerprint|seed)"'""")
+    assert _shell_parts('simgap experiment query s "SELECT round(x, 1) FROM runs"') == \
+        (['simgap experiment query s "SELECT round(x, 1) FROM runs"'], None)
+    for other in ("simgap run a 2>&1; echo $?", "X=1 simgap run a", "ls runs 2>/dev/null | wc -l", "simgap run a || true",
+                  "simgap run a &"):
+        assert _shell_parts(other) is None, other
 
 
 def test_no_page_fetches_anything_from_the_web_and_search_has_every_page(site):
@@ -268,26 +319,54 @@ def served(site):
         server.wait(timeout=10)
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
-def test_pages_load_in_chromium_without_console_errors(served, tmp_path):
-    for name in ["index.html", "getting-started.html", "reference/cli.html", "reference/api.html",
-                 "validation/results.html", "concepts/fidelities.html", "reference/planner-protocol.html"]:
-        proc = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                               "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                               f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
-                               "--virtual-time-budget=3000", "--dump-dom", f"{served}/{name}"],
-                              capture_output=True, text=True, timeout=120)
-        console = [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
-        assert not console, f"{name}: {console}"
-        assert 'class="md-content"' in proc.stdout and "md-nav" in proc.stdout, f"{name} did not render"
+class _Chromium:
+    """Headless chromium driven over the DevTools protocol: one browser for every page a test opens."""
+
+    def __init__(self, ws):
+        self._ws, self._calls = ws, iter(range(1, 1_000_000))
+        self.events: list[dict] = []           # what the page reported between calls (console, errors)
+
+    def call(self, method: str, **params) -> dict:
+        number = next(self._calls)
+        self._ws.send(json.dumps({"id": number, "method": method, "params": params}))
+        while (message := json.loads(self._ws.recv())).get("id") != number:
+            if "method" in message:
+                self.events.append(message)
+        return message.get("result", {})
+
+    def evaluate(self, expression: str):
+        return self.call("Runtime.evaluate", expression=expression, returnByValue=True)["result"].get("value")
+
+    def open(self, url: str, timeout: float = 60, settle: float = 0.5) -> None:
+        """``url`` loaded, and ``settle`` seconds more for what its scripts report late."""
+        deadline = time.monotonic() + timeout
+        self.call("Page.navigate", url=url)
+        while self.evaluate("document.readyState") != "complete" and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(settle)
+        self.evaluate("0")                     # the events of the pause read
+
+    def console(self) -> list[str]:
+        """What the page wrote to its console, threw, or logged as an error or warning, since the last call."""
+        found = []
+        for event in self.events:
+            params = event.get("params", {})
+            if event["method"] == "Runtime.consoleAPICalled":
+                found.append(f"console.{params['type']}: " + " ".join(str(a.get("value", a.get("description")))
+                                                                    for a in params.get("args", [])))
+            elif event["method"] == "Runtime.exceptionThrown":
+                found.append(f"exception: {params['exceptionDetails'].get('text')}")
+            elif event["method"] == "Log.entryAdded" and params["entry"]["level"] in ("error", "warning"):
+                found.append(f"{params['entry']['level']}: {params['entry']['text']}")
+        self.events.clear()
+        return found
 
 
-def _search_in_chromium(url: str, query: str, profile: Path, timeout: float = 60) -> tuple[str, list[str]]:
-    """Opens ``url`` in headless chromium, types ``query`` into the site's search box (over the
-    DevTools protocol) and waits for results: (the result list's heading, the results' links)."""
+@contextlib.contextmanager
+def _chromium(profile: Path) -> Iterator[_Chromium]:
     from websockets.sync.client import connect
 
-    proc = subprocess.Popen([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+    proc = subprocess.Popen([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                              "--disable-background-networking", "--disable-component-update", "--disable-sync",
                              f"--user-data-dir={profile}", "--remote-debugging-port=0", "about:blank"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
@@ -296,33 +375,43 @@ def _search_in_chromium(url: str, query: str, profile: Path, timeout: float = 60
         with urllib.request.urlopen(f"http://127.0.0.1:{endpoint.group(1)}/json/list") as answer:
             page = next(t["webSocketDebuggerUrl"] for t in json.loads(answer.read()) if t["type"] == "page")
         with connect(page, max_size=None) as ws:
-            calls = iter(range(1, 1_000_000))
-
-            def call(method: str, **params) -> dict:
-                number = next(calls)
-                ws.send(json.dumps({"id": number, "method": method, "params": params}))
-                while (message := json.loads(ws.recv())).get("id") != number:
-                    pass
-                return message.get("result", {})
-
-            def evaluate(expression: str):
-                return call("Runtime.evaluate", expression=expression, returnByValue=True)["result"].get("value")
-
-            deadline = time.monotonic() + timeout
-            call("Page.navigate", url=url)
-            while evaluate("document.readyState") != "complete" and time.monotonic() < deadline:
-                time.sleep(0.2)
-            evaluate("document.querySelector('[data-md-component=search-query]').focus()")
-            call("Input.insertText", text=query)           # typed into the focused search box
-            while True:
-                links = evaluate("[...document.querySelectorAll('.md-search-result__item a')].map(a => a.href)")
-                heading = evaluate("document.querySelector('.md-search-result__meta').textContent.trim()")
-                if links or time.monotonic() > deadline:
-                    return heading, links
-                time.sleep(0.5)
+            browser = _Chromium(ws)
+            browser.call("Runtime.enable")
+            browser.call("Log.enable")
+            yield browser
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
+def test_pages_load_in_chromium_without_console_errors(served, tmp_path):
+    pytest.importorskip("websockets", reason="the DevTools client needs websockets (in requirements.lock)")
+    with _chromium(tmp_path / "profile") as browser:
+        browser.open("data:text/html,<script>console.error('seen')</script>", settle=0)   # what is watched
+        assert browser.console() == ["console.error: seen"]
+        for name in ["index.html", "getting-started.html", "reference/cli.html", "reference/api.html",
+                     "validation/results.html", "concepts/fidelities.html", "reference/planner-protocol.html"]:
+            browser.open(f"{served}/{name}")
+            assert not browser.console(), f"{name}: {browser.console()}"
+            dom = browser.evaluate("document.documentElement.outerHTML")
+            assert 'class="md-content"' in dom and "md-nav" in dom, f"{name} did not render"
+
+
+def _search_in_chromium(url: str, query: str, profile: Path, timeout: float = 60) -> tuple[str, list[str]]:
+    """Opens ``url`` in headless chromium, types ``query`` into the site's search box (over the
+    DevTools protocol) and waits for results: (the result list's heading, the results' links)."""
+    with _chromium(profile) as browser:
+        deadline = time.monotonic() + timeout
+        browser.open(url, timeout, settle=0)
+        browser.evaluate("document.querySelector('[data-md-component=search-query]').focus()")
+        browser.call("Input.insertText", text=query)           # typed into the focused search box
+        while True:
+            links = browser.evaluate("[...document.querySelectorAll('.md-search-result__item a')].map(a => a.href)")
+            heading = browser.evaluate("document.querySelector('.md-search-result__meta').textContent.trim()")
+            if links or time.monotonic() > deadline:
+                return heading, links
+            time.sleep(0.5)
 
 
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (make test installs it)")
