@@ -16,11 +16,13 @@ from __future__ import annotations
 import json
 import os
 import select
+import shutil
 import signal
 import socket
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
@@ -29,23 +31,46 @@ def simgap(*args: object, cwd: str | Path | None = None, env: dict[str, str] | N
            timeout: float = 300) -> subprocess.CompletedProcess:
     """``simgap ARGS`` run to its end in a process of its own (``env``: its whole environment; the
     worker's when None)."""
+    return start(*args, cwd=cwd, env=env).wait(timeout)
+
+
+@dataclass
+class Started:
+    """A command running in a process of its own, the leader of its process group (``pid``: what
+    ``os.killpg`` stops with its study's processes). Its server runs nothing else until it ends."""
+
+    argv: list[str]
+    pid: int
+    server: subprocess.Popen
+    folder: Path            # its standard output and error
+
+    def wait(self, timeout: float = 300) -> subprocess.CompletedProcess:
+        """Its exit code and output once it has ended (killed after ``timeout`` seconds)."""
+        try:
+            code = int(_line(self.server, timeout))
+        except TimeoutError:
+            os.killpg(self.pid, signal.SIGKILL)
+            _line(self.server, 60)
+            raise subprocess.TimeoutExpired(["simgap", *self.argv], timeout) from None
+        finally:
+            out, err = (self.folder / name for name in ("stdout", "stderr"))
+            printed = out.read_text(), err.read_text()
+            shutil.rmtree(self.folder)
+        return subprocess.CompletedProcess(["simgap", *self.argv], code, *printed)
+
+
+def start(*args: object, cwd: str | Path | None = None, env: dict[str, str] | None = None) -> Started:
+    """``simgap ARGS`` started in a process of its own, as `simgap` runs it (the tests that stop a
+    command midway)."""
     argv = [str(a) for a in args]
     environment = dict(os.environ if env is None else env)
     server = _server(tuple(_imported(name, environment.get(name)) for name in IMPORTED))
-    with tempfile.TemporaryDirectory(prefix="simgap-command-") as folder:
-        out, err = Path(folder) / "stdout", Path(folder) / "stderr"
-        request = {"argv": argv, "cwd": None if cwd is None else str(cwd), "env": environment,
-                   "stdout": str(out), "stderr": str(err)}
-        server.stdin.write(json.dumps(request) + "\n")
-        server.stdin.flush()
-        pid = int(_line(server, 60))
-        try:
-            code = int(_line(server, timeout))
-        except TimeoutError:
-            os.killpg(pid, signal.SIGKILL)
-            _line(server, 60)
-            raise subprocess.TimeoutExpired(["simgap", *argv], timeout) from None
-        return subprocess.CompletedProcess(["simgap", *argv], code, out.read_text(), err.read_text())
+    folder = Path(tempfile.mkdtemp(prefix="simgap-command-"))
+    request = {"argv": argv, "cwd": None if cwd is None else str(cwd), "env": environment,
+               "stdout": str(folder / "stdout"), "stderr": str(folder / "stderr")}
+    server.stdin.write(json.dumps(request) + "\n")
+    server.stdin.flush()
+    return Started(argv, int(_line(server, 60)), server, folder)
 
 
 #: what a process reads from its environment when it imports simgap and what a run imports

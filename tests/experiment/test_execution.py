@@ -11,6 +11,7 @@ import threading
 import time
 
 import pytest
+import simgap_command
 import yaml
 
 from simgap.errors import InputError
@@ -37,9 +38,7 @@ def rows_by_key(root):
 def test_a_killed_experiment_resumes_without_losing_or_repeating_a_run(tmp_path):
     spec = spec_file(tmp_path)
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                             "--workers", "2", "--no-report", "--no-validate"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
+    proc = simgap_command.start("experiment", "run", spec, "--out", out, "--workers", "2", "--no-report", "--no-validate")
     rows_dir = out / "store" / "rows"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (rows_dir.exists() and any(rows_dir.glob("*.parquet"))):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+import simgap_command
 import yaml
 
 import simgap
@@ -133,8 +134,7 @@ def store_rows(root: Path) -> dict[str, dict]:
 
 def simgap_cli(*args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, COLUMNS="200", PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    return subprocess.run([sys.executable, "-m", "simgap", *args], capture_output=True, text=True, env=env,
-                          timeout=300)
+    return simgap_command.simgap(*args, env=env, timeout=300)
 
 
 def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_run(cluster, tmp_path):
@@ -146,9 +146,8 @@ def test_an_experiment_on_the_cluster_resumes_after_sigkill_and_matches_a_local_
     # the driver, on the cluster address, killed between its first and its last run ...
     out = tmp_path / "cluster"
     env = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.Popen([sys.executable, "-m", "simgap", "experiment", "run", str(spec), "--out", str(out),
-                             "--workers", "1", "--executor", "ray", "--address", cluster.address, "--no-report", "--no-validate"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, start_new_session=True)
+    proc = simgap_command.start("experiment", "run", spec, "--out", out, "--workers", "1", "--executor", "ray",
+                                "--address", cluster.address, "--no-report", "--no-validate", env=env)
     rows_dir = out / "store" / "rows"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (rows_dir.exists() and any(rows_dir.glob("*.parquet"))):

@@ -7,11 +7,10 @@ from __future__ import annotations
 import json
 import os
 import signal
-import subprocess
-import sys
 import time
 
 import pytest
+import simgap_command
 from search_specs import LADDER, write
 
 from simgap.errors import InputError
@@ -31,9 +30,8 @@ def small_search(tmp_path, **fields):
 def test_a_killed_search_resumes_without_losing_or_repeating_a_run(tmp_path):
     spec = small_search(tmp_path)
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "simgap", "search", str(spec), "--budget", "8", "--out", str(out),
-                             "--strategy", "random", "--workers", "2", "--no-report", "--no-validate"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    proc = simgap_command.start("search", spec, "--budget", "8", "--out", out, "--strategy", "random", "--workers", "2",
+                                "--no-report", "--no-validate")
     rows_dir = out / "random" / "store" / "rows"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not (rows_dir.exists() and len(list(rows_dir.glob("*.parquet"))) >= 2):
