@@ -6,10 +6,12 @@ study's own ideal run (more than 5 % apart).
 
 The cost of an explanation is its wall time (`simgap.experiment.attribution.explain`, on
 ``--workers`` processes) over the run's own wall time as its record keeps it (the co-simulation
-loop, `History.wall_time_s`: not the planner's set-up, the evaluation or the files); beside it
-the processor time of both (the explanation's: this process's and every world's in its worker;
-the run's: this process's while it ran, set-up and evaluation included), which a machine's load
-changes less than the wall time.
+loop, `History.wall_time_s`: not the planner's set-up, the evaluation or the files). The fork
+server the workers come from is started once, before the first run (as `simgap run --explain` and
+an experiment's ``explain:`` start it), not in each explanation's time. Beside it the processor
+time of both (the explanation's: this process's, the worlds it made among it, and each world's a
+worker made; the run's: this process's while it ran, set-up and evaluation included), which a
+machine's load changes less than the wall time.
 
 Either reads a finished study (`bench/paper/paper_study.py --out DIR`, or `simgap experiment run
 experiments/paper-curves.yaml --out DIR`; its scenario files where they were run; no processor
@@ -39,6 +41,7 @@ from typing import Any
 
 from simgap.cosim import Outcome
 from simgap.evaluate.compare import compare_histories
+from simgap.experiment import fork_server
 from simgap.experiment.attribution import explain
 from simgap.experiment.samplers import sample
 from simgap.experiment.single_run import RunRequest, execute
@@ -149,6 +152,8 @@ def main() -> None:
     rows: list[dict[str, Any]] = []
     ran: list[str] = []
     considered = 0
+    if args.workers > 1:      # loading what a run imports, once, while the first runs run (as simgap run --explain)
+        fork_server.start()
     with tempfile.TemporaryDirectory() as tmp:
         runs = study_runs(args.study, args.vehicles) if args.study else \
             own_runs(curves, args.vehicles, Path(tmp), until, ran)
@@ -160,9 +165,8 @@ def main() -> None:
                 continue
             if args.limit is not None and len(rows) >= args.limit:
                 break
-            cpu = time.process_time()
             x = explain(run["run_dir"], args.workers)
-            cpu = time.process_time() - cpu + sum(w.cpu_s for w in x.worlds)
+            cpu = x.cpu_s
             top, gap = x.assumptions[0], run["gap_m"]
             total = sum(a.share_m for a in x.assumptions)
             ratio = total / gap if gap > 0 else float("nan")

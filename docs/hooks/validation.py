@@ -471,7 +471,8 @@ def attribution_table(name: str) -> str:
     data = json.loads((RESULTS / name).read_text())
     counts, rows = data["summary"], data["rows"]
     ran = data.get("curves_run")
-    curves = f"{len(ran)} of the grid's {data['curves_in_grid']} curves ({', '.join(ran)})" if ran else "its curves"
+    curves = ("its curves" if not ran else f"all {len(ran)} curves of the grid" if len(ran) == data["curves_in_grid"]
+              else f"{len(ran)} of the grid's {data['curves_in_grid']} curves ({', '.join(ran)})")
     cost, cpu = counts["cost_ratio"], counts["cpu_ratio"]
     lines = [f"- **Run**: {counts['physical_runs']} MuJoCo runs on {curves}; **{counts['explained']} explained** "
              f"(failed, or parted from the ideal run by more than {data['arguments']['threshold']} m), "

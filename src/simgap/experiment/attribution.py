@@ -83,7 +83,8 @@ class World:
     tracking_m: float        # max lateral tracking error (plan against car) [m]
     score: float             # the closed-loop score (the worst agent's)
     wall_s: float
-    cpu_s: float = 0.0       # the processor time its worker spent on it (0: the explained run's own record)
+    cpu_s: float = 0.0       # the processor time its run took, in a worker or the explaining process (0: the
+                             # explained run's own record)
 
     def as_json(self) -> dict[str, Any]:
         return {"restored": sorted(self.restored), "outcome": str(self.outcome), "gap_m": self.gap_m,
@@ -135,6 +136,7 @@ class Attribution:
     run_wall_s: float         # the explained run's own wall time
     workers: int
     worlds: tuple[World, ...] = field(default=())
+    cpu_s: float = 0.0        # the explanation's processor time: the explaining process's and its workers'
 
     @property
     def outcome_broken(self) -> bool:
@@ -146,7 +148,7 @@ class Attribution:
                 "tracking_m": self.tracking_m, "assumptions": [a.as_json() for a in self.assumptions],
                 "fixing_sets": [[str(a) for a in s] for s in self.fixing_sets], "interaction_m": self.interaction_m,
                 "runs": self.runs, "wall_s": self.wall_s, "run_wall_s": self.run_wall_s, "workers": self.workers,
-                "worlds": [w.as_json() for w in self.worlds]}
+                "worlds": [w.as_json() for w in self.worlds], "cpu_s": self.cpu_s}
 
     @classmethod
     def of_json(cls, d: Mapping[str, Any]) -> Attribution:
@@ -156,7 +158,7 @@ class Attribution:
                    tuple(AssumptionShare.of_json(a) for a in d["assumptions"]),
                    tuple(tuple(Assumption(a) for a in s) for s in d["fixing_sets"]), float(d["interaction_m"]),
                    int(d["runs"]), float(d["wall_s"]), float(d["run_wall_s"]), int(d["workers"]),
-                   tuple(World.of_json(w) for w in d.get("worlds") or ()))
+                   tuple(World.of_json(w) for w in d.get("worlds") or ()), float(d.get("cpu_s", 0.0)))
 
     def sentence(self) -> str:
         """The explanation in a sentence: what the car did, the assumption that most caused it, and
@@ -292,7 +294,7 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     """Explain the run in ``run_dir`` (see the module doc): its counterfactual worlds run on
     ``workers`` processes (1: in this one); ``assumptions``: restore only these of those it broke
     (default: all); ``keep``: write it into the run directory (`EXPLANATION_FILE`)."""
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     if workers > 1:     # the fork server loads what a run imports while this process reads the run
         fork_server.start()
     run_dir = Path(run_dir)
@@ -316,8 +318,10 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
         # workers start (`_run_all`); each world is compared with the ideal run as it ends
         ran: dict[int, _Ran] = {}
         compared: dict[frozenset[Assumption], World] = {}
-        for index, r in _run_all(requests, workers, list(range(len(requests)))):
+        in_workers = 0.0            # the processor time of the runs the workers made (this process's is counted)
+        for index, r, in_worker in _run_all(requests, workers, list(range(len(requests)))):
             ran[index] = r
+            in_workers += r.cpu_s if in_worker else 0.0
             if 0 not in ran:
                 continue
             if index == 0:
@@ -329,32 +333,33 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     own = _Ran(record.history, _scores(record), record.history.wall_time_s, 0.0)
     worlds: dict[frozenset[Assumption], World] = \
         {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | {s: compared[s] for s in subsets}
-    attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
-                               max(1, workers))
+    attribution = replace(_attribution(run_dir, record, present, worlds, ideal, len(requests),
+                                       time.perf_counter() - started, max(1, workers)),
+                          cpu_s=time.process_time() - cpu + in_workers)
     if keep:
         write_explanation(run_dir, attribution)
     return attribution
 
 
-def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran]]:
-    """The runs of ``requests``, started in ``order`` (their indices), each with its index as it
-    ends, on ``workers`` processes forked from a server that has loaded what a run imports once
+def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran, bool]]:
+    """The runs of ``requests``, started in ``order`` (their indices), each with its index and
+    whether a worker made it as it ends, on ``workers`` processes forked from a server that has loaded what a run imports once
     (never forked from this process: a fork of a process with threads can deadlock). This process
     works beside them: it runs the first itself, then, from the end of the queue, each run no worker
     has taken yet — while the server loads (seconds) the workers take none, and after that three
     processes share the rest (put the longest runs last)."""
     if workers <= 1:
-        yield from ((i, _run(requests[i])) for i in order)
+        yield from ((i, _run(requests[i]), False) for i in order)
         return
     with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=fork_server.context()) as pool:
         futures = {pool.submit(_run, requests[i]): i for i in order[1:]}
-        yield order[0], _run(requests[order[0]])
+        yield order[0], _run(requests[order[0]]), False
         for future in reversed(list(futures)):
             if not future.cancel():         # the workers have come this far: the rest is theirs
                 break
-            yield futures[future], _run(requests[futures[future]])
+            yield futures[future], _run(requests[futures[future]]), False
         for future in as_completed([f for f in futures if not f.cancelled()]):
-            yield futures[future], future.result()
+            yield futures[future], future.result(), True
 
 
 def _world(restored: frozenset[Assumption], ran: _Ran, ideal: History, scenario: Any, problems: Any,
