@@ -143,7 +143,7 @@ def _command(cli, request: dict) -> None:
         os.environ.update(request["env"])
         if request["cwd"] is not None:
             os.chdir(request["cwd"])
-        _fork_servers_from_here()
+        _fork_server_from_here()
         sys.argv = ["simgap", *request["argv"]]
         try:
             cli.main()
@@ -164,7 +164,7 @@ def _command(cli, request: dict) -> None:
             os._exit(code)
 
 
-def _fork_servers_from_here() -> None:
+def _fork_server_from_here() -> None:
     """The fork server a command's study starts (`simgap.experiment.fork_server`) forked from the
     command's own process — which, a fork of this server, has imported what a run imports and has
     the command's environment, folder and output — instead of a new interpreter that imports it

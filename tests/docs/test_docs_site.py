@@ -393,7 +393,8 @@ def test_pages_load_in_chromium_without_console_errors(served, tmp_path):
         for name in ["index.html", "getting-started.html", "reference/cli.html", "reference/api.html",
                      "validation/results.html", "concepts/fidelities.html", "reference/planner-protocol.html"]:
             browser.open(f"{served}/{name}")
-            assert not browser.console(), f"{name}: {browser.console()}"
+            seen = browser.console()
+            assert not seen, f"{name}: {seen}"
             dom = browser.evaluate("document.documentElement.outerHTML")
             assert 'class="md-content"' in dom and "md-nav" in dom, f"{name} did not render"
 

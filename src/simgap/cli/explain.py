@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -15,6 +15,9 @@ from simgap.cli.main import app
 from simgap.errors import InputError
 from simgap.experiment import fork_server
 from simgap.sim.assumptions import Assumption
+
+if TYPE_CHECKING:
+    from simgap.experiment.attribution import Attribution
 
 ASSUMPTION_HELP = ("restore only this one of the assumptions the run broke: " + ", ".join(Assumption) +
                    " (repeatable; default: all; the others stay broken in every world, so the base holds them too)")
@@ -52,15 +55,17 @@ def explain(
 
 def explanation(run_dir: Path, workers: int = 2, assumptions: list[Assumption] | None = None) -> dict[str, Any]:
     """The attribution of the run in ``run_dir``, as ``--json`` prints it."""
-    from simgap.experiment.attribution import explain as attribute  # after the fork server starts
-
-    return attribute(run_dir, workers, assumptions or None).as_json()
+    return _attribute(run_dir, workers, assumptions).as_json()
 
 
 def print_explanation(console: Console, run_dir: Path, workers: int = 2,
                       assumptions: list[Assumption] | None = None) -> None:
     """The attribution of the run in ``run_dir``: a line per assumption, largest first, then why."""
-    from simgap.experiment.attribution import explain as attribute  # after the fork server starts
-
-    for line in attribute(run_dir, workers, assumptions or None).lines():
+    for line in _attribute(run_dir, workers, assumptions).lines():
         console.print(line, highlight=False, markup=False)
+
+
+def _attribute(run_dir: Path, workers: int, assumptions: list[Assumption] | None) -> Attribution:
+    from simgap.experiment.attribution import explain  # imported after the fork server has started
+
+    return explain(run_dir, workers, assumptions or None)

@@ -333,18 +333,18 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
     own = _Ran(record.history, _scores(record), record.history.wall_time_s, 0.0)
     worlds: dict[frozenset[Assumption], World] = \
         {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | {s: compared[s] for s in subsets}
-    attribution = replace(_attribution(run_dir, record, present, worlds, ideal, len(requests),
-                                       time.perf_counter() - started, max(1, workers)),
-                          cpu_s=time.process_time() - cpu + in_workers)
+    attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
+                               max(1, workers), time.process_time() - cpu + in_workers)
     if keep:
         write_explanation(run_dir, attribution)
     return attribution
 
 
 def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran, bool]]:
-    """The runs of ``requests``, started in ``order`` (their indices), each with its index and
-    whether a worker made it as it ends, on ``workers`` processes forked from a server that has loaded what a run imports once
-    (never forked from this process: a fork of a process with threads can deadlock). This process
+    """The runs of ``requests``, started in ``order`` (their indices), each as it ends with its index
+    and whether a worker made it, on ``workers`` processes forked from a server that has loaded what
+    a run imports once (never forked from this process: a fork of a process with threads can
+    deadlock). This process
     works beside them: it runs the first itself, then, from the end of the queue, each run no worker
     has taken yet — while the server loads (seconds) the workers take none, and after that three
     processes share the rest (put the longest runs last)."""
@@ -401,7 +401,7 @@ def shapley(players: tuple[Assumption, ...], value: Mapping[frozenset[Assumption
 
 def _attribution(run_dir: Path, record: RunRecord, present: tuple[Assumption, ...],
                  worlds: dict[frozenset[Assumption], World], ideal: _Ran, runs: int, wall_s: float,
-                 workers: int) -> Attribution:
+                 workers: int, cpu_s: float) -> Attribution:
     everything = frozenset(present)
     actual, machine = worlds[frozenset()], worlds[everything]
     ideal_outcome = Outcome.worst([a.outcome for a in ideal.history.agents])
@@ -429,5 +429,5 @@ def _attribution(run_dir: Path, record: RunRecord, present: tuple[Assumption, ..
     return Attribution(str(run_dir), record.scenario_id, record.history.backend, agent.history.vehicle.name,
                        actual.outcome, ideal_outcome, actual.gap_m, actual.tracking_m, tuple(shares),
                        tuple(sorted(fixing)), actual.gap_m - machine.gap_m - alone, runs, wall_s,
-                       record.history.wall_time_s, workers, tuple(worlds.values()))
+                       record.history.wall_time_s, workers, tuple(worlds.values()), cpu_s)
 
