@@ -15,7 +15,7 @@ from concrete_runs import drive
 from simgap.errors import InputError
 from simgap.evaluate.route_centre import route_centre
 from simgap.evaluate.timeline import agent_timeline
-from simgap.record import read_run, write_run
+from simgap.record import RunFiles, read_run, write_run
 from simgap.report.timeline import plot_timeline
 from simgap.scenario import build_scenario
 
@@ -59,7 +59,7 @@ def test_a_physical_run_records_its_commands_per_control_tick_and_they_reload_eq
     # with prompt pedals the car mostly does what the pedals ask (not at the stop, where it holds)
     moving = np.interp(trace.t, agent.driven.t, agent.driven.v) > 1.0
     assert np.median(np.abs(trace.accel_requested - trace.accel_achieved)[moving]) < 0.2
-    write_run(prompt, tmp_path / "run")
+    write_run(RunFiles(prompt), tmp_path / "run")
     again = read_run(tmp_path / "run").history.agents[0].controls
     assert again == trace
     assert pickle.loads(pickle.dumps(prompt)).history.agents[0].controls == trace

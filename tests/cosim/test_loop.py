@@ -20,7 +20,7 @@ from evaluated import recorded
 
 from simgap.cosim import CosimSettings, EventKind, Outcome, simulate
 from simgap.cosim.agents import agents_from_problems
-from simgap.record import read_run, write_run
+from simgap.record import RunFiles, read_run, write_run
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.relief import ElevationProfile, ReliefProfile, RoadRelief
 from simgap.scenario.road_frame import footprint
@@ -113,7 +113,7 @@ def test_a_crashing_planner_fails_its_agent_with_the_reason(tmp_path):
     assert result.agents[0].history.outcome == "planner_failure"
     assert any("RuntimeError: solver exploded" in e.detail for e in result.history.events)
     assert [e.kind for e in result.history.events] == [EventKind.PLANNER_NO_SOLUTION] * 2 + [Outcome.PLANNER_FAILURE]
-    write_run(result, tmp_path / "run")
+    write_run(RunFiles(result), tmp_path / "run")
     assert read_run(tmp_path / "run").history.events == result.history.events       # typed again when read
 
 
@@ -127,7 +127,7 @@ def test_leaving_the_road_is_off_road():
 def test_run_record_reloads_equal(tmp_path):
     result = run([problem(1, 10, 1.75, 0.0, 10.0, 150)], {1: StraightLine(10.0)},
                  CosimSettings(replan_every=3))
-    write_run(result, tmp_path / "run")
+    write_run(RunFiles(result), tmp_path / "run")
     again = read_run(tmp_path / "run")
     assert again.fingerprint == result.fingerprint
     assert again == result            # history (states, plans, observations, call times), evaluation, settings
@@ -142,7 +142,7 @@ def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal
     ideal = recorded(simulate(straight_road(), problems, IdealBackend(), agents, {1: StraightLine(10.0)},
                               relief=relief), straight_road(), problems)
     assert ideal.history.agents[0].attitudes == ()
-    write_run(ideal, tmp_path / "ideal")
+    write_run(RunFiles(ideal), tmp_path / "ideal")
     assert "z" not in pq.read_table(tmp_path / "ideal" / "trajectories.parquet").column_names
     physical = recorded(simulate(straight_road(), problems, make_backend("dynamic"), agents, {1: StraightLine(10.0)},
                                  relief=relief), straight_road(), problems)
@@ -151,7 +151,7 @@ def test_a_world_with_a_relief_records_each_driven_states_attitude_and_the_ideal
     assert np.array([a.pitch for a in attitudes]) == pytest.approx(math.atan(0.05), abs=1e-4)   # (its heading wavers)
     assert np.array([a.z for a in attitudes]) == pytest.approx(0.05 * driven.x + 0.61373 / math.cos(math.atan(0.05)),
                                                                 abs=1e-3)
-    write_run(physical, tmp_path / "dynamic")
+    write_run(RunFiles(physical), tmp_path / "dynamic")
     assert read_run(tmp_path / "dynamic").history.agents[0].attitudes == attitudes
 
 

@@ -16,7 +16,7 @@ import pytest
 import simgap_command
 
 from simgap.errors import InputError
-from simgap.record import read_run, write_run
+from simgap.record import RunFiles, read_run, write_run
 
 FORMAT_1_RUN = Path(__file__).parents[1] / "data" / "format1-study" / "runs"
 
@@ -24,7 +24,7 @@ FORMAT_1_RUN = Path(__file__).parents[1] / "data" / "format1-study" / "runs"
 @pytest.fixture(scope="module")
 def sound_run(tmp_path_factory) -> Path:
     ideal = next(p.parent for p in FORMAT_1_RUN.rglob("run.json") if p.parent.name == "ideal")
-    return write_run(read_run(ideal), tmp_path_factory.mktemp("runs") / "sound")
+    return write_run(RunFiles(read_run(ideal)), tmp_path_factory.mktemp("runs") / "sound")
 
 
 def _edit_json(change: Callable[[dict], object]) -> Callable[[Path], None]:

@@ -130,7 +130,7 @@ def test_a_record_of_format_3_reads_its_evaluation_settings_from_the_loops(study
 
 
 def test_backend_settings_are_read_typed_through_the_backend_settings_model(study, tmp_path):
-    from simgap.record import write_run
+    from simgap.record import RunFiles, write_run
     from simgap.sim.mujoco.settings import MujocoSettings
 
     runs = {p.parent.name: p.parent for p in study.rglob("run.json")}
@@ -144,7 +144,7 @@ def test_backend_settings_are_read_typed_through_the_backend_settings_model(stud
     old = read_run(runs["mujoco-sedan"])
     assert old.settings.backend.realism is Realism.IDEAL and old.fidelity.label == "mujoco/sedan/ideal-car"
     # written again (format 3) and read back: the same model
-    again = read_run(write_run(old, tmp_path / "again"))
+    again = read_run(write_run(RunFiles(old), tmp_path / "again"))
     assert again.settings.backend == old.settings.backend
     # a value the backend's model does not take is refused, naming the field
     meta = json.loads((tmp_path / "again" / "run.json").read_text())

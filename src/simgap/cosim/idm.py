@@ -83,12 +83,13 @@ class IdmTraffic:
     """Recorded vehicles driven by an IDM along their recorded paths (see the module docstring);
     a `simgap.cosim.traffic.Traffic`."""
 
-    def __init__(self, scenario: Scenario, parameters: TrafficIdm | None = None):
+    def __init__(self, scenario: Scenario, parameters: TrafficIdm | None = None,
+                 obstacles: Sequence[RecordedObstacle] | None = None):
         self.p = parameters or TrafficIdm()
         self.dt = float(scenario.dt)
         self._replayed: list[RecordedObstacle] = []
         self._driven: list[_PathVehicle] = []
-        for obstacle in recorded_obstacles(scenario):
+        for obstacle in recorded_obstacles(scenario) if obstacles is None else obstacles:
             vehicle = _path_vehicle(obstacle) if obstacle.vehicle and not obstacle.static else None
             if vehicle is None:
                 self._replayed.append(obstacle)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import copy
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -50,6 +50,7 @@ from simgap.cosim.sensing import Localisation, SensingProfile, SensingSettings, 
 from simgap.cosim.traffic import Traffic, TrafficMode, make_traffic
 from simgap.planning.protocol import Planner, as_planner
 from simgap.scenario.goal import Goal
+from simgap.scenario.obstacles import RecordedObstacle
 from simgap.scenario.relief import Surface
 from simgap.scenario.road_frame import DrivableArea
 from simgap.sim.assumptions import Assumption, Restorations
@@ -112,15 +113,22 @@ def simulate(
     wall_time_limit_s: float | None = None,
     relief: Surface | None = None,
     replayed_latencies: Mapping[int, tuple[float, ...]] | None = None,
+    road: DrivableArea | None = None,
+    obstacles: Sequence[RecordedObstacle] | None = None,
 ) -> History:
     """Run the co-simulation of ``agents`` (one per planning problem) in ``backend`` on the road's
     ``relief`` (None: flat); ``seed`` seeds the localisations' errors. A run still going after
     ``wall_time_limit_s`` (even in a planning call that does not return) is stopped and recorded as
     failed. ``replayed_latencies`` (agent id -> the latency of each of its plans, in order, as a
     record keeps them) replace the ``measured`` latencies, so a run made on a loaded machine
-    replays exactly on an idle one."""
-    return _CoSimulation(scenario, problems, backend, agents, planners, settings or CosimSettings(), seed,
-                         wall_time_limit_s, relief, replayed_latencies or {}).run(progress)
+    replays exactly on an idle one. ``road``: the scenario's drivable area widened by the settings'
+    ``offroad_tolerance``, and ``obstacles`` its `recorded_obstacles`, when the caller has them
+    (made here otherwise)."""
+    settings = settings or CosimSettings()
+    if road is None:
+        road = DrivableArea(scenario.lanelet_network, settings.offroad_tolerance)
+    return _CoSimulation(scenario, problems, backend, agents, planners, settings, seed,
+                         wall_time_limit_s, relief, replayed_latencies or {}, road, obstacles).run(progress)
 
 
 class _CoSimulation:
@@ -130,13 +138,14 @@ class _CoSimulation:
 
     def __init__(self, scenario: Scenario, problems: PlanningProblemSet, backend: Backend, agents: list[Agent],
                  planners: Mapping[int, Planner], settings: CosimSettings, seed: int, wall_time_limit_s: float | None,
-                 relief: Surface | None, replayed_latencies: Mapping[int, tuple[float, ...]]):
+                 relief: Surface | None, replayed_latencies: Mapping[int, tuple[float, ...]], road: DrivableArea,
+                 obstacles: Sequence[RecordedObstacle] | None):
         self.scenario, self.backend, self.settings, self.relief = scenario, backend, settings, relief
         self.realism = backend.realism
         self.wall_time_limit_s = wall_time_limit_s
         self.dt = float(scenario.dt)
         self.timings = {"planning": 0.0, "execution": 0.0, "monitoring": 0.0}
-        self.traffic: Traffic = make_traffic(scenario, settings.traffic)
+        self.traffic: Traffic = make_traffic(scenario, settings.traffic, obstacles)
         self.progress_of: dict[int, AgentProgress] = {}
         accuracy = localisation_accuracy(settings.sensing, self.realism)
         for a in agents:
@@ -147,8 +156,7 @@ class _CoSimulation:
                                                    localisation)
         self.horizon = max(p.deadline for p in self.progress_of.values())
         self.agents = agents
-        self.judge = Judge(self.progress_of, backend, self.traffic,
-                           DrivableArea(scenario.lanelet_network, settings.offroad_tolerance))
+        self.judge = Judge(self.progress_of, backend, self.traffic, road)
         self.delivery = PlanDelivery(scenario.lanelet_network, self.dt, self.realism, settings.latency,
                                      settings.replan_every, settings.emergency_decel, settings.planner_failure_limit,
                                      self.traffic, self.judge, replayed_latencies)

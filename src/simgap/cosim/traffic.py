@@ -18,7 +18,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.cosim.idm import IdmTraffic
 from simgap.cosim.obstacle_reach import ObstacleReach
 from simgap.planning.protocol import TrafficParticipant
-from simgap.scenario.obstacles import recorded_obstacles
+from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.trajectory import State
 
 
@@ -29,9 +29,11 @@ class TrafficMode(str, Enum):
     IDM = "idm"
 
 
-def non_agent_traffic(scenario: Scenario) -> list[TrafficParticipant]:
-    """Obstacles of the scenario as they were recorded (static ones stand still for ever)."""
-    return [TrafficParticipant(o.id, o.length, o.width, o.motion) for o in recorded_obstacles(scenario)]
+def non_agent_traffic(scenario: Scenario, obstacles: Sequence[RecordedObstacle] | None = None) -> list[TrafficParticipant]:
+    """Obstacles of the scenario as they were recorded (static ones stand still for ever); ``obstacles``:
+    its `recorded_obstacles`, when the caller has them."""
+    obstacles = recorded_obstacles(scenario) if obstacles is None else obstacles
+    return [TrafficParticipant(o.id, o.length, o.width, o.motion) for o in obstacles]
 
 
 class Traffic(Protocol):
@@ -53,8 +55,8 @@ class Traffic(Protocol):
 class ReplayedTraffic:
     """Every obstacle follows its recording."""
 
-    def __init__(self, scenario: Scenario):
-        self._participants = non_agent_traffic(scenario)
+    def __init__(self, scenario: Scenario, obstacles: Sequence[RecordedObstacle] | None = None):
+        self._participants = non_agent_traffic(scenario, obstacles)
         self._by_id = {o.id: o for o in self._participants}
         self.reach = ObstacleReach.of(self._participants)
         self.driven_ids: tuple[int, ...] = ()
@@ -71,7 +73,8 @@ class ReplayedTraffic:
         pass
 
 
-def make_traffic(scenario: Scenario, mode: TrafficMode) -> Traffic:
+def make_traffic(scenario: Scenario, mode: TrafficMode, obstacles: Sequence[RecordedObstacle] | None = None) -> Traffic:
+    """The scenario's traffic in ``mode`` (``obstacles``: its `recorded_obstacles`, when the caller has them)."""
     if mode is TrafficMode.IDM:
-        return IdmTraffic(scenario)
-    return ReplayedTraffic(scenario)
+        return IdmTraffic(scenario, obstacles=obstacles)
+    return ReplayedTraffic(scenario, obstacles)

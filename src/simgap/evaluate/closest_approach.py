@@ -11,12 +11,14 @@ recorded, or where the loop's IDM drove it: `History.traffic`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.history import History, Outcome
 from simgap.cosim.traffic import ReplayedTraffic
+from simgap.scenario.obstacles import RecordedObstacle
 from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.trajectory import State
 
@@ -36,12 +38,17 @@ def _step(t: float, dt: float) -> int:
     return int(round(t / dt))
 
 
-def closest_approaches(history: History, scenario: Scenario, offroad_tolerance_m: float) -> dict[int, Approach]:
+def closest_approaches(history: History, scenario: Scenario, offroad_tolerance_m: float,
+                       road: DrivableArea | None = None,
+                       obstacles: Sequence[RecordedObstacle] | None = None) -> dict[int, Approach]:
     """Every agent's `Approach` over the monitored states of ``history`` on ``scenario`` (the
-    scenario the loop ran: recorded egos left out)."""
+    scenario the loop ran: recorded egos left out); ``road``: its drivable area widened by
+    ``offroad_tolerance_m``, and ``obstacles`` its `recorded_obstacles`, when the caller has them
+    (made here otherwise)."""
     dt = history.dt
-    road = DrivableArea(scenario.lanelet_network, offroad_tolerance_m)
-    replayed = ReplayedTraffic(scenario)
+    if road is None:
+        road = DrivableArea(scenario.lanelet_network, offroad_tolerance_m)
+    replayed = ReplayedTraffic(scenario, obstacles)
     driven_traffic = {oid: {_step(t, dt): traj[k] for k, t in enumerate(traj.t)}
                       for oid, traj in history.traffic.items()}
     sizes = {o.id: (o.length, o.width) for o in replayed.participants()}
@@ -71,15 +78,15 @@ def closest_approaches(history: History, scenario: Scenario, offroad_tolerance_m
             near.update(int(i) for i in reach.ids[reach.near(t, st.x, st.y, radius, closest[aid])]
                         if int(i) not in driven_traffic)
         poses = replayed.poses(t, sorted(near)) if near else {}
-        obstacles = {oid: footprint(st, length, width) for oid, (st, length, width) in poses.items()}
+        around = {oid: footprint(st, length, width) for oid, (st, length, width) in poses.items()}
         for oid, by_step in driven_traffic.items():
             if step in by_step:
-                obstacles[oid] = footprint(by_step[step], *sizes[oid])
+                around[oid] = footprint(by_step[step], *sizes[oid])
         for aid, shape in shapes.items():
             excursion[aid] = max(excursion[aid], road.excursion(shape))
             for oid, other in shapes.items():
                 if oid != aid:
                     closest[aid] = min(closest[aid], shape.distance(other))
-            for other in obstacles.values():
+            for other in around.values():
                 closest[aid] = min(closest[aid], shape.distance(other))
     return {aid: Approach(None if math.isinf(closest[aid]) else closest[aid], excursion[aid]) for aid in closest}

@@ -8,6 +8,7 @@ motion stands in for it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -16,7 +17,7 @@ from commonroad.scenario.obstacle import ObstacleType
 from commonroad.scenario.scenario import Scenario
 
 from simgap.cosim.history import History
-from simgap.scenario.obstacles import recorded_obstacles
+from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles
 from simgap.trajectory import Trajectory
 
 
@@ -69,10 +70,12 @@ class RoadUser:
                         np.interp(t, m.t, np.unwrap(m.yaw)), np.interp(t, m.t, m.v))
 
 
-def road_users(history: History, scenario: Scenario) -> dict[int, RoadUser]:
-    """Every agent (on its driven trajectory) and every obstacle (on its recorded motion), by id."""
+def road_users(history: History, scenario: Scenario,
+               obstacles: Sequence[RecordedObstacle] | None = None) -> dict[int, RoadUser]:
+    """Every agent (on its driven trajectory) and every obstacle (on its recorded motion), by id
+    (``obstacles``: the scenario's `recorded_obstacles`, when the caller has them)."""
     out = {}
-    for obstacle in recorded_obstacles(scenario):
+    for obstacle in recorded_obstacles(scenario) if obstacles is None else obstacles:
         kind = kind_of(scenario.obstacle_by_id(obstacle.id).obstacle_type)
         out[obstacle.id] = RoadUser(obstacle.id, kind, obstacle.length, obstacle.width, obstacle.motion)
     for agent in history.agents:

@@ -33,7 +33,9 @@ from simgap.evaluate.run_metrics import RouteMeasures, route_measures, run_metri
 from simgap.evaluate.settings import EvaluationSettings
 from simgap.evaluate.solution import PartialCost, cost_function_of, run_solution, solution_costs, vehicle_type_of
 from simgap.evaluate.validity import SolutionCheckCache, checked_solution
+from simgap.scenario.obstacles import RecordedObstacle
 from simgap.scenario.relief import Surface
+from simgap.scenario.road_frame import DrivableArea
 from simgap.vehicles import Vehicle
 
 NO_TRAJECTORY = "the agent drove no step (no trajectory to check)"
@@ -121,6 +123,9 @@ class EvaluationContext:
     planner_vehicle: Vehicle
     relief: Surface | None = None
     scenario_file: Path | None = None
+    road: DrivableArea | None = None     # the drivable area widened by ``offroad_tolerance_m``, as the loop judged
+                                         # footprints against it (built again when not given)
+    obstacles: tuple[RecordedObstacle, ...] | None = None     # the scenario's (made again when not given)
 
 
 @dataclass(frozen=True)
@@ -162,12 +167,13 @@ def solution_of(history: History, context: EvaluationContext) -> Solution:
 
 def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
     """Every metric and score of the run ``history`` records, but its solution's validity."""
-    approaches = closest_approaches(history, context.scenario, context.offroad_tolerance_m)
+    approaches = closest_approaches(history, context.scenario, context.offroad_tolerance_m, context.road,
+                                    context.obstacles)
     routes = {a.id: route_measures(a, context.scenario, context.problems.planning_problem_dict.get(a.id))
               for a in history.agents}
     excursions = {aid: round(a.max_road_excursion_m, 3) for aid, a in approaches.items()}   # as recorded
     scores = closed_loop_scores(history, context.scenario, context.problems, context.settings.score,
-                                context.offroad_tolerance_m, excursions)
+                                context.offroad_tolerance_m, excursions, context.obstacles)
     costs = solution_costs(solution_of(history, context), context.scenario, context.problems)
     agents = []
     for a in history.agents:

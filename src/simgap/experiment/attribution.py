@@ -259,8 +259,8 @@ def _run(request: RunRequest) -> _Ran:
     its files."""
     started, cpu = time.perf_counter(), time.process_time()
     run = simulated(request)
-    scores = closed_loop_scores(run.history, run.scenario, run.problems, request.evaluation.score,
-                                request.cosim.offroad_tolerance)
+    scores = closed_loop_scores(run.history, run.scene.scenario, run.scene.problems, request.evaluation.score,
+                                request.cosim.offroad_tolerance, obstacles=run.scene.obstacles)
     return _Ran(run.history, tuple(0.0 if a.id not in scores else float(scores[a.id].score) for a in run.history.agents),
                 time.perf_counter() - started, time.process_time() - cpu)
 

@@ -18,8 +18,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from commonroad.planning.planning_problem import PlanningProblemSet
-from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel
 
 from simgap.cosim import REFERENCE, CosimSettings, History, PlannerError, not_started, simulate
@@ -32,18 +30,14 @@ from simgap.evaluate import EvaluationSettings
 from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, solution_of, with_criticality, with_validity
 from simgap.evaluate.solution import solution_xml
 from simgap.evaluate.validity import SolutionCheckCache
+from simgap.experiment.run_scene import RunScene, read_scene
 from simgap.files import read_yaml_mapping
 from simgap.planning.protocol import PlannerSetup
 from simgap.planning.registry import PlannerAssignment, PlannerChoice, assignment_label, planner_of
 from simgap.planning.remote import PlannerTarget, ProcessLimits
-from simgap.record import PlannerRecord, RunRecord, RunSettings, rewrite_record, write_run
-from simgap.scenario import load_scenario, read_sidecar
+from simgap.record import DrivenScenarioFile, PlannerRecord, RunFiles, RunRecord, RunSettings, rewrite_record, write_run
 from simgap.scenario.files import scenario_xml
-from simgap.scenario.ground import ground_of
-from simgap.scenario.obstacles import without_recorded_egos
 from simgap.scenario.placement import AgentPlacement
-from simgap.scenario.relief import Surface
-from simgap.scenario.sidecar import ScenarioSidecar
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, Vehicle, load_vehicle
@@ -167,64 +161,63 @@ def _check_agents_assigned_exist(request: RunRequest, agent_ids: list[int]) -> N
                              allowed="planning problem ids " + ", ".join(map(str, agent_ids)))
 
 
+def scene_of(request: RunRequest) -> RunScene:
+    """The scenario ``request`` runs, read once (`simgap.experiment.run_scene`)."""
+    scene = read_scene(Path(request.scenario), request.placement, request.flat_road, request.cosim.offroad_tolerance)
+    _check_agents_assigned_exist(request, scene.agent_ids)
+    return scene
+
+
 def execute(request: RunRequest, out: Path | None = None,
             progress: Callable[[float], None] | None = None) -> RunRecord:
     """Run ``request`` — simulate, evaluate, record — and write the run directory to ``out`` when given."""
-    scenario, problems = load_scenario(request.scenario, needs_problems=request.placement is None)
+    scene = scene_of(request)
     if request.placement is None:
-        return _execute(request, scenario, problems, Path(request.scenario), out, progress)
-    problems = request.placement.planning_problems(scenario)
+        return _execute(request, scene, scene.file, out, progress)
     with tempfile.TemporaryDirectory(prefix="simgap-placed-") as tmp:     # the scenario the solution is checked in
-        placed = Path(tmp) / Path(request.scenario).name
+        placed = Path(tmp) / scene.file.name
         with warnings.catch_warnings():       # a map's sign of a country commonroad-io does not know: said on reading
             warnings.simplefilter("ignore")
-            placed.write_text(scenario_xml(scenario, problems))
-        return _execute(request, scenario, problems, placed, out, progress)
+            placed.write_text(scenario_xml(scene.read, scene.problems))
+        return _execute(request, scene, placed, out, progress)
 
 
 @dataclass(frozen=True)
 class Simulated:
-    """What a run's co-simulation gives, before it is evaluated: its history, on the scenario the
-    loop ran (recorded egos left out), and what the record says of it."""
+    """What a run's co-simulation gives, before it is evaluated: its history on its scene, and what
+    the record says of its planners."""
 
     history: History
-    scenario: Scenario
-    problems: PlanningProblemSet
-    relief: Surface | None
-    sidecar: ScenarioSidecar
+    scene: RunScene
     planner_records: dict[int, PlannerRecord]
-    recorded_egos: Any
     planner_vehicle: Vehicle
 
 
 def simulated(request: RunRequest) -> Simulated:
     """``request``'s co-simulation alone: no evaluation, no record (what a counterfactual world of
     `simgap.experiment.attribution` needs of a run; `execute` does the rest)."""
-    scenario, problems = load_scenario(request.scenario, needs_problems=request.placement is None)
-    if request.placement is not None:
-        problems = request.placement.planning_problems(scenario)
-    return _simulated(request, scenario, problems, None)
+    return _simulated(request, scene_of(request), None)
 
 
-def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemSet, scenario_file: Path,
-             out: Path | None, progress: Callable[[float], None] | None) -> RunRecord:
-    """`execute` on the scenario and planning problems ``request`` names, read (``scenario_file``:
-    a file that holds both, for the solution's checks)."""
+def _execute(request: RunRequest, scene: RunScene, scenario_file: Path, out: Path | None,
+             progress: Callable[[float], None] | None) -> RunRecord:
+    """`execute` on ``scene`` (``scenario_file``: a file that holds its scenario and planning
+    problems, for the solution's checks)."""
     out = None if out is None else Path(out).absolute()     # a planner's os.chdir does not move it
-    run = _simulated(request, scenario, problems, progress)
-    history, scenario, sidecar, relief = run.history, run.scenario, run.sidecar, run.relief
+    run = _simulated(request, scene, progress)
+    history, sidecar = run.history, scene.sidecar
     settings = RunSettings(
-        scenario_id=sidecar.name if sidecar.name is not None else Path(request.scenario).stem, cosim=request.cosim,
+        scenario_id=sidecar.name if sidecar.name is not None else scene.file.stem, cosim=request.cosim,
         evaluation=request.evaluation,
         planner=_planner_record(request.planner, run.planner_records), scenario_path=str(request.scenario),
         parameters=sidecar.parameters, parameter_units=sidecar.units,
         sections=sidecar.sections, backend=request.backend_settings,
         sensing_accuracy=localisation_accuracy(request.cosim.sensing, history.realism),
-        planner_vehicle=request.planner_vehicle, recorded_as=run.recorded_egos, seed=request.seed,
+        planner_vehicle=request.planner_vehicle, recorded_as=scene.recorded_egos, seed=request.seed,
         versions=software_versions())
-    context = EvaluationContext(scenario, problems, request.evaluation, request.cosim.offroad_tolerance,
+    context = EvaluationContext(scene.scenario, scene.problems, request.evaluation, request.cosim.offroad_tolerance,
                                 request.cosim.planning_budget_s, road_friction(request.backend_settings),
-                                run.planner_vehicle, relief, scenario_file)
+                                run.planner_vehicle, scene.relief, scenario_file, scene.road, scene.obstacles)
     clock = time.perf_counter()
     evaluation = evaluate(history, context)
     timings = {"scoring": time.perf_counter() - clock}
@@ -234,10 +227,10 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
         timings["criticality"] = time.perf_counter() - clock
     if out is not None:
         t0 = time.perf_counter()
-        xml = scenario_xml(driven_scenario(scenario, history), problems)
+        driven = DrivenScenarioFile(scenario_xml(driven_scenario(scene.scenario, history), scene.problems), sidecar)
         timings["io"] = time.perf_counter() - t0
-        write_run(RunRecord(history, evaluation, settings, timings), out, xml,
-                  solution_xml(solution_of(history, context)), sidecar)
+        write_run(RunFiles(RunRecord(history, evaluation, settings, timings), driven,
+                           solution_xml(solution_of(history, context))), out)
     if request.validate:           # the slow check, once the run is safe on disk
         clock = time.perf_counter()
         evaluation = with_validity(evaluation, history, context, SolutionCheckCache(request.check_cache))
@@ -248,11 +241,9 @@ def _execute(request: RunRequest, scenario: Scenario, problems: PlanningProblemS
     return record
 
 
-def _simulated(request: RunRequest, scenario: Scenario, problems: PlanningProblemSet,
-               progress: Callable[[float], None] | None) -> Simulated:
-    """The co-simulation of ``request`` on ``scenario`` and its planning problems ``problems``."""
-    _check_agents_assigned_exist(request, sorted(problems.planning_problem_dict))
-    scenario, recorded_egos = without_recorded_egos(scenario, problems)
+def _simulated(request: RunRequest, scene: RunScene, progress: Callable[[float], None] | None) -> Simulated:
+    """The co-simulation of ``request`` on ``scene``."""
+    scenario, problems = scene.scenario, scene.problems
     dt = float(scenario.dt)
     if isinstance(request.vehicles, (str, Vehicle)):
         vehicles: Any = _vehicle(request.vehicles)
@@ -260,10 +251,6 @@ def _simulated(request: RunRequest, scenario: Scenario, problems: PlanningProble
         vehicles = {pid: _vehicle(v) for pid, v in request.vehicles.items()}
     agents = agents_from_problems(problems, dt, vehicles)
     planner_vehicle = load_vehicle(request.planner_vehicle)
-    sidecar = read_sidecar(request.scenario)
-    if request.placement is not None:
-        sidecar = sidecar.with_parameters(request.placement.parameters())
-    relief = None if request.flat_road else ground_of(sidecar, scenario.lanelet_network)   # what 3D worlds build
     planners, errors, planner_records = {}, [], {}
     folder = os.getcwd()        # a planner's os.chdir does not move it
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
@@ -291,11 +278,12 @@ def _simulated(request: RunRequest, scenario: Scenario, problems: PlanningProble
         else:
             backend = make_backend(request.backend, request.backend_settings)
             history = simulate(scenario, problems, backend, agents, planners, request.cosim, progress,
-                               seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=relief,
-                               replayed_latencies=request.replayed_latencies)
+                               seed=request.seed, wall_time_limit_s=request.run_timeout_s, relief=scene.relief,
+                               replayed_latencies=request.replayed_latencies, road=scene.road,
+                               obstacles=scene.obstacles)
         for aid, planner in planners.items():
             planner_records[aid] = replace(planner_records[aid], process=planner.report())
-    return Simulated(history, scenario, problems, relief, sidecar, planner_records, recorded_egos, planner_vehicle)
+    return Simulated(history, scene, planner_records, planner_vehicle)
 
 
 def _vehicle(vehicle: str | Vehicle) -> Vehicle:

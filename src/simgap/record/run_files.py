@@ -32,7 +32,7 @@ import json
 import math
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import asdict, fields
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -70,18 +70,36 @@ RECORD_TIMINGS = ("scoring", "criticality", "io", "validation")      # phases ou
 
 
 # ------------------------------------------------------------------------------ writing
-def write_run(record: RunRecord, run_dir: str | Path, driven_scenario_xml: str | None = None,
-              solution_xml: str | None = None, sidecar: ScenarioSidecar | None = None) -> Path:
-    """Write the run directory atomically (built aside, then swapped into place)."""
+@dataclass(frozen=True)
+class DrivenScenarioFile:
+    """The scenario as the run drove it: CommonRoad XML (``driven.xml``; agents as dynamic obstacles)
+    and the sidecar of the scenario it was driven on (``driven.json``; none for a scenario without one)."""
+
+    xml: str
+    sidecar: ScenarioSidecar | None = None
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    """What a run directory holds: the record (``run.json``, ``trajectories.parquet``), the driven
+    scenario and the solution's CommonRoad XML (``solution.xml``), each optional but the record."""
+
+    record: RunRecord
+    driven: DrivenScenarioFile | None = None
+    solution_xml: str | None = None
+
+
+def write_run(files: RunFiles, run_dir: str | Path) -> Path:
+    """Write the run directory of ``files`` atomically (built aside, then swapped into place)."""
     def write(tmp: Path) -> None:
-        (tmp / RUN_FILE).write_text(_run_json(record))
-        pq.write_table(_trajectory_table(record.history), tmp / TRAJECTORIES_FILE)
-        if driven_scenario_xml is not None:
-            (tmp / "driven.xml").write_text(driven_scenario_xml)
-            if sidecar:
-                (tmp / "driven.json").write_text(json.dumps(sidecar.as_json(), indent=2))
-        if solution_xml is not None:
-            (tmp / "solution.xml").write_text(solution_xml)
+        (tmp / RUN_FILE).write_text(_run_json(files.record))
+        pq.write_table(_trajectory_table(files.record.history), tmp / TRAJECTORIES_FILE)
+        if files.driven is not None:
+            (tmp / "driven.xml").write_text(files.driven.xml)
+            if files.driven.sidecar:
+                (tmp / "driven.json").write_text(json.dumps(files.driven.sidecar.as_json(), indent=2))
+        if files.solution_xml is not None:
+            (tmp / "solution.xml").write_text(files.solution_xml)
 
     return replace_directory(run_dir, write)
 
