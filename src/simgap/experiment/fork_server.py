@@ -1,7 +1,7 @@
 """The fork server a batch's worker processes are forked from: a process that has imported what a
 run imports (seconds of CPU: the planners, MuJoCo, the route planner, the ride-comfort filter, the
-solution's cost and feasibility) and nothing else, so that each worker starts with them loaded
-instead of importing them again. Never a fork of the driver itself: a fork of a process whose
+solution's cost and feasibility) and loaded MuJoCo's tyre kernel (`warm_up`), and nothing else, so
+that each worker starts with them loaded instead of loading them again. Never a fork of the driver itself: a fork of a process whose
 threads have run (GNU OpenMP's, frenetix's) can deadlock."""
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ RUN_IMPORTS = ("simgap.experiment.worker", "simgap.experiment.attribution", "sim
                "simgap.sim.dynamic.backend", "simgap.sim.mujoco.backend", "simgap.evaluate.run_evaluation",
                "commonroad_route_planner.reference_path_planner", "commonroad_route_planner.route_planner",
                "commonroad_dc.costs.evaluation", "commonroad_dc.feasibility.solution_checker",
-               "commonroad_dc.feasibility.feasibility_checker", "scipy.signal")
+               "commonroad_dc.feasibility.feasibility_checker", "scipy.signal",
+               "simgap.experiment.warm_up")      # last: the warm-up, once the rest is loaded
 
 
 def start() -> None:
