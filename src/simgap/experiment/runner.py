@@ -10,8 +10,11 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from simgap.errors import InputError
+from pydantic import BaseModel, ConfigDict, Field
+
+from simgap.errors import InputError, validated
 from simgap.evaluate.odds import Odds
 from simgap.experiment.executors import make_executor
 from simgap.experiment.explained_runs import ExplainedRun, explain_runs
@@ -21,12 +24,33 @@ from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text, restore_directory, sole_writer
+from simgap.files import atomic_write_text, read_yaml_mapping, restore_directory, sole_writer
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
 
 META = "experiment.json"
+
+
+class ExperimentMeta(BaseModel):
+    """What an experiment's directory keeps of the spec it holds the results of (`META`): the spec as
+    it was dumped (validated as an `ExperimentSpec` where it is used again), its logical scenario and
+    file, the part of it that decides the results and their hash, and the versions that ran it."""
+
+    model_config = ConfigDict(frozen=True)
+    spec: dict[str, Any]
+    logical_ref: str | None = None
+    spec_file: Path | None = None
+    spec_results: dict[str, Any] = Field(default_factory=dict)
+    results_hash: str | None = None
+    versions: dict[str, str] = Field(default_factory=dict)
+
+    @classmethod
+    def read(cls, root: Path) -> ExperimentMeta:
+        """The meta of the experiment in ``root``, or an `InputError` naming the file and the field."""
+        path = root / META
+        return validated(cls, read_yaml_mapping(path, "experiment's record of its spec", "spec, results_hash, ..."),
+                         file=path)
 
 
 @dataclass
@@ -74,18 +98,17 @@ def _claim(root: Path, spec: ExperimentSpec, logical_ref: str, spec_file: Path) 
     meta_path = root / META
     relevant = spec.results_relevant()
     if meta_path.exists():
-        meta = json.loads(meta_path.read_text())
-        if meta.get("results_hash") != spec.results_hash():
-            changed = ", ".join(_diff(meta.get("spec_results", {}), relevant)) or "the spec"
+        meta = ExperimentMeta.read(root)
+        if meta.results_hash != spec.results_hash():
+            changed = ", ".join(_diff(meta.spec_results, relevant)) or "the spec"
             raise InputError(f"this directory holds results of a different spec (changed: {changed}); "
                              "mixing them would make the results meaningless", file=root,
                              allowed="the same spec, or a new --out directory")
         return
     root.mkdir(parents=True, exist_ok=True)
-    meta = {"spec": spec.model_dump(), "logical_ref": logical_ref, "spec_file": str(spec_file.resolve()),
-            "spec_results": relevant,
-            "results_hash": spec.results_hash(), "versions": software_versions()}
-    atomic_write_text(meta_path, json.dumps(meta, indent=2, default=str))
+    meta = ExperimentMeta(spec=json.loads(spec.model_dump_json()), logical_ref=logical_ref, spec_file=spec_file.resolve(),
+                          spec_results=relevant, results_hash=spec.results_hash(), versions=software_versions())
+    atomic_write_text(meta_path, meta.model_dump_json(indent=2))
 
 
 def _check_experiment_directory(root: Path) -> None:
@@ -195,12 +218,12 @@ def experiment_status(root: Path) -> Status:
     meta_path = root / META
     if not meta_path.exists():
         raise InputError("not an experiment directory (no experiment.json)", file=root)
-    meta = json.loads(meta_path.read_text())
-    spec = ExperimentSpec.model_validate(meta["spec"])
-    logical = load_logical(meta.get("logical_ref", spec.logical))
+    meta = ExperimentMeta.read(root)
+    spec = validated(ExperimentSpec, meta.spec, file=meta_path, prefix="spec")
+    logical = load_logical(meta.logical_ref or spec.logical)
     store = ResultsStore(root)
     rows = {r["key"]: r for r in store.finished_rows()}
-    spec_file = Path(meta.get("spec_file", root / "spec.yaml"))    # (vehicle files are relative to it)
+    spec_file = meta.spec_file or root / "spec.yaml"    # (vehicle files are relative to it)
     keys = [j.key for _, runs in jobs(checked_experiment(spec, logical, spec_file)) for j in runs]
     ok = [k for k in keys if k in rows and rows[k]["status"] == "ok"]
     failed = [(k, rows[k].get("failure", "")) for k in keys if k in rows and rows[k]["status"] != "ok"]

@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from simgap.errors import InputError
+from pydantic import BaseModel, ConfigDict, Field
+
+from simgap.errors import InputError, validated
 from simgap.evaluate.odds import Rate
 from simgap.evaluate.run_metrics import RUN_METRICS
 from simgap.experiment.attribution import Attribution, read_explanation
@@ -21,9 +23,46 @@ from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, needed, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
+from simgap.files import atomic_write_text, read_yaml_mapping
 from simgap.planning.registry import DEFAULT_PLANNER
 
-META = "search.json"          # the search's spec and results hash, in its directory
+META = "search.json"          # the search's spec and results hash, in its directory (`SearchMeta`)
+
+
+class StrategyFindings(BaseModel):
+    """What one strategy of a search found, as its directory keeps it beside the spec."""
+
+    model_config = ConfigDict(frozen=True)
+    runs: int
+    violations: int
+    distinct: int
+    scenarios: int
+    reported: int
+    modes: tuple[dict[str, Any], ...] = ()      # each a `FailureMode`, dumped
+
+
+class SearchMeta(BaseModel):
+    """A search directory's record of its spec (`META`): the spec as dumped (validated as a
+    `SearchSpec` where it is used again), its results hash, the versions that ran it and what each
+    strategy found."""
+
+    model_config = ConfigDict(frozen=True)
+    spec: dict[str, Any]
+    results_hash: str | None = None
+    versions: dict[str, str] = Field(default_factory=dict)
+    findings: dict[str, StrategyFindings] = Field(default_factory=dict)
+
+    @classmethod
+    def read(cls, root: Path) -> SearchMeta:
+        """The meta of the search in ``root``, or an `InputError` naming the file and the field."""
+        path = root / META
+        if not path.exists():
+            raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
+        return validated(cls, read_yaml_mapping(path, "search's record of its spec", "spec, results_hash, ..."),
+                         file=path)
+
+    def write(self, root: Path) -> None:
+        atomic_write_text(root / META, self.model_dump_json(indent=2))
 
 
 @dataclass(frozen=True)
@@ -213,10 +252,7 @@ class SearchResults:
 def search_results(root: Path) -> SearchResults:
     """The spec, each strategy's summary and its high-fidelity runs, of a search directory."""
     root = Path(root)
-    meta = root / META
-    if not meta.exists():
-        raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
-    spec = SearchSpec.model_validate(json.loads(meta.read_text())["spec"])
+    spec = validated(SearchSpec, SearchMeta.read(root).spec, file=root / META, prefix="spec")
     names = [n for n in STRATEGIES if (root / n / "store" / "rows").exists()]
     high = len(spec.ladder) - 1
     return SearchResults(root, spec, [summarise(root / n, n, len(spec.ladder), spec.distinct_radius) for n in names],

@@ -47,14 +47,13 @@ from simgap.experiment.search.follow_up import FollowUp, FollowUpReserve
 from simgap.experiment.search.ladder import Ladder, SharedIdealRuns
 from simgap.experiment.search.ledger import SearchLedger
 from simgap.experiment.search.mode_probes import ModeProbes, probe_plan
-from simgap.experiment.search.results import META, FollowUpLeft, StrategyResult, summarise
+from simgap.experiment.search.results import META, FollowUpLeft, SearchMeta, StrategyFindings, StrategyResult, summarise
 from simgap.experiment.search.rows import SearchRow
 from simgap.experiment.search.space import Candidate, SearchSpace, Strategy
 from simgap.experiment.search.spec import STRATEGIES, Search, SearchSpec, load_search_spec
 from simgap.experiment.search.strategies import make_strategy
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text
 from simgap.sim.registry import preflight
 
 
@@ -176,16 +175,14 @@ class StrategyRun:
 
 
 def _claim(root: Path, spec: SearchSpec) -> None:
-    meta = root / META
-    if meta.exists():
-        saved = json.loads(meta.read_text())
-        if saved.get("results_hash") != spec.results_hash():
+    if (root / META).exists():
+        if SearchMeta.read(root).results_hash != spec.results_hash():
             raise InputError("this directory holds a search of a different spec; mixing them would make the "
                              "counts meaningless", file=root, allowed="the same spec, or a new --out directory")
         return
     root.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(meta, json.dumps({"spec": spec.model_dump(), "results_hash": spec.results_hash(),
-                                        "versions": software_versions()}, indent=2, default=str))
+    SearchMeta(spec=json.loads(spec.model_dump_json()), results_hash=spec.results_hash(),
+               versions=software_versions()).write(root)
 
 
 @dataclass
@@ -317,9 +314,8 @@ def _finite(value: float) -> float:
 def _record_findings(root: Path, found: StrategyResult) -> None:
     """Keep what a strategy found in ``search.json`` beside the spec: its counts (the distinct
     violations, those reported) and failure modes."""
-    meta = root / META
-    saved = json.loads(meta.read_text())
-    saved.setdefault("findings", {})[found.name] = {
-        "runs": found.runs, "violations": found.violations, "distinct": found.distinct, "scenarios": found.scenarios,
-        "reported": len(found.reported), "modes": [m.model_dump(mode="json") for m in found.modes]}
-    atomic_write_text(meta, json.dumps(saved, indent=2, default=str))
+    saved = SearchMeta.read(root)
+    findings = StrategyFindings(runs=found.runs, violations=found.violations, distinct=found.distinct,
+                                scenarios=found.scenarios, reported=len(found.reported),
+                                modes=tuple(m.model_dump(mode="json") for m in found.modes))
+    saved.model_copy(update={"findings": saved.findings | {found.name: findings}}).write(root)
