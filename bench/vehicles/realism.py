@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from simgap.control import controller_names
-from simgap.control.protocol import Command
+from simgap.control.protocol import COMMAND_FIELDS, Command
 from simgap.cosim import CosimSettings, simulate
 from simgap.cosim.agents import agents_from_problems
 from simgap.evaluate.errors import frenet_tracking_errors
@@ -36,6 +36,7 @@ from simgap.sim.registry import backend_settings, make_backend
 from simgap.trajectory import State
 from simgap.vehicles import load_vehicle, vehicle_names
 from simgap.vehicles.actuators import ActuatorResponses
+from simgap.vehicles.channels import CHANNELS
 
 STEP_PERIOD = 0.001
 CAR_PERIOD = 0.01       # the controllers' period
@@ -70,7 +71,7 @@ def car_step(vehicle_name: str, channel: str) -> tuple[float, float]:
     vehicle = load_vehicle(vehicle_name)
     plant = MujocoPlant(vehicle)
     state = plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=10.0))
-    responses = ActuatorResponses(vehicle.actuators, CAR_PERIOD, 0.0)
+    responses = ActuatorResponses(vehicle.actuators, CAR_PERIOD, state, COMMAND_FIELDS)
     hold = {"steering": 0.12, "drive": 0.0, "brake": 0.0}[channel]     # throttle that about holds 10 m/s
     t, y = [], []
     for k in range(int(2.5 / CAR_PERIOD)):
@@ -79,7 +80,7 @@ def car_step(vehicle_name: str, channel: str) -> tuple[float, float]:
         steer = 0.02 if channel == "steering" and on else 0.0
         throttle = 0.3 if channel == "drive" and on else hold
         brake = 0.2 if channel == "brake" and on else 0.0
-        state = plant.step(Command(*responses.respond(steer, throttle, brake)), CAR_PERIOD)
+        state = plant.step(Command(*responses.respond(Command(steer, throttle, brake))), CAR_PERIOD)
         t.append(now + CAR_PERIOD)
         y.append(state.steer if channel == "steering" else state.a)
     return _rise(np.array(t), np.array(y))
@@ -90,7 +91,7 @@ def step_responses() -> list[dict]:
     for name in vehicle_names():
         actuators = load_vehicle(name).actuators
         for channel in ("steering", "drive", "brake"):
-            spec = getattr(actuators, channel)
+            spec = actuators[CHANNELS[channel]]
             response = spec.response(STEP_PERIOD)
             out = np.array([response.step(1.0) for _ in range(int(2.0 / STEP_PERIOD))])
             t = STEP_PERIOD * np.arange(1, len(out) + 1)

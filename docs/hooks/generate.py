@@ -7,6 +7,7 @@ A page asks for a generated table with an HTML comment on a line of its own:
   flattened to dotted names (type, default, range, unit, description);
 - ``<!-- gen:backends -->``: each backend's settings model;
 - ``<!-- gen:knobs -->``, ``<!-- gen:sensing -->``: the reality knobs and the sensing profiles;
+- ``<!-- gen:actuators -->``: the actuator channels (a vehicle file's ``actuators`` subsections);
 - ``<!-- gen:planner_sdk -->``: every field of every type a planner sees (the planner SDK's,
   `simgap_planner`, and simgap's in-process type of the same field names);
 - ``<!-- gen:include PATH -->``: a Markdown file of the repository (PATH from its root) as it is, the
@@ -28,7 +29,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, RootModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
@@ -117,13 +118,14 @@ def _nested_model(annotation: Any) -> type[BaseModel] | None:
 
 
 def model_fields(model: type[BaseModel], prefix: str = "") -> list[tuple[str, FieldInfo]]:
-    """(dotted name, field) of every field of ``model``, nested models' fields after their own."""
+    """(dotted name, field) of every field of ``model``, nested models' fields after their own (a
+    mapping's, a `RootModel`, has no fields of its own: its page says what its keys are)."""
     rows: list[tuple[str, FieldInfo]] = []
     for name, field in model.model_fields.items():
         dotted = prefix + (field.alias or name)
         rows.append((dotted, field))
         nested = _nested_model(field.annotation)
-        if nested is not None and nested is not model:
+        if nested is not None and nested is not model and not issubclass(nested, RootModel):
             rows += model_fields(nested, dotted + ".")
     return rows
 
@@ -289,6 +291,10 @@ def render(kind: str, arg: str | None) -> str:
     if kind == "knobs":
         from simgap.experiment.knobs import knob_table
         return knob_table()
+    if kind == "actuators":
+        from simgap.vehicles.actuators import ActuatorChannel
+        from simgap.vehicles.channels import channel_table
+        return f"{channel_table()}\n\nEach channel's numbers:\n\n{settings_table(ActuatorChannel)}"
     if kind == "sensing":
         from simgap.cosim.sensing import profile_table
         return profile_table()

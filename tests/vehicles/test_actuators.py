@@ -10,6 +10,7 @@ import pytest
 
 from simgap.vehicles import load_vehicle, vehicle_names
 from simgap.vehicles.actuators import ActuatorChannel
+from simgap.vehicles.channels import CHANNELS
 
 PERIOD = 0.001      # s: finer than any controller, so the measured figures are the model's own
 
@@ -27,10 +28,10 @@ def dead_time_and_rise(t: np.ndarray, out: np.ndarray) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize("name", vehicle_names())
-@pytest.mark.parametrize("channel", ["steering", "drive", "brake"])
+@pytest.mark.parametrize("channel", CHANNELS.values(), ids=list(CHANNELS))
 def test_each_actuator_steps_as_its_source_says(name, channel):
-    spec = getattr(load_vehicle(name).actuators, channel)
-    assert spec.source, f"{name}: {channel} has no source"
+    spec = load_vehicle(name).actuators[channel]
+    assert spec.source, f"{name}: {channel.section} has no source"
     dead, rise = dead_time_and_rise(*step_response(spec))
     assert dead == pytest.approx(spec.dead_time, rel=0.1, abs=PERIOD)
     assert rise == pytest.approx(spec.time_constant, rel=0.1, abs=PERIOD)

@@ -12,6 +12,7 @@ from rich.table import Table
 from simgap.cli.console import output_console
 from simgap.cli.main import app
 from simgap.vehicles import load_vehicle, vehicle_names
+from simgap.vehicles.channels import CHANNELS, in_words
 from simgap.vehicles.constants import GRAVITY
 
 LONG_TEXT = 40      # characters: a longer text field is printed under the table
@@ -81,9 +82,10 @@ def show(name: str = typer.Argument(..., help="catalogue name or path of a vehic
     if v.physics is not None:
         _add_model_rows(table, "physics", v.physics, notes)
     if v.actuators is not None:
-        _add_model_rows(table, "actuators", v.actuators, notes)
+        for channel, numbers in v.actuators.items():
+            _add_model_rows(table, f"actuators.{channel.section}", numbers, notes)
     else:
-        notes.append("actuators: none in the data file: steering, drive and brakes act at once")
+        notes.append(f"actuators: none in the data file: {in_words(CHANNELS.values())} act at once")
     for controller, gains in v.controllers.items():
         table.add_row(f"controllers.{controller}", str(gains), "gains overriding the defaults")
     console.print(table)

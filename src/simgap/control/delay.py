@@ -18,6 +18,7 @@ import math
 from simgap.control.protocol import Command, Controller
 from simgap.trajectory import State, Trajectory
 from simgap.vehicles.actuators import Actuators
+from simgap.vehicles.channels import Steering
 
 
 class DelayCompensation:
@@ -28,7 +29,7 @@ class DelayCompensation:
         self.rate_hz = controller.rate_hz
         self.period = 1.0 / self.rate_hz
         self.wheelbase, self.rear_axle_to_center = wheelbase, rear_axle_to_center
-        steering = actuators.steering
+        steering = actuators[Steering]
         self.dead_ticks = int(round(steering.dead_time / self.period))
         if steering.order == 2:
             wn, zeta = steering.second_order_lag()
@@ -41,7 +42,7 @@ class DelayCompensation:
 
     def reset(self, state: State) -> None:
         self.controller.reset(state)
-        self._steering = self.actuators.steering.response(self.period, state.steer)
+        self._steering = self.actuators[Steering].response(self.period, Steering.start(state))
 
     def command(self, measured: State, plan: Trajectory, t: float) -> Command:
         asked = self.controller.command(self.predict(measured), plan, t + self.horizon)

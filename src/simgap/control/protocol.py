@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Protocol
 
 from simgap.trajectory import State, Trajectory
@@ -10,7 +10,8 @@ from simgap.trajectory import State, Trajectory
 
 @dataclass(frozen=True)
 class Command:
-    """One actuation request.
+    """One actuation request: one field per actuator channel, which delivers it to the car
+    (`simgap.vehicles.channels`: a channel names its field).
 
     ``steer``: road-wheel steering angle target [rad] (the steering actuator enforces its own
     angle and rate limits); ``throttle`` and ``brake``: pedal positions in [0, 1].
@@ -19,6 +20,10 @@ class Command:
     steer: float
     throttle: float
     brake: float
+
+
+#: a command's fields in their order (the order `Command` takes them in)
+COMMAND_FIELDS = tuple(f.name for f in fields(Command))
 
 
 class Controller(Protocol):

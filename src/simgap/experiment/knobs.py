@@ -32,6 +32,7 @@ from simgap.errors import InputError
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import BUILTIN_BACKENDS, settings_model
 from simgap.sim.settings import RoadFrictionSettings, RoadSlope, TrackingSettings, not_knobs, realism_of
+from simgap.vehicles.channels import TimingKnobs, timing_knobs
 
 
 @dataclass(frozen=True)
@@ -100,15 +101,18 @@ def _builtin_models() -> tuple[tuple[str, type[BaseModel]], ...]:
     return tuple((name, settings_model(name)) for name in BUILTIN_BACKENDS)
 
 
+def _actuator_knobs(pair: TimingKnobs) -> tuple[Knob, Knob]:
+    """The dead-time and the lag knob of the actuator channels that declare ``pair``
+    (`simgap.vehicles.channels`)."""
+    return (Knob(pair.delay, "s", TrackingSettings, pair.delay, f"{pair.subject} dead time", default="the vehicle's"),
+            Knob(pair.lag, "s", TrackingSettings, pair.lag, f"{pair.subject} lag: first-order time constant",
+                 default="the vehicle's"))
+
+
 KNOBS: dict[str, Knob] = {k.name: k for k in (
     Knob("road_friction", "-", RoadFrictionSettings, "road_friction",
          "road friction, scales the tyres' (dry 1.0, wet about 0.6, snow about 0.3)", nominal=1.0),
-    Knob("steer_delay", "s", TrackingSettings, "steer_delay", "steering dead time", default="the vehicle's"),
-    Knob("steer_lag", "s", TrackingSettings, "steer_lag", "steering lag: first-order time constant",
-         default="the vehicle's"),
-    Knob("pedal_delay", "s", TrackingSettings, "pedal_delay", "drive and brake dead time", default="the vehicle's"),
-    Knob("pedal_lag", "s", TrackingSettings, "pedal_lag", "drive and brake lag: first-order time constant",
-         default="the vehicle's"),
+    *(knob for pair in timing_knobs() for knob in _actuator_knobs(pair)),
     Knob("latency", "s", CosimSettings, "cosim.latency", "from the planning time to the plan reaching the car",
          default="measured"),
     Knob("position_drift", "m", SensingSettings, "cosim.sensing.position_drift_m",

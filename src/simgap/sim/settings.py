@@ -20,6 +20,7 @@ from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.protocol import Realism
 from simgap.vehicles import Vehicle
 from simgap.vehicles.actuators import IDEAL_ACTUATORS, MAX_DEAD_TIME_S, MAX_TIME_CONSTANT_S, Actuators
+from simgap.vehicles.channels import knob_names
 
 DRY_ROAD_FRICTION = 1.0         # the tyres' own friction, unscaled (the ideal world's assumption)
 
@@ -80,10 +81,9 @@ class TrackingSettings(BaseModel):
     """How each car of a physics backend follows its plan."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
-    # the perfect machine: no dead time, no lag (sensing and latency, which ``realism`` also
-    # gates, are the loop's settings: `simgap.cosim.CosimSettings`)
-    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.ACTUATORS: {"steer_delay": 0.0, "steer_lag": 0.0,
-                                                                  "pedal_delay": 0.0, "pedal_lag": 0.0}}
+    # the perfect machine: no dead time, no lag on any channel (sensing and latency, which
+    # ``realism`` also gates, are the loop's settings: `simgap.cosim.CosimSettings`)
+    ASSUMPTIONS: ClassVar[Restorations] = {Assumption.ACTUATORS: dict.fromkeys(knob_names(), 0.0)}
 
     controller: str = Field(DEFAULT_CONTROLLER, description="tracking controller: pure_pursuit, stanley, lqr")
     controller_hz: float = Field(CONTROLLER_HZ, ge=MIN_RATE_HZ, le=MAX_RATE_HZ, description="controller rate [Hz]")
@@ -91,6 +91,7 @@ class TrackingSettings(BaseModel):
                                              description="gains over the controller's defaults and the vehicle's")
     realism: Realism = Field(Realism.REAL, description="real: the vehicle's actuators, a drifting localisation and "
                              "compute latency; ideal: a perfect machine (the ideal world's assumptions on a physical car)")
+    # the knobs the actuator channels declare (`simgap.vehicles.channels`)
     steer_delay: ActuatorDelay = Field(None, description="steering dead time [s] (default: the vehicle's)")
     steer_lag: ActuatorLag = Field(None, description="steering first-order lag, time constant [s] (default: the vehicle's)")
     pedal_delay: ActuatorDelay = Field(None, description="drive and brake dead time [s] (default: the vehicle's)")
@@ -102,11 +103,11 @@ class TrackingSettings(BaseModel):
 
     def actuators(self, vehicle: Vehicle) -> Actuators:
         """The actuators ``vehicle``'s car has in this world: the vehicle's (none that delay under
-        ``realism: ideal``), with the knobs' dead times and lags over them."""
+        ``realism: ideal``), with the dead time and lag of each channel's knobs over them."""
         own = IDEAL_ACTUATORS if self.realism is Realism.IDEAL else vehicle.actuators or IDEAL_ACTUATORS
-        return Actuators(steering=own.steering.with_changes(self.steer_delay, self.steer_lag),
-                         drive=own.drive.with_changes(self.pedal_delay, self.pedal_lag),
-                         brake=own.brake.with_changes(self.pedal_delay, self.pedal_lag))
+        return Actuators({channel.section: numbers.with_changes(getattr(self, channel.knobs.delay),
+                                                                getattr(self, channel.knobs.lag))
+                          for channel, numbers in own.items()})
 
     @field_validator("controller")
     @classmethod

@@ -33,7 +33,7 @@ from commonroad.scenario.scenario import Scenario
 from simgap.control import make_controller
 from simgap.control.delay import compensated
 from simgap.control.longitudinal import LongitudinalMap
-from simgap.control.protocol import Command, Controller
+from simgap.control.protocol import COMMAND_FIELDS, Command, Controller
 from simgap.errors import InputError
 from simgap.scenario.relief import Surface
 from simgap.sim.protocol import Agent, BackendEvent, PlanInForce, Realism, enters_at, plan_at
@@ -132,10 +132,8 @@ class TrackedBackend:
             missing = self.realism is Realism.REAL and agent.vehicle.actuators is None
             return (f"agent {agent.id}: actuators act at once"
                     + (f" (vehicle {agent.vehicle.name} has none in its data file)" if missing else ""))
-        parts = [f"{name} {channel.summary()}"
-                 for name, channel in (("steering", act.steering), ("drive", act.drive), ("brake", act.brake))]
         compensation = "compensated" if self.tracking.delay_compensation else "not compensated"
-        return f"agent {agent.id}: actuators {', '.join(parts)}; {compensation} by the controller"
+        return f"agent {agent.id}: actuators {act.summary()}; {compensation} by the controller"
 
     def fit_rates(self, settings: TrackingSettings, dt: float) -> TrackingSettings:
         """``settings`` with a controller rate that divides the scenario's step ``dt``: the one set,
@@ -167,7 +165,8 @@ class TrackedBackend:
         """The car's controller and actuators start from ``state``."""
         if agent_id in self._controllers:
             self._controllers[agent_id].reset(state)
-            self._responses[agent_id] = ActuatorResponses(self._actuators[agent_id], self.control_period, state.steer)
+            self._responses[agent_id] = ActuatorResponses(self._actuators[agent_id], self.control_period, state,
+                                                          COMMAND_FIELDS)
 
     def reset(self) -> dict[int, State]:
         self._step = 0
@@ -193,7 +192,7 @@ class TrackedBackend:
             for aid, controller, actuators, keep in driving:
                 measured = physics.measure(aid, t)
                 asked = controller.command(measured, plan_at(plans[aid], t), t)
-                physics.actuate(aid, Command(*actuators.respond(asked.steer, asked.throttle, asked.brake)), period)
+                physics.actuate(aid, Command(*actuators.respond(asked)), period)
                 keep((measured, asked))
             timings["control"] += time.perf_counter() - start
             physics.advance(t, period)

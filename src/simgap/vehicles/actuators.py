@@ -1,5 +1,6 @@
-"""A vehicle's actuators: how late and how slowly its steering, drive and brakes do what they are
-asked. Every number in a data file carries its source, like the tyres'.
+"""A vehicle's actuators: how late and how slowly each of its channels (`simgap.vehicles.channels`:
+the steering, the drive, the brakes) does what it is asked. Every number in a data file carries its
+source, like the tyres'.
 
 Each channel is a dead time followed by a lag (first order: a time constant; second order: a
 natural frequency and a damping ratio), the model Autoware's vehicle simulator and its MPC use
@@ -7,28 +8,40 @@ natural frequency and a damping ratio), the model Autoware's vehicle simulator a
 (``steerActuatorDelay``, ``longitudinalActuatorDelay``). The steering's angle and rate limits
 at the road wheels are the steering system's (``physics.steering``), applied after the lag.
 
+`Actuators` holds a vehicle's numbers per channel, as the ``actuators`` section of its data file
+gives them (one subsection per channel; how to add a channel: `simgap.vehicles.channels`).
+
 `ChannelResponse` is the channel's response in discrete time, at the controller's period: the
-physics backends apply it between the controller and the car (`simgap.sim.tracked`), and the
-controllers that compensate the delays predict with it (`simgap.control.delay`). It is
-deterministic and its state can be copied, so a prediction runs the same response forward.
+physics backends apply them between the controller and the car (`ActuatorResponses`, in
+`simgap.sim.tracked`), and the controllers that compensate the delays predict with the steering's
+(`simgap.control.delay`). It is deterministic and its state can be copied, so a prediction runs
+the same response forward.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Mapping, Sequence
+from operator import attrgetter, call
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, RootModel, model_validator
+from pydantic_core import PydanticCustomError, PydanticUndefined
 from scipy.linalg import expm
+
+from simgap.trajectory import State
+from simgap.vehicles.channels import CHANNELS, Channel
 
 MAX_DEAD_TIME_S = 1.0       # s: a longer dead time is no actuator but a broken car
 MAX_TIME_CONSTANT_S = 2.0   # s
 
 
 class ActuatorChannel(BaseModel):
-    """One actuator: a dead time, then a first-order lag (``time_constant``) or a second-order
-    one (``natural_frequency`` and ``damping_ratio``), or none."""
+    """One channel of a vehicle's actuators, as its file gives it: a dead time, then a first-order
+    lag (``time_constant``) or a second-order one (``natural_frequency`` and ``damping_ratio``), or
+    none."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -85,22 +98,43 @@ class ActuatorChannel(BaseModel):
 IDEAL_CHANNEL = ActuatorChannel(source="ideal: acts at once")
 
 
-class Actuators(BaseModel):
-    """The steering (road-wheel angle request), the drive (torque request) and the brakes (pressure
-    request) of a car."""
+class Actuators(RootModel[dict[str, ActuatorChannel]]):
+    """A car's actuators: each channel's numbers (`simgap.vehicles.channels.CHANNELS`) by its
+    section, as a vehicle file's ``actuators`` gives them. A channel the file leaves out acts at
+    once; a section that is no channel's is refused."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(frozen=True)
 
-    steering: ActuatorChannel = IDEAL_CHANNEL
-    drive: ActuatorChannel = IDEAL_CHANNEL
-    brake: ActuatorChannel = IDEAL_CHANNEL
+    @model_validator(mode="before")
+    @classmethod
+    def _every_channel(cls, sections: Any) -> Any:
+        if sections is PydanticUndefined:
+            sections = {}
+        if not isinstance(sections, Mapping):
+            return sections             # pydantic says what it should be
+        for section in sections:
+            if section not in CHANNELS:
+                raise PydanticCustomError("unknown_channel", "'{section}' is no actuator channel",
+                                          {"section": section, "expected": ", ".join(CHANNELS)})
+        return {section: sections.get(section, IDEAL_CHANNEL) for section in CHANNELS}
+
+    def __getitem__(self, channel: type[Channel]) -> ActuatorChannel:
+        return self.root[channel.section]
+
+    def items(self) -> list[tuple[type[Channel], ActuatorChannel]]:
+        """Each channel with its numbers, in the channels' order."""
+        return [(CHANNELS[section], numbers) for section, numbers in self.root.items()]
 
     @property
     def ideal(self) -> bool:
-        return all(c.dead_time == 0 and c.order == 0 for c in (self.steering, self.drive, self.brake))
+        return all(c.dead_time == 0 and c.order == 0 for c in self.root.values())
+
+    def summary(self) -> str:
+        """``steering 0.12 s dead time + lag 0.1 s, drive ..., brake ...``, in a line."""
+        return ", ".join(f"{channel.section} {numbers.summary()}" for channel, numbers in self.items())
 
 
-IDEAL_ACTUATORS = Actuators()
+IDEAL_ACTUATORS = Actuators()      # every channel acts at once
 
 
 class ChannelResponse:
@@ -170,16 +204,29 @@ def _zero_order_hold(a: np.ndarray, b: np.ndarray, period: float) -> tuple[np.nd
 
 
 class ActuatorResponses:
-    """A car's three channels in discrete time: what the steering, drive and brakes deliver, period
-    by period, for what they are asked. Starts with the steering at ``steer`` and the pedals
-    released."""
+    """A car's channels in discrete time: what each delivers, period by period, for what it is
+    asked. Each starts as its channel does on a car at ``state`` (the steering at the car's angle,
+    the pedals released). ``requests``: the fields of the commands it is asked, in their order, each
+    the ``command`` of one channel (default: the channels' own, in the channels' order); `respond`
+    answers in that order."""
 
-    def __init__(self, actuators: Actuators, period: float, steer: float = 0.0):
+    def __init__(self, actuators: Actuators, period: float, state: State, requests: Sequence[str] = ()):
         self.actuators, self.period = actuators, period
-        self.steering = actuators.steering.response(period, steer)
-        self.drive = actuators.drive.response(period)
-        self.brake = actuators.brake.response(period)
+        self._responses = {channel: numbers.response(period, channel.start(state))
+                           for channel, numbers in actuators.items()}
+        by_request = {channel.command: response for channel, response in self._responses.items()}
+        requests = tuple(requests) or tuple(by_request)
+        if sorted(requests) != sorted(by_request):
+            raise ValueError(f"the commands carry {', '.join(requests)}; the actuator channels deliver "
+                             f"{', '.join(by_request)}")
+        self._requested = attrgetter(*requests)
+        self._steps = tuple(by_request[name].step for name in requests)      # bound once: a hot path
 
-    def respond(self, steer: float, throttle: float, brake: float) -> tuple[float, float, float]:
-        """Ask for a road-wheel angle [rad] and pedal positions [0, 1]; what acts over the next period."""
-        return self.steering.step(steer), self.drive.step(throttle), self.brake.step(brake)
+    def __getitem__(self, channel: type[Channel]) -> ChannelResponse:
+        return self._responses[channel]
+
+    def respond(self, asked: Any) -> tuple[float, ...]:
+        """What acts over the next period for each request of ``asked`` (a
+        `simgap.control.protocol.Command`: a road-wheel angle [rad], pedal positions [0, 1]), in
+        the order of ``requests``."""
+        return tuple(map(call, self._steps, self._requested(asked)))

@@ -54,7 +54,7 @@ class Vehicle(BaseModel):
                           "Escort, 2 BMW 320i, 3 VW Vanagon; a planner driving it is scored as that type")
     physics: VehiclePhysics | None = Field(None, description="physical model for 3D backends")
     actuators: Actuators | None = Field(
-        None, description="dead times and lags of the steering, drive and brakes (None: they act at once)")
+        None, description="each actuator channel's dead time and lag (None: they act at once)")
     controllers: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="controller gains by controller name, overriding defaults")
 

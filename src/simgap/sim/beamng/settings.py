@@ -15,6 +15,7 @@ from simgap.errors import InputError, validated_settings
 from simgap.sim.protocol import BackendEntry
 from simgap.sim.rates import steps_per_tick
 from simgap.sim.settings import TrackingSettings
+from simgap.vehicles.channels import timing_knobs
 
 ENV = {"host": "SIMGAP_BEAMNG_HOST", "port": "SIMGAP_BEAMNG_PORT", "home": "SIMGAP_BEAMNG_HOME"}
 
@@ -34,7 +35,7 @@ class BeamngSettings(TrackingSettings):
     """The server, the level, the driver and the tracking of the ``beamng`` backend."""
 
     # the actuators' lags are left to BeamNG's own vehicle physics: no reality knob varies them here
-    NOT_KNOBS: ClassVar[tuple[str, ...]] = ("steer_lag", "pedal_lag")
+    NOT_KNOBS: ClassVar[tuple[str, ...]] = tuple(pair.lag for pair in timing_knobs())
 
     host: str = Field("localhost", description="BeamNG.tech server host (env SIMGAP_BEAMNG_HOST)")
     port: int = Field(25252, ge=1, le=65535, description="server port (env SIMGAP_BEAMNG_PORT)")
