@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.lanelet import LaneletNetwork
 from commonroad.scenario.scenario import Scenario
 from pydantic import BaseModel
 
@@ -42,7 +43,7 @@ from simgap.scenario.files import scenario_xml
 from simgap.scenario.ground import ground_of
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.scenario.placement import AgentPlacement
-from simgap.scenario.relief import Surface
+from simgap.scenario.relief import Surface, road_tilt
 from simgap.scenario.sidecar import ScenarioSidecar
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
@@ -77,12 +78,20 @@ class RunRequest:
                                                # replace the measured ones (`simgap.experiment.replay`)
     placement: AgentPlacement | None = None    # one agent from a start to a goal, in place of the scenario's
                                                # planning problems (a map without any: --start and --goal)
-    flat_road: bool = False                    # the scenario's road without its relief: its flat twin (the
-                                               # relief assumption restored, `simgap.experiment.attribution`)
+    flat_road: bool = False                    # the scenario's road without its relief or a tilt: its flat twin
+                                               # (the relief assumption restored, `simgap.experiment.attribution`)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
             self.backend_settings = backend_settings(self.backend, self.backend_settings)
+
+    def ground(self, sidecar: ScenarioSidecar, network: LaneletNetwork) -> Surface | None:
+        """What the run's 3D worlds build, on the scenario of ``sidecar`` and lanelets ``network``: its
+        relief with the world's tilt laid on it (`simgap.scenario.ground.ground_of`, which refuses a
+        tilt it cannot lay, naming the scenario file); None on a flat road, or on the flat twin."""
+        if self.flat_road:
+            return None
+        return ground_of(sidecar, network, road_tilt(self.backend_settings), self.scenario)
 
 
 def software_versions() -> dict[str, str]:
@@ -263,7 +272,7 @@ def _simulated(request: RunRequest, scenario: Scenario, problems: PlanningProble
     sidecar = read_sidecar(request.scenario)
     if request.placement is not None:
         sidecar = sidecar.with_parameters(request.placement.parameters())
-    relief = None if request.flat_road else ground_of(sidecar, scenario.lanelet_network)   # what 3D worlds build
+    relief = request.ground(sidecar, scenario.lanelet_network)    # before any planner starts: a tilt it refuses
     planners, errors, planner_records = {}, [], {}
     folder = os.getcwd()        # a planner's os.chdir does not move it
     with ExitStack() as closing:     # planners in their own process are closed (and ended) whatever happens
