@@ -99,8 +99,8 @@ def main() -> None:
     results = BenchmarkResults()
     rows = []
     with tempfile.TemporaryDirectory(prefix="simgap-run-way-") as tmp:
-        scenarios = [write_scenario(build_scenario("curve-3d", {"grade": 5, "bank": 4}), Path(tmp) / "scenarios", preview=False),
-                     *args.files]
+        road = build_scenario("curve-3d", {"grade": 5, "bank": 4})
+        scenarios = [write_scenario(road, Path(tmp) / "scenarios", preview=False), *args.files]
         for xml in scenarios:
             for world in args.worlds:
                 request = RunRequest(scenario=xml, backend=world)
@@ -109,22 +109,22 @@ def main() -> None:
                 execute(request, Path(tmp) / "plain")
                 wall = time.perf_counter() - clock
                 way = traced(request, Path(tmp) / "traced")
-                row = {"scenario": xml.name, "world": world, "wall_s": round(wall, 3), "writes": way.writes,
-                       **{f"{phase}: entries": dict(sorted(way.entries[k].items())) for k, phase in enumerate(PHASES)},
-                       **{f"{phase}: reads": dict(way.reads[k]) for k, phase in enumerate(PHASES)},
-                       **{f"{PHASES[k]}: scenario/ entered": {f: n for f, n in sorted(way.functions[k].items())
-                                                               if f.startswith("simgap.scenario.")}
-                          for k in (1, 2)}}
+                row = {"scenario": xml.name, "world": world, "wall_s": round(wall, 3), "writes": way.writes}
+                for k, phase in enumerate(PHASES):
+                    row[f"{phase}: reads"] = ", ".join(f"{what} x{n}" for what, n in way.reads[k].items()) or "none"
+                    row[f"{phase}: package entries"] = ", ".join(
+                        f"{p} {n}" for p, n in sorted(way.entries[k].items(), key=lambda e: -e[1]))
+                    if k:
+                        row[f"{phase}: scenario/ entered"] = "; ".join(
+                            f"{f} x{n}" for f, n in sorted(way.functions[k].items()) if f.startswith("simgap.scenario.")
+                        ) or "never"
                 rows.append(row)
                 print(f"\n{xml.name} in {world}: {wall:.2f} s untraced; {way.writes} write call(s) of the run directory")
-                for k, phase in enumerate(PHASES):
-                    entries = ", ".join(f"{p} {n}" for p, n in sorted(way.entries[k].items(), key=lambda e: -e[1]))
-                    reads = ", ".join(f"{what} x{n}" for what, n in way.reads[k].items()) or "no file read"
-                    print(f"  {phase:15s} {reads}; package entries: {entries}")
+                for phase in PHASES:
+                    print(f"  {phase:15s} reads: {row[phase + ': reads']}; package entries: "
+                          f"{row[phase + ': package entries']}")
                 for k in (1, 2):
-                    entered = row[f"{PHASES[k]}: scenario/ entered"]
-                    print(f"  scenario/ entered {PHASES[k]}: " + ("never" if not entered else
-                                                              "; ".join(f"{f} x{n}" for f, n in entered.items())))
+                    print(f"  scenario/ entered {PHASES[k]}: {row[PHASES[k] + ': scenario/ entered']}")
     if args.json:
         results.write(args.json, {"rows": rows})
 

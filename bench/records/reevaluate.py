@@ -25,6 +25,7 @@ from simgap.record.values import plain, same
 from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.scenario.obstacles import without_recorded_egos
+from simgap.scenario.relief import road_tilt
 from simgap.sim.settings import road_friction
 from simgap.vehicles import load_vehicle
 
@@ -50,7 +51,8 @@ def main(argv: list[str] | None = None) -> int:
                                     record.settings.cosim.planning_budget_s,
                                     road_friction(record.settings.backend),
                                     load_vehicle(record.settings.planner_vehicle or "sedan"),
-                                    ground_of(read_sidecar(xml), scenario.lanelet_network), xml)
+                                    ground_of(read_sidecar(xml), scenario.lanelet_network,
+                                              road_tilt(record.settings.backend), xml), xml)
         clock = time.perf_counter()
         again = evaluate(record.history, context)
         seconds += time.perf_counter() - clock

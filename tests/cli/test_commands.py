@@ -217,6 +217,22 @@ def test_physics_options_are_refused_where_they_do_not_apply(tmp_path):
     assert not (tmp_path / "r").exists()
 
 
+def test_a_tilt_on_a_recorded_map_is_refused_in_one_line_before_anything_is_written(tmp_path):
+    from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
+    from cosim.real_like import box_goal, highway, start
+
+    from simgap.scenario.files import write_xml
+
+    xml = tmp_path / "recorded.xml"
+    write_xml(highway(lanes=1, length=200, segments=1),
+              PlanningProblemSet([PlanningProblem(1, start(10, 0, 10.0), box_goal(150, 0, (0, 150)))]), xml)
+    proc = simgap("run", str(xml), "--backend", "mujoco", "--knob", "road_bank=4", "--out", str(tmp_path / "r"))
+    assert proc.returncode == 2
+    assert_clean_error(proc, f"{xml}: field 'road_bank': a uniform bank of 4 deg is laid along a road's reference line",
+                       "a generated road")
+    assert not (tmp_path / "r").exists()
+
+
 def test_reality_knobs_on_the_command_line(tmp_path):
     simgap("generate", "curve", "--set", "radius=10", "--set", "angle=90", "--no-preview", "--out", str(tmp_path))
     xml = str(tmp_path / "curve_radius-10_angle-90.xml")

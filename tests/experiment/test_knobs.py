@@ -83,6 +83,7 @@ def test_observation_noise_moves_the_car_off_its_lane_centre(sharp_curve):
 
 
 def test_bank_pushes_the_car_downhill_and_grade_slows_it():
+    # the knobs tilt the flat straight road into a relief (`simgap.scenario.relief.RoadTilt`)
     straight = build_scenario("curve", {"radius": 50, "angle": 0, "initial_speed": 10})
     flat_run, flat = drive(straight, "mujoco")
     banked_run, banked = drive(straight, "mujoco", {"road_bank": 8})
@@ -92,7 +93,8 @@ def test_bank_pushes_the_car_downhill_and_grade_slows_it():
 
     frame = route_centre(straight.scenario.lanelet_network, straight.problems.planning_problem_dict[1])
     _, d = lateral_profile(banked_run.history.driven[1], frame)
-    assert d.min() < -0.01 and -d.min() > 5 * max(d.max(), 0.0)    # it falls to the right: the car drifts right
+    # the road falls to the right of its reference line, which the car drives along: the car drifts right
+    assert d.min() < -0.01 and -d.min() > 5 * max(d.max(), 0.0)
     uphill_run, _ = drive(straight, "mujoco", {"road_grade": 8})
     assert uphill_run.agents[0].history.time_to_goal_s > flat_run.agents[0].history.time_to_goal_s
 

@@ -1,15 +1,20 @@
 """Issue 41's study on 3D roads: a crest's MuJoCo run climbs and falls with the road while its
 ideal twin stays flat and plans the same; the peak grip use on the relief is a run metric; the
-built-in search `road-3d-gaps` loads."""
+built-in search `road-3d-gaps` loads; a tilt (``road_bank``, ``road_grade``) on a recorded map,
+which has no reference line to lay it along, is refused before the run writes anything."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from commonroad.planning.planning_problem import PlanningProblem, PlanningProblemSet
+from cosim.real_like import box_goal, highway, start
 
+from simgap.errors import InputError
 from simgap.experiment.search.spec import load_search_spec
 from simgap.experiment.single_run import RunRequest, execute
 from simgap.scenario import build_scenario, read_sidecar, write_scenario
+from simgap.scenario.files import write_xml
 from simgap.scenario.ground import ground_of
 
 
@@ -49,3 +54,13 @@ def test_the_road_3d_search_spec_loads():
     assert search.spec.logical == "curve-3d"
     assert set(search.spec.parameters) == {"radius", "grade", "bank", "initial_speed"}
     assert [r.backend for r in search.spec.ladder] == ["ideal", "mujoco"]
+
+
+def test_a_tilt_on_a_recorded_map_is_refused_before_the_run_writes_anything(tmp_path):
+    problems = PlanningProblemSet([PlanningProblem(1, start(10, 0, 10.0), box_goal(150, 0, (0, 150)))])
+    xml = tmp_path / "recorded.xml"
+    write_xml(highway(lanes=1, length=200, segments=1), problems, xml)
+    with pytest.raises(InputError, match="a uniform grade of 3 deg is laid along a road's reference line") as refused:
+        execute(RunRequest(scenario=xml, backend="mujoco", backend_settings={"road_grade": 3.0}), tmp_path / "run")
+    assert (refused.value.file, refused.value.field) == (str(xml), "road_grade")
+    assert not (tmp_path / "run").exists()

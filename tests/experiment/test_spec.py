@@ -40,6 +40,8 @@ def write(tmp_path, **changes):
      "fidelities.0.settings.offroad_friction", "params_id"),
     ({"fidelities": [{"backend": "ideal", "settings": {"road_friction": 0.5}}]},
      "fidelities.0.settings.road_friction", "no settings"),
+    ({"logical": "intersection", "fidelities": [{"backend": "mujoco", "settings": {"road_bank": 3}}]},
+     "fidelities.0.settings", "have no road's reference line to lay a uniform bank or grade along"),
     ({"cosim": {"replan_every": 0}}, "cosim.replan_every", "greater than or equal to 1"),
     ({"cosim": {"score": {"min_progress_ratio": 2}}}, "cosim.score.min_progress_ratio", "less than or equal to 1"),
     ({"evaluation": {"cost_function": "XX1"}}, "evaluation.cost_function", "SM1"),

@@ -33,6 +33,7 @@ from simgap.record import RunRecord, read_run
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.files import write_xml
 from simgap.scenario.real_maps import map_files, maps_dir, scenario_on_map
+from simgap.scenario.relief import RoadTilt
 
 
 def run_of(scenario_xml: Path, out: Path, backend: str = "ideal", **settings) -> Path:
@@ -93,7 +94,7 @@ def test_a_curve_with_clothoids_is_written_exactly_with_its_friction(tmp_path):
 
 def test_bank_and_grade_become_superelevation_and_elevation(tmp_path):
     concrete = build_scenario("curve", {"radius": 20, "angle": 45})
-    roads = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(0.8, 5.0, 3.0))
+    roads = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(0.8, RoadTilt(road_bank=5.0, road_grade=3.0)))
     path = tmp_path / "tilted.xodr"
     roads.opendrive.write_xml(str(path))
     assert checks.schema_errors(path)[1] == []
@@ -126,7 +127,7 @@ def test_a_roads_relief_becomes_its_elevation_and_superelevation_profiles(tmp_pa
     assert np.abs(_profile(road, "elevationProfile/elevation", s) - relief.height(s)[0]).max() < 1e-9
     assert np.abs(_profile(road, "lateralProfile/superelevation", s) - relief.bank(s)[0]).max() < 1e-9
     # the knobs' bank and grade add to the relief
-    tilted = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(1.0, 2.0, 1.0))
+    tilted = road_network(concrete.scenario.lanelet_network, "tilted", concrete.blueprint, UniformRoad(1.0, RoadTilt(road_bank=2.0, road_grade=1.0)))
     tilted.opendrive.write_xml(str(tmp_path / "tilted.xodr"))
     assert checks.schema_errors(tmp_path / "tilted.xodr")[1] == []
     road = ET.parse(tmp_path / "tilted.xodr").getroot().find("road")

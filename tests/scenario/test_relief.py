@@ -11,7 +11,17 @@ from simgap.errors import InputError
 from simgap.scenario import build_scenario, read_sidecar, write_scenario
 from simgap.scenario.geometry import Straight, centre_line
 from simgap.scenario.ground import ground_of
-from simgap.scenario.relief import BankKnot, ElevationProfile, ReliefProfile, RoadRelief, VerticalCurve
+from simgap.scenario.relief import (
+    LEVEL,
+    BankKnot,
+    ElevationProfile,
+    ReliefProfile,
+    RoadRelief,
+    RoadTilt,
+    VerticalCurve,
+    tilt_of,
+)
+from simgap.scenario.sidecar import ScenarioSidecar
 
 
 def test_a_crest_is_a_parabola_of_its_radius_between_its_two_grades():
@@ -101,3 +111,49 @@ def test_a_vertical_curve_off_the_road_is_refused_naming_its_parameters():
     with pytest.raises(InputError) as err:
         build_scenario("curve", {"grade_change": -20, "vertical_radius": 5000})
     assert "vertical_radius" in err.value.field and "before the road starts" in str(err.value)
+
+
+def test_a_tilt_banks_and_grades_a_straight_road_about_its_reference_line():
+    road = build_scenario("curve", {"radius": 50, "angle": 0}).blueprint      # flat, straight along +x from the origin
+    assert road.road_relief() is None and road.road_relief(LEVEL) is None
+    tan5 = math.tan(math.radians(5.0))
+    banked = road.road_relief(RoadTilt(road_bank=5.0))
+    surface = banked.surface(np.array([20.0, 20.0, 20.0]), np.array([0.0, 1.0, -1.0]))
+    assert surface.z == pytest.approx([0.0, tan5, -tan5], abs=1e-12)          # it falls to the right of the line
+    pitch, roll = tilt_of(surface.normal[0], 0.0)
+    assert math.degrees(roll) == pytest.approx(5.0) and pitch == pytest.approx(0.0, abs=1e-12)
+    assert math.degrees(tilt_of(surface.normal[0], math.pi)[1]) == pytest.approx(-5.0)   # against it: to the left
+    graded = road.road_relief(RoadTilt(road_grade=5.0))
+    surface = graded.surface(np.array([0.0, 40.0, 40.0]), np.array([0.0, 0.0, 2.0]))
+    assert surface.z == pytest.approx([0.0, 40.0 * tan5, 40.0 * tan5], abs=1e-9)      # uphill along it, level across
+    pitch, roll = tilt_of(surface.normal[1], 0.0)
+    assert math.degrees(pitch) == pytest.approx(5.0) and roll == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_tilt_adds_to_every_grade_and_bank_of_a_relief_and_keeps_its_vertical_curves():
+    relief = build_scenario("crest-curve").blueprint.relief
+    tilted = relief.tilted(RoadTilt(road_bank=3.0, road_grade=2.0))
+    s = np.linspace(0.0, 400.0, 4001)
+    assert tilted.height(s)[0] == pytest.approx(relief.height(s)[0] + math.tan(math.radians(2.0)) * s, abs=1e-9)
+    assert tilted.bank(s)[0] == pytest.approx(relief.bank(s)[0] + math.radians(3.0), abs=1e-12)
+    assert [p.s_start for p in tilted.elevation.pieces()] == pytest.approx([p.s_start for p in relief.elevation.pieces()])
+    assert relief.tilted(LEVEL) is relief
+
+
+def test_a_tilt_where_no_road_lies_or_past_the_reliefs_bounds_is_refused_naming_the_knob():
+    with pytest.raises(InputError, match="and a recorded map has none") as refused:
+        ground_of(ScenarioSidecar(), None, RoadTilt(road_bank=4.0), "recorded.xml")
+    assert (refused.value.file, refused.value.field) == ("recorded.xml", "road_bank")
+    assert refused.value.allowed.startswith("a generated road")
+    assert ground_of(ScenarioSidecar(), None, LEVEL, "recorded.xml") is None
+    with pytest.raises(InputError, match="a generated junction") as refused:
+        ground_of(build_scenario("t-junction").sidecar, None, RoadTilt(road_grade=2.0), "junction.xml")
+    assert refused.value.field == "road_grade"
+    steep = build_scenario("curve", {"radius": 50, "angle": 90, "grade": 35}).sidecar     # 35 % + 15 deg: 62 %
+    with pytest.raises(InputError, match="a grade of 15 deg laid on the road's relief takes it past ±40 %") as refused:
+        ground_of(steep, None, RoadTilt(road_bank=1.0, road_grade=15.0), "steep.xml")
+    assert refused.value.field == "road_grade"
+    banked = build_scenario("curve", {"radius": 50, "angle": 90, "bank": 20}).sidecar
+    with pytest.raises(InputError, match="a bank of -15 deg") as refused:
+        ground_of(banked, None, RoadTilt(road_bank=-15.0), "banked.xml")
+    assert refused.value.field == "road_bank"

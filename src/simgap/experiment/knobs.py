@@ -9,7 +9,7 @@ ideal (a perfect machine) none of the loop's (latency, localisation errors).
 knob's range is its field's, bound once in the settings model: the search spec's validation,
 ``simgap run --knob`` (its help and its checks) and the README's table (`knob_table`, checked by a
 test) all come from it. Which backends take a knob is not written here: each backend's settings
-model says it, by the knob models it includes (`RoadFrictionSettings`, `RoadSlope`, `TrackingSettings`:
+model says it, by the knob models it includes (`RoadFrictionSettings`, `RoadTiltSettings`, `TrackingSettings`:
 `simgap.sim.settings`) but the fields it names in ``NOT_KNOBS``; a knob of the loop
 (``cosim.<section>.<field>``) applies to a world whose car tracks its plan (`TrackingSettings`),
 of realism real. A backend installed from an entry point takes knobs the same way.
@@ -31,7 +31,7 @@ from simgap.cosim.sensing import SensingSettings
 from simgap.errors import InputError
 from simgap.sim.protocol import Realism
 from simgap.sim.registry import BUILTIN_BACKENDS, settings_model
-from simgap.sim.settings import RoadFrictionSettings, RoadSlope, TrackingSettings, not_knobs, realism_of
+from simgap.sim.settings import RoadFrictionSettings, RoadTiltSettings, TrackingSettings, not_knobs, realism_of
 from simgap.vehicles.channels import TimingKnobs, timing_knobs
 
 
@@ -127,9 +127,10 @@ KNOBS: dict[str, Knob] = {k.name: k for k in (
          "white noise on the heading the planner observes, 1-sigma", default="the profile's"),
     Knob("speed_noise", "m/s", SensingSettings, "cosim.sensing.speed_noise_mps",
          "white noise on the speed the planner observes, 1-sigma", default="the profile's"),
-    Knob("road_bank", "deg", RoadSlope, "road_bank",
-         "cross slope; positive: the road falls to the right of the way of travel"),
-    Knob("road_grade", "deg", RoadSlope, "road_grade", "grade; positive: uphill"),
+    Knob("road_bank", "deg", RoadTiltSettings, "road_bank",
+         "bank laid on a generated road's relief; positive: the road falls to the right of its reference line"),
+    Knob("road_grade", "deg", RoadTiltSettings, "road_grade",
+         "grade laid on a generated road's relief; positive: uphill along its reference line"),
 )}
 
 

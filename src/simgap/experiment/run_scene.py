@@ -17,7 +17,7 @@ from simgap.scenario import load_scenario, read_sidecar
 from simgap.scenario.ground import ground_of
 from simgap.scenario.obstacles import RecordedObstacle, recorded_obstacles, without_recorded_egos
 from simgap.scenario.placement import AgentPlacement
-from simgap.scenario.relief import Surface
+from simgap.scenario.relief import LEVEL, RoadTilt, Surface
 from simgap.scenario.road_frame import DrivableArea
 from simgap.scenario.sidecar import ScenarioSidecar
 
@@ -41,15 +41,18 @@ class RunScene:
         return sorted(self.problems.planning_problem_dict)
 
 
-def read_scene(file: Path, placement: AgentPlacement | None, flat_road: bool, offroad_tolerance_m: float) -> RunScene:
+def read_scene(file: Path, placement: AgentPlacement | None, flat_road: bool, offroad_tolerance_m: float,
+               tilt: RoadTilt = LEVEL) -> RunScene:
     """The scenario of ``file`` with its planning problems (``placement``'s agent instead, for a map
-    without any), its relief unless ``flat_road``, and its road widened by ``offroad_tolerance_m``."""
+    without any), its relief with the world's ``tilt`` laid on it unless ``flat_road`` (its flat
+    twin: no relief, no tilt; `simgap.scenario.ground.ground_of` refuses a tilt it cannot lay,
+    naming ``file``), and its road widened by ``offroad_tolerance_m``."""
     read, problems = load_scenario(file, needs_problems=placement is None)
     sidecar = read_sidecar(file)
     if placement is not None:
         problems = placement.planning_problems(read)
         sidecar = sidecar.with_parameters(placement.parameters())
     scenario, recorded_egos = without_recorded_egos(read, problems)
-    relief = None if flat_road else ground_of(sidecar, scenario.lanelet_network)
+    relief = None if flat_road else ground_of(sidecar, scenario.lanelet_network, tilt, file)
     return RunScene(Path(file), read, scenario, problems, sidecar, relief, recorded_egos,
                     DrivableArea(scenario.lanelet_network, offroad_tolerance_m), tuple(recorded_obstacles(scenario)))

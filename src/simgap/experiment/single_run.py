@@ -38,6 +38,7 @@ from simgap.planning.remote import PlannerTarget, ProcessLimits
 from simgap.record import DrivenScenarioFile, PlannerRecord, RunFiles, RunRecord, RunSettings, rewrite_record, write_run
 from simgap.scenario.files import scenario_xml
 from simgap.scenario.placement import AgentPlacement
+from simgap.scenario.relief import road_tilt
 from simgap.sim.registry import backend_settings, make_backend
 from simgap.sim.settings import realism_of, road_friction
 from simgap.vehicles import DEFAULT_VEHICLE, Vehicle, load_vehicle
@@ -71,8 +72,8 @@ class RunRequest:
                                                # replace the measured ones (`simgap.experiment.replay`)
     placement: AgentPlacement | None = None    # one agent from a start to a goal, in place of the scenario's
                                                # planning problems (a map without any: --start and --goal)
-    flat_road: bool = False                    # the scenario's road without its relief: its flat twin (the
-                                               # relief assumption restored, `simgap.experiment.attribution`)
+    flat_road: bool = False                    # the scenario's road without its relief or a tilt: its flat twin
+                                               # (the relief assumption restored, `simgap.experiment.attribution`)
 
     def __post_init__(self) -> None:
         if not isinstance(self.backend_settings, BaseModel):
@@ -163,7 +164,8 @@ def _check_agents_assigned_exist(request: RunRequest, agent_ids: list[int]) -> N
 
 def scene_of(request: RunRequest) -> RunScene:
     """The scenario ``request`` runs, read once (`simgap.experiment.run_scene`)."""
-    scene = read_scene(Path(request.scenario), request.placement, request.flat_road, request.cosim.offroad_tolerance)
+    scene = read_scene(Path(request.scenario), request.placement, request.flat_road, request.cosim.offroad_tolerance,
+                       road_tilt(request.backend_settings))
     _check_agents_assigned_exist(request, scene.agent_ids)
     return scene
 

@@ -49,6 +49,7 @@ from simgap.files import read_model
 from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.planning.remote import ProcessLimits
 from simgap.scenario.logical import LogicalScenario, load_logical
+from simgap.scenario.relief import road_tilt
 from simgap.sim.assumptions import Assumption
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
 from simgap.sim.settings import realism_of
@@ -277,6 +278,7 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
         for vehicle, controller in combos:
             settings = settings_of(fid.backend, dict(fid.settings) | (
                 {"controller": controller} if controller is not None else {}), path, f"fidelities.{i}.settings")
+            check_tilt(logical, not road_tilt(settings).level, path, f"fidelities.{i}.settings")
             fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller, realism_of(settings))
             fidelity_variants.append(FidelityVariant(fidelity, vehicle, settings))
         variants.append(fidelity_variants)
@@ -345,6 +347,17 @@ def check_parameter(logical: LogicalScenario, name: str, low: float, high: float
     if low < par.min or high > par.max:
         what = f"{low:g} {par.unit} is out of range" if low == high else f"[{low:g}, {high:g}] leaves the parameter's range"
         raise InputError(what, file=path, field=f"parameters.{name}", allowed=f"{par.min:g} to {par.max:g} {par.unit}")
+
+
+def check_tilt(logical: LogicalScenario, tilted: bool, path: Path, where: str) -> None:
+    """A tilt of the road (``road_bank``, ``road_grade``: the field ``where``) asked of ``logical``'s
+    scenarios, refused up front where they have no road's reference line for it to lie along (each
+    of their runs would refuse it: `simgap.scenario.ground.ground_of`)."""
+    if tilted and not logical.has_reference_line:
+        raise InputError(f"the scenarios of '{logical.name}' ({logical.template}) have no road's reference line to "
+                         "lay a uniform bank or grade along", file=path, field=where,
+                         allowed="a logical scenario of one road (curve, s-curve, road, hairpins), or no road_bank "
+                                 "and road_grade")
 
 
 def check_backend(name: str, path: Path, where: str) -> None:

@@ -22,12 +22,13 @@ Two ways, chosen per scenario:
   and its largest deviation from them is reported.
 
 Every driving lane carries the road friction as its material friction. A generated road's relief
-(`simgap.scenario.relief`) is its ``elevationProfile`` (a record per grade and per vertical curve:
-lines and parabolas) and its ``lateralProfile/superelevation`` (a record per stretch between two
-bank knots: linear), exact. The reality knobs add to it: a bank is every road's superelevation
-(positive: the road falls to the right of its reference line); a grade is the elevation of a
-network of one road (on a network whose roads meet, a grade along each vehicle's way of travel has
-no single elevation profile: the caller notes it instead).
+(`simgap.scenario.relief`), with the run's tilt laid on it (`RoadTilt`, the reality knobs
+``road_bank`` and ``road_grade``: the relief the MuJoCo world drove, `ReliefProfile.tilted`), is its
+``elevationProfile`` (a record per grade and per vertical curve: lines and parabolas) and its
+``lateralProfile/superelevation`` (a record per stretch between two bank knots: linear), exact. On
+a road without a relief the tilt's bank is every road's superelevation (positive: the road falls
+to the right of its reference line) and its grade the elevation of a network of one road (a network
+whose roads meet has no single elevation profile for it: the caller notes it instead).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ from simgap.export.road_topology import topology
 from simgap.scenario.blueprint import JunctionBlueprint, RoadBlueprint
 from simgap.scenario.geometry import curvature_pieces
 from simgap.scenario.markings import MARKING_STYLE
-from simgap.scenario.relief import ReliefProfile
+from simgap.scenario.relief import LEVEL, ReliefProfile, RoadTilt
 
 OPENDRIVE_VERSION = (1, 7)          # the version written (its schema ships with scenariogeneration)
 FINDING_ROADS = "grouping lanelets into roads"     # the phases of a fitted export, as its progress names them
@@ -76,12 +77,11 @@ class Method(StrEnum):
 
 @dataclass(frozen=True)
 class UniformRoad:
-    """What the whole road is made of and how it lies, the same everywhere: friction (1 = dry), bank and
-    grade [deg] (its relief, where it has one, is `simgap.scenario.relief`'s)."""
+    """What the whole road is made of and how it is tilted, the same everywhere: friction (1 = dry) and
+    the tilt laid on its relief (its relief, where it has one, is `simgap.scenario.relief`'s)."""
 
     friction: float = 1.0
-    bank_deg: float = 0.0
-    grade_deg: float = 0.0
+    tilt: RoadTilt = LEVEL
 
 
 @dataclass(frozen=True)
@@ -124,13 +124,13 @@ def road_network(network: LaneletNetwork, name: str, blueprint: RoadBlueprint | 
 
 def _surface_notes(result: RoadNetwork, surface: UniformRoad) -> list[str]:
     notes = []
-    if surface.bank_deg:
-        notes.append(f"road_bank {surface.bank_deg:g} deg is every road's superelevation, falling to the right of its "
-                     "reference line (the MuJoCo world tilts the road to each vehicle's own right)")
-    if surface.grade_deg and len(result.opendrive.roads) > 1:
-        notes.append(f"road_grade {surface.grade_deg:g} deg is not written as elevation (the network has "
-                     f"{len(result.opendrive.roads)} roads; a grade along each vehicle's way of travel has no single "
-                     "elevation profile there)")
+    bank, grade = surface.tilt.road_bank, surface.tilt.road_grade
+    if bank:
+        notes.append(f"road_bank {bank:g} deg is every road's superelevation, falling to the right of its "
+                     "reference line")
+    if grade and len(result.opendrive.roads) > 1:
+        notes.append(f"road_grade {grade:g} deg is not written as elevation (the network has "
+                     f"{len(result.opendrive.roads)} roads; a uniform grade has no single elevation profile there)")
     return notes
 
 
@@ -183,25 +183,25 @@ def _road(road_id: int, pieces: list[tuple[Geometry, float, float, float]], lane
         s += geometry.length
     planview.adjust_geometries()
     road = xodr.Road(road_id, planview, lanes, road_type=junction)
+    tilt = surface.tilt
     if relief is not None:
-        _add_relief(road, relief, surface)
+        _add_relief(road, relief.tilted(tilt))
         return road
-    if surface.bank_deg:
-        road.add_superelevation(0.0, math.radians(surface.bank_deg), 0.0, 0.0, 0.0)
-    if grade and surface.grade_deg:
-        road.add_elevation(0.0, 0.0, math.tan(math.radians(surface.grade_deg)), 0.0, 0.0)
+    if tilt.road_bank:
+        road.add_superelevation(0.0, math.radians(tilt.road_bank), 0.0, 0.0, 0.0)
+    if grade and tilt.road_grade:
+        road.add_elevation(0.0, 0.0, math.tan(math.radians(tilt.road_grade)), 0.0, 0.0)
     return road
 
 
-def _add_relief(road: xodr.Road, relief: ReliefProfile, surface: UniformRoad) -> None:
-    """The relief's records (the knobs' bank and grade added to every one)."""
-    grade = math.tan(math.radians(surface.grade_deg))
+def _add_relief(road: xodr.Road, relief: ReliefProfile) -> None:
+    """The relief's records."""
     pieces = relief.elevation.pieces()
     for piece, after in zip(pieces, pieces[1:] + (None,)):
         if after is None or after.s_start > piece.s_start:      # a piece of no length (a curve from s = 0) is left out
-            road.add_elevation(piece.s_start, piece.a + grade * piece.s_start, piece.b + grade, piece.c, 0.0)
+            road.add_elevation(piece.s_start, piece.a, piece.b, piece.c, 0.0)
     stations = np.array([0.0] + [k.s for k in relief.superelevation if k.s > 0.0])
-    banks = relief.bank(stations)[0] + math.radians(surface.bank_deg)
+    banks = relief.bank(stations)[0]
     previous = None
     for s, bank, rate in zip(stations, banks, np.append(np.diff(banks) / np.diff(stations), 0.0)):
         if previous is not None and abs(previous[1] + previous[2] * (s - previous[0]) - bank) < 1e-12 \

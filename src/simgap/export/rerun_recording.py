@@ -36,6 +36,7 @@ from simgap.files import atomic_write
 from simgap.record import RunRecord, read_run
 from simgap.scenario import read_sidecar
 from simgap.scenario.ground import ground_of
+from simgap.scenario.relief import RoadTilt, road_tilt
 from simgap.trajectory import Attitude, Trajectory
 
 SIM_TIME = "sim_time"
@@ -91,7 +92,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     path = recording_path(Path(out), name)
     three_d = any(a.attitudes for a in run.history.agents)
-    ground = _ground(scenario_xml, scenario) if three_d else None
+    ground = _ground(scenario_xml, scenario, road_tilt(run.settings.backend)) if three_d else None
     result = RecordingExport(name, path, [], {})
 
     def write(tmp: Path) -> None:
@@ -136,9 +137,9 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
     return result
 
 
-def _ground(scenario_xml: Path, scenario) -> Ground | None:
-    """The road's height at points (None: flat)."""
-    surface = ground_of(read_sidecar(scenario_xml), scenario.lanelet_network)
+def _ground(scenario_xml: Path, scenario, tilt: RoadTilt) -> Ground | None:
+    """The road's height at points, ``tilt`` laid on it as the run did (None: flat)."""
+    surface = ground_of(read_sidecar(scenario_xml), scenario.lanelet_network, tilt, scenario_xml)
     if surface is None:
         return None
     return lambda x, y: np.asarray(surface.surface(np.asarray(x, float), np.asarray(y, float)).z, float)

@@ -28,7 +28,8 @@ from simgap.export.openscenario import DEFAULT_VERSION, OpenScenarioVersion, des
 from simgap.files import publish, staged_directory
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario, read_sidecar
-from simgap.sim.settings import road_friction, road_slope
+from simgap.scenario.relief import road_tilt
+from simgap.sim.settings import road_friction
 
 EXACT_TOLERANCE_M = 0.05         # a generated road's lane centres, read back from the file
 FITTED_TOLERANCE_M = 0.05        # a fitted road's lane centres, read back, beyond the fit's own deviation (sampled elsewhere)
@@ -164,7 +165,7 @@ def export_run(run_dir: str | Path, out: str | Path, version: OpenScenarioVersio
     scenario_path = run.settings.scenario_path
     _, scenario, problems = read_driven_scenario(run_dir, run)
     on_progress(READING, 1, 1)
-    surface = UniformRoad(road_friction(run.settings.backend), *road_slope(run.settings.backend))
+    surface = UniformRoad(road_friction(run.settings.backend), road_tilt(run.settings.backend))
     name = safe_name(name or f"{run.scenario_id}_{run.history.backend}")
     blueprint = _blueprint(Path(scenario_xml) if scenario_xml else
                            (Path(scenario_path) if scenario_path else None))

@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 from simgap.errors import InputError
 from simgap.scenario.geometry import Arc, CentreLine, Straight, centre_line
 from simgap.scenario.junction import Junction, build_junction
-from simgap.scenario.relief import MAX_BANK_DEG, MAX_GRADE_PERCENT, ReliefProfile, RoadRelief
+from simgap.scenario.relief import LEVEL, MAX_BANK_DEG, MAX_GRADE_PERCENT, ReliefProfile, RoadRelief, RoadTilt
 from simgap.scenario.road import LaneLayout, Road, build_road
 
 RELIEF_SAMPLE_M = 0.2      # sampling of the centre line a relief is laid on [m]
@@ -49,11 +49,13 @@ class RoadBlueprint(BaseModel):
     def rebuild(self) -> Road:
         return build_road(self.centre(), self.layout, self.first_id)
 
-    def road_relief(self) -> RoadRelief | None:
-        """The road's surface in the world (None: flat)."""
-        if self.relief is None:
+    def road_relief(self, tilt: RoadTilt = LEVEL) -> RoadRelief | None:
+        """The road's surface in the world: its relief with ``tilt`` laid on it (a flat road's
+        profile where it has none; None: flat and not tilted)."""
+        if self.relief is None and tilt.level:
             return None
-        return RoadRelief(self.relief, centre_line(self.segments, max_step=RELIEF_SAMPLE_M))
+        profile = (self.relief or ReliefProfile()).tilted(tilt)
+        return RoadRelief(profile, centre_line(self.segments, max_step=RELIEF_SAMPLE_M))
 
 
 class JunctionBlueprint(BaseModel):

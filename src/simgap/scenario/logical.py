@@ -40,8 +40,8 @@ from simgap.errors import InputError
 from simgap.files import read_model
 from simgap.scenario.opendrive.scenario import opendrive_template
 from simgap.scenario.physical_bounds import MAX_TIME_STEP_S, MIN_TIME_STEP_S, TIME_STEP_ALLOWED
+from simgap.scenario.templates import ONE_ROAD, ConcreteScenario, check_template_inputs
 from simgap.scenario.templates import TEMPLATES as ROAD_TEMPLATES
-from simgap.scenario.templates import ConcreteScenario, check_template_inputs
 from simgap.trajectory import DEFAULT_TIME_STEP_S
 
 TEMPLATES = ROAD_TEMPLATES | {"opendrive": opendrive_template}
@@ -119,6 +119,12 @@ class LogicalScenario(BaseModel):
         if dt is not None and not (dt.min >= MIN_TIME_STEP_S and dt.max <= MAX_TIME_STEP_S):
             raise ValueError(f"dt spans {dt.min:g} to {dt.max:g} s (allowed: {TIME_STEP_ALLOWED})")
         return parameters
+
+    @property
+    def has_reference_line(self) -> bool:
+        """Whether its scenarios are one road along a centre line, which a tilt of the road
+        (``road_bank``, ``road_grade``) lies along (junctions and imported networks have none)."""
+        return self.template in ONE_ROAD
 
     # ---------------------------------------------------------------- sampling
     def pinned(self, assignments: dict[str, str], source: str = "--set") -> dict[str, float]:

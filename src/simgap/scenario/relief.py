@@ -8,6 +8,10 @@
 * **Superelevation** (`BankKnot`): the roll of the cross section about the reference line [deg;
   positive: the road falls to the right of its reference line, OpenDRIVE's sign], linear between
   knots (the transitions, run-in and run-out), held before the first knot and after the last.
+* **Tilt** (`RoadTilt`, the reality knobs ``road_bank`` and ``road_grade``): a bank and a grade laid
+  uniformly on a profile (`ReliefProfile.tilted`): the bank added to every superelevation knot, the
+  grade to every grade. A tilt needs a reference line to lie along, as the profile does: a
+  generated road's centre line (a map's relief is its own, `simgap.scenario.ground`).
 
 The cross section is straight: at lateral offset d (positive to the left) the surface lies
 ``d * tan(bank)`` above the reference line, and **the verge continues the road's cross slope** —
@@ -42,6 +46,7 @@ from simgap.scenario.geometry import CentreLine
 MAX_GRADE_PERCENT = 40.0        # steeper than any public road (the steepest streets reach ~35 %)
 MAX_BANK_DEG = 30.0
 MIN_TANGENT_SCALE = 0.1         # 1 - curvature * d, bounded away from 0 near a curve's centre
+MAX_TILT_DEG = 15.0             # a uniform bank or grade laid on a road (the reality knobs' range)
 
 
 class VerticalCurve(BaseModel):
@@ -118,6 +123,41 @@ class BankKnot(BaseModel):
                         description="roll of the cross section [deg]; positive: falls to the right of the reference line")
 
 
+class RoadTilt(BaseModel):
+    """A bank and a grade laid uniformly on a road's relief along its reference line (`ReliefProfile.tilted`):
+    the reality knobs ``road_bank`` and ``road_grade``, a world's settings where it includes this
+    model (`simgap.sim.settings.RoadTiltSettings`)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    road_bank: float = Field(0.0, ge=-MAX_TILT_DEG, le=MAX_TILT_DEG,
+                             description="bank laid on the road's relief, about its reference line [deg]; positive: "
+                                         "the road falls to the right of the line")
+    road_grade: float = Field(0.0, ge=-MAX_TILT_DEG, le=MAX_TILT_DEG,
+                              description="grade laid on the road's relief, along its reference line [deg]; "
+                                          "positive: uphill along it")
+
+    @property
+    def level(self) -> bool:
+        """No bank and no grade: the road's relief as it is."""
+        return self.road_bank == 0.0 and self.road_grade == 0.0
+
+    @property
+    def grade_percent(self) -> float:
+        """The grade as a road designer's grade [%] (rise over run)."""
+        return 100.0 * math.tan(math.radians(self.road_grade))
+
+
+LEVEL = RoadTilt()      # no tilt: a road's relief as it is
+
+
+def road_tilt(settings: BaseModel | None) -> RoadTilt:
+    """The tilt a world's ``settings`` lay on its road: theirs where their model includes `RoadTilt`,
+    none in a world that does not tilt its road (the ideal world's, the dynamic world's)."""
+    if not isinstance(settings, RoadTilt):
+        return LEVEL
+    return RoadTilt(road_bank=settings.road_bank, road_grade=settings.road_grade)
+
+
 class ReliefProfile(BaseModel):
     """A road's relief along its reference line: elevation and superelevation (see the module doc)."""
 
@@ -136,6 +176,22 @@ class ReliefProfile(BaseModel):
     def flat(self) -> bool:
         """No grade and no bank anywhere: the plane the 2D world assumes."""
         return self.elevation.flat and all(k.bank == 0.0 for k in self.superelevation)
+
+    def tilted(self, tilt: RoadTilt) -> ReliefProfile:
+        """This relief with ``tilt`` laid on it: its bank added to every superelevation knot (to a
+        knot at s = 0 where there is none), its grade to the starting grade and to every vertical
+        curve's, so that each curve keeps its change of grade, hence its length and its place. A
+        sum beyond the relief's bounds is a `pydantic.ValidationError` of the `BankKnot` or the
+        grade's model it breaks."""
+        if tilt.level:
+            return self
+        rise = tilt.grade_percent
+        elevation = ElevationProfile(grade=self.elevation.grade + rise,
+                                     changes=tuple(VerticalCurve(s=c.s, grade=c.grade + rise, radius=c.radius)
+                                                   for c in self.elevation.changes))
+        knots = self.superelevation or (BankKnot(s=0.0, bank=0.0),)
+        return ReliefProfile(elevation=elevation,
+                             superelevation=tuple(BankKnot(s=k.s, bank=k.bank + tilt.road_bank) for k in knots))
 
     def height(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Height of the reference line [m] and its slope dz/ds at stations ``s``."""

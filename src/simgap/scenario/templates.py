@@ -315,6 +315,9 @@ TEMPLATES: dict[str, Callable[[str, str, dict[str, Any]], ConcreteScenario]] = {
     "curve": curve, "s-curve": s_curve, "road": road, "hairpins": hairpins, "t-junction": t_junction,
     "intersection": intersection,
 }
+#: the templates that build one road along a centre line (a `RoadBlueprint`): the reference line a
+#: tilt of the road lies along (`simgap.scenario.relief.RoadTilt`)
+ONE_ROAD = frozenset({"curve", "s-curve", "road", "hairpins"})
 
 # What the templates read from a logical scenario: the names each cannot do without (the others
 # have defaults), and the kind of value each name must hold in ``fixed`` (a name means the same in

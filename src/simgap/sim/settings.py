@@ -1,7 +1,7 @@
 """Settings every physics backend shares, each bound and default written once: the tracking
-(controller, its rate and gains, actuator delays) and the road's friction and slope. A backend's own
+(controller, its rate and gains, actuator delays) and the road's friction and tilt. A backend's own
 settings model extends `TrackingSettings`; a world with a road surface extends `RoadFrictionSettings`, one
-that tilts its road `RoadSlope`.
+that tilts the road it builds `RoadTiltSettings` (the tilt is the road's: `simgap.scenario.relief.RoadTilt`).
 
 These models are also the knob models: a backend takes the reality knobs of the models its
 settings model includes (`simgap.experiment.knobs`), but those of the fields it names in
@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from simgap.control import DEFAULT_CONTROLLER
 from simgap.control.registry import CONTROLLERS
 from simgap.control.tracking import CONTROLLER_HZ, MIN_RATE_HZ
+from simgap.scenario.relief import RoadTilt
 from simgap.sim.assumptions import Assumption, Restorations
 from simgap.sim.protocol import Realism
 from simgap.vehicles import Vehicle
@@ -40,20 +41,13 @@ class RoadFrictionSettings(BaseModel):
     road_friction: RoadFriction = DRY_ROAD_FRICTION
 
 
-class RoadSlope(BaseModel):
-    """The settings of a world that tilts its road: a bank and a grade every car feels."""
+class RoadTiltSettings(RoadTilt):
+    """The settings of a world that tilts the road it builds: a bank and a grade laid on the road's
+    relief, which the run makes the world's ground (`simgap.scenario.ground.ground_of`)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    # a flat twin of the road: no slope on top (the scenario's own relief is the run's ground,
+    # a flat twin of the road: no tilt (and none of the scenario's own relief:
     # `simgap.experiment.single_run.RunRequest.flat_road`)
     ASSUMPTIONS: ClassVar[Restorations] = {Assumption.RELIEF: {"road_bank": 0.0, "road_grade": 0.0}}
-
-    road_bank: float = Field(0.0, ge=-15.0, le=15.0,
-                             description="cross slope every car feels, through gravity, on top of the road's relief [deg]; "
-                                         "positive: the road falls to the right of the way of travel")
-    road_grade: float = Field(0.0, ge=-15.0, le=15.0,
-                              description="grade every car feels, through gravity, on top of the road's relief [deg]; "
-                                          "positive: uphill in the way of travel")
 
 
 def not_knobs(model: type[BaseModel]) -> frozenset[str]:
@@ -69,12 +63,6 @@ def road_friction(settings: BaseModel | None) -> float:
     """The friction of a world's road: its setting, or the dry road of a world without one (the
     ideal world's assumption)."""
     return settings.road_friction if isinstance(settings, RoadFrictionSettings) else DRY_ROAD_FRICTION
-
-
-def road_slope(settings: BaseModel | None) -> tuple[float, float]:
-    """The bank and the grade [deg] a world's cars feel on top of the road's relief: its settings',
-    or none in a world that does not tilt its road."""
-    return (settings.road_bank, settings.road_grade) if isinstance(settings, RoadSlope) else (0.0, 0.0)
 
 
 class TrackingSettings(BaseModel):

@@ -38,6 +38,12 @@ from simgap.sim.settings import road_friction
      "replan_every"),
     ({"ladder": LADDER[:2] + [{"backend": "mujoco", "settings": {"road_friction": 3}}]}, "ladder.2.settings.road_friction",
      None),
+    # a tilt of the road on junctions, which have no road's reference line for it: refused before any run
+    ({"logical": "intersection", "parameters": {"initial_speed": {"min": 0, "max": 10}},
+      "knobs": {"road_bank": {"min": -5, "max": 5}}}, "knobs.road_bank", "a logical scenario of one road"),
+    ({"logical": "t-junction", "parameters": {"initial_speed": {"min": 0, "max": 10}},
+      "ladder": LADDER[:2] + [{"backend": "mujoco", "settings": {"road_grade": 2}}]}, "ladder.2.settings",
+     "a logical scenario of one road"),
 ])
 def test_bad_specs_are_refused_naming_the_field(tmp_path, fields, where, allowed):
     with pytest.raises(InputError) as err:

@@ -90,7 +90,7 @@ def test_lower_road_friction_lowers_the_limit(sedan):
 
 
 def test_a_braked_car_holds_still_on_a_slope(sedan):
-    plant = MujocoPlant(sedan, road_grade=8.0)       # 14 % uphill ahead of the car
+    plant = MujocoPlant(sedan, road_grade=8.0)       # 14 % uphill ahead of the car: the proving ground tilted
     plant.reset(State(t=0.0, x=0.0, y=0.0, yaw=0.0, v=0.0))
     states = [plant.step(Command(0.0, 0.0, 1.0), 0.01) for _ in range(500)]    # 5 s on the brakes
     x = np.array([s.x for s in states])
@@ -98,6 +98,19 @@ def test_a_braked_car_holds_still_on_a_slope(sedan):
     assert abs(x[-1] - x[0]) < 0.01                  # no creep down the slope
     assert np.abs(v[-200:]).max() < 2e-3             # and no jitter
     assert np.ptp(x[-200:]) < 1e-3
+    assert math.degrees(plant.physics.attitude(1).pitch) == pytest.approx(8.0, abs=0.5)    # nose up, on the slope
+
+
+def test_a_tilted_proving_ground_is_a_plane_along_the_cars_heading_and_takes_no_relief_too(sedan):
+    from simgap.scenario.relief import RoadTilt
+    from simgap.sim.mujoco.plant import tilted_ground
+
+    ground = tilted_ground(RoadTilt(road_bank=3.0, road_grade=5.0), State(t=0.0, x=10.0, y=0.0, yaw=math.pi / 2, v=0.0))
+    z = ground.surface(np.array([10.0, 10.0, 12.0]), np.array([0.0, 30.0, 0.0])).z     # the car faces +y
+    assert z[1] - z[0] == pytest.approx(30.0 * math.tan(math.radians(5.0)))          # uphill ahead
+    assert z[0] - z[2] == pytest.approx(2.0 * math.tan(math.radians(3.0)))           # falling to its right
+    with pytest.raises(InputError, match="a proving ground of a given relief is not tilted"):
+        MujocoPlant(sedan, ground, road_grade=2.0)
 
 
 def test_a_car_on_its_side_is_diverged_physics_with_its_reason(sedan):

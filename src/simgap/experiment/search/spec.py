@@ -50,6 +50,7 @@ from simgap.experiment.spec import (
     check_backend,
     check_controller,
     check_parameter,
+    check_tilt,
     check_vehicles,
     logical_of,
     planner_choices,
@@ -61,6 +62,7 @@ from simgap.experiment.spec import (
 )
 from simgap.planning.registry import PlannerChoice
 from simgap.scenario.logical import LogicalScenario
+from simgap.scenario.relief import RoadTilt, road_tilt
 from simgap.vehicles import DEFAULT_VEHICLE
 
 SCORE_DROP = "score_drop"
@@ -241,6 +243,7 @@ def checked_search(spec: SearchSpec, logical: LogicalScenario, path: Path | None
         check_parameter(logical, name, rng.min, rng.max, path)
     for name, rng in spec.knobs.items():
         check_knob(name, rng.min, rng.max, file=path, where=f"knobs.{name}")
+        check_tilt(logical, name in RoadTilt.model_fields, path, f"knobs.{name}")
     if not spec.parameters and not spec.knobs and len(spec.vehicles) < 2 and len(spec.planners) < 2:
         raise InputError("nothing to search: no parameter, knob, vehicle or planner varies", file=path,
                          field="parameters", allowed=", ".join(logical.parameters))
@@ -253,9 +256,10 @@ def checked_search(spec: SearchSpec, logical: LogicalScenario, path: Path | None
     for i, rung in enumerate(spec.ladder):
         check_backend(rung.backend, path, f"ladder.{i}")
         values = dict(rung.settings) if rung.backend == REFERENCE else {"controller": spec.controller} | rung.settings
-        rungs.append(RungSettings(rung.backend, settings_of(rung.backend, values, path, f"ladder.{i}.settings"),
-                                  validated(CosimSettings, cosim.model_dump() | rung.cosim, file=path,
-                                            prefix=f"ladder.{i}.cosim")))
+        settings = settings_of(rung.backend, values, path, f"ladder.{i}.settings")
+        check_tilt(logical, not road_tilt(settings).level, path, f"ladder.{i}.settings")
+        rungs.append(RungSettings(rung.backend, settings, validated(CosimSettings, cosim.model_dump() | rung.cosim,
+                                                                    file=path, prefix=f"ladder.{i}.cosim")))
     if spec.ladder[0].backend != REFERENCE:
         raise InputError("the ladder starts with the ideal fidelity (the world of the planner's assumptions)",
                          file=path, field="ladder.0.backend", allowed=REFERENCE)

@@ -19,12 +19,8 @@ and this world (`simgap.sim.tracked`). A road with a relief (the scenario's, `si
 is built as a terrain that the cars drive on (`simgap.sim.mujoco.world`, `terrain`; the tyres'
 load, slip and forces in its tangent plane, gravity vertical); `attitude` is each car's height,
 pitch and roll. Reality knobs of the world: its friction; ``road_bank`` and ``road_grade`` [deg]
-are not a relief but a tilt every car feels under it relative to its own way of travel, on any
-road (a recorded map's, or on top of a relief): the ground stays where it is and the slope acts as
-the component of gravity along it, ``m g sin(angle)``, applied to the car across (bank) or along
-(grade) the nearest lane centre line; the small loss of normal load (``cos(angle)``, under 1 % at
-8 deg) is neglected. That is the gravity-only model of a slope, the one the ``dynamic`` world
-takes for a relief.
+tilt the road (`simgap.scenario.relief.RoadTilt`), and the run lays that tilt on the relief it
+hands to `load` (`simgap.scenario.ground.ground_of`): a tilted road is a relief like any other.
 """
 
 from __future__ import annotations
@@ -71,8 +67,6 @@ class MujocoPhysics:
         self._agents = list(agents)
         self._dt = float(scenario.dt)
         self.world = world = build_world(scenario, agents, self.settings, relief, looks=False)
-        bank, grade = math.radians(self.settings.road_bank), math.radians(self.settings.road_grade)
-        self._slope = (math.sin(bank), math.sin(grade)) if bank or grade else None
         cars = [world.cars[a.id] for a in agents]
         self._wheel_bodies = np.array([b for car in cars for b in car.wheel_bodies], dtype=int)
         self._steer_limit = {a.id: max_single_track_angle(world.cars[a.id].physics, a.vehicle.wheelbase)
@@ -240,16 +234,7 @@ class MujocoPhysics:
         vx, vy = d.qvel[car.qvel], d.qvel[car.qvel + 1]
         speed = math.hypot(vx, vy)
         drag = 0.5 * AIR_DENSITY * ph.drag_coefficient_area * speed
-        fx, fy = -drag * vx, -drag * vy
-        if self._slope is not None:        # gravity along a banked or graded road
-            q = d.qpos
-            tx, ty = w.surface.road_direction(float(q[car.qpos]), float(q[car.qpos + 1]),
-                                              yaw_of(q[car.qpos + 3:car.qpos + 7]))
-            weight = ph.mass * GRAVITY
-            bank, grade = self._slope
-            fx += weight * (bank * ty - grade * tx)       # right of travel: (ty, -tx)
-            fy += weight * (-bank * tx - grade * ty)
-        d.xfrc_applied[car.chassis_body, 0:2] = [fx, fy]
+        d.xfrc_applied[car.chassis_body, 0:2] = [-drag * vx, -drag * vy]
 
     def apply_surface(self) -> None:
         """Give every tyre the friction of the surface it stands on: road or verge (a factor on

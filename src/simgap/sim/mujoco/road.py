@@ -11,7 +11,6 @@ hulls, which a curved road is not.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import mujoco
@@ -111,38 +110,14 @@ def add_road(spec: mujoco.MjSpec, network: LaneletNetwork, ground: Ground | None
 
 
 class SurfaceMap:
-    """Which surface a point of the ground belongs to: a lanelet (road) or the verge (off-road),
-    and which way the road runs there. A network without lanelets is an open proving ground:
-    asphalt everywhere."""
+    """Which surface a point of the ground belongs to: a lanelet (road) or the verge (off-road). A
+    network without lanelets is an open proving ground: asphalt everywhere."""
 
     def __init__(self, network: LaneletNetwork, tolerance: float = 0.02):
         self.area = None
-        self._centre = np.zeros((0, 2))
-        self._tangent = np.zeros((0, 2))
         if network.lanelets:
             self.area = unary_union([l.polygon.shapely_object.buffer(tolerance) for l in network.lanelets])
             shapely.prepare(self.area)
-            points, tangents = [], []
-            for lanelet in network.lanelets:
-                c = np.asarray(lanelet.center_vertices, dtype=float)
-                if len(c) < 2:
-                    continue
-                seg = np.diff(c, axis=0)
-                seg /= np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-9)
-                points.append(0.5 * (c[1:] + c[:-1]))
-                tangents.append(seg)
-            if points:
-                self._centre, self._tangent = np.vstack(points), np.vstack(tangents)
-
-    def road_direction(self, x: float, y: float, heading: float) -> tuple[float, float]:
-        """Unit vector along the nearest lane centre line, pointing the way ``heading`` faces
-        (the heading itself on a proving ground)."""
-        hx, hy = math.cos(heading), math.sin(heading)
-        if not len(self._centre):
-            return hx, hy
-        i = int(np.argmin((self._centre[:, 0] - x) ** 2 + (self._centre[:, 1] - y) ** 2))
-        tx, ty = self._tangent[i]
-        return (tx, ty) if tx * hx + ty * hy >= 0.0 else (-tx, -ty)
 
     def on_road(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         if self.area is None:

@@ -1,5 +1,6 @@
 """Settings of the ``mujoco`` backend: the physics world (`WorldSettings`: rates, surface friction,
-slope: `RoadFrictionSettings`, `RoadSlope`) and, on top, the tracking (`MujocoSettings`). Plain models, importable without MuJoCo."""
+the tilt of the road it builds: `RoadFrictionSettings`, `RoadTiltSettings`) and, on top, the tracking
+(`MujocoSettings`). Plain models, importable without MuJoCo."""
 
 from __future__ import annotations
 
@@ -10,12 +11,12 @@ from pydantic import Field
 from simgap.errors import validated_settings
 from simgap.sim.protocol import BackendEntry
 from simgap.sim.rates import steps_per_tick
-from simgap.sim.settings import RoadFriction, RoadFrictionSettings, RoadSlope, TrackingSettings
+from simgap.sim.settings import RoadFriction, RoadFrictionSettings, RoadTiltSettings, TrackingSettings
 
 PHYSICS_HZ = 500.0      # the physics rate unless told otherwise
 
 
-class WorldSettings(RoadFrictionSettings, RoadSlope):
+class WorldSettings(RoadFrictionSettings, RoadTiltSettings):
     """Settings of the physics world (``backend_settings`` of a run)."""
 
     physics_hz: float = Field(PHYSICS_HZ, ge=200.0, le=5000.0, description="physics rate [Hz]")
