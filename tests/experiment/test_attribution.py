@@ -14,9 +14,9 @@ from simgap_command import simgap
 from simgap.cosim import CosimSettings
 from simgap.cosim.sensing import SensingProfile, SensingSettings
 from simgap.experiment.attribution import counterfactual, explain, read_explanation, shapley
-from simgap.experiment.single_run import RunRequest, execute
+from simgap.experiment.single_run import RunRequest, execute, scene_of
 from simgap.report.site import build_report
-from simgap.scenario import build_scenario, load_scenario, read_sidecar, write_scenario
+from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.relief import BankKnot
 from simgap.sim.assumptions import Assumption as A
 
@@ -49,9 +49,8 @@ def test_a_counterfactual_restores_each_assumption_and_nothing_else(tmp_path):
     flat = counterfactual(real, {A.RELIEF})
     assert flat.flat_road and flat.backend_settings.road_bank == 0.0 and not real.flat_road
     # the real world's ground is the flat road banked 3 deg; its flat twin's is no relief at all
-    network = load_scenario(xml)[0].lanelet_network
-    assert real.ground(read_sidecar(xml), network).profile.superelevation == (BankKnot(s=0.0, bank=3.0),)
-    assert flat.ground(read_sidecar(xml), network) is None
+    assert scene_of(real).relief.profile.superelevation == (BankKnot(s=0.0, bank=3.0),)
+    assert scene_of(flat).relief is None
     every = counterfactual(real, set(A))
     assert (every.seed, every.backend_settings.controller, every.scenario) == (7, "stanley", xml)
 
