@@ -49,6 +49,7 @@ from simgap.experiment.spec import load_spec
 from simgap.files import BenchmarkResults
 from simgap.report.collection import collect
 from simgap.scenario import build_scenario, load_scenario, write_scenario
+from simgap.sim.mujoco.plant import compile_tyres
 from simgap.vehicles import vehicle_names
 
 ADDS_UP = 0.05       # the shares' sum within 5 % of the gap measured against the study's ideal run
@@ -154,6 +155,7 @@ def main() -> None:
     considered = 0
     if args.workers > 1:      # loading what a run imports, once, while the first runs run (as simgap run --explain)
         fork_server.start()
+    compile_tyres()           # the tyre kernel loaded here before the first run, not inside its timed loop
     with tempfile.TemporaryDirectory() as tmp:
         runs = study_runs(args.study, args.vehicles) if args.study else \
             own_runs(curves, args.vehicles, Path(tmp), until, ran)

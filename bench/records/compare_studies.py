@@ -37,7 +37,7 @@ from simgap.record import read_run
 from simgap.record.values import plain, same
 
 MACHINE = ("time_", "version_", "job_time_s", "wall_time_s", "planning_mean_s", "planning_p95_s", "planning_max_s",
-           "run_dir", "format_version")
+           "run_dir", "reproduce", "format_version")     # reproduce: the command names the run's directory
 HISTORY_FIELDS = ("outcome", "time_to_goal_s", "planner_failures", "planner_exceptions")    # the rest: evaluation's
 AGENT_FIELDS = ("outcome", "time_to_goal_s", "distance_m", "min_distance_to_traffic_m", "max_road_excursion_m",
                 "planner_failures", "planner_exceptions", "planning_calls", "plan_latency_mean_s",
