@@ -35,6 +35,7 @@ AFTER = ("scoring", "validation", "io")
 
 def sample_budget(root: Path, n: int) -> dict[str, float]:
     """Planning phases and per-run overhead of ``n`` of the study's jobs, run here again."""
+    import simgap.experiment.run_scene as run_scene
     import simgap.experiment.single_run as single_run
     import simgap.planning.frenet as frenet
     from simgap.experiment.job import JobContext
@@ -69,11 +70,11 @@ def sample_budget(root: Path, n: int) -> dict[str, float]:
         return result
 
     originals = [(frenet.FrenetPlanner, "plan", plan), (frenet.FrenetPlanner, "__init__", init),
-                 (single_run, "load_scenario", single_run.load_scenario),
+                 (run_scene, "load_scenario", run_scene.load_scenario),
                  (single_run, "write_run", single_run.write_run)]
     frenet.FrenetPlanner.plan = planning
     frenet.FrenetPlanner.__init__ = timed("planner built", init)
-    single_run.load_scenario = timed("scenario loaded", single_run.load_scenario)
+    run_scene.load_scenario = timed("scenario loaded", run_scene.load_scenario)
     single_run.write_run = timed("run written", single_run.write_run)
     try:
         with tempfile.TemporaryDirectory() as scratch:

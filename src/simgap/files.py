@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import fcntl
 import glob
+import json
 import os
 import shutil
 import tempfile
@@ -209,6 +210,23 @@ def read_model(path: str | Path, model: type[M], what: str, keys: str | None = N
     """``path`` read as YAML and validated as ``model`` (``defaults`` fill keys the file leaves
     out); every problem is an `InputError` naming the file, the field and what is allowed."""
     raw = dict(defaults or {}) | read_yaml_mapping(path, what, keys, empty_ok)
+    return validated(model, raw, file=path)
+
+
+def read_json_model(path: str | Path, model: type[M], what: str) -> M:
+    """The JSON object in ``path`` validated as ``model`` (a file simgap wrote: JSON, not YAML, whose
+    rules would read ``5e-05`` as a string); every problem is an `InputError` naming the file and
+    the field."""
+    path = Path(path)
+    try:
+        raw = json.loads(path.read_text())
+    except OSError as exc:
+        raise InputError(f"cannot read the {what}: {exc.strerror}", file=path) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"the {what} is not JSON ({exc.msg} at line {exc.lineno}, column {exc.colno})",
+                         file=path) from None
+    if not isinstance(raw, dict):
+        raise InputError(f"the {what} is a JSON object", file=path)
     return validated(model, raw, file=path)
 
 

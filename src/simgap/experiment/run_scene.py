@@ -2,8 +2,10 @@
 file, its sidecar (typed), the planning problems (the file's, or a placement's), the scenario as the
 loop runs it (every agent in place of its recorded vehicle) and its recorded obstacles, the ground
 the 3D worlds build and the drivable area the loop and the evaluation judge footprints against.
-The loop and the evaluation take these; nothing of the run reads the scenario's files or its
-obstacles again once the loop has started."""
+The loop and the evaluation take these instead of reading the scenario's files or making its
+obstacles again (the evaluation still opens the file's header for its benchmark ID's cost function,
+and the validity check parses the file it is given; MuJoCo's world builds its recorded obstacles as
+bodies from the scenario its ``load`` is given)."""
 
 from __future__ import annotations
 

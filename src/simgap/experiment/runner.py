@@ -24,7 +24,7 @@ from simgap.experiment.run_row import RunRow
 from simgap.experiment.single_run import software_versions
 from simgap.experiment.spec import Experiment, ExperimentSpec, checked_experiment, jobs, load_spec
 from simgap.experiment.store import ResultsStore
-from simgap.files import atomic_write_text, read_yaml_mapping, restore_directory, sole_writer
+from simgap.files import atomic_write_text, read_json_model, restore_directory, sole_writer
 from simgap.scenario import write_scenario
 from simgap.scenario.logical import load_logical
 from simgap.sim.registry import preflight
@@ -48,9 +48,7 @@ class ExperimentMeta(BaseModel):
     @classmethod
     def read(cls, root: Path) -> ExperimentMeta:
         """The meta of the experiment in ``root``, or an `InputError` naming the file and the field."""
-        path = root / META
-        return validated(cls, read_yaml_mapping(path, "experiment's record of its spec", "spec, results_hash, ..."),
-                         file=path)
+        return read_json_model(root / META, cls, "experiment's record of its spec")
 
 
 @dataclass

@@ -278,7 +278,7 @@ def checked_experiment(spec: ExperimentSpec, logical: LogicalScenario, path: Pat
         for vehicle, controller in combos:
             settings = settings_of(fid.backend, dict(fid.settings) | (
                 {"controller": controller} if controller is not None else {}), path, f"fidelities.{i}.settings")
-            check_tilt(logical, not road_tilt(settings).level, path, f"fidelities.{i}.settings")
+            check_tilt(logical, not road_tilt(settings).is_level, path, f"fidelities.{i}.settings")
             fidelity = Fidelity(fid.backend, load_vehicle(vehicle).name, controller, realism_of(settings))
             fidelity_variants.append(FidelityVariant(fidelity, vehicle, settings))
         variants.append(fidelity_variants)

@@ -4,6 +4,12 @@ otherwise do on its first MuJoCo world, done once here — the tyre kernel loade
 on-disk cache (about 0.4 s of CPU, most of a first world's extra time). A process that imports
 this module pays that once itself; nothing else imports it."""
 
+import warnings
+
 from simgap.sim.mujoco.plant import compile_tyres
 
-compile_tyres()
+try:
+    compile_tyres()
+except Exception as exc:  # noqa: BLE001 - a fork server that dies takes every worker of every batch with it
+    warnings.warn(f"the fork server could not load MuJoCo's tyre kernel ({type(exc).__name__}: {exc}); "
+                  "each worker loads it on its first MuJoCo world", RuntimeWarning, stacklevel=1)

@@ -126,8 +126,8 @@ def _surface_notes(result: RoadNetwork, surface: UniformRoad) -> list[str]:
     notes = []
     bank, grade = surface.tilt.road_bank, surface.tilt.road_grade
     if bank:
-        notes.append(f"road_bank {bank:g} deg is every road's superelevation, falling to the right of its "
-                     "reference line")
+        notes.append(f"road_bank {bank:g} deg is added to every road's superelevation (falling to the right of its "
+                     "reference line)")
     if grade and len(result.opendrive.roads) > 1:
         notes.append(f"road_grade {grade:g} deg is not written as elevation (the network has "
                      f"{len(result.opendrive.roads)} roads; a uniform grade has no single elevation profile there)")

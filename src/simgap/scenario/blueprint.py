@@ -52,7 +52,7 @@ class RoadBlueprint(BaseModel):
     def road_relief(self, tilt: RoadTilt = LEVEL) -> RoadRelief | None:
         """The road's surface in the world: its relief with ``tilt`` laid on it (a flat road's
         profile where it has none; None: flat and not tilted)."""
-        if self.relief is None and tilt.level:
+        if self.relief is None and tilt.is_level:
             return None
         profile = (self.relief or ReliefProfile()).tilted(tilt)
         return RoadRelief(profile, centre_line(self.segments, max_step=RELIEF_SAMPLE_M))

@@ -45,7 +45,7 @@ def ground_of(sidecar: ScenarioSidecar, network: LaneletNetwork | None = None, t
     scenario's) and the knob (see the module doc)."""
     if isinstance(sidecar.blueprint, RoadBlueprint):
         return _tilted_road(sidecar.blueprint, tilt, file)
-    if not tilt.level:
+    if not tilt.is_level:
         raise _no_reference_line(sidecar, tilt, file)
     if sidecar.opendrive is not None and network is not None:
         return network_surface(sidecar.opendrive, network)

@@ -137,7 +137,7 @@ class RoadTilt(BaseModel):
                                           "positive: uphill along it")
 
     @property
-    def level(self) -> bool:
+    def is_level(self) -> bool:
         """No bank and no grade: the road's relief as it is."""
         return self.road_bank == 0.0 and self.road_grade == 0.0
 
@@ -183,7 +183,7 @@ class ReliefProfile(BaseModel):
         curve's, so that each curve keeps its change of grade, hence its length and its place. A
         sum beyond the relief's bounds is a `pydantic.ValidationError` of the `BankKnot` or the
         grade's model it breaks."""
-        if tilt.level:
+        if tilt.is_level:
             return self
         rise = tilt.grade_percent
         elevation = ElevationProfile(grade=self.elevation.grade + rise,

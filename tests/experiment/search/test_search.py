@@ -314,3 +314,19 @@ def test_the_budget_is_the_searchs_total_shared_evenly_among_its_strategies():
     with pytest.raises(InputError, match="2 runs cannot be shared among 3 strategies") as err:
         Budget(runs=2).shares(["grid", "random", "bo"])
     assert err.value.field == "budget" and "--strategy" in err.value.allowed
+
+
+def test_a_search_record_written_by_an_older_simgap_still_reads(tmp_path):
+    """search.json as simgap wrote it before 2026-12-02 (findings without ``reported``), with a float
+    in exponent form, which YAML's rules would read as a string; a damaged one names the file."""
+    from simgap.experiment.search.results import META, SearchMeta
+
+    (tmp_path / META).write_text('{"spec": {"name": "old", "latency": 5e-05}, "results_hash": "abc", '
+                                 '"versions": {}, "findings": {"random": {"runs": 6, "violations": 2, '
+                                 '"distinct": 1, "scenarios": 1, "modes": []}}}')
+    meta = SearchMeta.read(tmp_path)
+    assert meta.findings["random"].runs == 6 and meta.findings["random"].reported is None
+    assert meta.spec["latency"] == 5e-05 and isinstance(meta.spec["latency"], float)
+    (tmp_path / META).write_text('{"spec": {"name": "old"')
+    with pytest.raises(InputError, match=r"search.json: the search's record of its spec is not JSON"):
+        SearchMeta.read(tmp_path)

@@ -152,3 +152,12 @@ def test_a_car_steered_beyond_its_limit_slides_and_does_not_roll_over(name):
     assert min(least_load) > 100.0                         # N: no wheel lifts
     assert math.degrees(np.mean(slip[-100:])) > 7.0        # far past the linear range: sliding
     assert abs(state.v * state.yaw_rate) < 1.1 * 9.81      # the friction caps a_y
+
+
+def test_a_world_given_a_tilt_but_no_ground_to_lay_it_on_refuses_to_drive_flat():
+    from simgap.sim.mujoco.backend import MujocoPhysics
+    from simgap.sim.mujoco.plant import proving_ground
+    from simgap.sim.mujoco.settings import WorldSettings
+
+    with pytest.raises(ValueError, match="road_bank and road_grade tilt the road's relief"):
+        MujocoPhysics(WorldSettings(road_grade=5.0)).load(proving_ground(), [], None)

@@ -23,21 +23,22 @@ from simgap.experiment.search.confirmation import reproduction
 from simgap.experiment.search.failure_modes import FailureMode, ProbePlan, group_modes, needed, read_probe_rows
 from simgap.experiment.search.rows import SearchRow, read_search_rows
 from simgap.experiment.search.spec import STRATEGIES, DimensionKind, SearchSpec
-from simgap.files import atomic_write_text, read_yaml_mapping
+from simgap.files import atomic_write_text, read_json_model
 from simgap.planning.registry import DEFAULT_PLANNER
 
 META = "search.json"          # the search's spec and results hash, in its directory (`SearchMeta`)
 
 
 class StrategyFindings(BaseModel):
-    """What one strategy of a search found, as its directory keeps it beside the spec."""
+    """What one strategy of a search found, as its directory keeps it beside the spec (None: a
+    count an older simgap did not keep; ``reported`` since 2026-12-02)."""
 
     model_config = ConfigDict(frozen=True)
-    runs: int
-    violations: int
-    distinct: int
-    scenarios: int
-    reported: int
+    runs: int | None = None
+    violations: int | None = None
+    distinct: int | None = None
+    scenarios: int | None = None
+    reported: int | None = None
     modes: tuple[dict[str, Any], ...] = ()      # each a `FailureMode`, dumped
 
 
@@ -58,8 +59,7 @@ class SearchMeta(BaseModel):
         path = root / META
         if not path.exists():
             raise InputError("not a search directory (no search.json)", file=root, allowed="the --out of simgap search")
-        return validated(cls, read_yaml_mapping(path, "search's record of its spec", "spec, results_hash, ..."),
-                         file=path)
+        return read_json_model(path, cls, "search's record of its spec")
 
     def write(self, root: Path) -> None:
         atomic_write_text(root / META, self.model_dump_json(indent=2))

@@ -257,7 +257,7 @@ def checked_search(spec: SearchSpec, logical: LogicalScenario, path: Path | None
         check_backend(rung.backend, path, f"ladder.{i}")
         values = dict(rung.settings) if rung.backend == REFERENCE else {"controller": spec.controller} | rung.settings
         settings = settings_of(rung.backend, values, path, f"ladder.{i}.settings")
-        check_tilt(logical, not road_tilt(settings).level, path, f"ladder.{i}.settings")
+        check_tilt(logical, not road_tilt(settings).is_level, path, f"ladder.{i}.settings")
         rungs.append(RungSettings(rung.backend, settings, validated(CosimSettings, cosim.model_dump() | rung.cosim,
                                                                     file=path, prefix=f"ladder.{i}.cosim")))
     if spec.ladder[0].backend != REFERENCE:

@@ -35,7 +35,7 @@ from commonroad.scenario.scenario import Scenario
 
 from simgap.control.protocol import Command
 from simgap.errors import InputError
-from simgap.scenario.relief import Surface
+from simgap.scenario.relief import Surface, road_tilt
 from simgap.sim.mujoco.car import ackermann_angles, max_single_track_angle, single_track_angle, up_z, yaw_of
 from simgap.sim.mujoco.settings import MujocoSettings, WorldSettings
 from simgap.sim.mujoco.world import World, build_world
@@ -64,6 +64,9 @@ class MujocoPhysics:
 
     # --- Physics protocol ------------------------------------------------------------------------
     def load(self, scenario: Scenario, agents: Sequence[Agent], relief: Surface | None = None) -> None:
+        if relief is None and not road_tilt(self.settings).is_level:     # the run lays it on the ground it gives
+            raise ValueError("road_bank and road_grade tilt the road's relief, which the caller lays on it "
+                             "(simgap.experiment.run_scene); this world was given no relief to drive")
         self._agents = list(agents)
         self._dt = float(scenario.dt)
         self.world = world = build_world(scenario, agents, self.settings, relief, looks=False)

@@ -30,8 +30,9 @@ def proving_ground(dt: float = DEFAULT_TIME_STEP_S) -> Scenario:
 
 def tilted_ground(tilt: RoadTilt, start: State, length: float = TILTED_GROUND_M) -> RoadRelief:
     """The proving ground tilted by ``tilt`` along the heading of ``start``: a flat road's relief
-    tilted, on a straight reference line of ``length`` centred on the car (a plane: grade uphill
-    ahead of the car, bank falling to its right)."""
+    tilted, on a straight reference line of ``length`` centred on the car (a plane, grade uphill
+    ahead of the car, bank falling to its right, over that stretch and the terrain's margin beside
+    it; level beyond: a manoeuvre that drives further than ``length / 2`` needs a longer one)."""
     back = 0.5 * length
     origin = (start.x - back * math.cos(start.yaw), start.y - back * math.sin(start.yaw))
     return RoadRelief(ReliefProfile().tilted(tilt), centre_line([Straight(length=length)], origin, start.yaw))
@@ -47,7 +48,7 @@ class MujocoPlant:
     def __init__(self, vehicle: Vehicle, relief: Surface | None = None, **world: Any):
         settings = validated_settings(WorldSettings, world)
         self.tilt = road_tilt(settings)
-        if relief is not None and not self.tilt.level:
+        if relief is not None and not self.tilt.is_level:
             raise InputError("a proving ground of a given relief is not tilted", field="road_bank, road_grade",
                              allowed="a tilt on the open proving ground, or the relief's own bank and grade")
         self.vehicle = vehicle
@@ -61,7 +62,7 @@ class MujocoPlant:
         return self.physics.world
 
     def reset(self, initial: State) -> State:
-        ground = self.relief if self.tilt.level else tilted_ground(self.tilt, initial)
+        ground = self.relief if self.tilt.is_level else tilted_ground(self.tilt, initial)
         self.physics.load(self._scenario, [Agent(AGENT, self.vehicle, initial)], ground)
         self._t = initial.t
         self.physics.reset(initial.t)
