@@ -22,8 +22,8 @@ from simgap.evaluate.run_evaluation import EvaluationContext, evaluate, with_cri
 from simgap.files import BenchmarkResults
 from simgap.record import read_run
 from simgap.record.values import plain, same
-from simgap.scenario import load_scenario, read_sidecar
-from simgap.scenario.ground import ground_of
+from simgap.scenario import load_scenario
+from simgap.scenario.ground import ground_of_file
 from simgap.scenario.obstacles import without_recorded_egos
 from simgap.scenario.relief import road_tilt
 from simgap.sim.settings import road_friction
@@ -51,8 +51,8 @@ def main(argv: list[str] | None = None) -> int:
                                     record.settings.cosim.planning_budget_s,
                                     road_friction(record.settings.backend),
                                     load_vehicle(record.settings.planner_vehicle or "sedan"),
-                                    ground_of(read_sidecar(xml), scenario.lanelet_network,
-                                              road_tilt(record.settings.backend), xml), xml)
+                                    ground_of_file(xml, scenario.lanelet_network, road_tilt(record.settings.backend)),
+                                    xml)
         clock = time.perf_counter()
         again = evaluate(record.history, context)
         seconds += time.perf_counter() - clock

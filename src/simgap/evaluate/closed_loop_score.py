@@ -50,7 +50,7 @@ from simgap.evaluate.settings import ScoreSettings, ScoreWeights
 from simgap.evaluate.time_to_collision import time_to_collision
 from simgap.scenario.goal import Goal
 from simgap.scenario.obstacles import RecordedObstacle
-from simgap.scenario.road_frame import footprint
+from simgap.scenario.road_frame import DrivableArea, footprint
 from simgap.trajectory import Trajectory
 
 #: component -> (role, meaning); the multipliers first, then the weighted terms
@@ -287,17 +287,17 @@ class _AgentScorer:
 
 def closed_loop_scores(history: History, scenario: Scenario, problems: PlanningProblemSet, settings: ScoreSettings,
                        offroad_tolerance_m: float,
-                       road_excursions_m: Mapping[int, float] | None = None,
+                       road_excursions_m: Mapping[int, float] | None = None, road: DrivableArea | None = None,
                        obstacles: Sequence[RecordedObstacle] | None = None) -> dict[int, ClosedLoopScore]:
     """Every agent's closed-loop score (none for an agent that drove no step: its run failed
     before), given the loop's road tolerance (``offroad_tolerance_m``, the excursions are measured
     beyond it) and each agent's largest road excursion (`simgap.evaluate.closest_approach`;
-    measured here when not given); ``obstacles``: the scenario's `recorded_obstacles`, when the
-    caller has them."""
+    measured here when not given, on ``road``: the drivable area widened by the tolerance); ``road``
+    and ``obstacles`` (the scenario's `recorded_obstacles`) when the caller has them."""
     if road_excursions_m is None:
         road_excursions_m = {aid: round(a.max_road_excursion_m, 3)      # to the mm, as a run's evaluation keeps it
-                             for aid, a in closest_approaches(history, scenario, offroad_tolerance_m,
-                                                              obstacles=obstacles).items()}
+                             for aid, a in closest_approaches(history, scenario, offroad_tolerance_m, road,
+                                                              obstacles).items()}
     lanes = LaneOccupancy(scenario.lanelet_network)
     users = road_users(history, scenario, obstacles)
     return {a.id: _AgentScorer(history, a, road_excursions_m[a.id], problems.planning_problem_dict.get(a.id), lanes,

@@ -173,7 +173,7 @@ def evaluate(history: History, context: EvaluationContext) -> RunEvaluation:
               for a in history.agents}
     excursions = {aid: round(a.max_road_excursion_m, 3) for aid, a in approaches.items()}   # as recorded
     scores = closed_loop_scores(history, context.scenario, context.problems, context.settings.score,
-                                context.offroad_tolerance_m, excursions, context.obstacles)
+                                context.offroad_tolerance_m, excursions, obstacles=context.obstacles)
     costs = solution_costs(solution_of(history, context), context.scenario, context.problems)
     agents = []
     for a in history.agents:

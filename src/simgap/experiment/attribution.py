@@ -46,11 +46,10 @@ from simgap.evaluate.closed_loop_score import closed_loop_scores
 from simgap.evaluate.compare import compare_histories
 from simgap.experiment import fork_server
 from simgap.experiment.replay import recorded_scenario, replay_request
-from simgap.experiment.single_run import RunRequest, simulated
+from simgap.experiment.single_run import RunRequest, scene_of, simulated
 from simgap.files import atomic_write_text
 from simgap.record import RunRecord, read_run
-from simgap.scenario import load_scenario, read_sidecar
-from simgap.scenario.ground import ground_of
+from simgap.scenario import load_scenario
 from simgap.sim.assumptions import Assumption, restorations, restoring
 from simgap.sim.protocol import Realism
 from simgap.sim.settings import TrackingSettings, realism_of
@@ -220,14 +219,9 @@ def broken_assumptions(record: RunRecord, request: RunRequest) -> tuple[Assumpti
         and not record.settings.sensing_accuracy.exact,
         Assumption.LATENCY: real and cosim.latency != 0.0,
         Assumption.FRICTION: restoring(settings, {Assumption.FRICTION}) != settings,
-        Assumption.RELIEF: restoring(settings, {Assumption.RELIEF}) != settings or _has_relief(request.scenario),
+        Assumption.RELIEF: scene_of(request).relief is not None,     # the scenario's relief, or a tilt laid on it
     }
     return tuple(a for a in Assumption if a in declared and breaks.get(a, False))
-
-
-def _has_relief(scenario: Path) -> bool:
-    scenario_, _ = load_scenario(scenario)
-    return ground_of(read_sidecar(scenario), scenario_.lanelet_network) is not None
 
 
 def counterfactual(request: RunRequest, holding: Iterable[Assumption]) -> RunRequest:
@@ -260,7 +254,7 @@ def _run(request: RunRequest) -> _Ran:
     started, cpu = time.perf_counter(), time.process_time()
     run = simulated(request)
     scores = closed_loop_scores(run.history, run.scene.scenario, run.scene.problems, request.evaluation.score,
-                                request.cosim.offroad_tolerance, obstacles=run.scene.obstacles)
+                                request.cosim.offroad_tolerance, road=run.scene.road, obstacles=run.scene.obstacles)
     return _Ran(run.history, tuple(0.0 if a.id not in scores else float(scores[a.id].score) for a in run.history.agents),
                 time.perf_counter() - started, time.process_time() - cpu)
 

@@ -50,6 +50,7 @@ from simgap.planning.registry import DEFAULT_PLANNER, PlannerChoice
 from simgap.planning.remote import ProcessLimits
 from simgap.scenario.logical import LogicalScenario, load_logical
 from simgap.scenario.relief import road_tilt
+from simgap.scenario.templates import ONE_ROAD
 from simgap.sim.assumptions import Assumption
 from simgap.sim.registry import BACKENDS, backend_available, backend_settings
 from simgap.sim.settings import realism_of
@@ -356,7 +357,7 @@ def check_tilt(logical: LogicalScenario, tilted: bool, path: Path, where: str) -
     if tilted and not logical.has_reference_line:
         raise InputError(f"the scenarios of '{logical.name}' ({logical.template}) have no road's reference line to "
                          "lay a uniform bank or grade along", file=path, field=where,
-                         allowed="a logical scenario of one road (curve, s-curve, road, hairpins), or no road_bank "
+                         allowed=f"a logical scenario of one road ({', '.join(sorted(ONE_ROAD))}), or no road_bank "
                                  "and road_grade")
 
 

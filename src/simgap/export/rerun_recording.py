@@ -34,8 +34,7 @@ from simgap.cosim.history import Event
 from simgap.errors import InputError
 from simgap.files import atomic_write
 from simgap.record import RunRecord, read_run
-from simgap.scenario import read_sidecar
-from simgap.scenario.ground import ground_of
+from simgap.scenario.ground import ground_of_file
 from simgap.scenario.relief import RoadTilt, road_tilt
 from simgap.trajectory import Attitude, Trajectory
 
@@ -139,7 +138,7 @@ def export_recording(run_dir: str | Path, out: str | Path, ideal_dir: str | Path
 
 def _ground(scenario_xml: Path, scenario, tilt: RoadTilt) -> Ground | None:
     """The road's height at points, ``tilt`` laid on it as the run did (None: flat)."""
-    surface = ground_of(read_sidecar(scenario_xml), scenario.lanelet_network, tilt, scenario_xml)
+    surface = ground_of_file(scenario_xml, scenario.lanelet_network, tilt)
     if surface is None:
         return None
     return lambda x, y: np.asarray(surface.surface(np.asarray(x, float), np.asarray(y, float)).z, float)

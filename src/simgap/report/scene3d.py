@@ -32,8 +32,7 @@ from simgap.cosim.history import AGENT_ID_OFFSET  # noqa: E402
 from simgap.files import atomic_write, atomic_write_bytes  # noqa: E402
 from simgap.record import RunRecord  # noqa: E402
 from simgap.report.scene2d import draw_scene, load_driven  # noqa: E402
-from simgap.scenario import read_sidecar  # noqa: E402
-from simgap.scenario.ground import ground_of  # noqa: E402
+from simgap.scenario.ground import ground_of_file  # noqa: E402
 from simgap.scenario.preview import figure_size, plot_limits  # noqa: E402
 from simgap.scenario.relief import Surface, road_tilt  # noqa: E402
 from simgap.trajectory import Trajectory  # noqa: E402
@@ -89,8 +88,7 @@ def render_run_3d(run_dir: str | Path, out_dir: str | Path | None, world: Replay
     out_dir = Path(out_dir or run_dir)
     scenario, problems, run = load_driven(run_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    driven = run_dir / "driven.xml"
-    ground = ground_of(read_sidecar(driven), scenario.lanelet_network, road_tilt(run.settings.backend), driven)
+    ground = ground_of_file(run_dir / "driven.xml", scenario.lanelet_network, road_tilt(run.settings.backend))
     replay = _replay(scenario, run, world, ground)
     first = run.history.agents[0].id
     step = _instant(run)

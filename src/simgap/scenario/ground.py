@@ -32,7 +32,7 @@ from simgap.scenario.relief import (
     SampledSurface,
     Surface,
 )
-from simgap.scenario.sidecar import ScenarioSidecar
+from simgap.scenario.sidecar import ScenarioSidecar, read_sidecar
 
 FLAT_M = 1e-6     # heights within this of zero everywhere: a flat network
 
@@ -50,6 +50,11 @@ def ground_of(sidecar: ScenarioSidecar, network: LaneletNetwork | None = None, t
     if sidecar.opendrive is not None and network is not None:
         return network_surface(sidecar.opendrive, network)
     return None
+
+
+def ground_of_file(xml: str | Path, network: LaneletNetwork | None = None, tilt: RoadTilt = LEVEL) -> Surface | None:
+    """`ground_of` the scenario file ``xml``: its sidecar read beside it (a refusal names the file)."""
+    return ground_of(read_sidecar(xml), network, tilt, xml)
 
 
 def _knob(tilt: RoadTilt, bank: bool) -> tuple[str, str, float]:
