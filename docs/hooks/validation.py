@@ -491,10 +491,11 @@ def attribution_table(name: str) -> str:
              f"{data['arguments']['workers']} workers): median {_num(cost['median'], '.1f')}, largest "
              f"{_num(cost['max'], '.1f')}, {cost['over_8']} of {counts['explained']} over 8; processor time "
              f"(explanation / run): median {_num(cpu['median'], '.1f')}, largest {_num(cpu['max'], '.1f')}.", "",
-             "| curve | car | outcome | gap [m] | dominant | fixes it alone | sum / gap | worlds | explanation [s] "
-             "| run [s] | wall ratio | processor ratio |", "|---|" + "---|" * 11]
+             "| curve | car | outcome | gap [m] | dominant | fixes it alone | sum / gap | worlds | cut | explanation [s] "
+             "| run [s] | wall ratio | processor ratio |", "|---|" + "---|" * 12]
     table = [[r["curve"], r["vehicle"], r["outcome"].replace("_", " "), f"{r['gap_m']:.3f}", f"`{r['dominant']}`",
-              "yes" if r["fixes_outcome"] else "no", f"{r['sum_over_gap']:.3f}", str(r["runs"]), f"{r['wall_s']:.1f}",
+              "yes" if r["fixes_outcome"] else "no", f"{r['sum_over_gap']:.3f}", str(r["runs"]),
+              str(sum(w.get("until_s") is not None for w in r["explanation"].get("worlds", ()))), f"{r['wall_s']:.1f}",
               f"{r['run_wall_s']:.2f}", f"{r['cost_ratio']:.1f}", _num(r.get("cpu_ratio"), ".1f")] for r in rows]
     return "\n".join(lines + _rows(table) + _generated(name, data))
 

@@ -4,6 +4,7 @@ attribution names it first and restoring it alone fixes the outcome."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from pathlib import Path
@@ -11,10 +12,12 @@ from pathlib import Path
 import pytest
 from simgap_command import simgap
 
-from simgap.cosim import CosimSettings
+from simgap.cosim import CosimSettings, Outcome
 from simgap.cosim.sensing import SensingProfile, SensingSettings
-from simgap.experiment.attribution import counterfactual, explain, read_explanation, shapley
+from simgap.experiment import attribution
+from simgap.experiment.attribution import World, counterfactual, explain, read_explanation, shapley
 from simgap.experiment.single_run import RunRequest, execute, scene_of
+from simgap.record import read_run
 from simgap.report.site import build_report
 from simgap.scenario import build_scenario, write_scenario
 from simgap.scenario.relief import BankKnot
@@ -112,6 +115,66 @@ def test_the_sedan_on_an_icy_road_leaves_it_because_of_the_friction(paper_curve,
     execute(RunRequest(scenario=paper_curve, backend="mujoco", vehicles="sedan", criticality=False,
                        backend_settings={"road_friction": 0.3}), tmp_path / "run")
     _check_names_first(explain(tmp_path / "run", workers=2, assumptions={A.FRICTION, A.ACTUATORS}), A.FRICTION)
+
+
+@pytest.mark.slow
+def test_cutting_the_worlds_whose_end_no_answer_needs_changes_nothing_but_the_cost(paper_curve, tmp_path, monkeypatch):
+    # the SUV breaks three assumptions (actuators, sensing, latency) and leaves the road half way: the
+    # worlds restoring two of them are cut a second past where it left, and measure there as they do
+    # when run to their end
+    execute(RunRequest(scenario=paper_curve, backend="mujoco", vehicles="suv", criticality=False), tmp_path / "run")
+    cut = explain(tmp_path / "run", workers=2)
+    monkeypatch.setattr(attribution, "CUT_MARGIN_S", 1e6)        # past any deadline: no world is cut
+    whole = explain(tmp_path / "run", workers=2, keep=False)
+    assert {len(w.restored) for w in cut.worlds if w.cut} == {2} and not any(w.cut for w in whole.worlds)
+    end = max(float(t.t_end) for t in read_run(tmp_path / "run").history.driven.values())
+    assert all(w.until_s == pytest.approx(end + 1.0) and w.outcome is None and w.score is None
+               for w in cut.worlds if w.cut)
+    assert [(w.restored, w.gap_m, w.tracking_m) for w in cut.worlds] == \
+        [(w.restored, w.gap_m, w.tracking_m) for w in whole.worlds]
+    assert cut.assumptions == whole.assumptions and cut.fixing_sets == whole.fixing_sets == ((A.ACTUATORS,),)
+    assert cut.runs == whole.runs == 8 and cut.interaction_m == whole.interaction_m
+    assert read_explanation(tmp_path / "run") == cut                 # a cut world reloads equal
+    assert "cut at t = " in "\n".join(cut.lines())
+    # cut before the run's end, short of the stretch it drove: those worlds are run again to their end
+    monkeypatch.setattr(attribution, "CUT_MARGIN_S", -2.0)
+    again = explain(tmp_path / "run", workers=2, keep=False)
+    assert not any(w.cut for w in again.worlds) and 8 + sum(w.cut for w in cut.worlds) <= again.runs <= 8 + 3
+    assert [(w.restored, w.outcome, w.gap_m, w.tracking_m) for w in again.worlds] == \
+        [(w.restored, w.outcome, w.gap_m, w.tracking_m) for w in whole.worlds]
+    assert again.assumptions == whole.assumptions
+
+
+def _world(restored, outcome, until_s=None):
+    return World(frozenset(restored), outcome, 0.1, 0.1, None if until_s else 0.5, 1.0, until_s=until_s)
+
+
+def test_the_cut_worlds_are_finished_only_to_find_the_smallest_sets_that_fix_the_outcome():
+    off, goal = Outcome.OFF_ROAD, Outcome.GOAL_REACHED
+    present = (A.ACTUATORS, A.SENSING, A.LATENCY, A.FRICTION)
+    sets = [frozenset(c) for k in (2, 3) for c in itertools.combinations(present, k)]
+
+    def worlds(single, machine):       # every set of two and three cut (still on the road at the cut)
+        return {frozenset(): _world((), off), **{frozenset({a}): _world({a}, single) for a in present},
+                **{s: _world(s, None, 13.0) for s in sets}, frozenset(present): _world(present, machine)}
+
+    pairs, triples = sets[:6], sets[6:]
+    # a single restoration fixes it: nothing to finish
+    assert list(attribution._to_finish(worlds(goal, goal), set(), present, goal)) == []
+    # none does: the pairs are finished; one of them fixes it, so the triples are not
+    found = worlds(off, off)            # (not even restoring all: a larger set need not fix more)
+    groups = attribution._to_finish(found, set(), present, goal)
+    assert sorted(next(groups), key=sorted) == sorted(pairs, key=sorted)
+    found |= {s: _world(s, goal if s == pairs[2] else off) for s in pairs}
+    assert list(groups) == []
+    # no pair fixes it: the triples are finished next
+    found = worlds(off, goal)
+    groups = attribution._to_finish(found, set(), present, goal)
+    next(groups)
+    found |= {s: _world(s, off) for s in pairs}
+    assert sorted(next(groups), key=sorted) == sorted(triples, key=sorted)
+    # a cut world that fell short of the stretch the run drove is finished whatever the outcome
+    assert list(attribution._to_finish(worlds(goal, goal), {pairs[1]}, present, goal)) == [[pairs[1]]]
 
 
 def test_a_run_in_the_ideal_world_has_nothing_to_explain(paper_curve, tmp_path):

@@ -35,7 +35,8 @@ def explain(
     """Rerun a run's scenario in the worlds where some of the planner's assumptions hold (its own
     seed, planner and settings) and say what each broken assumption costs: its share of the gap to
     the ideal run (max |d|, Shapley: the shares add up to the gap), whether restoring it alone fixes
-    the outcome, the smallest sets that do, and its score drop.
+    the outcome, the smallest sets that do, and the score restoring it alone gives back. A run that
+    ended early is measured where it drove: the worlds whose end no answer needs stop a second past it.
 
     Example: simgap explain runs/c10-suv-mujoco
     """

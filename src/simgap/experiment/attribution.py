@@ -8,21 +8,32 @@ dry). Each counterfactual world is the run's own request as a replay makes it fr
 (`simgap.experiment.replay`: the scenario, vehicles, planners, loop settings and seed it kept, and
 its plans' measured latencies) with a subset of them restored (`counterfactual`); every subset is run,
 2^n worlds for the n assumptions the run breaks (at most 5, so the attribution is exact), beside
-the ideal run, and each is compared with the ideal run by `evaluate`'s comparison (the gap: max
-|d| against the ideal run by arc length, over the stretch of route the explained run drove — a
-world that drives on past where the run left the road is measured where the run was —, and the
-lateral tracking error). The run itself is the world where none holds: its record is read, not
-rerun. An explanation is kept beside the run's record (``explanation.json``), where the report
-draws it.
+the ideal run. Every world is measured where the explained run itself was: its gap is max |d|
+against the ideal run by arc length over the stretch of route the explained run drove, and its
+lateral tracking error (plan against car) is the largest over that same stretch. The run itself
+is the world where none holds: its record is read, not rerun. An explanation is kept beside the
+run's record (``explanation.json``), where the report draws it.
 
 Per assumption the attribution reports its Shapley share of the gap (the mean, over the orders of
-restoring them, of how much restoring it narrows the gap), of the lateral tracking error and of
-the score (its score drop); whether restoring it alone brings the outcome back to the ideal run's
-(leave-one-out); and the smallest sets that do. The vehicle model (``vehicle_dynamics``) has no
-restoration apart from the others — its counterfactual is the ideal world itself — so it is the
-base: its share is the perfect machine's gap against the ideal run (every other assumption
-restored). The shares then add up to the run's gap exactly (Shapley's efficiency); what no single
-restoration explains alone is the interaction (``interaction_m``).
+restoring them, of how much restoring it narrows the gap) and of the lateral tracking error;
+whether restoring it alone brings the outcome back to the ideal run's (leave-one-out), and the
+score restoring it alone gives back (its score drop); and the smallest sets whose restoration
+fixes the outcome. The vehicle model (``vehicle_dynamics``) has no restoration apart from the
+others — its counterfactual is the ideal world itself — so it is the base: its share is the
+perfect machine's gap against the ideal run (every other assumption restored), its score drop the
+perfect machine's score against the ideal run's. The shares then add up to the run's gap exactly
+(Shapley's efficiency); what no single restoration explains alone is the interaction
+(``interaction_m``).
+
+How each world ends is asked only of the ideal run, of each assumption restored alone, and of the
+perfect machine. So when the explained run ended early (it left the road, collided, ...), every
+other world — the sets of two to n - 1 assumptions, 2^n - n - 2 of them, the bulk for n > 3 — is
+*cut*: it runs `CUT_MARGIN_S` past the explained run's end, far enough to measure it over the
+stretch the run drove (a world is deterministic, so it is the prefix of its full run), and its own
+end is not known (``outcome`` None, ``until_s`` the cut). When no single restoration fixes the
+outcome, the cut sets still on the road are finished, the smallest first, to find the smallest sets
+that fix it; a cut world that fell short of the stretch is finished too. This keeps an explanation
+of a run that failed early from costing a full run per world.
 """
 
 from __future__ import annotations
@@ -39,23 +50,31 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from commonroad.planning.planning_problem import PlanningProblemSet
+from commonroad.scenario.scenario import Scenario
 
-from simgap.cosim import REFERENCE, History, Outcome
+from simgap.cosim import REFERENCE, CosimSettings, History, Outcome
+from simgap.cosim.loop import deadline
 from simgap.errors import InputError
 from simgap.evaluate.closed_loop_score import closed_loop_scores
-from simgap.evaluate.compare import compare_histories
+from simgap.evaluate.errors import frenet_tracking_errors, lateral_displacement_by_s
+from simgap.evaluate.route_centre import route_centre
 from simgap.experiment import fork_server
 from simgap.experiment.replay import recorded_scenario, replay_request
 from simgap.experiment.single_run import RunRequest, scene_of, simulated
 from simgap.files import atomic_write_text
 from simgap.record import RunRecord, read_run
 from simgap.scenario import load_scenario
+from simgap.scenario.goal import Goal
+from simgap.scenario.road_frame import PathFrame
 from simgap.sim.assumptions import Assumption, restorations, restoring
 from simgap.sim.protocol import Realism
 from simgap.sim.settings import TrackingSettings, realism_of
 
 BASE = Assumption.VEHICLE_DYNAMICS
 EXACT_UP_TO = 5          # assumptions restored apart (every one the worlds declare): 2^5 worlds at most
+CUT_MARGIN_S = 1.0       # a cut world runs this long past the explained run's end [s]
+GRID_M = 0.5             # the arc-length grid the gap is measured on [m]
 
 
 #: what breaking an assumption does to the car, and what restoring it gives (the explanation's sentence)
@@ -77,22 +96,33 @@ class World:
     """One counterfactual world's run, against the ideal run."""
 
     restored: frozenset[Assumption]
-    outcome: Outcome
+    outcome: Outcome | None  # how it ended (None: still driving where it was cut)
     gap_m: float             # max |d| against the ideal run [m], where the explained run drove
-    tracking_m: float        # max lateral tracking error (plan against car) [m]
-    score: float             # the closed-loop score (the worst agent's)
+    tracking_m: float        # max lateral tracking error (plan against car) [m], where the explained run drove
+    score: float | None      # the closed-loop score (the worst agent's; None: cut)
     wall_s: float
     cpu_s: float = 0.0       # the processor time its run took, in a worker or the explaining process (0: the
                              # explained run's own record)
+    until_s: float | None = None    # where it was cut [s of simulated time] (None: run to its end)
+
+    @property
+    def cut(self) -> bool:
+        return self.until_s is not None
 
     def as_json(self) -> dict[str, Any]:
-        return {"restored": sorted(self.restored), "outcome": str(self.outcome), "gap_m": self.gap_m,
-                "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s, "cpu_s": self.cpu_s}
+        return {"restored": sorted(self.restored), "outcome": None if self.outcome is None else str(self.outcome),
+                "gap_m": self.gap_m, "tracking_m": self.tracking_m, "score": self.score, "wall_s": self.wall_s,
+                "cpu_s": self.cpu_s, "until_s": self.until_s}
 
     @classmethod
     def of_json(cls, d: Mapping[str, Any]) -> World:
-        return cls(frozenset(Assumption(a) for a in d["restored"]), Outcome(d["outcome"]), float(d["gap_m"]),
-                   float(d["tracking_m"]), float(d["score"]), float(d["wall_s"]), float(d.get("cpu_s", 0.0)))
+        return cls(frozenset(Assumption(a) for a in d["restored"]), None if d["outcome"] is None else Outcome(d["outcome"]),
+                   float(d["gap_m"]), float(d["tracking_m"]), _optional(d["score"]),
+                   float(d["wall_s"]), float(d.get("cpu_s", 0.0)), _optional(d.get("until_s")))
+
+
+def _optional(value: Any) -> float | None:
+    return None if value is None else float(value)
 
 
 @dataclass(frozen=True)
@@ -102,7 +132,8 @@ class AssumptionShare:
     name: Assumption
     share_m: float            # Shapley share of the gap [m] (the base: the perfect machine's gap)
     tracking_share_m: float   # ... of the lateral tracking error [m]
-    score_drop: float         # ... of the score's drop from the ideal run's
+    score_drop: float         # the score restoring it alone gives back (the base: the ideal run's score over
+                              # the perfect machine's)
     fixes_outcome: bool       # restoring it alone brings the outcome back to the ideal run's
 
     def as_json(self) -> dict[str, Any]:
@@ -194,7 +225,9 @@ class Attribution:
             out.append(f"smallest sets whose restoration fixes the outcome: {sets}")
         out.append(f"interaction (no single restoration explains it alone): {self.interaction_m:.3f} m")
         out.append(self.sentence())
-        out.append(f"{self.runs} runs in {self.wall_s:.1f} s on {self.workers} workers (the run itself: "
+        cut = [w.until_s for w in self.worlds if w.until_s is not None]
+        cuts = f", {len(cut)} cut at t = {cut[0]:.1f} s, past where the run ended" if cut else ""
+        out.append(f"{self.runs} runs{cuts} in {self.wall_s:.1f} s on {self.workers} workers (the run itself: "
                    f"{self.run_wall_s:.1f} s)")
         return out
 
@@ -239,28 +272,60 @@ def ideal_request(request: RunRequest) -> RunRequest:
 
 @dataclass(frozen=True)
 class _Ran:
-    """What a worker returns of a run: its history, and each agent's score."""
+    """What a worker returns of a run: its history, each agent's score (None: the world was cut,
+    its end not run), and its times."""
 
     history: History
-    scores: tuple[float, ...]
+    scores: tuple[float, ...] | None
     wall_s: float
     cpu_s: float
+    until_s: float | None = None      # where it was cut (None: it ran to its end)
 
 
-def _run(request: RunRequest) -> _Ran:
+@dataclass(frozen=True)
+class _Job:
+    """A world to run: its request, and where to cut it (None: run it to its end)."""
+
+    restored: frozenset[Assumption]
+    request: RunRequest
+    until_s: float | None
+
+
+def _run(request: RunRequest, until_s: float | None = None) -> _Ran:
     """``request``'s co-simulation and each agent's closed-loop score: all a world gives the
     attribution (its outcome, path and score); not the rest of a run's evaluation, its record or
-    its files."""
+    its files. ``until_s``: cut it there (simulated time); a world still driving there is cut (no
+    outcome, no score), one that ended before it is whole."""
     started, cpu = time.perf_counter(), time.process_time()
+    if until_s is not None:
+        request = replace(request, cosim=request.cosim.model_copy(update={"max_time_s": until_s}))
     run = simulated(request)
-    scores = closed_loop_scores(run.history, run.scene.scenario, run.scene.problems, request.evaluation.score,
-                                request.cosim.offroad_tolerance, road=run.scene.road, obstacles=run.scene.obstacles)
-    return _Ran(run.history, tuple(0.0 if a.id not in scores else float(scores[a.id].score) for a in run.history.agents),
-                time.perf_counter() - started, time.process_time() - cpu)
+    cut = until_s is not None and any(a.outcome == Outcome.TIMEOUT for a in run.history.agents)
+    scores = None
+    if not cut:
+        by_agent = closed_loop_scores(run.history, run.scene.scenario, run.scene.problems, request.evaluation.score,
+                                      request.cosim.offroad_tolerance, road=run.scene.road, obstacles=run.scene.obstacles)
+        scores = tuple(0.0 if a.id not in by_agent else float(by_agent[a.id].score) for a in run.history.agents)
+    return _Ran(run.history, scores, time.perf_counter() - started, time.process_time() - cpu,
+                until_s if cut else None)
 
 
 def _scores(record: RunRecord) -> tuple[float, ...]:
     return tuple(0.0 if a.score is None else float(a.score) for a in record.evaluation.agents)
+
+
+def cut_time(record: RunRecord, problems: PlanningProblemSet, cosim: CosimSettings) -> float | None:
+    """Where the counterfactual worlds that need not end may be cut: `CUT_MARGIN_S` past the end
+    of ``record``'s run when it ended early (an agent failed: off the road, a collision, ...)
+    before its deadline; None when it ran to its end."""
+    history = record.history
+    if all(a.outcome in (Outcome.GOAL_REACHED, Outcome.TIMEOUT) for a in history.agents):
+        return None
+    end = max((float(t.t_end) for t in history.driven.values() if len(t)), default=0.0)
+    # before every agent's own deadline: the cut is every agent's deadline in a cut world, and an
+    # agent that times out earlier in the whole world would drive on in the cut one
+    first = min(deadline(Goal.of(p.goal, float(history.dt)), cosim) for p in problems.planning_problem_dict.values())
+    return end + CUT_MARGIN_S if end + CUT_MARGIN_S < first - 1e-9 else None
 
 
 EXPLANATION_FILE = "explanation.json"       # an explained run's attribution, beside its record
@@ -304,70 +369,143 @@ def explain(run_dir: str | Path, workers: int = 2, assumptions: Iterable[Assumpt
         present = broken_assumptions(record, request)
         if assumptions is not None:
             present = tuple(a for a in present if a in set(assumptions))
-        subsets = [frozenset(c) for k in range(1, len(present) + 1) for c in itertools.combinations(present, k)]
-        requests = [ideal_request(request)] + [counterfactual(request, s) for s in subsets]
         scenario, problems = load_scenario(request.scenario)
+        until = cut_time(record, problems, request.cosim)
+        jobs = [_Job(frozenset(), ideal_request(request), None)] + [
+            _Job(s, counterfactual(request, s), None if len(s) in (1, len(present)) else until)
+            for k in range(1, len(present) + 1) for s in map(frozenset, itertools.combinations(present, k))]
         # the ideal run (the shortest) first, then the sets from the smallest: the larger (restored, a
         # car drives on further) are the longest, and this process takes them from the end while the
-        # workers start (`_run_all`); each world is compared with the ideal run as it ends
+        # workers start (`_run_all`); each world is measured against the ideal run as it ends
         ran: dict[int, _Ran] = {}
-        compared: dict[frozenset[Assumption], World] = {}
+        worlds: dict[frozenset[Assumption], World] = {}
+        short: set[frozenset[Assumption]] = set()       # cut worlds that fell short of the stretch
         in_workers = 0.0            # the processor time of the runs the workers made (this process's is counted)
-        for index, r, in_worker in _run_all(requests, workers, list(range(len(requests)))):
+        yardstick: _Yardstick | None = None
+        for index, r, in_worker in _run_all(jobs, workers):
             ran[index] = r
             in_workers += r.cpu_s if in_worker else 0.0
             if 0 not in ran:
                 continue
-            if index == 0:
-                stretch = {c.agent_id: float(c.s[-1]) for c in
-                           compare_histories(ran[0].history, record.history, scenario, problems) if len(c.s)}
-            for i in [i for i in ran if i and subsets[i - 1] not in compared]:
-                compared[subsets[i - 1]] = _world(subsets[i - 1], ran[i], ran[0].history, scenario, problems, stretch)
-    ideal = ran[0]
-    own = _Ran(record.history, _scores(record), record.history.wall_time_s, 0.0)
-    worlds: dict[frozenset[Assumption], World] = \
-        {frozenset(): _world(frozenset(), own, ideal.history, scenario, problems, stretch)} | {s: compared[s] for s in subsets}
-    attribution = _attribution(run_dir, record, present, worlds, ideal, len(requests), time.perf_counter() - started,
-                               max(1, workers), time.process_time() - cpu + in_workers)
+            if yardstick is None:
+                yardstick = _Yardstick.of(ran[0].history, record.history, scenario, problems)
+            for i in [i for i in ran if i and jobs[i].restored not in worlds]:
+                worlds[jobs[i].restored], fell_short = yardstick.measure(jobs[i].restored, ran[i])
+                if fell_short:
+                    short.add(jobs[i].restored)
+        assert yardstick is not None
+        ideal = ran[0]
+        ideal_outcome = Outcome.worst([a.outcome for a in ideal.history.agents])
+        worlds[frozenset()], _ = yardstick.measure(frozenset(), _Ran(record.history, _scores(record),
+                                                                     record.history.wall_time_s, 0.0))
+        finished, cpu_finishing = _finish(worlds, short, present, ideal_outcome, request, yardstick, workers)
+    attribution = _attribution(run_dir, record, present, worlds, ideal, ideal_outcome, len(jobs) + finished,
+                               time.perf_counter() - started, max(1, workers),
+                               time.process_time() - cpu + in_workers + cpu_finishing)
     if keep:
         write_explanation(run_dir, attribution)
     return attribution
 
 
-def _run_all(requests: list[RunRequest], workers: int, order: list[int]) -> Iterator[tuple[int, _Ran, bool]]:
-    """The runs of ``requests``, started in ``order`` (their indices), each as it ends with its index
-    and whether a worker made it, on ``workers`` processes forked from a server that has loaded what
-    a run imports once (never forked from this process: a fork of a process with threads can
-    deadlock). This process
+def _finish(worlds: dict[frozenset[Assumption], World], short: set[frozenset[Assumption]],
+            present: tuple[Assumption, ...], ideal_outcome: Outcome, request: RunRequest, yardstick: _Yardstick,
+            workers: int) -> tuple[int, float]:
+    """Run to their end the cut worlds the answer still needs (`_to_finish`), in ``worlds``; the
+    runs made and the processor time the workers spent on them."""
+    made, in_workers = 0, 0.0
+    for group in _to_finish(worlds, short, present, ideal_outcome):
+        jobs = [_Job(s, counterfactual(request, s), None) for s in group]
+        made += len(jobs)
+        for index, r, in_worker in _run_all(jobs, workers):
+            worlds[jobs[index].restored], _ = yardstick.measure(jobs[index].restored, r)
+            in_workers += r.cpu_s if in_worker else 0.0
+    return made, in_workers
+
+
+def _to_finish(worlds: Mapping[frozenset[Assumption], World], short: set[frozenset[Assumption]],
+               present: tuple[Assumption, ...], ideal_outcome: Outcome) -> Iterator[list[frozenset[Assumption]]]:
+    """The cut worlds to run to their end, in groups (``worlds`` is read again after each group has
+    been run): those that fell short of the stretch the run drove (their gap is not whole); then,
+    when the outcome broke and no single restoration fixes it, the cut sets of two, of three, ...,
+    until a set of the size before fixes it (the smallest sets that fix it)."""
+    if group := sorted((s for s in short if worlds[s].cut), key=sorted):
+        yield group
+    if worlds[frozenset()].outcome == ideal_outcome:
+        return
+    for k in range(1, len(present)):
+        if any(w.outcome == ideal_outcome for s, w in worlds.items() if len(s) == k):
+            return
+        if group := sorted((s for s, w in worlds.items() if len(s) == k + 1 and w.cut), key=sorted):
+            yield group
+
+
+def _run_all(jobs: list[_Job], workers: int) -> Iterator[tuple[int, _Ran, bool]]:
+    """The runs of ``jobs``, started in order, each as it ends with its index and whether a worker
+    made it, on ``workers`` processes forked from a server that has loaded what a run imports once
+    (never forked from this process: a fork of a process with threads can deadlock). This process
     works beside them: it runs the first itself, then, from the end of the queue, each run no worker
     has taken yet — while the server loads (seconds) the workers take none, and after that three
     processes share the rest (put the longest runs last)."""
-    if workers <= 1:
-        yield from ((i, _run(requests[i]), False) for i in order)
+    def run(i: int) -> _Ran:
+        return _run(jobs[i].request, jobs[i].until_s)
+
+    if workers <= 1 or len(jobs) == 1:
+        yield from ((i, run(i), False) for i in range(len(jobs)))
         return
-    with ProcessPoolExecutor(max_workers=min(workers, len(requests)), mp_context=fork_server.context()) as pool:
-        futures = {pool.submit(_run, requests[i]): i for i in order[1:]}
-        yield order[0], _run(requests[order[0]]), False
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=fork_server.context()) as pool:
+        futures = {pool.submit(_run, jobs[i].request, jobs[i].until_s): i for i in range(1, len(jobs))}
+        yield 0, run(0), False
         for future in reversed(list(futures)):
             if not future.cancel():         # the workers have come this far: the rest is theirs
                 break
-            yield futures[future], _run(requests[futures[future]]), False
+            yield futures[future], run(futures[future]), False
         for future in as_completed([f for f in futures if not f.cancelled()]):
             yield futures[future], future.result(), True
 
 
-def _world(restored: frozenset[Assumption], ran: _Ran, ideal: History, scenario: Any, problems: Any,
-           stretch: Mapping[int, float]) -> World:
-    """A world's run against the ideal run; its gap over the ``stretch`` of route (agent -> arc
-    length) the explained run drove, so that every world is measured where the run itself was (a
-    world that drives on past where the run left the road adds no gap beyond it)."""
-    history = ran.history
-    comparisons = compare_histories(ideal, history, scenario, problems)
-    gaps = [float(np.max(np.abs(c.d_b - c.d_a)[c.s <= stretch.get(c.agent_id, np.inf)], initial=0.0))
-            for c in comparisons if len(c.s)]
-    tracking = [c.tracking_lateral_b.max for c in comparisons if c.tracking_lateral_b is not None]
-    return World(restored, Outcome.worst([a.outcome for a in history.agents]), _max(gaps), _max(tracking),
-                 min(ran.scores, default=0.0), ran.wall_s, ran.cpu_s)
+@dataclass(frozen=True)
+class _Yardstick:
+    """What every world is measured with: each agent's route frame, the ideal run, and the stretch
+    of route (arc length) the explained run drove — so that every world is measured where the run
+    itself was (a world that drives on past where the run left the road adds nothing beyond it)."""
+
+    ideal: History
+    frames: dict[int, PathFrame]
+    stretch: dict[int, float]
+
+    @classmethod
+    def of(cls, ideal: History, run: History, scenario: Scenario, problems: PlanningProblemSet) -> _Yardstick:
+        frames = {aid: frame for aid in sorted(ideal.driven) if aid in problems.planning_problem_dict
+                  and (frame := route_centre(scenario.lanelet_network, problems.planning_problem_dict[aid])) is not None}
+        stretch = {}
+        for aid, frame in frames.items():
+            if aid in run.driven:
+                s, _ = lateral_displacement_by_s(ideal.driven[aid], run.driven[aid], frame, GRID_M)
+                if len(s):
+                    stretch[aid] = float(s[-1])
+        return cls(ideal, frames, stretch)
+
+    def measure(self, restored: frozenset[Assumption], ran: _Ran) -> tuple[World, bool]:
+        """A world's run against the ideal run: its gap and its lateral tracking error over the
+        stretch; and whether it was cut short of the stretch (the grids of the run and of a world
+        that drove as far meet at its end: they start where both start)."""
+        history = ran.history
+        gaps, tracking, fell_short = [], [], False
+        for aid, frame in self.frames.items():
+            if aid not in history.driven:
+                continue
+            end = self.stretch.get(aid, np.inf)
+            s, dd = lateral_displacement_by_s(self.ideal.driven[aid], history.driven[aid], frame, GRID_M)
+            fell_short |= ran.until_s is not None and (not len(s) or s[-1] < end)
+            if not len(s):
+                continue
+            gaps.append(float(np.max(np.abs(dd)[s <= end], initial=0.0)))
+            errors = frenet_tracking_errors(history.driven[aid], history.plans.get(aid, []), frame)
+            lateral = np.abs(errors.lateral[errors.s <= end])
+            tracking.append(float(np.max(lateral[np.isfinite(lateral)], initial=0.0)))
+        outcome = None if ran.until_s is not None else Outcome.worst([a.outcome for a in history.agents])
+        score = None if ran.scores is None else min(ran.scores, default=0.0)
+        return World(restored, outcome, _max(gaps), _max(tracking), score, ran.wall_s, ran.cpu_s, ran.until_s), fell_short
 
 
 def _max(values: list[float]) -> float:
@@ -394,19 +532,19 @@ def shapley(players: tuple[Assumption, ...], value: Mapping[frozenset[Assumption
 
 
 def _attribution(run_dir: Path, record: RunRecord, present: tuple[Assumption, ...],
-                 worlds: dict[frozenset[Assumption], World], ideal: _Ran, runs: int, wall_s: float,
-                 workers: int, cpu_s: float) -> Attribution:
+                 worlds: dict[frozenset[Assumption], World], ideal: _Ran, ideal_outcome: Outcome, runs: int,
+                 wall_s: float, workers: int, cpu_s: float) -> Attribution:
     everything = frozenset(present)
     actual, machine = worlds[frozenset()], worlds[everything]
-    ideal_outcome = Outcome.worst([a.outcome for a in ideal.history.agents])
-    ideal_score = min(ideal.scores, default=0.0)
+    assert actual.outcome is not None
+    ideal_score = min(ideal.scores or (), default=0.0)
     gap = shapley(present, {s: w.gap_m for s, w in worlds.items()})
     tracking = shapley(present, {s: w.tracking_m for s, w in worlds.items()})
-    drop = shapley(present, {s: -w.score for s, w in worlds.items()})
     broken = actual.outcome != ideal_outcome
-    fixes = {a: broken and worlds[frozenset({a})].outcome == ideal_outcome for a in present}
-    shares = [AssumptionShare(a, gap[a], tracking[a], drop[a], fixes[a]) for a in present]
-    shares.append(AssumptionShare(BASE, machine.gap_m, machine.tracking_m, ideal_score - machine.score, False))
+    alone = {a: worlds[frozenset({a})] for a in present}
+    fixes = {a: broken and alone[a].outcome == ideal_outcome for a in present}
+    shares = [AssumptionShare(a, gap[a], tracking[a], _score(alone[a]) - _score(actual), fixes[a]) for a in present]
+    shares.append(AssumptionShare(BASE, machine.gap_m, machine.tracking_m, ideal_score - _score(machine), False))
     # largest first: when the outcome broke, by what the outcome cost (restoring it alone fixes it,
     # then the score drop) — the gap, measured only as far as the run went, cannot see a car that
     # left the road early — else by the share of the gap
@@ -418,10 +556,17 @@ def _attribution(run_dir: Path, record: RunRecord, present: tuple[Assumption, ..
                       if len(s) == k and w.outcome == ideal_outcome]
             if fixing:
                 break
-    alone = sum(actual.gap_m - worlds[frozenset({a})].gap_m for a in present)
+    alone_sum = sum(actual.gap_m - w.gap_m for w in alone.values())
     agent = next((a for a in record.agents if a.history.outcome != Outcome.GOAL_REACHED), record.agents[0])
+    order = sorted(worlds, key=lambda s: (len(s), sorted(s)))
     return Attribution(str(run_dir), record.scenario_id, record.history.backend, agent.history.vehicle.name,
                        actual.outcome, ideal_outcome, actual.gap_m, actual.tracking_m, tuple(shares),
-                       tuple(sorted(fixing)), actual.gap_m - machine.gap_m - alone, runs, wall_s,
-                       record.history.wall_time_s, workers, tuple(worlds.values()), cpu_s)
+                       tuple(sorted(fixing)), actual.gap_m - machine.gap_m - alone_sum, runs, wall_s,
+                       record.history.wall_time_s, workers, tuple(worlds[s] for s in order), cpu_s)
 
+
+def _score(world: World) -> float:
+    """A whole world's score (the ideal run, the run itself, each single restoration and the perfect
+    machine are never cut)."""
+    assert world.score is not None, f"the world restoring {sorted(world.restored)} was cut"
+    return world.score
