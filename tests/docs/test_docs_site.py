@@ -189,8 +189,12 @@ def test_the_attribution_page_counts_what_its_results_file_holds():
         assert f"{car} ({len(mine)} explained): " in page and all(f"`{a}` {n}" in page for n, a in counts)
     table = [line for line in page.splitlines() if line.startswith("| r=")]
     assert len(table) == len(rows)
+    header = next(line for line in page.splitlines() if line.startswith("| curve")).split(" | ")
+    ratio, cut = header.index("wall ratio"), header.index("cut")
     for line, r in zip(table, rows):
-        assert line.split(" | ")[10] == f"{r['wall_s'] / r['run_wall_s']:.1f}"
+        cells = line.split(" | ")
+        assert cells[ratio] == f"{r['wall_s'] / r['run_wall_s']:.1f}"
+        assert cells[cut] == str(sum(w["until_s"] is not None for w in r["explanation"]["worlds"]))
 
 
 def test_bench_readme_lists_every_benchmark_and_no_benchmark_imports_tests():
