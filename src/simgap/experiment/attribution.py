@@ -226,7 +226,7 @@ class Attribution:
         out.append(f"interaction (no single restoration explains it alone): {self.interaction_m:.3f} m")
         out.append(self.sentence())
         cut = [w.until_s for w in self.worlds if w.until_s is not None]
-        cuts = f", {len(cut)} cut at t = {cut[0]:.1f} s, past where the run ended" if cut else ""
+        cuts = f" ({len(cut)} cut at t = {cut[0]:.1f} s, past where the run ended)" if cut else ""
         out.append(f"{self.runs} runs{cuts} in {self.wall_s:.1f} s on {self.workers} workers (the run itself: "
                    f"{self.run_wall_s:.1f} s)")
         return out
