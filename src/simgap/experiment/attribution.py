@@ -72,7 +72,6 @@ from simgap.sim.protocol import Realism
 from simgap.sim.settings import TrackingSettings, realism_of
 
 BASE = Assumption.VEHICLE_DYNAMICS
-EXACT_UP_TO = 5          # assumptions restored apart (every one the worlds declare): 2^5 worlds at most
 CUT_MARGIN_S = 1.0       # a cut world runs this long past the explained run's end [s]
 GRID_M = 0.5             # the arc-length grid the gap is measured on [m]
 
